@@ -2,3 +2,5 @@
 //! compensation for CNC machines that drift while they warm up.
 
 pub mod cli;
+pub mod positioning;
+pub mod report;

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand, ValueEnum};
 
 mod demo;
+mod positioning;
 
 /// Options every subcommand understands.
 #[derive(Debug, Clone, clap::Args)]
@@ -52,6 +53,8 @@ struct Cli {
 enum Command {
     /// Run the whole job on the bundled example and print what happened.
     Demo(demo::Args),
+    /// Positioning accuracy (DSTU/GOST 27843, VDI 3441, ISO 230-2) and compensation tables.
+    Positioning(positioning::Args),
 }
 
 /// Entry point of the binary.
@@ -59,6 +62,7 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(args) => demo::run(args, &cli.global),
+        Command::Positioning(args) => positioning::run(args, &cli.global),
     };
     match result {
         Ok(code) => code,

@@ -1,0 +1,123 @@
+//! Correction tables as CSV and as Sinumerik compensation-table text.
+
+use std::fmt::Write;
+
+use super::Analysis;
+use super::correction::CorrectionTable;
+use crate::report::fmt_num;
+
+/// CSV with one row per measured target (`kind` = `measured`, with residuals) and per grid point
+/// (`kind` = `grid`); corrections are what to add to the commanded position, µm.
+pub fn correction_csv(analysis: &Analysis) -> String {
+    let mut out = String::from(
+        "axis,kind,position_mm,correction_plus_um,correction_minus_um,residual_plus_um,residual_minus_um\n",
+    );
+    for axis in &analysis.axes {
+        let name = csv_field(&axis.stats.axis);
+        for m in &axis.correction.measured {
+            let _ = writeln!(
+                out,
+                "{name},measured,{},{},{},{},{}",
+                fmt_num(m.target_mm, 3),
+                fmt_num(m.correction_plus_um, 3),
+                fmt_num(m.correction_minus_um, 3),
+                fmt_num(m.residual_plus_um, 3),
+                fmt_num(m.residual_minus_um, 3)
+            );
+        }
+        for g in &axis.correction.grid_values {
+            let _ = writeln!(
+                out,
+                "{name},grid,{},{},{},,",
+                fmt_num(g.position_mm, 3),
+                fmt_num(g.correction_plus_um, 3),
+                fmt_num(g.correction_minus_um, 3)
+            );
+        }
+    }
+    out
+}
+
+fn csv_field(text: &str) -> String {
+    if text.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_string()
+    }
+}
+
+/// Sinumerik leadscrew-error compensation (LEC) text, one `$AA_ENC_COMP` table per axis and direction.
+///
+/// A positive LEC value moves the axis in the negative direction, so the values are the measured error
+/// (−correction) in mm. An LEC table acts in both directions of travel; each direction is written as a complete
+/// table so the shop can load one as LEC and keep the difference as a direction-dependent compensation, as the
+/// header comment says.
+pub fn sinumerik_text(analysis: &Analysis) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "; driftloop positioning: compensation tables from {} ({})",
+        analysis.source,
+        analysis.standard.title()
+    );
+    out.push_str("; $AA_ENC_COMP values are the mean positioning error in mm (natural cubic spline through the\n");
+    out.push_str("; measured means); LEC moves the axis by minus the table value. One table per approach direction:\n");
+    out.push_str(
+        "; LEC acts in both directions, so load one of them as LEC and put the difference into a\n",
+    );
+    out.push_str("; direction-dependent compensation ($AN_CEC_DIRECTION) or the backlash value.\n");
+    out.push_str(
+        "; Measuring system index 0 (first encoder); axis names as in the measurement file.\n",
+    );
+    for axis in &analysis.axes {
+        let mean_reversal = axis
+            .stats
+            .targets
+            .iter()
+            .map(|t| t.reversal_um)
+            .sum::<f64>()
+            / axis.stats.targets.len() as f64;
+        let _ = writeln!(
+            out,
+            ";\n; axis {}: mean reversal x̄↑ − x̄↓ = {} µm",
+            axis.stats.axis,
+            fmt_num(mean_reversal, 2)
+        );
+        for (label, plus) in [("+ direction", true), ("- direction", false)] {
+            let _ = writeln!(out, "; {} {label}", axis.stats.axis);
+            direction_table(&mut out, &axis.stats.axis, &axis.correction, plus);
+        }
+    }
+    out
+}
+
+fn direction_table(out: &mut String, axis: &str, table: &CorrectionTable, plus: bool) {
+    out.push_str("%_N_AX_EEC_INI\nCHANDATA(1)\n");
+    for (n, g) in table.grid_values.iter().enumerate() {
+        let correction_um = if plus {
+            g.correction_plus_um
+        } else {
+            g.correction_minus_um
+        };
+        let error_mm = -correction_um / 1000.0;
+        let _ = writeln!(out, "$AA_ENC_COMP[0,{n},{axis}]={}", fmt_num(error_mm, 4));
+    }
+    let grid = table.grid;
+    let _ = writeln!(
+        out,
+        "$AA_ENC_COMP_STEP[0,{axis}]={}",
+        fmt_num(grid.step_mm, 3)
+    );
+    let _ = writeln!(
+        out,
+        "$AA_ENC_COMP_MIN[0,{axis}]={}",
+        fmt_num(grid.start_mm, 3)
+    );
+    let _ = writeln!(
+        out,
+        "$AA_ENC_COMP_MAX[0,{axis}]={}",
+        fmt_num(grid.end_mm, 3)
+    );
+    let _ = writeln!(out, "$AA_ENC_COMP_IS_MODULO[0,{axis}]=0");
+    out.push_str("M17\n");
+}
