@@ -3,7 +3,7 @@
 
 use super::text::bidirectional_figure;
 use super::{Analysis, AxisResult, sinumerik_text};
-use crate::report::{Cell, Chart, Document, Mark, Series, Table, fmt_num};
+use crate::report::{Cell, Chart, Document, Mark, PALETTE, Series, Table, fmt_num};
 
 pub fn html_report(analysis: &Analysis) -> String {
     let standard = analysis.standard;
@@ -81,14 +81,16 @@ fn axis_sections(doc: &mut Document, axis: &AxisResult, analysis: &Analysis) {
     );
 
     let c = &axis.correction;
-    let measured = |label: &str, value: fn(&super::MeasuredCorrection) -> f64| {
+    let (up, down) = (PALETTE[0], PALETTE[1]);
+    let measured = |label: &str, color: &str, value: fn(&super::MeasuredCorrection) -> f64| {
         Series::new(
             label,
             Mark::Points,
             c.measured.iter().map(|m| (m.target_mm, value(m))).collect(),
         )
+        .with_color(color)
     };
-    let grid = |label: &str, value: fn(&super::GridCorrection) -> f64| {
+    let grid = |label: &str, color: &str, value: fn(&super::GridCorrection) -> f64| {
         Series::new(
             label,
             Mark::Dashed,
@@ -97,32 +99,69 @@ fn axis_sections(doc: &mut Document, axis: &AxisResult, analysis: &Analysis) {
                 .map(|g| (g.position_mm, value(g)))
                 .collect(),
         )
+        .with_color(color)
     };
-    let residual = |label: &str, value: fn(&super::MeasuredCorrection) -> f64| {
+    let corrections = Chart::new(
+        format!("Axis {name}: corrections"),
+        format!("{name} position in mm"),
+        "correction in µm",
+    )
+    .series(measured("↑ at the targets (−x̄↑)", up, |m| {
+        m.correction_plus_um
+    }))
+    .series(grid("↑ spline on the grid", up, |g| g.correction_plus_um))
+    .series(measured("↓ at the targets (−x̄↓)", down, |m| {
+        m.correction_minus_um
+    }))
+    .series(grid("↓ spline on the grid", down, |g| {
+        g.correction_minus_um
+    }));
+    doc.figure(
+        &corrections,
+        format!("Corrections at the measured points and the natural cubic spline on the grid {} mm, axis {name}.", c.grid),
+    );
+
+    let k_value = analysis.standard.k();
+    let residual = |label: String,
+                    color: &str,
+                    value: fn(&super::MeasuredCorrection) -> f64,
+                    s: fn(&super::TargetStats) -> f64| {
         Series::new(
             label,
             Mark::LineAndPoints,
             c.measured.iter().map(|m| (m.target_mm, value(m))).collect(),
         )
+        .with_band(
+            c.measured
+                .iter()
+                .zip(&stats.targets)
+                .map(|(m, t)| (value(m) - k_value * s(t), value(m) + k_value * s(t)))
+                .collect(),
+        )
+        .with_color(color)
     };
-    let corrections = Chart::new(
-        format!("Axis {name}: corrections and residual"),
-        format!("{name} position in mm"),
-        "µm",
+    let after = Chart::new(
+        format!("Axis {name}: predicted deviation after correction"),
+        format!("{name} target position in mm"),
+        "deviation in µm",
     )
-    .series(measured("correction ↑ at targets", |m| {
-        m.correction_plus_um
-    }))
-    .series(measured("correction ↓ at targets", |m| {
-        m.correction_minus_um
-    }))
-    .series(grid("spline ↑ on grid", |g| g.correction_plus_um))
-    .series(grid("spline ↓ on grid", |g| g.correction_minus_um))
-    .series(residual("residual ↑", |m| m.residual_plus_um))
-    .series(residual("residual ↓", |m| m.residual_minus_um));
+    .series(residual(
+        format!("residual ↑ ± {k}·s↑"),
+        up,
+        |m| m.residual_plus_um,
+        |t| t.plus.s_um,
+    ))
+    .series(residual(
+        format!("residual ↓ ± {k}·s↓"),
+        down,
+        |m| m.residual_minus_um,
+        |t| t.minus.s_um,
+    ));
     doc.figure(
-        &corrections,
-        format!("Corrections (negated means), the spline on grid {} mm and the predicted residual, axis {name}.", c.grid),
+        &after,
+        format!(
+            "Mean deviation left at the targets when the control applies the grid table (linear between grid points), with the unchanged scatter ± {k}·s, axis {name}."
+        ),
     );
 
     let (figure, figure_value) = bidirectional_figure(analysis.standard);

@@ -45,23 +45,28 @@ fn axis_text(out: &mut String, axis: &AxisResult, standard: Standard, k: &str) {
         stats.axis,
         stats.targets.len()
     );
-    let _ = writeln!(
-        out,
-        "{:>10} {:>3} {:>8} {:>7} {:>8} {:>8} {:>3} {:>8} {:>7} {:>8} {:>8} {:>8} {:>8}",
-        "target mm",
-        "n↑",
-        "x̄↑",
-        "s↑",
-        format!("−{k}s↑"),
-        format!("+{k}s↑"),
-        "n↓",
-        "x̄↓",
-        "s↓",
-        format!("−{k}s↓"),
-        format!("+{k}s↓"),
-        "b",
-        figure
-    );
+    let minus_k = format!("−{k}s");
+    let plus_k = format!("+{k}s");
+    let header = [
+        ("target mm", 10),
+        ("n↑", 3),
+        ("x̄↑", 8),
+        ("s↑", 7),
+        (&format!("{minus_k}↑"), 8),
+        (&format!("{plus_k}↑"), 8),
+        ("n↓", 3),
+        ("x̄↓", 8),
+        ("s↓", 7),
+        (&format!("{minus_k}↓"), 8),
+        (&format!("{plus_k}↓"), 8),
+        ("b", 8),
+        (figure, 8),
+    ];
+    let header: Vec<String> = header
+        .iter()
+        .map(|(text, width)| right(text, *width))
+        .collect();
+    let _ = writeln!(out, "{}", header.join(" "));
     for t in &stats.targets {
         let _ = writeln!(
             out,
@@ -85,8 +90,8 @@ fn axis_text(out: &mut String, axis: &AxisResult, standard: Standard, k: &str) {
     for value in &stats.summary {
         let _ = writeln!(
             out,
-            "  {:<6} {:>8} µm  {}",
-            value.symbol,
+            "  {} {:>8} µm  {}",
+            left(value.symbol, 6),
             fmt_num(value.value_um, 2),
             value.name
         );
@@ -122,6 +127,27 @@ fn axis_text(out: &mut String, axis: &AxisResult, standard: Standard, k: &str) {
             fmt_num(m.residual_minus_um, 2)
         );
     }
+}
+
+/// Terminal columns `text` occupies: combining marks (the bar of x̄, b̄) take none.
+fn display_width(text: &str) -> usize {
+    text.chars()
+        .filter(|c| !('\u{300}'..='\u{36f}').contains(c))
+        .count()
+}
+
+fn right(text: &str, width: usize) -> String {
+    format!(
+        "{}{text}",
+        " ".repeat(width.saturating_sub(display_width(text)))
+    )
+}
+
+fn left(text: &str, width: usize) -> String {
+    format!(
+        "{text}{}",
+        " ".repeat(width.saturating_sub(display_width(text)))
+    )
 }
 
 /// One JSON object with the same numbers as [`human`] plus the grid corrections.

@@ -10,7 +10,7 @@ use super::format::{escape, fmt_num};
 use super::ticks::{Ticks, nice_ticks};
 
 /// Colour-blind-safe palette (Okabe–Ito), assigned by series index.
-const PALETTE: [&str; 8] = [
+pub const PALETTE: [&str; 8] = [
     "#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000", "#F0E442",
 ];
 
@@ -40,6 +40,8 @@ pub struct Series {
     pub mark: Mark,
     pub band: Option<Vec<(f64, f64)>>,
     pub error_bars: Option<Vec<(f64, f64)>>,
+    /// A CSS colour; by default the palette colour of the series' index.
+    pub color: Option<String>,
 }
 
 impl Series {
@@ -50,12 +52,19 @@ impl Series {
             mark,
             band: None,
             error_bars: None,
+            color: None,
         }
     }
 
     /// A shaded band (e.g. x̄ − k·s … x̄ + k·s) behind the series, one (low, high) per point.
     pub fn with_band(mut self, low_high: Vec<(f64, f64)>) -> Self {
         self.band = Some(low_high);
+        self
+    }
+
+    /// Draws the series in `color` (any CSS colour), e.g. to pair a fitted curve with its data.
+    pub fn with_color(mut self, color: impl Into<String>) -> Self {
+        self.color = Some(color.into());
         self
     }
 
@@ -151,7 +160,7 @@ impl Chart {
         );
         let _ = writeln!(svg, r#"<g clip-path="url(#{})">"#, self.clip_id());
         for (index, series) in self.series.iter().enumerate() {
-            write_series(&mut svg, series, PALETTE[index % PALETTE.len()], &scale);
+            write_series(&mut svg, series, series_color(series, index), &scale);
         }
         svg.push_str("</g>\n");
         if !self.has_data() {
@@ -313,7 +322,7 @@ struct LegendItem {
 }
 
 fn write_legend_item(svg: &mut String, item: &LegendItem, series: &Series, legend_top: f64) {
-    let color = PALETTE[item.series % PALETTE.len()];
+    let color = series_color(series, item.series);
     let y = legend_top + item.row as f64 * LEGEND_ROW + 10.0;
     if series.band.is_some() {
         let _ = writeln!(
@@ -438,6 +447,13 @@ fn write_series(svg: &mut String, series: &Series, color: &str, scale: &Scale) {
             }
         }
     }
+}
+
+fn series_color(series: &Series, index: usize) -> &str {
+    series
+        .color
+        .as_deref()
+        .unwrap_or(PALETTE[index % PALETTE.len()])
 }
 
 /// Index runs of consecutive points that are finite (and, with a band, whose band is finite too).

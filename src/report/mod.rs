@@ -13,7 +13,7 @@ mod document;
 mod format;
 mod ticks;
 
-pub use chart::{Chart, Mark, Series};
+pub use chart::{Chart, Mark, PALETTE, Series};
 pub use document::{Cell, Document, Table};
 pub use format::{escape, fmt_num};
 pub use ticks::{Ticks, nice_ticks};
