@@ -415,6 +415,13 @@ mod tests {
     }
 
     #[test]
+    fn a_row_with_a_missing_field_names_its_line() {
+        let text = two_targets().replacen("X,0,+,4,12\n", "X,0,+,4\n", 1);
+        let err = read(&text).unwrap_err().to_string();
+        assert!(err.starts_with("t.csv:5: malformed CSV row"), "{err}");
+    }
+
+    #[test]
     fn repeated_run_is_an_error() {
         let text = two_targets().replacen("X,0,+,2,", "X,0,+,1,", 1);
         let err = read(&text).unwrap_err().to_string();

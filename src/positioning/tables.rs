@@ -15,27 +15,29 @@ pub fn correction_csv(analysis: &Analysis) -> String {
     for axis in &analysis.axes {
         let name = csv_field(&axis.stats.axis);
         for m in &axis.correction.measured {
-            let _ = writeln!(
-                out,
-                "{name},measured,{},{},{},{},{}",
-                fmt_num(m.target_mm, 3),
-                fmt_num(m.correction_plus_um, 3),
-                fmt_num(m.correction_minus_um, 3),
-                fmt_num(m.residual_plus_um, 3),
-                fmt_num(m.residual_minus_um, 3)
-            );
+            let values = [
+                m.target_mm,
+                m.correction_plus_um,
+                m.correction_minus_um,
+                m.residual_plus_um,
+                m.residual_minus_um,
+            ];
+            let _ = writeln!(out, "{name},measured,{}", csv_numbers(&values));
         }
         for g in &axis.correction.grid_values {
-            let _ = writeln!(
-                out,
-                "{name},grid,{},{},{},,",
-                fmt_num(g.position_mm, 3),
-                fmt_num(g.correction_plus_um, 3),
-                fmt_num(g.correction_minus_um, 3)
-            );
+            let values = [g.position_mm, g.correction_plus_um, g.correction_minus_um];
+            let _ = writeln!(out, "{name},grid,{},,", csv_numbers(&values));
         }
     }
     out
+}
+
+fn csv_numbers(values: &[f64]) -> String {
+    values
+        .iter()
+        .map(|v| fmt_num(*v, 3))
+        .collect::<Vec<_>>()
+        .join(",")
 }
 
 fn csv_field(text: &str) -> String {

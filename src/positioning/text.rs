@@ -45,46 +45,33 @@ fn axis_text(out: &mut String, axis: &AxisResult, standard: Standard, k: &str) {
         stats.axis,
         stats.targets.len()
     );
-    let minus_k = format!("−{k}s");
-    let plus_k = format!("+{k}s");
+    let widths = [10, 3, 8, 7, 8, 8, 3, 8, 7, 8, 8, 8, 8];
     let header = [
-        ("target mm", 10),
-        ("n↑", 3),
-        ("x̄↑", 8),
-        ("s↑", 7),
-        (&format!("{minus_k}↑"), 8),
-        (&format!("{plus_k}↑"), 8),
-        ("n↓", 3),
-        ("x̄↓", 8),
-        ("s↓", 7),
-        (&format!("{minus_k}↓"), 8),
-        (&format!("{plus_k}↓"), 8),
-        ("b", 8),
-        (figure, 8),
+        "target mm".to_string(),
+        "n↑".into(),
+        "x̄↑".into(),
+        "s↑".into(),
+        format!("−{k}s↑"),
+        format!("+{k}s↑"),
+        "n↓".into(),
+        "x̄↓".into(),
+        "s↓".into(),
+        format!("−{k}s↓"),
+        format!("+{k}s↓"),
+        "b".into(),
+        figure.into(),
     ];
-    let header: Vec<String> = header
-        .iter()
-        .map(|(text, width)| right(text, *width))
-        .collect();
-    let _ = writeln!(out, "{}", header.join(" "));
+    let _ = writeln!(out, "{}", columns(&header, &widths));
     for t in &stats.targets {
-        let _ = writeln!(
-            out,
-            "{:>10} {:>3} {:>8} {:>7} {:>8} {:>8} {:>3} {:>8} {:>7} {:>8} {:>8} {:>8} {:>8}",
-            fmt_num(t.target_mm, 3),
-            t.plus.n,
-            fmt_num(t.plus.mean_um, 2),
-            fmt_num(t.plus.s_um, 2),
-            fmt_num(t.plus.lower_um, 2),
-            fmt_num(t.plus.upper_um, 2),
-            t.minus.n,
-            fmt_num(t.minus.mean_um, 2),
-            fmt_num(t.minus.s_um, 2),
-            fmt_num(t.minus.lower_um, 2),
-            fmt_num(t.minus.upper_um, 2),
-            fmt_num(t.reversal_um, 2),
-            fmt_num(figure_value(t), 2)
-        );
+        let mut cells = vec![fmt_num(t.target_mm, 3)];
+        for side in [&t.plus, &t.minus] {
+            cells.push(side.n.to_string());
+            cells.extend(
+                [side.mean_um, side.s_um, side.lower_um, side.upper_um].map(|v| fmt_num(v, 2)),
+            );
+        }
+        cells.extend([t.reversal_um, figure_value(t)].map(|v| fmt_num(v, 2)));
+        let _ = writeln!(out, "{}", columns(&cells, &widths));
     }
     let _ = writeln!(out, "summary ({}):", standard.title());
     for value in &stats.summary {
@@ -111,22 +98,32 @@ fn axis_text(out: &mut String, axis: &AxisResult, standard: Standard, k: &str) {
         fmt_num(c.before.accuracy_um, 2),
         fmt_num(c.after.accuracy_um, 2)
     );
-    let _ = writeln!(
-        out,
-        "{:>10} {:>9} {:>9} {:>10} {:>10}",
-        "target mm", "corr↑", "corr↓", "residual↑", "residual↓"
-    );
+    let widths = [10, 9, 9, 10, 10];
+    let header = ["target mm", "corr↑", "corr↓", "residual↑", "residual↓"].map(String::from);
+    let _ = writeln!(out, "{}", columns(&header, &widths));
     for m in &c.measured {
-        let _ = writeln!(
-            out,
-            "{:>10} {:>9} {:>9} {:>10} {:>10}",
-            fmt_num(m.target_mm, 3),
-            fmt_num(m.correction_plus_um, 2),
-            fmt_num(m.correction_minus_um, 2),
-            fmt_num(m.residual_plus_um, 2),
-            fmt_num(m.residual_minus_um, 2)
+        let mut cells = vec![fmt_num(m.target_mm, 3)];
+        cells.extend(
+            [
+                m.correction_plus_um,
+                m.correction_minus_um,
+                m.residual_plus_um,
+                m.residual_minus_um,
+            ]
+            .map(|v| fmt_num(v, 2)),
         );
+        let _ = writeln!(out, "{}", columns(&cells, &widths));
     }
+}
+
+/// Right-aligned columns separated by one space.
+fn columns(cells: &[String], widths: &[usize]) -> String {
+    cells
+        .iter()
+        .zip(widths)
+        .map(|(cell, &width)| right(cell, width))
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 /// Terminal columns `text` occupies: combining marks (the bar of x̄, b̄) take none.
