@@ -10,11 +10,9 @@ use std::io::Read;
 use thiserror::Error;
 
 /// Approach direction at a target.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Direction {
-    #[serde(rename = "+")]
     Plus,
-    #[serde(rename = "-")]
     Minus,
 }
 

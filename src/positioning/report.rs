@@ -28,7 +28,7 @@ pub fn html_report(analysis: &Analysis) -> String {
             .to_string(),
         "“Before → after” compares the systematic error (range of the means) and the accuracy (range of x̄ ± k·s) \
          with the predicted means after correction; the scatter s is assumed unchanged, so the accuracy after \
-         correction cannot drop below the repeatability."
+         correction cannot drop below the widest band, 2k·s."
             .to_string(),
     ]);
     for axis in &analysis.axes {
