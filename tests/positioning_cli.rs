@@ -347,10 +347,17 @@ fn reads_stdin() {
 
 #[test]
 fn readme_worked_example_is_the_real_output() {
-    let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md")).unwrap();
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md")).unwrap();
     let marker = "$ driftloop positioning fixtures/positioning/paper_row.csv\n";
-    let start = readme.find(marker).expect("README shows the worked example") + marker.len();
+    let start = readme
+        .find(marker)
+        .expect("README shows the worked example")
+        + marker.len();
     let end = start + readme[start..].find("```").unwrap();
-    let out = stdout(&driftloop(&["positioning", "fixtures/positioning/paper_row.csv"]));
+    let out = stdout(&driftloop(&[
+        "positioning",
+        "fixtures/positioning/paper_row.csv",
+    ]));
     assert_eq!(&readme[start..end], out, "update the README example");
 }

@@ -55,13 +55,18 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         .iter()
         .map(|g| parse_grid_choice(g))
         .collect::<anyhow::Result<Vec<_>>>()?;
-    let source = args.data.display().to_string();
-    let samples = if args.data == Path::new("-") {
+    let from_stdin = args.data == Path::new("-");
+    let source = if from_stdin {
+        "<stdin>".to_string()
+    } else {
+        args.data.display().to_string()
+    };
+    let samples = if from_stdin {
         let mut text = Vec::new();
         std::io::stdin()
             .read_to_end(&mut text)
             .context("reading stdin")?;
-        read_samples(text.as_slice(), "<stdin>", MIN_APPROACHES)?
+        read_samples(text.as_slice(), &source, MIN_APPROACHES)?
     } else {
         let file =
             std::fs::File::open(&args.data).with_context(|| format!("cannot open {source}"))?;

@@ -48,6 +48,16 @@ fn csv_field(text: &str) -> String {
     }
 }
 
+/// What the operator must know before loading the tables (the facts are from the Sinumerik K3 manual).
+const SINUMERIK_NOTES: &str = "\
+; $AA_ENC_COMP values are the mean positioning error in mm (natural cubic spline through the
+; measured means); LEC moves the axis by minus the table value. One table per approach direction:
+; LEC acts in both directions, so load one of them as LEC and put the difference into a
+; direction-dependent compensation ($AN_CEC_DIRECTION) or the backlash value.
+; Measuring system index 0 (first encoder); axis names as in the measurement file.
+; A value of zero at the reference point avoids a jump when the compensation switches on.
+";
+
 /// Sinumerik leadscrew-error compensation (LEC) text, one `$AA_ENC_COMP` table per axis and direction.
 ///
 /// A positive LEC value moves the axis in the negative direction, so the values are the measured error
@@ -62,15 +72,7 @@ pub fn sinumerik_text(analysis: &Analysis) -> String {
         analysis.source,
         analysis.standard.title()
     );
-    out.push_str("; $AA_ENC_COMP values are the mean positioning error in mm (natural cubic spline through the\n");
-    out.push_str("; measured means); LEC moves the axis by minus the table value. One table per approach direction:\n");
-    out.push_str(
-        "; LEC acts in both directions, so load one of them as LEC and put the difference into a\n",
-    );
-    out.push_str("; direction-dependent compensation ($AN_CEC_DIRECTION) or the backlash value.\n");
-    out.push_str(
-        "; Measuring system index 0 (first encoder); axis names as in the measurement file.\n",
-    );
+    out.push_str(SINUMERIK_NOTES);
     for axis in &analysis.axes {
         let mean_reversal = axis
             .stats
@@ -81,9 +83,10 @@ pub fn sinumerik_text(analysis: &Analysis) -> String {
             / axis.stats.targets.len() as f64;
         let _ = writeln!(
             out,
-            ";\n; axis {}: mean reversal x̄↑ − x̄↓ = {} µm",
+            ";\n; axis {}: mean reversal x̄↑ − x̄↓ = {} µm; needs MD38000 $MA_MM_ENC_COMP_MAX_POINTS >= {}",
             axis.stats.axis,
-            fmt_num(mean_reversal, 2)
+            fmt_num(mean_reversal, 2),
+            axis.correction.grid.point_count()
         );
         for (label, plus) in [("+ direction", true), ("- direction", false)] {
             let _ = writeln!(out, "; {} {label}", axis.stats.axis);
