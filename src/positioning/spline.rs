@@ -138,4 +138,21 @@ mod tests {
         let two = NaturalSpline::new(&[0.0, 10.0], &[1.0, 3.0]);
         assert!((two.eval(2.5) - 1.5).abs() < 1e-12);
     }
+
+    proptest::proptest! {
+        #[test]
+        fn any_nodes_are_interpolated_with_natural_ends(
+            gaps in proptest::collection::vec(0.5f64..80.0, 1..15),
+            values in proptest::collection::vec(-50.0f64..50.0, 16),
+        ) {
+            let x: Vec<f64> = std::iter::once(0.0).chain(gaps.iter().scan(0.0, |at, gap| { *at += gap; Some(*at) })).collect();
+            let y = &values[..x.len()];
+            let s = NaturalSpline::new(&x, y);
+            for (xi, yi) in x.iter().zip(y) {
+                proptest::prop_assert!((s.eval(*xi) - yi).abs() < 1e-9);
+            }
+            proptest::prop_assert_eq!(s.second_derivative(x[0]), 0.0);
+            proptest::prop_assert!(s.second_derivative(x[x.len() - 1]).abs() < 1e-12);
+        }
+    }
 }
