@@ -31,7 +31,8 @@ impl Grid {
     }
 
     /// The default when the user gives none: from the first to past the last target with the largest
-    /// 1-2-5 step that is not coarser than the closest pair of targets.
+    /// 1-2-5 step that is not coarser than the closest pair of targets, but with at most
+    /// [`DEFAULT_MAX_INTERVALS`] intervals.
     pub fn covering(targets_mm: &[f64]) -> Grid {
         let first = targets_mm[0];
         let last = targets_mm[targets_mm.len() - 1];
@@ -39,12 +40,8 @@ impl Grid {
             .windows(2)
             .map(|w| w[1] - w[0])
             .fold(f64::INFINITY, f64::min);
-        let magnitude = 10f64.powf(closest.log10().floor());
-        let step = [5.0, 2.0, 1.0]
-            .into_iter()
-            .map(|f| f * magnitude)
-            .find(|&s| s <= closest * (1.0 + 1e-9))
-            .unwrap_or(magnitude);
+        let step =
+            nice_at_most(closest).max(nice_at_least((last - first) / DEFAULT_MAX_INTERVALS as f64));
         let count = ((last - first) / step - 1e-9).ceil().max(1.0);
         Grid {
             start_mm: first,
@@ -52,6 +49,30 @@ impl Grid {
             end_mm: first + count * step,
         }
     }
+}
+
+/// Keeps a default table small when two targets are very close; a finer table is one `--grid` away.
+pub const DEFAULT_MAX_INTERVALS: usize = 1000;
+
+const NICE: [f64; 3] = [1.0, 2.0, 5.0];
+
+/// The largest 1-2-5 number not above `value` (> 0).
+fn nice_at_most(value: f64) -> f64 {
+    let magnitude = 10f64.powf(value.log10().floor());
+    NICE.iter()
+        .rev()
+        .map(|f| f * magnitude)
+        .find(|&s| s <= value * (1.0 + 1e-9))
+        .unwrap_or(magnitude)
+}
+
+/// The smallest 1-2-5 number not below `value` (> 0).
+fn nice_at_least(value: f64) -> f64 {
+    let magnitude = 10f64.powf(value.log10().floor());
+    NICE.iter()
+        .map(|f| f * magnitude)
+        .find(|&s| s >= value * (1.0 - 1e-9))
+        .unwrap_or(10.0 * magnitude)
 }
 
 impl FromStr for Grid {
@@ -286,6 +307,16 @@ mod tests {
                 step_mm: 20.0,
                 end_mm: 160.0
             }
+        );
+        let g = Grid::covering(&[0.0, 0.001, 500.0]);
+        assert_eq!(
+            g,
+            Grid {
+                start_mm: 0.0,
+                step_mm: 0.5,
+                end_mm: 500.0
+            },
+            "at most 1000 intervals"
         );
         let g = Grid::covering(&[-10.0, 15.0, 40.0]);
         assert_eq!(

@@ -182,7 +182,16 @@ impl Chart {
     /// Clip-path ids must be unique within one HTML page; derive one from the content so it is stable.
     fn clip_id(&self) -> String {
         let mut hash: u32 = 2_166_136_261;
-        for byte in self.title.bytes().chain(self.y_label.bytes()) {
+        let size = format!("{}x{}", self.width, self.height);
+        let names = self.series.iter().flat_map(|s| s.name.bytes());
+        for byte in self
+            .title
+            .bytes()
+            .chain(self.x_label.bytes())
+            .chain(self.y_label.bytes())
+            .chain(size.bytes())
+            .chain(names)
+        {
             hash = (hash ^ u32::from(byte)).wrapping_mul(16_777_619);
         }
         format!("plot-{hash:08x}")
