@@ -84,6 +84,8 @@ pub struct Chart {
     pub width: f64,
     pub height: f64,
     pub series: Vec<Series>,
+    /// Labelled vertical reference lines (x, label), e.g. where a holdout window starts.
+    pub markers: Vec<(f64, String)>,
 }
 
 impl Chart {
@@ -99,12 +101,19 @@ impl Chart {
             width: 720.0,
             height: 360.0,
             series: Vec::new(),
+            markers: Vec::new(),
         }
     }
 
     pub fn size(mut self, width: f64, height: f64) -> Self {
         self.width = width;
         self.height = height;
+        self
+    }
+
+    /// A dashed vertical line at `x` with `label` at its top; non-finite `x` is ignored.
+    pub fn marker(mut self, x: f64, label: impl Into<String>) -> Self {
+        self.markers.push((x, label.into()));
         self
     }
 
@@ -162,6 +171,22 @@ impl Chart {
         for (index, series) in self.series.iter().enumerate() {
             write_series(&mut svg, series, series_color(series, index), &scale);
         }
+        for (x, label) in self.markers.iter().filter(|(x, _)| x.is_finite()) {
+            let px = c(scale.x(*x));
+            let _ = writeln!(
+                svg,
+                r##"<line x1="{px}" y1="{}" x2="{px}" y2="{}" stroke="#555555" stroke-dasharray="3 3"/>"##,
+                c(plot.top),
+                c(plot.bottom)
+            );
+            let _ = writeln!(
+                svg,
+                r##"<text x="{}" y="{}" fill="#555555">{}</text>"##,
+                c(scale.x(*x) + 4.0),
+                c(plot.top + 14.0),
+                escape(label)
+            );
+        }
         svg.push_str("</g>\n");
         if !self.has_data() {
             let _ = writeln!(
@@ -208,6 +233,9 @@ impl Chart {
     fn axes(&self) -> (AxisRange, AxisRange) {
         let mut xs = Extent::default();
         let mut ys = Extent::default();
+        for (x, _) in &self.markers {
+            xs.add(*x);
+        }
         for series in &self.series {
             for (i, &(x, y)) in series.points.iter().enumerate() {
                 if !x.is_finite() {
@@ -652,6 +680,22 @@ mod tests {
             )
             .to_svg();
         assert!(svg.contains(">-50</text>"), "{svg}");
+    }
+
+    #[test]
+    fn markers_draw_inside_the_plot_and_widen_the_x_range() {
+        let svg = Chart::new("t", "time in min", "µm")
+            .series(Series::new("s", Mark::Line, vec![(0.0, 1.0), (100.0, 2.0)]))
+            .marker(960.0, "holdout <from>")
+            .marker(f64::NAN, "ignored")
+            .to_svg();
+        assert!(svg.contains(">holdout &lt;from&gt;</text>"), "{svg}");
+        assert!(!svg.contains("ignored"));
+        assert!(
+            svg.contains(">800</text>"),
+            "x axis reaches the marker: {svg}"
+        );
+        assert_eq!(svg.matches(r#"stroke-dasharray="3 3""#).count(), 1);
     }
 
     #[test]
