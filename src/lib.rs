@@ -2,3 +2,11 @@
 //! compensation for CNC machines that drift while they warm up.
 
 pub mod cli;
+pub mod diagnostic;
+pub mod source;
+pub mod structure;
+pub mod syntax;
+
+pub use diagnostic::{Diagnostic, Severity};
+pub use source::{LineIndex, Span};
+pub use syntax::{Block, BlockKind, Node, NodeKind, Program, parse, parse_owned};
