@@ -2,6 +2,8 @@
 
 mod fast;
 mod grammar;
+mod keyword;
+mod lexeme;
 mod program;
 mod tree;
 
