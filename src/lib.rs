@@ -9,4 +9,5 @@ pub mod syntax;
 
 pub use diagnostic::{Diagnostic, Severity};
 pub use source::{LineIndex, Span};
+pub use structure::{Structure, analyze};
 pub use syntax::{Block, BlockKind, Node, NodeKind, Program, parse, parse_owned};

@@ -117,7 +117,7 @@ pub fn parse_owned(src: Vec<u8>) -> Program {
         blocks,
         diagnostics,
     };
-    let structural = structure::check(&program);
+    let structural = structure::analyze(&program).diagnostics;
     program.diagnostics.extend(structural);
     program
         .diagnostics

@@ -207,7 +207,7 @@ impl Node {
             indent = depth * 2
         );
         if self.children.is_empty() {
-            let _ = write!(out, " {:?}", escape(self.span.slice(src)));
+            let _ = write!(out, " \"{}\"", escape(self.span.slice(src)));
         }
         out.push('\n');
         for c in &self.children {
