@@ -8,5 +8,5 @@ mod program;
 mod tree;
 
 pub use program::flag;
-pub use program::{Block, BlockKind, Program, parse, parse_owned};
+pub use program::{Block, BlockKind, Program, line_syntax_errors, parse, parse_owned};
 pub use tree::{Node, NodeJson, NodeKind, escape};

@@ -324,3 +324,17 @@ impl Serialize for Program {
         st.end()
     }
 }
+
+/// Syntax diagnostics of one line on its own (spans relative to `line`); control pairing and jump targets are
+/// not checked, since they depend on the rest of the program.
+pub fn line_syntax_errors(line: &[u8]) -> Vec<Diagnostic> {
+    if fast::plain_block(line) {
+        return Vec::new();
+    }
+    grammar::parse_block(
+        line,
+        Span::new(0, line.len()),
+        Span::new(line.len(), line.len()),
+    )
+    .diagnostics
+}
