@@ -13,4 +13,4 @@ pub use diagnostic::{Diagnostic, Severity};
 pub use edit::{EditError, Editor};
 pub use source::{LineIndex, Span};
 pub use structure::{Structure, analyze};
-pub use syntax::{Block, BlockKind, Node, NodeKind, Program, parse, parse_owned};
+pub use syntax::{Block, BlockKind, Node, NodeKind, Program, escape, parse, parse_owned};

@@ -149,10 +149,23 @@ fn pair_controls(program: &Program, start: usize, end: usize, out: &mut Structur
     }
 }
 
-/// "IF on line 12 has no ENDIF", pointing at the opener and at where the search for its end stopped.
+/// "IF on line 12 has no ENDIF", pointing at the opener and at where the search for its end stopped: a closer
+/// of an enclosing structure, or the end of the program unit.
 fn unclosed(program: &Program, opener: usize, stopped_at: usize) -> Diagnostic {
     let kind = program.block_kind(opener);
     let closer = closer_of(kind).map_or("", |c| c.1);
+    let stopper = program.block_kind(stopped_at);
+    let note = match opener_of(stopper) {
+        Some((_, outer)) => format!(
+            "{} on line {} ends the enclosing {outer} first",
+            keyword_name(stopper),
+            stopped_at + 1
+        ),
+        None => format!(
+            "the program ends on line {} without {closer}",
+            stopped_at + 1
+        ),
+    };
     Diagnostic::error(
         keyword_span(program, opener),
         format!(
@@ -162,10 +175,7 @@ fn unclosed(program: &Program, opener: usize, stopped_at: usize) -> Diagnostic {
         ),
     )
     .with_help(format!("add {closer} where the block should end"))
-    .with_related(
-        program.content_span(stopped_at),
-        format!("line {} is reached without {closer}", stopped_at + 1),
-    )
+    .with_related(program.content_span(stopped_at), note)
 }
 
 /// Span of the block's control keyword (the whole line if it has none).

@@ -360,7 +360,18 @@ fn var_name(block: &Block<'_>, node: &Node) -> Option<VarName> {
     let name = upper(block.text(node.find(NodeKind::Name)?));
     match node.kind {
         NodeKind::SysVar => Some(VarName::System(name)),
-        NodeKind::RParam => Some(VarName::R(name[1..].parse().ok())),
+        NodeKind::RParam if name.len() > 1 => Some(VarName::R(name[1..].parse().ok())),
+        NodeKind::RParam => {
+            let index = node.find(NodeKind::Index)?;
+            let mut inner = index.significant().filter(|n| n.kind != NodeKind::Punct);
+            let literal = match (inner.next(), inner.next()) {
+                (Some(n), None) if n.kind == NodeKind::Number => {
+                    std::str::from_utf8(block.text(n)).ok()?.parse().ok()
+                }
+                _ => None,
+            };
+            Some(VarName::R(literal))
+        }
         _ if address_parts(&name).is_some() || matches!(name.as_str(), "TRUE" | "FALSE") => None,
         _ => Some(VarName::User(name)),
     }
