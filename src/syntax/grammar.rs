@@ -209,6 +209,21 @@ impl Cx {
             i = self.ws(rest, out);
         }
         if let Some((rest, node)) = self.label(i) {
+            let name = &i[..node.children[0].span.len()];
+            let leading_ok = name.len() >= 2
+                && name[..2]
+                    .iter()
+                    .all(|&b| b.is_ascii_alphabetic() || b == b'_');
+            if !leading_ok || name.len() > 32 {
+                let span = node.children[0].span;
+                diags.push(
+                    Diagnostic::error(
+                        span,
+                        "label names have 2 to 32 characters, the first two letters or `_`",
+                    )
+                    .with_help("rename the label and the jumps to it"),
+                );
+            }
             out.push(node);
             i = rest;
         }
