@@ -211,7 +211,7 @@ impl Program {
             - 1
     }
 
-    /// The full syntax tree of block `i`, built from its bytes.
+    /// The full syntax tree of block `i`, built from its bytes. Panics if `i >= block_count()`.
     pub fn block(&self, i: usize) -> Block<'_> {
         let full = self.block_span(i);
         let content = self.content_span(i);
