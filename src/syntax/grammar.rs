@@ -284,7 +284,7 @@ impl Cx {
                 format!("`{}`", at[..n].escape_ascii())
             }
         };
-        let span = Span::new(self.pos(at), self.pos(at) + usize::from(!at.is_empty()));
+        let span = Span::new(self.pos(at), self.pos(at) + char_len(at));
         let help = if at.first() == Some(&b'(') && i.first() == Some(&b'(') {
             "`( … )` is not a comment in Sinumerik programs; start comments with `;`"
         } else if at.first() == Some(&b'"') {
@@ -1016,6 +1016,23 @@ fn relabel(e: nom::Err<PErr>, at: &[u8], expected: &'static str) -> nom::Err<PEr
             e
         }
     })
+}
+
+/// Length of the character at the start of `i`: a whole UTF-8 sequence when the bytes form one (so spans
+/// never split a character of a UTF-8 file), else one byte (Latin-1, GBK, broken bytes); 0 at the end.
+fn char_len(i: &[u8]) -> usize {
+    let n = match i.first() {
+        None => return 0,
+        Some(0xC0..=0xDF) => 2,
+        Some(0xE0..=0xEF) => 3,
+        Some(0xF0..=0xF7) => 4,
+        Some(_) => 1,
+    };
+    if i.len() >= n && std::str::from_utf8(&i[..n]).is_ok() {
+        n
+    } else {
+        1
+    }
 }
 
 /// Offset of the first `;` outside a string (or the length).
