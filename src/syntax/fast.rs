@@ -5,21 +5,28 @@
 use super::lexeme::{scan_word, skip_blanks};
 
 pub(crate) fn plain_block(line: &[u8]) -> bool {
-    let mut i = skip_blanks(line);
-    if let Some(rest) = i.strip_prefix(b"/") {
-        i = match rest.first() {
-            Some(d) if d.is_ascii_digit() => &rest[1..],
-            _ => rest,
+    plain_prefix(line) == Some(line.len())
+}
+
+/// Length of the plain block at the start of `rest`, up to (not including) its CR / LF, or None when the
+/// line is not plain. Finds the line end in the same pass as the words.
+pub(crate) fn plain_prefix(rest: &[u8]) -> Option<usize> {
+    let mut i = skip_blanks(rest);
+    if let Some(after) = i.strip_prefix(b"/") {
+        i = match after.first() {
+            Some(d) if d.is_ascii_digit() => &after[1..],
+            _ => after,
         };
     }
     loop {
         i = skip_blanks(i);
         match i.first() {
-            None | Some(b';') => return true,
-            Some(_) => match scan_word(i) {
-                Some(end) => i = &i[end..],
-                None => return false,
-            },
+            None | Some(b'\r' | b'\n') => return Some(rest.len() - i.len()),
+            Some(b';') => {
+                let comment = memchr::memchr2(b'\n', b'\r', i).unwrap_or(i.len());
+                return Some(rest.len() - i.len() + comment);
+            }
+            Some(_) => i = &i[scan_word(i)?..],
         }
     }
 }
