@@ -42,10 +42,20 @@ pub fn analyze(program: &Program) -> Structure {
     let mut out = Structure::default();
     let n = program.block_count();
     let mut unit_start = 0;
+    // Units without control keywords, labels or jumps (all of a CAM program) need no second look.
+    let mut interesting = false;
     for i in 0..=n {
         if i == n || (program.block_kind(i) == BlockKind::Header && i > unit_start) {
-            analyze_unit(program, unit_start, i, &mut out);
+            if interesting {
+                analyze_unit(program, unit_start, i, &mut out);
+            }
             unit_start = i;
+            interesting = false;
+        }
+        if i < n {
+            let kind = program.block_kind(i);
+            interesting |= !matches!(kind, BlockKind::Plain | BlockKind::Header)
+                || program.block_flags(i) & (flag::LABEL | flag::JUMP) != 0;
         }
     }
     out
