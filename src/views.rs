@@ -314,16 +314,7 @@ fn collect_variables(block: &Block<'_>, node: &Node, out: &mut Vec<VarAccess>) {
                 if !written && matches!(c.kind, NodeKind::RParam | NodeKind::Var | NodeKind::SysVar)
                 {
                     written = true;
-                    if let Some(name) = var_name(block, c) {
-                        out.push(VarAccess {
-                            name,
-                            access: Access::Write,
-                            span: c.span,
-                        });
-                    }
-                    if let Some(index) = c.find(NodeKind::Index) {
-                        collect_variables(block, index, out);
-                    }
+                    record_access(block, c, Access::Write, out);
                 } else {
                     collect_variables(block, c, out);
                 }
@@ -343,16 +334,7 @@ fn collect_variables(block: &Block<'_>, node: &Node, out: &mut Vec<VarAccess>) {
             }
         }
         NodeKind::RParam | NodeKind::Var | NodeKind::SysVar => {
-            if let Some(name) = var_name(block, node) {
-                out.push(VarAccess {
-                    name,
-                    access: Access::Read,
-                    span: node.span,
-                });
-            }
-            if let Some(index) = node.find(NodeKind::Index) {
-                collect_variables(block, index, out);
-            }
+            record_access(block, node, Access::Read, out)
         }
         // Jump targets and macro bodies name labels and text, not variables.
         NodeKind::Goto | NodeKind::Define | NodeKind::Repeat | NodeKind::ProgramCall => {}
@@ -361,6 +343,20 @@ fn collect_variables(block: &Block<'_>, node: &Node, out: &mut Vec<VarAccess>) {
                 collect_variables(block, c, out);
             }
         }
+    }
+}
+
+/// Records the access of a variable node; the variables in its index are read.
+fn record_access(block: &Block<'_>, node: &Node, access: Access, out: &mut Vec<VarAccess>) {
+    if let Some(name) = var_name(block, node) {
+        out.push(VarAccess {
+            name,
+            access,
+            span: node.span,
+        });
+    }
+    if let Some(index) = node.find(NodeKind::Index) {
+        collect_variables(block, index, out);
     }
 }
 
