@@ -2,7 +2,7 @@
 //! comment. Whatever it accepts the full grammar accepts as a plain block without diagnostics (a test checks
 //! this over every fixture line); anything else goes to the full grammar.
 
-use super::lexeme::{scan_word, skip_blanks};
+use super::lexeme::{scan_word, skip_blanks, skip_level_len};
 
 pub(crate) fn plain_block(line: &[u8]) -> bool {
     plain_prefix(line) == Some(line.len())
@@ -12,12 +12,7 @@ pub(crate) fn plain_block(line: &[u8]) -> bool {
 /// line is not plain. Finds the line end in the same pass as the words.
 pub(crate) fn plain_prefix(rest: &[u8]) -> Option<usize> {
     let mut i = skip_blanks(rest);
-    if let Some(after) = i.strip_prefix(b"/") {
-        i = match after.first() {
-            Some(d) if d.is_ascii_digit() => &after[1..],
-            _ => after,
-        };
-    }
+    i = &i[skip_level_len(i)..];
     loop {
         i = skip_blanks(i);
         match i.first() {

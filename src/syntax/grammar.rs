@@ -7,8 +7,8 @@ use nom::bytes::complete::tag;
 
 use super::keyword::{Kw, keyword};
 use super::lexeme::{
-    PErr, R, bit_literal, blanks, fail, ident, is_ident_char, signed_number, skip_blanks, string,
-    sysvar_name, unsigned_number, word,
+    PErr, R, bit_literal, blanks, block_number_len, fail, ident, is_ident_char, signed_number,
+    skip_blanks, skip_level_len, string, sysvar_name, unsigned_number, word,
 };
 use super::program::{BlockKind, flag};
 use super::tree::{Node, NodeKind as K};
@@ -193,15 +193,11 @@ impl Cx {
             out.push(Node::with_children(K::Header, header));
             return;
         }
-        if i.first() == Some(&b'/') {
-            let len = if i.get(1).is_some_and(u8::is_ascii_digit) {
-                2
-            } else {
-                1
-            };
-            let mut skip = Vec::new();
-            i = self.take(K::Punct, i, len, &mut skip);
-            out.push(Node::with_children(K::Skip, skip));
+        let skip = skip_level_len(i);
+        if skip > 0 {
+            let mut parts = Vec::new();
+            i = self.take(K::Punct, i, skip, &mut parts);
+            out.push(Node::with_children(K::Skip, parts));
             i = self.ws(i, out);
         }
         if let Some((rest, node)) = self.block_number(i) {
@@ -299,20 +295,7 @@ impl Cx {
 
     /// `N10` or `:10` at the start of a block.
     fn block_number<'a>(&self, i: &'a [u8]) -> Option<(&'a [u8], Node)> {
-        let rest = match i.first()? {
-            b'N' | b'n' => match word(i) {
-                Ok((rest, (_, num))) if num.iter().all(u8::is_ascii_digit) => rest,
-                _ => return None,
-            },
-            b':' => {
-                let digits = i[1..].iter().take_while(|b| b.is_ascii_digit()).count();
-                if digits == 0 || i.get(1 + digits).is_some_and(|&b| is_ident_char(b)) {
-                    return None;
-                }
-                &i[1 + digits..]
-            }
-            _ => return None,
-        };
+        let rest = &i[block_number_len(i)?..];
         let parts = vec![
             self.leaf(K::Address, i, &i[1..]),
             self.leaf(K::Number, &i[1..], rest),

@@ -155,6 +155,34 @@ pub(crate) fn word(i: &[u8]) -> R<'_, (&[u8], &[u8])> {
     }
 }
 
+/// Length of a skip level at the start of `i`: `/` or `/0` … `/9` (0 if none).
+pub(crate) fn skip_level_len(i: &[u8]) -> usize {
+    match i {
+        [b'/', d, ..] if d.is_ascii_digit() => 2,
+        [b'/', ..] => 1,
+        _ => 0,
+    }
+}
+
+/// Length of a block number at the start of `i`: `N10` (a word with digits only) or `:10`.
+pub(crate) fn block_number_len(i: &[u8]) -> Option<usize> {
+    match i.first()? {
+        b'N' | b'n' => scan_word(i).filter(|&end| i[1..end].iter().all(u8::is_ascii_digit)),
+        b':' => {
+            let end = digits_end(i, 1);
+            (end > 1 && !i.get(end).is_some_and(|&b| is_ident_char(b))).then_some(end)
+        }
+        _ => None,
+    }
+}
+
+/// The block number (`N10`, `:10`) a line starts with, after blanks and a skip level.
+pub(crate) fn leading_block_number(line: &[u8]) -> Option<&[u8]> {
+    let i = skip_blanks(line);
+    let i = skip_blanks(&i[skip_level_len(i)..]);
+    block_number_len(i).map(|end| &i[..end])
+}
+
 /// `"…"`: any bytes but the quote; strings cannot span lines.
 pub(crate) fn string(i: &[u8]) -> R<'_, &[u8]> {
     recognize((tag("\""), take_till(|b| b == b'"'), tag("\""))).parse(i)
@@ -192,6 +220,17 @@ mod tests {
         assert!(word(b"CYCLE800(").is_err());
         assert!(word(b"T1_X").is_err());
         assert_eq!(word(b"X1==2").unwrap().0, b"==2");
+    }
+
+    #[test]
+    fn block_numbers_after_blanks_and_skip_levels() {
+        assert_eq!(leading_block_number(b"  /3 N100 G1"), Some(&b"N100"[..]));
+        assert_eq!(leading_block_number(b":20 X1"), Some(&b":20"[..]));
+        assert_eq!(leading_block_number(b"N1.5 X1"), None, "block numbers are whole");
+        assert_eq!(leading_block_number(b"N10=5"), None, "an assignment, not a block number");
+        assert_eq!(leading_block_number(b":2A"), None);
+        assert_eq!(skip_level_len(b"/"), 1);
+        assert_eq!(skip_level_len(b"/7 N1"), 2);
     }
 
     #[test]
