@@ -22,6 +22,7 @@ fn words_give_tools_spindle_feed_motion_and_axes() {
     let f: Vec<_> = program_facts(&p).collect();
     assert_eq!(f[0].block_number, Some(10));
     assert_eq!(f[0].motion, vec![0]);
+    assert_eq!(f[0].g_codes, vec![0, 90, 17]);
     assert_eq!(numbers(&f[1].tools), vec![(None, Value::Number(1.0))]);
     assert_eq!(numbers(&f[1].m_codes), vec![(None, Value::Number(6.0))]);
     assert_eq!(
