@@ -112,6 +112,9 @@ pub struct BlockFacts {
     pub motion: Vec<u32>,
     pub axes: Vec<AxisTarget>,
     pub work_offsets: Vec<WorkOffset>,
+    /// Upper-cased names the block calls or commands: cycles and subprograms with arguments (`CYCLE800(…)`,
+    /// `MSG(…)`) and bare names (`SUBPROG`, `STOPRE`, `TRANS`).
+    pub calls: Vec<String>,
 }
 
 const MOTION_G: &[u32] = &[0, 1, 2, 3, 33, 34, 35, 331, 332];
@@ -191,9 +194,11 @@ pub fn facts(block: &Block<'_>) -> BlockFacts {
             NodeKind::Command => {
                 let name = upper(block.text(node));
                 if FRAME_COMMANDS.contains(&name.as_str()) {
-                    f.work_offsets.push(WorkOffset::Frame(name));
+                    f.work_offsets.push(WorkOffset::Frame(name.clone()));
                 }
+                f.calls.push(name);
             }
+            NodeKind::Call => f.calls.push(upper(block.text(&node.children[0]))),
             _ => {}
         }
     }

@@ -208,3 +208,15 @@ fn predefined_addresses_are_not_user_variables() {
         vec!["LIMIT".to_string()]
     );
 }
+
+#[test]
+fn calls_and_commands_by_name() {
+    let p = parse(&fixture("calls.mpf"));
+    let calls: Vec<String> = program_facts(&p).flat_map(|f| f.calls).collect();
+    assert_eq!(
+        calls,
+        vec![
+            "SUBPROG", "SUBPROG", "CYCLE800", "MSG", "SETAL", "STOPRE", "WRITE", "RET"
+        ]
+    );
+}
