@@ -1,0 +1,266 @@
+//! Allocation-free nom lexemes shared by the fast recogniser and the full block grammar, so that both agree on
+//! what a word, a number or a name is.
+
+use nom::branch::alt;
+use nom::bytes::complete::{tag, tag_no_case, take_till, take_while, take_while_m_n, take_while1};
+use nom::combinator::recognize;
+use nom::error::{ErrorKind, ParseError};
+use nom::{IResult, Parser};
+
+/// Parse failure: how much input was left where it happened (smaller = further) and what was expected there.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct PErr {
+    pub rest: usize,
+    pub expected: &'static str,
+}
+
+impl ParseError<&[u8]> for PErr {
+    fn from_error_kind(input: &[u8], _kind: ErrorKind) -> Self {
+        PErr {
+            rest: input.len(),
+            expected: "",
+        }
+    }
+
+    fn append(_input: &[u8], _kind: ErrorKind, other: Self) -> Self {
+        other
+    }
+
+    /// Of two failed alternatives, report the one that got further.
+    fn or(self, other: Self) -> Self {
+        if other.rest < self.rest || (other.rest == self.rest && self.expected.is_empty()) {
+            other
+        } else {
+            self
+        }
+    }
+}
+
+pub(crate) type R<'a, T> = IResult<&'a [u8], T, PErr>;
+
+pub(crate) fn fail<'a, T>(at: &'a [u8], expected: &'static str) -> R<'a, T> {
+    Err(nom::Err::Error(PErr {
+        rest: at.len(),
+        expected,
+    }))
+}
+
+/// Blanks separate tokens: space, tab, `&` (a space in Sinumerik), vertical tab and form feed.
+#[inline]
+pub(crate) fn is_blank(b: u8) -> bool {
+    matches!(b, b' ' | b'\t' | b'&' | 0x0b | 0x0c)
+}
+
+pub(crate) fn is_ident_char(b: u8) -> bool {
+    b.is_ascii_alphanumeric() || b == b'_'
+}
+
+pub(crate) fn blanks(i: &[u8]) -> R<'_, &[u8]> {
+    take_while1(is_blank).parse(i)
+}
+
+#[inline]
+pub(crate) fn skip_blanks(i: &[u8]) -> &[u8] {
+    let mut n = 0;
+    while n < i.len() && is_blank(i[n]) {
+        n += 1;
+    }
+    &i[n..]
+}
+
+/// `[A-Za-z_][A-Za-z0-9_]*`
+pub(crate) fn ident(i: &[u8]) -> R<'_, &[u8]> {
+    recognize((
+        take_while_m_n(1, 1, |b: u8| b.is_ascii_alphabetic() || b == b'_'),
+        take_while(is_ident_char),
+    ))
+    .parse(i)
+}
+
+/// End of the number starting at `s[k]`: `12`, `12.`, `12.5`, `.5` (with a sign if `signed`), each optionally
+/// with a Sinumerik exponent `EX[+-]digits`. Index-based and inlined: every word of every block goes
+/// through it.
+#[inline(always)]
+fn number_end(s: &[u8], mut k: usize, signed: bool) -> Option<usize> {
+    let n = s.len();
+    if signed && k < n && (s[k] == b'+' || s[k] == b'-') {
+        k += 1;
+    }
+    let int_start = k;
+    while k < n && s[k].is_ascii_digit() {
+        k += 1;
+    }
+    let has_int = k > int_start;
+    if k < n && s[k] == b'.' {
+        let frac_start = k + 1;
+        k = frac_start;
+        while k < n && s[k].is_ascii_digit() {
+            k += 1;
+        }
+        if !has_int && k == frac_start {
+            return None;
+        }
+    } else if !has_int {
+        return None;
+    }
+    if k + 1 < n && (s[k] | 0x20) == b'e' && (s[k + 1] | 0x20) == b'x' {
+        let mut e = k + 2;
+        if e < n && (s[e] == b'+' || s[e] == b'-') {
+            e += 1;
+        }
+        let digits = e;
+        while e < n && s[e].is_ascii_digit() {
+            e += 1;
+        }
+        if e > digits {
+            k = e;
+        }
+    }
+    Some(k)
+}
+
+fn lexeme<'a>(i: &'a [u8], len: Option<usize>, expected: &'static str) -> R<'a, &'a [u8]> {
+    match len {
+        Some(n) => Ok((&i[n..], &i[..n])),
+        None => fail(i, expected),
+    }
+}
+
+pub(crate) fn unsigned_number(i: &[u8]) -> R<'_, &[u8]> {
+    lexeme(i, number_end(i, 0, false), "a number")
+}
+
+pub(crate) fn signed_number(i: &[u8]) -> R<'_, &[u8]> {
+    lexeme(i, number_end(i, 0, true), "a number")
+}
+
+/// End of the address letter and number starting at `s[k]` (`G1`, `X-3.2`, `F.5`) and where the blanks
+/// after it end, or None when the name goes on (`X1_A`), is indexed or called (`R1[`, `L1(`, `L340 (`) or
+/// assigned (`X1=5` is an assignment to axis `X1`).
+#[inline(always)]
+pub(crate) fn word_end(s: &[u8], k: usize) -> Option<(usize, usize)> {
+    if k >= s.len() || !s[k].is_ascii_alphabetic() {
+        return None;
+    }
+    let end = number_end(s, k + 1, true)?;
+    if matches!(s.get(end), Some(b'_' | b'[')) {
+        return None;
+    }
+    let mut next = end;
+    while next < s.len() && is_blank(s[next]) {
+        next += 1;
+    }
+    match s.get(next) {
+        Some(b'(') => None,
+        Some(b'=') if s.get(next + 1) != Some(&b'=') => None,
+        _ => Some((end, next)),
+    }
+}
+
+/// Length of the word at the start of `i`.
+pub(crate) fn scan_word(i: &[u8]) -> Option<usize> {
+    word_end(i, 0).map(|(end, _)| end)
+}
+
+/// A word as (letter, number).
+pub(crate) fn word(i: &[u8]) -> R<'_, (&[u8], &[u8])> {
+    match scan_word(i) {
+        Some(end) => Ok((&i[end..], (&i[..1], &i[1..end]))),
+        None => fail(i, "a word"),
+    }
+}
+
+/// Length of a skip level at the start of `i`: `/` or `/0` … `/9` (0 if none).
+pub(crate) fn skip_level_len(i: &[u8]) -> usize {
+    match i {
+        [b'/', d, ..] if d.is_ascii_digit() => 2,
+        [b'/', ..] => 1,
+        _ => 0,
+    }
+}
+
+/// Length of a block number at the start of `i`: `N10` (a word with digits only) or `:10`.
+pub(crate) fn block_number_len(i: &[u8]) -> Option<usize> {
+    match i.first()? {
+        b'N' | b'n' => scan_word(i).filter(|&end| i[1..end].iter().all(u8::is_ascii_digit)),
+        b':' => {
+            let end = 1 + i[1..].iter().take_while(|b| b.is_ascii_digit()).count();
+            (end > 1 && !i.get(end).is_some_and(|&b| is_ident_char(b))).then_some(end)
+        }
+        _ => None,
+    }
+}
+
+/// The block number (`N10`, `:10`) a line starts with, after blanks and a skip level.
+pub(crate) fn leading_block_number(line: &[u8]) -> Option<&[u8]> {
+    let i = skip_blanks(line);
+    let i = skip_blanks(&i[skip_level_len(i)..]);
+    block_number_len(i).map(|end| &i[..end])
+}
+
+/// `"…"`: any bytes but the quote; strings cannot span lines.
+pub(crate) fn string(i: &[u8]) -> R<'_, &[u8]> {
+    recognize((tag("\""), take_till(|b| b == b'"'), tag("\""))).parse(i)
+}
+
+/// `'H1F'` (hex) or `'B101'` (binary).
+pub(crate) fn bit_literal(i: &[u8]) -> R<'_, &[u8]> {
+    let hex = (tag_no_case("H"), take_while1(|b: u8| b.is_ascii_hexdigit()));
+    let bin = (
+        tag_no_case("B"),
+        take_while1(|b: u8| b == b'0' || b == b'1'),
+    );
+    recognize((tag("'"), alt((recognize(hex), recognize(bin))), tag("'"))).parse(i)
+}
+
+/// `$` followed by a name: `$P_UIFR`, `$AA_IM`, `$A_DBB`.
+pub(crate) fn sysvar_name(i: &[u8]) -> R<'_, &[u8]> {
+    recognize((tag("$"), take_while1(is_ident_char))).parse(i)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn words_stop_where_names_assignments_and_calls_begin() {
+        assert_eq!(
+            word(b"X-3.2 Y").unwrap(),
+            (&b" Y"[..], (&b"X"[..], &b"-3.2"[..]))
+        );
+        assert_eq!(word(b"G1X10").unwrap().0, b"X10");
+        assert!(word(b"X1=5").is_err());
+        assert!(word(b"X1 = 5").is_err());
+        assert!(word(b"R1[2]").is_err());
+        assert!(word(b"CYCLE800(").is_err());
+        assert!(word(b"T1_X").is_err());
+        assert_eq!(word(b"X1==2").unwrap().0, b"==2");
+    }
+
+    #[test]
+    fn block_numbers_after_blanks_and_skip_levels() {
+        assert_eq!(leading_block_number(b"  /3 N100 G1"), Some(&b"N100"[..]));
+        assert_eq!(leading_block_number(b":20 X1"), Some(&b":20"[..]));
+        assert_eq!(
+            leading_block_number(b"N1.5 X1"),
+            None,
+            "block numbers are whole"
+        );
+        assert_eq!(
+            leading_block_number(b"N10=5"),
+            None,
+            "an assignment, not a block number"
+        );
+        assert_eq!(leading_block_number(b":2A"), None);
+        assert_eq!(skip_level_len(b"/"), 1);
+        assert_eq!(skip_level_len(b"/7 N1"), 2);
+    }
+
+    #[test]
+    fn numbers_take_sinumerik_exponents() {
+        assert_eq!(unsigned_number(b"1.5EX-3 ").unwrap().1, b"1.5EX-3");
+        assert_eq!(unsigned_number(b".5").unwrap().1, b".5");
+        assert_eq!(unsigned_number(b"12.").unwrap().1, b"12.");
+        assert!(unsigned_number(b".").is_err());
+    }
+}
