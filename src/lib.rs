@@ -2,3 +2,6 @@
 //! compensation for CNC machines that drift while they warm up.
 
 pub mod cli;
+
+pub mod data;
+pub mod model;
