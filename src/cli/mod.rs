@@ -7,6 +7,8 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand, ValueEnum};
 
 mod demo;
+mod fit;
+mod predict;
 
 /// Options every subcommand understands.
 #[derive(Debug, Clone, clap::Args)]
@@ -52,6 +54,10 @@ struct Cli {
 enum Command {
     /// Run the whole job on the bundled example and print what happened.
     Demo(demo::Args),
+    /// Fit the thermal drift model of one displacement channel from measured data.
+    Fit(fit::Args),
+    /// Predict drift for a spindle schedule or the inputs of a data file.
+    Predict(predict::Args),
 }
 
 /// Entry point of the binary.
@@ -59,6 +65,8 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(args) => demo::run(args, &cli.global),
+        Command::Fit(args) => fit::run(args, &cli.global),
+        Command::Predict(args) => predict::run(args, &cli.global),
     };
     match result {
         Ok(code) => code,

@@ -17,6 +17,9 @@ use super::{
 
 /// Highest order `--modes auto` tries.
 pub const MAX_AUTO_MODES: usize = 4;
+/// Starting points (best grid combinations) tried per model order.
+const STARTS: usize = 4;
+
 /// Highest order `--modes N` accepts.
 pub const MAX_MODES: usize = 6;
 
@@ -94,14 +97,14 @@ pub enum FitError {
 }
 
 /// Fits the model of `opts.channel` to `ds`.
-pub fn fit(ds: &Dataset, opts: &FitOptions) -> Result<DriftModel, FitError> {
+pub fn fit(all: &Dataset, opts: &FitOptions) -> Result<DriftModel, FitError> {
     let windowed;
     let ds = match opts.until_min {
         Some(u) => {
-            windowed = ds.until(u);
+            windowed = all.until(u);
             &windowed
         }
-        None => ds,
+        None => all,
     };
     let prep = Prepared::new(ds, opts)?;
     let p = &prep.problem;
@@ -130,13 +133,21 @@ pub fn fit(ds: &Dataset, opts: &FitOptions) -> Result<DriftModel, FitError> {
             continue;
         }
         let lay = p.layout(k);
-        let best = scan
-            .starts(k, 3)
+        // Several starts; the best sound local minimum wins over a better but degenerate one.
+        let mut found: Vec<Trial> = scan
+            .starts(k, STARTS)
             .into_iter()
             .filter_map(|t0| varpro::minimise(p, lay, &t0, tlo, thi))
-            .min_by(|a, b| a.rss.total_cmp(&b.rss));
-        let Some(best) = best else { continue };
-        let trial = Trial::new(p, lay, sort_modes(p, lay, best), (tlo, thi));
+            .map(|pt| Trial::new(p, lay, sort_modes(p, lay, pt), (tlo, thi)))
+            .collect();
+        found.sort_by(|a, b| {
+            (a.degenerate.is_some(), a.point.rss)
+                .partial_cmp(&(b.degenerate.is_some(), b.point.rss))
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+        let Some(trial) = found.into_iter().next() else {
+            continue;
+        };
         // Fixed: the first usable order from N down. Auto: forward selection, stopping at the first order
         // that is degenerate or does not lower the BIC.
         let stop = match opts.modes {
@@ -156,7 +167,7 @@ pub fn fit(ds: &Dataset, opts: &FitOptions) -> Result<DriftModel, FitError> {
         }
     }
     let chosen = choose(&trials).ok_or(FitError::Numerical)?;
-    Ok(prep.model(ds, opts, &trials, chosen))
+    Ok(prep.model(ds, all.len(), opts, &trials, chosen))
 }
 
 /// The data of one fit and what was found out about it.
@@ -264,6 +275,7 @@ impl Prepared {
     fn model(
         &self,
         ds: &Dataset,
+        rows: usize,
         opts: &FitOptions,
         trials: &[Trial],
         chosen: usize,
@@ -367,7 +379,7 @@ impl Prepared {
             data: Some(DataProvenance {
                 file: ds.source.clone(),
                 sha256: ds.sha256.clone().unwrap_or_default(),
-                rows: ds.len(),
+                rows,
                 time_unit: unit,
             }),
         }

@@ -170,6 +170,7 @@ pub struct DataProvenance {
     pub file: String,
     /// SHA-256 of the data file's bytes (hex); empty for generated data.
     pub sha256: String,
+    /// Rows in the file (the fit may have used fewer, see `fit.samples`).
     pub rows: usize,
     /// Time unit of the data; predictions for data in this unit are written in it.
     pub time_unit: TimeUnit,
