@@ -17,6 +17,22 @@ fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()
 }
 
+/// `driftloop fit FIXTURE --channel drift_z_um --format json EXTRA…`, which must succeed; its JSON.
+fn fit_json(extra: &[&str]) -> serde_json::Value {
+    let mut args = vec![
+        "fit",
+        FIXTURE,
+        "--channel",
+        "drift_z_um",
+        "--format",
+        "json",
+    ];
+    args.extend_from_slice(extra);
+    let out = driftloop(&args);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
 fn fit_to(dir: &Path) -> PathBuf {
     let model = dir.join("model.toml");
     let out = driftloop(&[
@@ -51,18 +67,7 @@ fn fit_prints_a_summary_and_writes_the_model() {
 
 #[test]
 fn fit_json_is_one_object_with_the_model() {
-    let out = driftloop(&[
-        "fit",
-        FIXTURE,
-        "--channel",
-        "drift_z_um",
-        "--modes",
-        "1",
-        "--format",
-        "json",
-    ]);
-    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = fit_json(&["--modes", "1"]);
     assert_eq!(v["schema"], 1);
     assert_eq!(v["spindle"]["modes"].as_array().unwrap().len(), 1);
     assert_eq!(v["fit"]["selection"], "fixed");
@@ -70,18 +75,7 @@ fn fit_json_is_one_object_with_the_model() {
 
 #[test]
 fn fit_until_uses_the_data_time_unit() {
-    let out = driftloop(&[
-        "fit",
-        FIXTURE,
-        "--channel",
-        "drift_z_um",
-        "--until",
-        "200",
-        "--format",
-        "json",
-    ]);
-    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = fit_json(&["--until", "200"]);
     assert_eq!(v["fit"]["until"], 200.0);
     assert!(v["fit"]["samples"].as_u64().unwrap() < 206);
 }
@@ -155,4 +149,21 @@ fn bad_input_exits_2_with_the_location() {
     assert!(text(&out.stderr).contains("schema 7 is not supported"));
     let out = driftloop(&["predict", model.to_str().unwrap(), "--schedule", "1000"]);
     assert_eq!(out.status.code(), Some(2));
+}
+
+#[test]
+fn a_degenerate_fixed_order_falls_back_and_says_why() {
+    let v = fit_json(&["--modes", "3"]);
+    assert_eq!(v["spindle"]["modes"].as_array().unwrap().len(), 2);
+    let orders = v["fit"]["orders"].as_array().unwrap();
+    assert_eq!(orders[0]["modes"], 3);
+    assert!(
+        orders[0]["note"]
+            .as_str()
+            .unwrap()
+            .starts_with("rejected: "),
+        "{}",
+        orders[0]
+    );
+    assert_eq!(orders[1]["note"], "chosen");
 }
