@@ -5,6 +5,7 @@
 use std::str::FromStr;
 
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 
 use crate::data::{Dataset, SPINDLE};
 
@@ -136,7 +137,7 @@ pub fn fit(all: &Dataset, opts: &FitOptions) -> Result<DriftModel, FitError> {
         // Several starts; the best sound local minimum wins over a better but degenerate one.
         let mut found: Vec<Trial> = scan
             .starts(k, STARTS)
-            .into_iter()
+            .into_par_iter()
             .filter_map(|t0| varpro::minimise(p, lay, &t0, tlo, thi))
             .map(|pt| Trial::new(p, lay, sort_modes(p, lay, pt), (tlo, thi)))
             .collect();
