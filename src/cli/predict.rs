@@ -40,7 +40,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             schedule.to_dataset(args.step)
         }
         (None, Some(path)) => read_path(path, Require::InputsOnly)?,
-        (None, None) => unreachable!("clap requires --schedule or --data"),
+        (None, None) => anyhow::bail!("give --schedule or --data"),
     };
     warn_extrapolation(&model, &input);
     let predicted = model.predict(&input)?;

@@ -291,16 +291,11 @@ impl Prepared {
                 tau_min: t.point.theta[k].exp(),
                 tau_se_min: t.se_theta[k].map(|s| s * t.point.theta[k].exp()),
                 gain_um: c.as_slice()[k * m..(k + 1) * m].to_vec(),
+                // All gains' errors or none: an undetermined one is left out rather than written as NaN.
                 gain_se_um: (0..m)
-                    .map(|j| t.se_c[k * m + j].unwrap_or(f64::NAN))
-                    .collect(),
-            })
-            .map(|mut mode| {
-                // An undetermined gain error is left out rather than written as NaN.
-                if mode.gain_se_um.iter().any(|s| !s.is_finite()) {
-                    mode.gain_se_um.clear();
-                }
-                mode
+                    .map(|j| t.se_c[k * m + j])
+                    .collect::<Option<Vec<_>>>()
+                    .unwrap_or_default(),
             })
             .collect();
         let inputs = self
