@@ -7,7 +7,9 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand, ValueEnum};
 
 mod demo;
+mod fit;
 mod positioning;
+mod predict;
 
 /// Options every subcommand understands.
 #[derive(Debug, Clone, clap::Args)]
@@ -55,6 +57,10 @@ enum Command {
     Demo(demo::Args),
     /// Positioning accuracy (DSTU/GOST 27843, VDI 3441, ISO 230-2) and compensation tables.
     Positioning(positioning::Args),
+    /// Fit the thermal drift model of one displacement channel from measured data.
+    Fit(fit::Args),
+    /// Predict drift for a spindle schedule or the inputs of a data file.
+    Predict(predict::Args),
 }
 
 /// Entry point of the binary.
@@ -63,6 +69,8 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Demo(args) => demo::run(args, &cli.global),
         Command::Positioning(args) => positioning::run(args, &cli.global),
+        Command::Fit(args) => fit::run(args, &cli.global),
+        Command::Predict(args) => predict::run(args, &cli.global),
     };
     match result {
         Ok(code) => code,
