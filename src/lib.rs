@@ -2,3 +2,4 @@
 //! compensation for CNC machines that drift while they warm up.
 
 pub mod cli;
+pub mod walk;
