@@ -2,4 +2,12 @@
 //! compensation for CNC machines that drift while they warm up.
 
 pub mod cli;
+pub mod diagnostic;
+pub mod source;
+pub mod structure;
+pub mod syntax;
 pub mod walk;
+
+pub use diagnostic::{Diagnostic, Severity};
+pub use source::{LineIndex, Span};
+pub use syntax::{Block, BlockKind, Node, NodeKind, Program, parse, parse_owned};
