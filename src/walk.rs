@@ -49,22 +49,22 @@ impl fmt::Display for Input {
     }
 }
 
-/// An I/O failure tied to the path it happened on.
+/// An I/O failure tied to the path it happened on. The message already carries the cause, so it is not
+/// chained again as a `source` (that would print it twice).
 #[derive(Debug, thiserror::Error)]
-#[error("{action} {}: {source}", path.display())]
+#[error("{action} {}: {cause}", path.display())]
 pub struct WalkError {
     pub path: PathBuf,
     action: &'static str,
-    #[source]
-    pub source: io::Error,
+    pub cause: io::Error,
 }
 
 impl WalkError {
-    fn new(path: &Path, action: &'static str, source: io::Error) -> Self {
+    fn new(path: &Path, action: &'static str, cause: io::Error) -> Self {
         WalkError {
             path: path.to_path_buf(),
             action,
-            source,
+            cause,
         }
     }
 }

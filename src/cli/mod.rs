@@ -6,7 +6,11 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
+mod bench;
+mod check;
 mod demo;
+mod parse;
+mod render;
 
 /// Options every subcommand understands.
 #[derive(Debug, Clone, clap::Args)]
@@ -52,6 +56,12 @@ struct Cli {
 enum Command {
     /// Run the whole job on the bundled example and print what happened.
     Demo(demo::Args),
+    /// Report the diagnostics of programs and directories of programs.
+    Check(check::Args),
+    /// Dump the syntax tree of a program as JSON, or print the program back from it.
+    Parse(parse::Args),
+    /// Measure parse + print throughput and peak memory on a generated 100 MB program.
+    Bench(bench::Args),
 }
 
 /// Entry point of the binary.
@@ -59,6 +69,9 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(args) => demo::run(args, &cli.global),
+        Command::Check(args) => check::run(args, &cli.global),
+        Command::Parse(args) => parse::run(args, &cli.global),
+        Command::Bench(args) => bench::run(args, &cli.global),
     };
     match result {
         Ok(code) => code,
