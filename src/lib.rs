@@ -3,11 +3,15 @@
 
 pub mod cli;
 pub mod diagnostic;
+pub mod edit;
 pub mod source;
 pub mod structure;
 pub mod syntax;
+pub mod views;
 pub mod walk;
 
 pub use diagnostic::{Diagnostic, Severity};
+pub use edit::{EditError, Editor};
 pub use source::{LineIndex, Span};
-pub use syntax::{Block, BlockKind, Node, NodeKind, Program, parse, parse_owned};
+pub use structure::{Structure, analyze};
+pub use syntax::{Block, BlockKind, Node, NodeKind, Program, escape, parse, parse_owned};

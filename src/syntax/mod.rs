@@ -2,9 +2,11 @@
 
 mod fast;
 mod grammar;
+mod keyword;
+mod lexeme;
 mod program;
 mod tree;
 
 pub use program::flag;
-pub use program::{Block, BlockKind, Program, parse, parse_owned};
+pub use program::{Block, BlockKind, Program, line_syntax_errors, parse, parse_owned};
 pub use tree::{Node, NodeJson, NodeKind, escape};

@@ -6,7 +6,7 @@ use std::io::Write;
 use serde::Serialize;
 use serde::ser::{SerializeStruct, Serializer};
 
-use super::tree::{Node, NodeJson};
+use super::tree::{Node, NodeJson, NodeKind};
 use super::{fast, grammar};
 use crate::diagnostic::{Diagnostic, Severity};
 use crate::source::{RawLine, Span, raw_lines};
@@ -42,6 +42,8 @@ pub mod flag {
     pub const LABEL: u8 = 1;
     pub const JUMP: u8 = 2;
     pub const ERROR: u8 = 4;
+    /// Inside an archive section that holds text, not NC code (`%_N_…_COM`): kept as opaque text.
+    pub const TEXT: u8 = 8;
 }
 
 /// What the program keeps per block: 8 bytes.
@@ -87,15 +89,21 @@ pub fn parse_owned(src: Vec<u8>) -> Program {
     }
     let mut blocks = Vec::with_capacity(src.len() / 32 + 1);
     let mut diagnostics = Vec::new();
+    let mut in_text_section = false;
     for line in raw_lines(&src) {
         let content = line_content(&src, &line);
-        let (kind, flags) = match fast::plain_block(content.slice(&src)) {
-            true => (BlockKind::Plain, 0),
-            false => {
-                let parsed = grammar::parse_block(&src, content, line.terminator());
-                diagnostics.extend(parsed.diagnostics);
-                (parsed.kind, parsed.flags)
+        let bytes = content.slice(&src);
+        let (kind, flags) = if fast::plain_block(bytes) {
+            (BlockKind::Plain, 0)
+        } else if in_text_section && !bytes.starts_with(b"%") {
+            (BlockKind::Plain, flag::TEXT)
+        } else {
+            let parsed = grammar::parse_block(&src, content, line.terminator());
+            diagnostics.extend(parsed.diagnostics);
+            if parsed.kind == BlockKind::Header {
+                in_text_section = is_text_section(bytes);
             }
+            (parsed.kind, parsed.flags)
         };
         blocks.push(BlockRec {
             start: line.start as u32,
@@ -109,12 +117,18 @@ pub fn parse_owned(src: Vec<u8>) -> Program {
         blocks,
         diagnostics,
     };
-    let structural = structure::check(&program);
+    let structural = structure::analyze(&program).diagnostics;
     program.diagnostics.extend(structural);
     program
         .diagnostics
         .sort_by_key(|d| (d.span.start, d.severity, d.span.end));
     program
+}
+
+/// Archive sections named `…_COM` hold alarm texts and HMI masks, not NC code.
+fn is_text_section(header: &[u8]) -> bool {
+    let name = header.trim_ascii_end();
+    name.len() >= 4 && name[name.len() - 4..].eq_ignore_ascii_case(b"_COM")
 }
 
 /// The parsable part of a line: its content without the BOM of the first line.
@@ -202,10 +216,11 @@ impl Program {
         let full = self.block_span(i);
         let content = self.content_span(i);
         let root = if self.src.len() > u32::MAX as usize {
-            Node::with_children(
-                super::tree::NodeKind::Block,
-                vec![Node::leaf(super::tree::NodeKind::Text, full)],
-            )
+            Node::with_children(NodeKind::Block, vec![Node::leaf(NodeKind::Text, full)])
+        } else if self.blocks[i].flags & flag::TEXT != 0 {
+            let text = Node::leaf(NodeKind::Text, content);
+            let newline = Node::leaf(NodeKind::Newline, Span::new(content.end, full.end));
+            Node::with_children(NodeKind::Block, vec![text, newline])
         } else {
             let line = RawLine {
                 start: full.start,
@@ -308,4 +323,18 @@ impl Serialize for Program {
         st.serialize_field("diagnostics", &self.diagnostics)?;
         st.end()
     }
+}
+
+/// Syntax diagnostics of one line on its own (spans relative to `line`); control pairing and jump targets are
+/// not checked, since they depend on the rest of the program.
+pub fn line_syntax_errors(line: &[u8]) -> Vec<Diagnostic> {
+    if fast::plain_block(line) {
+        return Vec::new();
+    }
+    grammar::parse_block(
+        line,
+        Span::new(0, line.len()),
+        Span::new(line.len(), line.len()),
+    )
+    .diagnostics
 }

@@ -47,7 +47,7 @@ node_kinds! {
     Command,
     /// `IF expr` (block IF, or one-line IF when the block also jumps).
     If,
-    /// `ELSE`, `ENDIF`, `ENDWHILE`, `ENDFOR`, `LOOP`, `ENDLOOP`, `ENDPROC`? see grammar.
+    /// `ELSE`, `ENDIF`, `ENDWHILE`, `ENDFOR`, `LOOP`, `ENDLOOP`.
     ControlKeyword,
     /// `WHILE expr`.
     While,
@@ -65,6 +65,8 @@ node_kinds! {
     Goto,
     /// `DEF [modifiers] type [STRING length] declarators`.
     Def,
+    /// `REDEF target {attribute [value]}`.
+    Redef,
     /// One declared name with optional dimensions and initialiser.
     Declarator,
     /// `PROC name(params) attributes`.
@@ -75,7 +77,7 @@ node_kinds! {
     Extern,
     /// `DEFINE name AS body`.
     Define,
-    /// Synchronized action condition `WHENEVER expr DO`, `WHEN`, `EVERY`, `FROM`.
+    /// Synchronized action condition `WHENEVER expr DO`, `WHEN`, `EVERY`, `FROM`, or a bare `DO`.
     SyncCondition,
     /// `CALL`, `PCALL`, `MCALL`, `EXTCALL`, `ISOCALL` … with an optional target.
     ProgramCall,
@@ -205,7 +207,7 @@ impl Node {
             indent = depth * 2
         );
         if self.children.is_empty() {
-            let _ = write!(out, " {:?}", escape(self.span.slice(src)));
+            let _ = write!(out, " \"{}\"", escape(self.span.slice(src)));
         }
         out.push('\n');
         for c in &self.children {
