@@ -9,8 +9,9 @@ use common::{driftloop, stderr};
 use serde_json::Value;
 
 const CLEAN: &[u8] = b"N10 G90 G0 X0 Y0\nN20 G1 X10 F500\nN30 M30\n";
-/// Line 3 holds a word whose value is missing: a syntax error the parser must report on that line.
-const BROKEN: &[u8] = b"N10 G0 X0\nN20 G1 X10\nN30 G1 X= F100\nN40 M30\n";
+/// Two errors the parser must find: the IF on line 2 is never closed (structure, with the program end as a
+/// related place) and the parenthesis on line 3 is never closed (syntax, at the end of the line).
+const BROKEN: &[u8] = b"N10 G0 X0\nN20 IF R1>0\nN30 G1 X=(R1+ F100\nN40 M30\n";
 
 fn write(dir: &Path, name: &str, bytes: &[u8]) {
     let path = dir.join(name);
@@ -41,7 +42,6 @@ fn clean_program_exits_0_with_a_summary_line() {
 }
 
 #[test]
-#[ignore = "needs syntax errors from the real grammar; the merged parser is still the placeholder"]
 fn error_exits_1_and_json_gives_line_column_severity_message() {
     let dir = tempfile::tempdir().unwrap();
     write(dir.path(), "broken.mpf", BROKEN);
@@ -55,18 +55,23 @@ fn error_exits_1_and_json_gives_line_column_severity_message() {
     assert_eq!(files.len(), 1);
     assert_eq!(files[0]["path"], "broken.mpf");
     let diagnostics = files[0]["diagnostics"].as_array().unwrap();
-    let error = diagnostics
-        .iter()
-        .find(|d| d["severity"] == "error")
-        .expect("an error diagnostic");
-    assert_eq!(error["line"], 3, "{error}");
-    let column = error["column"].as_u64().unwrap();
-    assert!((1..=15).contains(&column), "{error}");
-    assert!(!error["message"].as_str().unwrap().is_empty());
-    assert!(
-        error.get("help").is_some(),
-        "help key present (null when absent)"
+    assert_eq!(diagnostics.len(), 2, "{diagnostics:?}");
+    let unclosed_if = &diagnostics[0];
+    assert_eq!(
+        (&unclosed_if["line"], &unclosed_if["column"]),
+        (&Value::from(2), &Value::from(5))
     );
+    assert_eq!(unclosed_if["severity"], "error");
+    assert_eq!(unclosed_if["related"][0]["line"], 4, "{unclosed_if}");
+    let unclosed_paren = &diagnostics[1];
+    assert_eq!(
+        (&unclosed_paren["line"], &unclosed_paren["column"]),
+        (&Value::from(3), &Value::from(19))
+    );
+    for d in diagnostics {
+        assert!(!d["message"].as_str().unwrap().is_empty(), "{d}");
+        assert!(d["help"].is_string() || d["help"].is_null(), "{d}");
+    }
 }
 
 #[test]
@@ -81,7 +86,6 @@ fn stdin_is_checked_under_the_name_dash() {
 }
 
 #[test]
-#[ignore = "needs syntax errors from the real grammar; the merged parser is still the placeholder"]
 fn directories_are_walked_in_sorted_order_for_nc_extensions_only() {
     let dir = tempfile::tempdir().unwrap();
     write(dir.path(), "progs/b.MPF", CLEAN);
@@ -113,7 +117,6 @@ fn no_path_is_a_usage_error() {
 }
 
 #[test]
-#[ignore = "needs syntax errors from the real grammar; the merged parser is still the placeholder"]
 fn colour_only_when_asked() {
     let dir = tempfile::tempdir().unwrap();
     write(dir.path(), "broken.mpf", BROKEN);
@@ -132,7 +135,6 @@ fn colour_only_when_asked() {
 }
 
 #[test]
-#[ignore = "needs syntax errors from the real grammar; the merged parser is still the placeholder"]
 fn human_rendering_shows_the_snippet() {
     let dir = tempfile::tempdir().unwrap();
     write(dir.path(), "broken.mpf", BROKEN);
