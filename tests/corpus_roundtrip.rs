@@ -6,7 +6,7 @@ use std::fs;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
 
-use driftloop::{Severity, parse};
+use driftloop::{LineIndex, Severity, parse};
 
 fn all_files(dir: &Path, out: &mut Vec<PathBuf>) {
     let mut entries: Vec<PathBuf> = fs::read_dir(dir)
@@ -69,10 +69,10 @@ fn every_corpus_file_round_trips_byte_exact() {
                 .filter(|d| d.severity == Severity::Error)
                 .collect();
             if let Some(first) = errors.first() {
+                let (line, column) = LineIndex::new(&bytes).line_col(first.span.start);
                 with_errors.push(format!(
-                    "{name}: {} errors, first at byte {}: {}",
+                    "{name}: {} errors, first at {line}:{column}: {}",
                     errors.len(),
-                    first.span.start,
                     first.message
                 ));
             }
