@@ -117,9 +117,21 @@ impl<'a> Renderer<'a> {
             p.gutter, p.reset, self.path
         )?;
         writeln!(out, "{pad} {}|{}", p.gutter, p.reset)?;
-        self.snippet(out, &p, width, diagnostic.span, '^', p.severity, None)?;
+        // Snippets in line order, as they stand in the file; a gap between them is marked with `...`.
+        let mut snippets: Vec<(Span, char, &str, Option<&str>)> =
+            vec![(diagnostic.span, '^', p.severity, None)];
         for (span, label) in &diagnostic.related {
-            self.snippet(out, &p, width, *span, '-', p.related, Some(label))?;
+            snippets.push((*span, '-', p.related, Some(label)));
+        }
+        snippets.sort_by_key(|(span, ..)| self.line_col(span.start).0);
+        let mut last_line = None;
+        for (span, marker, style, label) in snippets {
+            let line = self.line_col(span.start).0;
+            if last_line.is_some_and(|last| line > last + 1) {
+                writeln!(out, "{}...{}", p.gutter, p.reset)?;
+            }
+            last_line = Some(line);
+            self.snippet(out, &p, width, span, marker, style, label)?;
         }
         if let Some(help) = &diagnostic.help {
             writeln!(
@@ -266,6 +278,21 @@ mod tests {
         assert!(text.contains(" 1 | G0\n   | ^^\n"), "{text}");
         assert!(
             text.contains("12 | IF R1>0\n   | -- IF on line 12\n"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn snippets_follow_file_order_and_adjacent_lines_need_no_gap_marker() {
+        let src = b"A: X1\nA: X2\n";
+        let d = diagnostic(
+            Span { start: 6, end: 7 },
+            None,
+            vec![(Span { start: 0, end: 1 }, "first defined here".to_string())],
+        );
+        let text = render(src, &d, false);
+        assert!(
+            text.contains("1 | A: X1\n  | - first defined here\n2 | A: X2\n  | ^\n"),
             "{text}"
         );
     }
