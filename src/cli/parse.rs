@@ -33,13 +33,17 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     };
     let program = crate::parse_owned(input.read()?);
     let mut out = BufWriter::new(io::stdout().lock());
-    match args.format {
-        Format::Json => {
-            serde_json::to_writer(&mut out, &program)?;
-            writeln!(out)?;
-        }
-        Format::Source => program.write_to(&mut out)?,
+    let written = match args.format {
+        Format::Json => serde_json::to_writer(&mut out, &program)
+            .map_err(io::Error::from)
+            .and_then(|()| writeln!(out)),
+        Format::Source => program.write_to(&mut out),
     }
-    out.flush()?;
-    Ok(ExitCode::SUCCESS)
+    .and_then(|()| out.flush());
+    match written {
+        // A reader that stops early (`| head`) is not an error of ours.
+        Err(err) if err.kind() == io::ErrorKind::BrokenPipe => Ok(ExitCode::SUCCESS),
+        Err(err) => Err(anyhow::Error::new(err).context("cannot write to stdout")),
+        Ok(()) => Ok(ExitCode::SUCCESS),
+    }
 }
