@@ -163,6 +163,25 @@ mod tests {
         assert_eq!(got, want);
     }
 
+    #[cfg(unix)]
+    #[test]
+    fn symlinked_files_are_read_but_symlinked_directories_not_followed() {
+        let tmp = tempfile::tempdir().unwrap();
+        let root = tmp.path();
+        touch(&root.join("real/a.mpf"));
+        std::os::unix::fs::symlink(root.join("real/a.mpf"), root.join("real/link.mpf")).unwrap();
+        // A link back to its own parent would make a naive walk run forever.
+        std::os::unix::fs::symlink(root.join("real"), root.join("real/loop")).unwrap();
+        let got = expand(&[root.join("real")]).unwrap();
+        assert_eq!(
+            got,
+            vec![
+                Input::File(root.join("real/a.mpf")),
+                Input::File(root.join("real/link.mpf"))
+            ]
+        );
+    }
+
     #[test]
     fn explicit_files_and_stdin_are_kept_in_argument_order() {
         let tmp = tempfile::tempdir().unwrap();
