@@ -3,7 +3,8 @@
 //! targets and work-offset selections.
 //!
 //! Names are compared upper-cased (the control ignores case). A name of one letter with optional digits
-//! (`X`, `X1`, `M3`) is an address or axis, never a user variable.
+//! (`X`, `X1`, `M3`) is an address or axis, and the predefined addresses (`CR`, `ANG`, `SPOS`, `ID`, …) are
+//! not user variables either.
 
 use std::collections::BTreeSet;
 
@@ -116,6 +117,13 @@ const AXIS_LETTERS: &[u8] = b"XYZABCUVW";
 const FRAME_COMMANDS: &[&str] = &[
     "SUPA", "TRANS", "ATRANS", "CTRANS", "ROT", "AROT", "CROT", "ROTS", "AROTS", "SCALE", "ASCALE",
     "CSCALE", "MIRROR", "AMIRROR", "CMIRROR",
+];
+
+/// Predefined addresses that take `=` but are not variables (arc radius, chamfer, spindle positioning, …).
+const PREDEFINED_ADDRESSES: &[&str] = &[
+    "CR", "AR", "AP", "RP", "ANG", "RND", "RNDM", "CHF", "CHR", "SPOS", "SPOSA", "OFFN", "PRIO",
+    "ID", "IDS", "AX", "FA", "FL", "POS", "POSA", "ACC", "OVR", "SF", "DISC", "DISR", "DISCL",
+    "FAD", "TRUE", "FALSE",
 ];
 
 fn upper(bytes: &[u8]) -> String {
@@ -306,16 +314,7 @@ fn collect_variables(block: &Block<'_>, node: &Node, out: &mut Vec<VarAccess>) {
                 if !written && matches!(c.kind, NodeKind::RParam | NodeKind::Var | NodeKind::SysVar)
                 {
                     written = true;
-                    if let Some(name) = var_name(block, c) {
-                        out.push(VarAccess {
-                            name,
-                            access: Access::Write,
-                            span: c.span,
-                        });
-                    }
-                    if let Some(index) = c.find(NodeKind::Index) {
-                        collect_variables(block, index, out);
-                    }
+                    record_access(block, c, Access::Write, out);
                 } else {
                     collect_variables(block, c, out);
                 }
@@ -335,16 +334,7 @@ fn collect_variables(block: &Block<'_>, node: &Node, out: &mut Vec<VarAccess>) {
             }
         }
         NodeKind::RParam | NodeKind::Var | NodeKind::SysVar => {
-            if let Some(name) = var_name(block, node) {
-                out.push(VarAccess {
-                    name,
-                    access: Access::Read,
-                    span: node.span,
-                });
-            }
-            if let Some(index) = node.find(NodeKind::Index) {
-                collect_variables(block, index, out);
-            }
+            record_access(block, node, Access::Read, out)
         }
         // Jump targets and macro bodies name labels and text, not variables.
         NodeKind::Goto | NodeKind::Define | NodeKind::Repeat | NodeKind::ProgramCall => {}
@@ -353,6 +343,20 @@ fn collect_variables(block: &Block<'_>, node: &Node, out: &mut Vec<VarAccess>) {
                 collect_variables(block, c, out);
             }
         }
+    }
+}
+
+/// Records the access of a variable node; the variables in its index are read.
+fn record_access(block: &Block<'_>, node: &Node, access: Access, out: &mut Vec<VarAccess>) {
+    if let Some(name) = var_name(block, node) {
+        out.push(VarAccess {
+            name,
+            access,
+            span: node.span,
+        });
+    }
+    if let Some(index) = node.find(NodeKind::Index) {
+        collect_variables(block, index, out);
     }
 }
 
@@ -372,7 +376,9 @@ fn var_name(block: &Block<'_>, node: &Node) -> Option<VarName> {
             };
             Some(VarName::R(literal))
         }
-        _ if address_parts(&name).is_some() || matches!(name.as_str(), "TRUE" | "FALSE") => None,
+        _ if address_parts(&name).is_some() || PREDEFINED_ADDRESSES.contains(&name.as_str()) => {
+            None
+        }
         _ => Some(VarName::User(name)),
     }
 }

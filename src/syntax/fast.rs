@@ -2,24 +2,26 @@
 //! comment. Whatever it accepts the full grammar accepts as a plain block without diagnostics (a test checks
 //! this over every fixture line); anything else goes to the full grammar.
 
-use super::lexeme::{skip_blanks, word};
+use super::lexeme::{scan_word, skip_blanks, skip_level_len};
 
 pub(crate) fn plain_block(line: &[u8]) -> bool {
-    let mut i = skip_blanks(line);
-    if let Some(rest) = i.strip_prefix(b"/") {
-        i = match rest.first() {
-            Some(d) if d.is_ascii_digit() => &rest[1..],
-            _ => rest,
-        };
-    }
+    plain_prefix(line) == Some(line.len())
+}
+
+/// Length of the plain block at the start of `rest`, up to (not including) its CR / LF, or None when the
+/// line is not plain. Finds the line end in the same pass as the words.
+pub(crate) fn plain_prefix(rest: &[u8]) -> Option<usize> {
+    let mut i = skip_blanks(rest);
+    i = &i[skip_level_len(i)..];
     loop {
         i = skip_blanks(i);
         match i.first() {
-            None | Some(b';') => return true,
-            Some(_) => match word(i) {
-                Ok((rest, _)) => i = rest,
-                Err(_) => return false,
-            },
+            None | Some(b'\r' | b'\n') => return Some(rest.len() - i.len()),
+            Some(b';') => {
+                let comment = memchr::memchr2(b'\n', b'\r', i).unwrap_or(i.len());
+                return Some(rest.len() - i.len() + comment);
+            }
+            Some(_) => i = &i[scan_word(i)?..],
         }
     }
 }
