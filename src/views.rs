@@ -106,10 +106,15 @@ pub struct BlockFacts {
     /// `M` words and `Mn=` assignments (`M3=5`: spindle 3, code 5).
     pub m_codes: Vec<AddressValue>,
     pub feed: Option<AddressValue>,
+    /// Every G code of the block in order (modal settings such as G90/G91, G17, G70/G71 included).
+    pub g_codes: Vec<u32>,
     /// Motion G codes in the block (0, 1, 2, 3, 33, …).
     pub motion: Vec<u32>,
     pub axes: Vec<AxisTarget>,
     pub work_offsets: Vec<WorkOffset>,
+    /// Upper-cased names the block calls or commands: cycles and subprograms with arguments (`CYCLE800(…)`,
+    /// `MSG(…)`) and bare names (`SUBPROG`, `STOPRE`, `TRANS`).
+    pub calls: Vec<String>,
 }
 
 const MOTION_G: &[u32] = &[0, 1, 2, 3, 33, 34, 35, 331, 332];
@@ -189,9 +194,11 @@ pub fn facts(block: &Block<'_>) -> BlockFacts {
             NodeKind::Command => {
                 let name = upper(block.text(node));
                 if FRAME_COMMANDS.contains(&name.as_str()) {
-                    f.work_offsets.push(WorkOffset::Frame(name));
+                    f.work_offsets.push(WorkOffset::Frame(name.clone()));
                 }
+                f.calls.push(name);
             }
+            NodeKind::Call => f.calls.push(upper(block.text(&node.children[0]))),
             _ => {}
         }
     }
@@ -213,11 +220,16 @@ fn word_facts(block: &Block<'_>, node: &Node, f: &mut BlockFacts) {
         _ => None,
     };
     match letter {
-        b'G' => match int {
-            Some(g) if MOTION_G.contains(&g) => f.motion.push(g),
-            Some(g) if is_work_offset_g(g) => f.work_offsets.push(WorkOffset::G(g)),
-            _ => {}
-        },
+        b'G' => {
+            if let Some(g) = int {
+                f.g_codes.push(g);
+                if MOTION_G.contains(&g) {
+                    f.motion.push(g);
+                } else if is_work_offset_g(g) {
+                    f.work_offsets.push(WorkOffset::G(g));
+                }
+            }
+        }
         b'T' => f.tools.push(av),
         b'S' => f.spindle_speeds.push(av),
         b'M' => f.m_codes.push(av),
