@@ -6,10 +6,14 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
+mod bench;
+mod check;
 mod demo;
 mod fit;
+mod parse;
 mod positioning;
 mod predict;
+mod render;
 
 /// Options every subcommand understands.
 #[derive(Debug, Clone, clap::Args)]
@@ -61,6 +65,12 @@ enum Command {
     Fit(fit::Args),
     /// Predict drift for a spindle schedule or the inputs of a data file.
     Predict(predict::Args),
+    /// Report the diagnostics of programs and directories of programs.
+    Check(check::Args),
+    /// Dump the syntax tree of a program as JSON, or print the program back from it.
+    Parse(parse::Args),
+    /// Measure parse + print throughput and peak memory on a generated 100 MB program.
+    Bench(bench::Args),
 }
 
 /// Entry point of the binary.
@@ -71,6 +81,9 @@ pub fn main() -> ExitCode {
         Command::Positioning(args) => positioning::run(args, &cli.global),
         Command::Fit(args) => fit::run(args, &cli.global),
         Command::Predict(args) => predict::run(args, &cli.global),
+        Command::Check(args) => check::run(args, &cli.global),
+        Command::Parse(args) => parse::run(args, &cli.global),
+        Command::Bench(args) => bench::run(args, &cli.global),
     };
     match result {
         Ok(code) => code,
