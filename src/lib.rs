@@ -2,5 +2,17 @@
 //! compensation for CNC machines that drift while they warm up.
 
 pub mod cli;
+pub mod diagnostic;
+pub mod edit;
 pub mod positioning;
 pub mod report;
+pub mod source;
+pub mod structure;
+pub mod syntax;
+pub mod views;
+
+pub use diagnostic::{Diagnostic, Severity};
+pub use edit::{EditError, Editor};
+pub use source::{LineIndex, Span};
+pub use structure::{Structure, analyze};
+pub use syntax::{Block, BlockKind, Node, NodeKind, Program, escape, parse, parse_owned};

@@ -1,0 +1,122 @@
+//! Allocation-free recogniser for the blocks CAM output is made of: optional skip level, address words and a
+//! comment. Whatever it accepts the full grammar accepts as a plain block without diagnostics (a test checks
+//! this over every fixture line); anything else goes to the full grammar.
+
+use super::lexeme::{skip_blanks, word};
+
+pub(crate) fn plain_block(line: &[u8]) -> bool {
+    let mut i = skip_blanks(line);
+    if let Some(rest) = i.strip_prefix(b"/") {
+        i = match rest.first() {
+            Some(d) if d.is_ascii_digit() => &rest[1..],
+            _ => rest,
+        };
+    }
+    loop {
+        i = skip_blanks(i);
+        match i.first() {
+            None | Some(b';') => return true,
+            Some(_) => match word(i) {
+                Ok((rest, _)) => i = rest,
+                Err(_) => return false,
+            },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::plain_block;
+    use crate::source::{Span, raw_lines};
+    use crate::syntax::grammar::parse_block;
+    use crate::syntax::program::BlockKind;
+
+    /// Every line the fast path accepts, the full grammar accepts as a plain block without diagnostics.
+    fn check_agreement(src: &[u8]) -> usize {
+        let mut accepted = 0;
+        for line in raw_lines(src) {
+            let content = line.content().slice(src);
+            if !plain_block(content) {
+                continue;
+            }
+            accepted += 1;
+            let full = parse_block(
+                content,
+                Span::new(0, content.len()),
+                Span::new(content.len(), content.len()),
+            );
+            assert!(
+                full.diagnostics.is_empty(),
+                "{:?}",
+                content.escape_ascii().to_string()
+            );
+            assert_eq!(
+                (full.kind, full.flags),
+                (BlockKind::Plain, 0),
+                "{}",
+                content.escape_ascii()
+            );
+        }
+        accepted
+    }
+
+    fn files_under(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
+        for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+            let path = entry.path();
+            if path.is_dir() {
+                files_under(&path, out)
+            } else {
+                out.push(path)
+            }
+        }
+    }
+
+    #[test]
+    fn fast_path_agrees_with_the_grammar_on_fixtures_and_corpus() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mut files = Vec::new();
+        files_under(&root.join("fixtures/nc"), &mut files);
+        let corpus = root.join("../shared/corpus");
+        if corpus.is_dir() {
+            files_under(&corpus, &mut files);
+        } else {
+            eprintln!("../shared/corpus not found: checking fixtures only");
+        }
+        let accepted: usize = files
+            .iter()
+            .map(|f| check_agreement(&std::fs::read(f).unwrap()))
+            .sum();
+        assert!(
+            accepted > 50,
+            "the fast path takes the plain word blocks ({accepted})"
+        );
+    }
+
+    #[test]
+    fn fast_path_leaves_everything_else_to_the_grammar() {
+        for line in [
+            &b"X1=5"[..],
+            b"R1=2",
+            b"G1 X=R1",
+            b"CYCLE800()",
+            b"IF R1>0",
+            b":10 X1",
+            b"LBL: X1",
+            b"%_N_A_MPF",
+        ] {
+            assert!(!plain_block(line), "{}", line.escape_ascii());
+        }
+        for line in [
+            &b"N10 G1 X12.345 Y-3.2 Z0.5 F800"[..],
+            b"/2 G0X0Y0 ; c",
+            b"",
+            b"   ",
+            b"\tM30&",
+        ] {
+            assert!(plain_block(line), "{}", line.escape_ascii());
+            assert_eq!(check_agreement(line), usize::from(!line.is_empty()));
+        }
+    }
+}

@@ -1,0 +1,999 @@
+//! The full block grammar (nom over the block's bytes). It builds the lossless tree of one block, reports
+//! what it could not parse, and classifies the block for the structure pass. `grammar/sinumerik.ebnf` is the
+//! readable form of what this accepts; node kinds are its rule names.
+
+use nom::Parser;
+use nom::bytes::complete::tag;
+
+use super::keyword::{Kw, keyword};
+use super::lexeme::{
+    PErr, R, bit_literal, blanks, fail, ident, is_ident_char, signed_number, skip_blanks, string,
+    sysvar_name, unsigned_number, word,
+};
+use super::program::{BlockKind, flag};
+use super::tree::{Node, NodeKind as K};
+use crate::diagnostic::Diagnostic;
+use crate::source::Span;
+
+pub(crate) struct ParsedBlock {
+    pub tree: Node,
+    pub diagnostics: Vec<Diagnostic>,
+    pub kind: BlockKind,
+    pub flags: u8,
+}
+
+/// Parses the block whose parsable content is `content` (the BOM of line 1 excluded) and whose terminator is
+/// `terminator`.
+pub(crate) fn parse_block(src: &[u8], content: Span, terminator: Span) -> ParsedBlock {
+    let line = content.slice(src);
+    let cx = Cx {
+        base: content.start,
+        len: line.len(),
+    };
+    let mut children = Vec::new();
+    if content.start == 3 && src.starts_with(b"\xEF\xBB\xBF") {
+        children.push(Node::leaf(K::Bom, Span::new(0, 3)));
+    }
+    let mut diagnostics = Vec::new();
+    cx.block_body(line, &mut children, &mut diagnostics);
+    children.push(Node::leaf(K::Newline, terminator));
+    let tree = Node::with_children(K::Block, children);
+    let (kind, flags) = classify(src, &tree);
+    ParsedBlock {
+        tree,
+        diagnostics,
+        kind,
+        flags,
+    }
+}
+
+/// The block's control role and flags, from its statements.
+fn classify(src: &[u8], tree: &Node) -> (BlockKind, u8) {
+    let mut kind = BlockKind::Plain;
+    let mut flags = 0;
+    let mut block_if = false;
+    for n in tree.significant() {
+        let role = match n.kind {
+            K::Header => Some(BlockKind::Header),
+            K::Label => {
+                flags |= flag::LABEL;
+                None
+            }
+            K::Goto | K::Case => {
+                flags |= flag::JUMP;
+                None
+            }
+            K::Repeat if n.find(K::Name).is_some() => {
+                flags |= flag::JUMP;
+                None
+            }
+            K::Repeat => Some(BlockKind::Repeat),
+            K::Error => {
+                flags |= flag::ERROR;
+                None
+            }
+            K::If => {
+                block_if = true;
+                Some(BlockKind::If)
+            }
+            K::While => Some(BlockKind::While),
+            K::Until => Some(BlockKind::Until),
+            K::For => Some(BlockKind::For),
+            K::ControlKeyword => {
+                n.find(K::Keyword)
+                    .and_then(|k| match keyword(k.span.slice(src)) {
+                        Some(Kw::Else) => Some(BlockKind::Else),
+                        Some(Kw::EndIf) => Some(BlockKind::EndIf),
+                        Some(Kw::EndWhile) => Some(BlockKind::EndWhile),
+                        Some(Kw::EndFor) => Some(BlockKind::EndFor),
+                        Some(Kw::Loop) => Some(BlockKind::Loop),
+                        Some(Kw::EndLoop) => Some(BlockKind::EndLoop),
+                        _ => None,
+                    })
+            }
+            _ => None,
+        };
+        if let (Some(role), BlockKind::Plain) = (role, kind) {
+            kind = role;
+        }
+    }
+    // `IF cond GOTOF label` is a conditional jump, not the start of an IF … ENDIF.
+    if block_if && kind == BlockKind::If && flags & flag::JUMP != 0 {
+        kind = BlockKind::Plain;
+    }
+    (kind, flags)
+}
+
+/// Turns suffixes of the block's content into absolute spans.
+#[derive(Clone, Copy)]
+struct Cx {
+    base: usize,
+    len: usize,
+}
+
+/// Expression levels from loosest to tightest binding (Sinumerik "priority of operations", reversed).
+const LEVELS: usize = 10;
+
+impl Cx {
+    fn pos(&self, i: &[u8]) -> usize {
+        self.base + self.len - i.len()
+    }
+
+    fn leaf(&self, kind: K, from: &[u8], to: &[u8]) -> Node {
+        Node::leaf(kind, Span::new(self.pos(from), self.pos(to)))
+    }
+
+    /// Pushes blanks (if any) as a trivia leaf.
+    fn ws<'a>(&self, i: &'a [u8], out: &mut Vec<Node>) -> &'a [u8] {
+        match blanks(i) {
+            Ok((rest, _)) => {
+                out.push(self.leaf(K::Trivia, i, rest));
+                rest
+            }
+            Err(_) => i,
+        }
+    }
+
+    /// Consumes `len` bytes as a leaf of `kind`.
+    fn take<'a>(&self, kind: K, i: &'a [u8], len: usize, out: &mut Vec<Node>) -> &'a [u8] {
+        out.push(self.leaf(kind, i, &i[len..]));
+        &i[len..]
+    }
+
+    /// Requires the punctuation `p` (after optional blanks).
+    fn punct<'a>(
+        &self,
+        i: &'a [u8],
+        p: &'static str,
+        expected: &'static str,
+        out: &mut Vec<Node>,
+    ) -> R<'a, ()> {
+        let j = self.ws(i, out);
+        match tag::<_, _, PErr>(p.as_bytes()).parse(j) {
+            Ok((rest, _)) => {
+                out.push(self.leaf(K::Punct, j, rest));
+                Ok((rest, ()))
+            }
+            Err(_) => {
+                if j.len() < i.len() {
+                    out.pop();
+                }
+                fail(j, expected)
+            }
+        }
+    }
+
+    /// Requires the keyword `kw` (after optional blanks).
+    fn keyword_leaf<'a>(
+        &self,
+        i: &'a [u8],
+        kw: Kw,
+        expected: &'static str,
+        out: &mut Vec<Node>,
+    ) -> R<'a, ()> {
+        let j = self.ws(i, out);
+        match ident(j) {
+            Ok((rest, name)) if keyword(name) == Some(kw) => {
+                out.push(self.leaf(K::Keyword, j, rest));
+                Ok((rest, ()))
+            }
+            _ => fail(j, expected),
+        }
+    }
+
+    fn block_body(&self, line: &[u8], out: &mut Vec<Node>, diags: &mut Vec<Diagnostic>) {
+        let mut i = self.ws(line, out);
+        if i.first() == Some(&b'%') {
+            let header = vec![self.leaf(K::Text, i, &[])];
+            out.push(Node::with_children(K::Header, header));
+            return;
+        }
+        if i.first() == Some(&b'/') {
+            let len = if i.get(1).is_some_and(u8::is_ascii_digit) {
+                2
+            } else {
+                1
+            };
+            let mut skip = Vec::new();
+            i = self.take(K::Punct, i, len, &mut skip);
+            out.push(Node::with_children(K::Skip, skip));
+            i = self.ws(i, out);
+        }
+        if let Some((rest, node)) = self.block_number(i) {
+            out.push(node);
+            i = self.ws(rest, out);
+        }
+        if let Some((rest, node)) = self.label(i) {
+            out.push(node);
+            i = rest;
+        }
+        loop {
+            i = self.ws(i, out);
+            match i.first() {
+                None => return,
+                Some(b';') => {
+                    out.push(self.leaf(K::Comment, i, &[]));
+                    return;
+                }
+                Some(_) => match self.statement(i) {
+                    Ok((rest, node)) => {
+                        out.push(node);
+                        i = rest;
+                    }
+                    Err(e) => {
+                        let e = match e {
+                            nom::Err::Error(e) | nom::Err::Failure(e) => e,
+                            nom::Err::Incomplete(_) => PErr {
+                                rest: i.len(),
+                                expected: "",
+                            },
+                        };
+                        self.error_rest(i, e, out, diags);
+                        return;
+                    }
+                },
+            }
+        }
+    }
+
+    /// Keeps the unparsable rest of the line (up to a comment) as an error node and reports it.
+    fn error_rest(&self, i: &[u8], e: PErr, out: &mut Vec<Node>, diags: &mut Vec<Diagnostic>) {
+        let at = &i[i.len() - e.rest.min(i.len())..];
+        let comment = comment_start(i);
+        let comment = &i[comment..];
+        out.push(Node::with_children(
+            K::Error,
+            vec![self.leaf(K::Text, i, comment)],
+        ));
+        if !comment.is_empty() {
+            out.push(self.leaf(K::Comment, comment, &[]));
+        }
+        let expected = if e.expected.is_empty() {
+            "a word, assignment, call or keyword"
+        } else {
+            e.expected
+        };
+        let found = match at.first() {
+            None => "end of line".to_string(),
+            Some(_) => {
+                let n = at
+                    .iter()
+                    .position(|&b| b == b' ' || b == b';')
+                    .unwrap_or(at.len())
+                    .clamp(1, 16);
+                format!("`{}`", at[..n].escape_ascii())
+            }
+        };
+        let span = Span::new(self.pos(at), self.pos(at) + usize::from(!at.is_empty()));
+        let help = if at.first() == Some(&b'(') && i.first() == Some(&b'(') {
+            "`( … )` is not a comment in Sinumerik programs; start comments with `;`"
+        } else if at.first() == Some(&b'"') {
+            "strings are closed by `\"` on the same line"
+        } else {
+            "the accepted forms are listed in grammar/sinumerik.ebnf"
+        };
+        diags.push(
+            Diagnostic::error(span, format!("expected {expected}, found {found}")).with_help(help),
+        );
+    }
+
+    /// `N10` or `:10` at the start of a block.
+    fn block_number<'a>(&self, i: &'a [u8]) -> Option<(&'a [u8], Node)> {
+        let rest = match i.first()? {
+            b'N' | b'n' => match word(i) {
+                Ok((rest, (_, num))) if num.iter().all(u8::is_ascii_digit) => rest,
+                _ => return None,
+            },
+            b':' => {
+                let digits = i[1..].iter().take_while(|b| b.is_ascii_digit()).count();
+                if digits == 0 || i.get(1 + digits).is_some_and(|&b| is_ident_char(b)) {
+                    return None;
+                }
+                &i[1 + digits..]
+            }
+            _ => return None,
+        };
+        let parts = vec![
+            self.leaf(K::Address, i, &i[1..]),
+            self.leaf(K::Number, &i[1..], rest),
+        ];
+        Some((rest, Node::with_children(K::BlockNumber, parts)))
+    }
+
+    /// `NAME:` (not a keyword, not `NAME:=`).
+    fn label<'a>(&self, i: &'a [u8]) -> Option<(&'a [u8], Node)> {
+        let (rest, name) = ident(i).ok()?;
+        if rest.first() != Some(&b':') || keyword(name).is_some() {
+            return None;
+        }
+        let parts = vec![
+            self.leaf(K::Name, i, rest),
+            self.leaf(K::Punct, rest, &rest[1..]),
+        ];
+        Some((&rest[1..], Node::with_children(K::Label, parts)))
+    }
+
+    fn statement<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
+        if let Ok((rest, (letter, _))) = word(i) {
+            let number = &i[letter.len()..];
+            let parts = vec![
+                self.leaf(K::Address, i, number),
+                self.leaf(K::Number, number, rest),
+            ];
+            return Ok((rest, Node::with_children(K::Word, parts)));
+        }
+        if i.first() == Some(&b'$') {
+            return self.assignment(i);
+        }
+        let (after, name) = ident(i).map_err(|_| {
+            nom::Err::Error(PErr {
+                rest: i.len(),
+                expected: "",
+            })
+        })?;
+        match keyword(name) {
+            Some(kw) => self.keyword_statement(kw, i, after),
+            None if skip_blanks(after).first() == Some(&b'(') => {
+                let mut parts = vec![self.leaf(K::Name, i, after)];
+                let after = self.ws(after, &mut parts);
+                let (rest, args) = self.args(after)?;
+                parts.push(args);
+                Ok((rest, Node::with_children(K::Call, parts)))
+            }
+            None => {
+                let (rest, target) = self.var_ref(i)?;
+                let next = skip_blanks(rest);
+                if next.first() == Some(&b'=') || target.find(K::Index).is_some() {
+                    self.assignment(i)
+                } else {
+                    Ok((
+                        rest,
+                        Node::with_children(K::Command, vec![self.leaf(K::Name, i, after)]),
+                    ))
+                }
+            }
+        }
+    }
+
+    /// `target = expr`.
+    fn assignment<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
+        let (i, target) = self.var_ref(i)?;
+        let mut parts = vec![target];
+        let (i, ()) = self.punct(i, "=", "`=`", &mut parts)?;
+        let i = self.ws(i, &mut parts);
+        let (rest, value) = self.expr(i)?;
+        parts.push(value);
+        Ok((rest, Node::with_children(K::Assign, parts)))
+    }
+
+    /// What can be assigned: `R1`, `R[i]`, `$P_UIFR[1,X,TR]`, `NAME`, `NAME[i,j]`.
+    fn var_ref<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
+        let (after, name) = match i.first() {
+            Some(b'$') => sysvar_name(i)?,
+            _ => ident(i)?,
+        };
+        let kind = if name.first() == Some(&b'$') {
+            K::SysVar
+        } else if is_rparam(name)
+            || (name.eq_ignore_ascii_case(b"R") && skip_blanks(after).first() == Some(&b'['))
+        {
+            K::RParam
+        } else {
+            K::Var
+        };
+        let mut parts = vec![self.leaf(K::Name, i, after)];
+        let mut rest = after;
+        if skip_blanks(after).first() == Some(&b'[') {
+            let after = self.ws(after, &mut parts);
+            let (r, index) = self.index(after)?;
+            parts.push(index);
+            rest = r;
+        }
+        Ok((rest, Node::with_children(kind, parts)))
+    }
+
+    fn keyword_statement<'a>(&self, kw: Kw, i: &'a [u8], after: &'a [u8]) -> R<'a, Node> {
+        let mut parts = vec![self.leaf(K::Keyword, i, after)];
+        let (rest, kind) = match kw {
+            Kw::If | Kw::While | Kw::Until => {
+                let j = self.ws(after, &mut parts);
+                let (rest, cond) = self.expr(j)?;
+                parts.push(cond);
+                let kind = match kw {
+                    Kw::If => K::If,
+                    Kw::While => K::While,
+                    _ => K::Until,
+                };
+                (rest, kind)
+            }
+            Kw::Else | Kw::EndIf | Kw::EndWhile | Kw::EndFor | Kw::Loop | Kw::EndLoop => {
+                (after, K::ControlKeyword)
+            }
+            Kw::For => {
+                let j = self.ws(after, &mut parts);
+                let (j, var) = self
+                    .var_ref(j)
+                    .map_err(|_| expected_at(j, "a loop variable"))?;
+                parts.push(var);
+                let (j, ()) = self.punct(j, "=", "`=`", &mut parts)?;
+                let j = self.ws(j, &mut parts);
+                let (j, from) = self.expr(j)?;
+                parts.push(from);
+                let (j, ()) = self.keyword_leaf(j, Kw::To, "`TO`", &mut parts)?;
+                let j = self.ws(j, &mut parts);
+                let (rest, to) = self.expr(j)?;
+                parts.push(to);
+                (rest, K::For)
+            }
+            Kw::Repeat => (self.repeat_labels(after, &mut parts), K::Repeat),
+            Kw::Case => (self.case(after, &mut parts)?.0, K::Case),
+            Kw::Goto => {
+                let j = self.ws(after, &mut parts);
+                let (rest, target) = self.expr(j).map_err(|_| expected_at(j, "a jump target"))?;
+                parts.push(target);
+                (rest, K::Goto)
+            }
+            Kw::GotoS => (after, K::Goto),
+            Kw::Def => (self.def(after, &mut parts)?.0, K::Def),
+            Kw::Proc => (self.proc(after, &mut parts)?.0, K::Proc),
+            Kw::Extern => (self.extern_decl(after, &mut parts)?.0, K::Extern),
+            Kw::Define => (self.define(after, &mut parts)?.0, K::Define),
+            Kw::Sync => {
+                let j = self.ws(after, &mut parts);
+                let (j, cond) = self.expr(j)?;
+                parts.push(cond);
+                let (rest, ()) = self.keyword_leaf(j, Kw::Do, "`DO`", &mut parts)?;
+                (rest, K::SyncCondition)
+            }
+            Kw::Do => (after, K::SyncCondition),
+            Kw::ProgCall => (self.program_call(after, &mut parts)?.0, K::ProgramCall),
+            Kw::Redef => (self.redef(after, &mut parts)?.0, K::Redef),
+            _ => return fail(i, "a statement (this keyword only continues one)"),
+        };
+        Ok((rest, Node::with_children(kind, parts)))
+    }
+
+    /// `REPEAT` alone opens a loop; `REPEAT a [b]` repeats a section (`P=n` follows as an assignment).
+    fn repeat_labels<'a>(&self, mut i: &'a [u8], parts: &mut Vec<Node>) -> &'a [u8] {
+        for _ in 0..2 {
+            let mut trivia = Vec::new();
+            let j = self.ws(i, &mut trivia);
+            match ident(j) {
+                Ok((rest, name))
+                    if keyword(name).is_none()
+                        && skip_blanks(rest).first() != Some(&b'=')
+                        && !matches!(rest.first(), Some(b'(' | b'[')) =>
+                {
+                    parts.append(&mut trivia);
+                    parts.push(self.leaf(K::Name, j, rest));
+                    i = rest;
+                }
+                _ => break,
+            }
+        }
+        i
+    }
+
+    /// `CASE expr OF { (const | DEFAULT) GOTOx target }`.
+    fn case<'a>(&self, i: &'a [u8], parts: &mut Vec<Node>) -> R<'a, &'a [u8]> {
+        let j = self.ws(i, parts);
+        let (j, selector) = self.expr(j)?;
+        parts.push(selector);
+        let (mut i, ()) = self.keyword_leaf(j, Kw::Of, "`OF`", parts)?;
+        loop {
+            let mut trivia = Vec::new();
+            let j = self.ws(i, &mut trivia);
+            if j.is_empty() || j[0] == b';' {
+                return Ok((i, i));
+            }
+            parts.append(&mut trivia);
+            let mut arm = Vec::new();
+            let j = match ident(j) {
+                Ok((rest, name)) if keyword(name) == Some(Kw::Default) => {
+                    arm.push(self.leaf(K::Keyword, j, rest));
+                    rest
+                }
+                _ => {
+                    let (rest, value) = self.expr(j)?;
+                    arm.push(value);
+                    rest
+                }
+            };
+            let j = self.ws(j, &mut arm);
+            let (after, name) =
+                ident(j).map_err(|_| expected_at(j, "a GOTO after the CASE value"))?;
+            if keyword(name) != Some(Kw::Goto) {
+                return fail(j, "a GOTO after the CASE value");
+            }
+            let (rest, goto) = self.keyword_statement(Kw::Goto, j, after)?;
+            arm.push(goto);
+            parts.push(Node::with_children(K::CaseArm, arm));
+            i = rest;
+        }
+    }
+
+    /// `DEF {modifier} type [[len]] declarator {, declarator}`.
+    fn def<'a>(&self, i: &'a [u8], parts: &mut Vec<Node>) -> R<'a, &'a [u8]> {
+        let mut i = self.attributes(i, parts);
+        let j = self.ws(i, parts);
+        let (after, name) = ident(j)?;
+        if keyword(name) != Some(Kw::Type) {
+            return fail(j, "a type (REAL, INT, BOOL, CHAR, STRING, AXIS, FRAME)");
+        }
+        parts.push(self.leaf(K::Keyword, j, after));
+        i = after;
+        if skip_blanks(i).first() == Some(&b'[') {
+            i = self.ws(i, parts);
+            let (rest, len) = self.index(i)?;
+            parts.push(len);
+            i = rest;
+        }
+        i = self.attributes(i, parts);
+        loop {
+            let j = self.ws(i, parts);
+            let mut decl = Vec::new();
+            let (rest, _) = ident(j).map_err(|_| expected_at(j, "a variable name"))?;
+            decl.push(self.leaf(K::Name, j, rest));
+            let mut k = rest;
+            if skip_blanks(k).first() == Some(&b'[') {
+                k = self.ws(k, &mut decl);
+                let (r, dims) = self.index(k)?;
+                decl.push(dims);
+                k = r;
+            }
+            if skip_blanks(k).first() == Some(&b'=') {
+                let (r, ()) = self.punct(k, "=", "`=`", &mut decl)?;
+                let r = self.ws(r, &mut decl);
+                let (r, init) = if r.first() == Some(&b'(') {
+                    self.args(r)?
+                } else {
+                    self.expr(r)?
+                };
+                decl.push(init);
+                k = r;
+            }
+            parts.push(Node::with_children(K::Declarator, decl));
+            i = k;
+            if skip_blanks(i).first() != Some(&b',') {
+                return Ok((i, i));
+            }
+            let (r, ()) = self.punct(i, ",", "`,`", parts)?;
+            i = r;
+        }
+    }
+
+    /// Storage and access attributes of DEF: `NCK CHAN LUD GUD PRLOC SYNR SYNW SYNRW` and the valued
+    /// `APR APW PHU LLI ULI n`.
+    fn attributes<'a>(&self, mut i: &'a [u8], parts: &mut Vec<Node>) -> &'a [u8] {
+        loop {
+            let mut more = Vec::new();
+            let j = self.ws(i, &mut more);
+            let Ok((rest, name)) = ident(j) else { return i };
+            let valued = match keyword(name) {
+                Some(Kw::Attr) => false,
+                Some(Kw::ValuedAttr) => true,
+                _ => return i,
+            };
+            more.push(self.leaf(K::Keyword, j, rest));
+            let mut k = rest;
+            if valued {
+                let v = self.ws(k, &mut more);
+                match signed_number(v) {
+                    Ok((r, _)) => {
+                        more.push(self.leaf(K::Number, v, r));
+                        k = r;
+                    }
+                    Err(_) => return i,
+                }
+            }
+            parts.append(&mut more);
+            i = k;
+        }
+    }
+
+    /// `PROC name [(param {, param})] {attribute}`.
+    fn proc<'a>(&self, i: &'a [u8], parts: &mut Vec<Node>) -> R<'a, &'a [u8]> {
+        let j = self.ws(i, parts);
+        let (mut i, _) = ident(j).map_err(|_| expected_at(j, "a program name"))?;
+        parts.push(self.leaf(K::Name, j, i));
+        if skip_blanks(i).first() == Some(&b'(') {
+            i = self.ws(i, parts);
+            let (rest, params) = self.param_list(i, true)?;
+            parts.push(params);
+            i = rest;
+        }
+        loop {
+            let mut attr = Vec::new();
+            let j = self.ws(i, &mut attr);
+            match ident(j) {
+                Ok((rest, _)) => {
+                    parts.append(&mut attr);
+                    parts.push(self.leaf(K::Name, j, rest));
+                    i = rest;
+                }
+                Err(_) => return Ok((i, i)),
+            }
+        }
+    }
+
+    /// `EXTERN name(type {, type})`.
+    fn extern_decl<'a>(&self, i: &'a [u8], parts: &mut Vec<Node>) -> R<'a, &'a [u8]> {
+        let j = self.ws(i, parts);
+        let (i, _) = ident(j).map_err(|_| expected_at(j, "a program name"))?;
+        parts.push(self.leaf(K::Name, j, i));
+        let mut i = i;
+        if skip_blanks(i).first() == Some(&b'(') {
+            i = self.ws(i, parts);
+            let (rest, params) = self.param_list(i, false)?;
+            parts.push(params);
+            i = rest;
+        }
+        Ok((i, i))
+    }
+
+    /// `( [param] {, [param]} )` where param = `[VAR] type [[dims]] [name [[dims]]]` (names only in PROC).
+    fn param_list<'a>(&self, i: &'a [u8], named: bool) -> R<'a, Node> {
+        let mut parts = Vec::new();
+        let mut i = self.take(K::Punct, i, 1, &mut parts);
+        loop {
+            i = self.ws(i, &mut parts);
+            if let Some(b')') = i.first() {
+                let rest = self.take(K::Punct, i, 1, &mut parts);
+                return Ok((rest, Node::with_children(K::Args, parts)));
+            }
+            if i.first() != Some(&b',') {
+                let (rest, param) = self.param(i, named)?;
+                parts.push(param);
+                i = self.ws(rest, &mut parts);
+            }
+            match i.first() {
+                Some(b',') => i = self.take(K::Punct, i, 1, &mut parts),
+                Some(b')') => {}
+                _ => return fail(i, "`,` or `)`"),
+            }
+        }
+    }
+
+    fn param<'a>(&self, i: &'a [u8], named: bool) -> R<'a, Node> {
+        let mut parts = Vec::new();
+        let (mut rest, mut name) = ident(i).map_err(|_| expected_at(i, "a parameter type"))?;
+        let mut type_at = i;
+        if keyword(name) == Some(Kw::Var) {
+            parts.push(self.leaf(K::Keyword, i, rest));
+            type_at = self.ws(rest, &mut parts);
+            (rest, name) = ident(type_at).map_err(|_| expected_at(type_at, "a parameter type"))?;
+        }
+        if keyword(name) != Some(Kw::Type) {
+            return fail(type_at, "a parameter type");
+        }
+        parts.push(self.leaf(K::Keyword, type_at, rest));
+        let mut i = rest;
+        if skip_blanks(i).first() == Some(&b'[') {
+            i = self.ws(i, &mut parts);
+            let (rest, dims) = self.index(i)?;
+            parts.push(dims);
+            i = rest;
+        }
+        if named {
+            let j = self.ws(i, &mut parts);
+            let (rest, _) = ident(j).map_err(|_| expected_at(j, "a parameter name"))?;
+            parts.push(self.leaf(K::Name, j, rest));
+            i = rest;
+            if skip_blanks(i).first() == Some(&b'[') {
+                i = self.ws(i, &mut parts);
+                let (rest, dims) = self.index(i)?;
+                parts.push(dims);
+                i = rest;
+            }
+            if skip_blanks(i).first() == Some(&b'=') {
+                let (rest, ()) = self.punct(i, "=", "`=`", &mut parts)?;
+                let rest = self.ws(rest, &mut parts);
+                let (rest, default) = self.expr(rest)?;
+                parts.push(default);
+                i = rest;
+            }
+        }
+        Ok((i, Node::with_children(K::Param, parts)))
+    }
+
+    /// `DEFINE name AS body`: the body is kept as text up to a comment.
+    fn define<'a>(&self, i: &'a [u8], parts: &mut Vec<Node>) -> R<'a, &'a [u8]> {
+        let j = self.ws(i, parts);
+        let (i, _) = ident(j).map_err(|_| expected_at(j, "a macro name"))?;
+        parts.push(self.leaf(K::Name, j, i));
+        let (i, ()) = self.keyword_leaf(i, Kw::As, "`AS`", parts)?;
+        let i = self.ws(i, parts);
+        let end = comment_start(i);
+        if end == 0 {
+            return fail(i, "a macro body");
+        }
+        parts.push(self.leaf(K::Text, i, &i[end..]));
+        Ok((&i[end..], &i[end..]))
+    }
+
+    /// `CALL|PCALL|MCALL|EXTCALL|ISOCALL [target [args]] [BLOCK start [TO end]]`; the target is an expression
+    /// or a path such as `/_N_MPF_DIR/PART` or `NC:/MPF_DIR/PART`.
+    fn program_call<'a>(&self, i: &'a [u8], parts: &mut Vec<Node>) -> R<'a, &'a [u8]> {
+        let mut trivia = Vec::new();
+        let j = self.ws(i, &mut trivia);
+        if j.is_empty() || j[0] == b';' {
+            return Ok((i, i));
+        }
+        parts.append(&mut trivia);
+        let mut i = j;
+        let mut probe = Vec::new();
+        if self.keyword_leaf(j, Kw::Block, "", &mut probe).is_err() {
+            let path = path_len(j);
+            i = if path > 0 {
+                let rest = self.take(K::Text, j, path, parts);
+                if rest.first() == Some(&b'(') {
+                    let (rest, args) = self.args(rest)?;
+                    parts.push(args);
+                    rest
+                } else {
+                    rest
+                }
+            } else {
+                let (rest, target) = self.expr(j).map_err(|_| expected_at(j, "a program name"))?;
+                parts.push(target);
+                rest
+            };
+        }
+        let mut probe = Vec::new();
+        if self.keyword_leaf(i, Kw::Block, "", &mut probe).is_ok() {
+            let (rest, ()) = self.keyword_leaf(i, Kw::Block, "`BLOCK`", parts)?;
+            let j = self.ws(rest, parts);
+            let (rest, start) = self.expr(j).map_err(|e| relabel(e, j, "a start label"))?;
+            parts.push(start);
+            i = rest;
+            let mut probe = Vec::new();
+            if self.keyword_leaf(i, Kw::To, "", &mut probe).is_ok() {
+                let (rest, ()) = self.keyword_leaf(i, Kw::To, "`TO`", parts)?;
+                let j = self.ws(rest, parts);
+                let (rest, end) = self.expr(j).map_err(|e| relabel(e, j, "an end label"))?;
+                parts.push(end);
+                i = rest;
+            }
+        }
+        Ok((i, i))
+    }
+
+    /// `REDEF target {attribute [value]}`: attributes and values are kept as operands.
+    fn redef<'a>(&self, i: &'a [u8], parts: &mut Vec<Node>) -> R<'a, &'a [u8]> {
+        let j = self.ws(i, parts);
+        let (mut i, target) = self
+            .var_ref(j)
+            .map_err(|_| expected_at(j, "a variable name"))?;
+        parts.push(target);
+        loop {
+            let mut trivia = Vec::new();
+            let j = self.ws(i, &mut trivia);
+            if j.is_empty() || j[0] == b';' || trivia.is_empty() {
+                return Ok((i, i));
+            }
+            parts.append(&mut trivia);
+            let (rest, value) = self.expr(j)?;
+            parts.push(value);
+            i = rest;
+        }
+    }
+
+    /// `( [expr] {, [expr]} )`
+    fn args<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
+        let mut parts = Vec::new();
+        let mut i = self.take(K::Punct, i, 1, &mut parts);
+        loop {
+            i = self.ws(i, &mut parts);
+            match i.first() {
+                Some(b')') => {
+                    let rest = self.take(K::Punct, i, 1, &mut parts);
+                    return Ok((rest, Node::with_children(K::Args, parts)));
+                }
+                Some(b',') => i = self.take(K::Punct, i, 1, &mut parts),
+                _ => {
+                    let (rest, arg) = self.expr(i)?;
+                    parts.push(arg);
+                    i = self.ws(rest, &mut parts);
+                    match i.first() {
+                        Some(b',' | b')') => {}
+                        _ => return fail(i, "`,` or `)`"),
+                    }
+                }
+            }
+        }
+    }
+
+    /// `[ expr {, expr} ]`
+    fn index<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
+        let mut parts = Vec::new();
+        let mut i = self.take(K::Punct, i, 1, &mut parts);
+        loop {
+            i = self.ws(i, &mut parts);
+            let (rest, e) = self.expr(i)?;
+            parts.push(e);
+            i = self.ws(rest, &mut parts);
+            match i.first() {
+                Some(b',') => i = self.take(K::Punct, i, 1, &mut parts),
+                Some(b']') => {
+                    let rest = self.take(K::Punct, i, 1, &mut parts);
+                    return Ok((rest, Node::with_children(K::Index, parts)));
+                }
+                _ => return fail(i, "`,` or `]`"),
+            }
+        }
+    }
+
+    fn expr<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
+        self.binary(i, 0)
+    }
+
+    fn binary<'a>(&self, i: &'a [u8], level: usize) -> R<'a, Node> {
+        if level == LEVELS {
+            return self.unary(i);
+        }
+        let (mut i, mut lhs) = self.binary(i, level + 1)?;
+        loop {
+            let mut parts = Vec::new();
+            let j = self.ws(i, &mut parts);
+            let Some((len, op_kind)) = operator(level, j) else {
+                return Ok((i, lhs));
+            };
+            let j = self.take(op_kind, j, len, &mut parts);
+            let j = self.ws(j, &mut parts);
+            let (rest, rhs) = self
+                .binary(j, level + 1)
+                .map_err(|e| relabel(e, j, "an operand"))?;
+            parts.insert(0, lhs);
+            parts.push(rhs);
+            lhs = Node::with_children(K::Binary, parts);
+            i = rest;
+        }
+    }
+
+    fn unary<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
+        let op = match i.first() {
+            Some(b'-' | b'+') => Some((1, K::Punct)),
+            _ => match ident(i) {
+                Ok((rest, name)) if keyword(name) == Some(Kw::Not) => {
+                    Some((i.len() - rest.len(), K::Keyword))
+                }
+                _ => None,
+            },
+        };
+        let Some((len, kind)) = op else {
+            return self.primary(i);
+        };
+        let mut parts = Vec::new();
+        let j = self.take(kind, i, len, &mut parts);
+        let j = self.ws(j, &mut parts);
+        let (rest, operand) = self.unary(j).map_err(|e| relabel(e, j, "an operand"))?;
+        parts.push(operand);
+        Ok((rest, Node::with_children(K::Unary, parts)))
+    }
+
+    fn primary<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
+        match i.first() {
+            Some(b'(') => {
+                let mut parts = Vec::new();
+                let j = self.take(K::Punct, i, 1, &mut parts);
+                let j = self.ws(j, &mut parts);
+                let (j, inner) = self.expr(j)?;
+                parts.push(inner);
+                let (rest, ()) = self.punct(j, ")", "`)`", &mut parts)?;
+                Ok((rest, Node::with_children(K::Paren, parts)))
+            }
+            Some(b'0'..=b'9' | b'.') => {
+                let (rest, _) = unsigned_number(i).map_err(|_| expected_at(i, "a number"))?;
+                Ok((rest, self.leaf(K::Number, i, rest)))
+            }
+            Some(b'"') => {
+                let (rest, _) = string(i).map_err(|_| expected_at(i, "a closed string"))?;
+                Ok((rest, self.leaf(K::Str, i, rest)))
+            }
+            Some(b'\'') => {
+                let (rest, _) =
+                    bit_literal(i).map_err(|_| expected_at(i, "a bit literal 'H…' or 'B…'"))?;
+                Ok((rest, self.leaf(K::BitLiteral, i, rest)))
+            }
+            Some(b'$') => self.var_ref(i),
+            _ => {
+                let (after, name) = ident(i).map_err(|_| expected_at(i, "an operand"))?;
+                if keyword(name).is_some_and(Kw::is_reserved) {
+                    return fail(i, "an operand");
+                }
+                if skip_blanks(after).first() == Some(&b'(') {
+                    let mut parts = vec![self.leaf(K::Name, i, after)];
+                    let after = self.ws(after, &mut parts);
+                    let (rest, args) = self.args(after)?;
+                    parts.push(args);
+                    return Ok((rest, Node::with_children(K::FnCall, parts)));
+                }
+                self.var_ref(i)
+            }
+        }
+    }
+}
+
+/// The operator of `level` at the start of `i`: its length and leaf kind.
+fn operator(level: usize, i: &[u8]) -> Option<(usize, K)> {
+    let sym = |ops: &[&str]| {
+        ops.iter()
+            .find(|op| i.starts_with(op.as_bytes()))
+            .map(|op| (op.len(), K::Punct))
+    };
+    let word = |kws: &[Kw]| match ident(i) {
+        Ok((rest, name)) if keyword(name).is_some_and(|k| kws.contains(&k)) => {
+            Some((i.len() - rest.len(), K::Keyword))
+        }
+        _ => None,
+    };
+    match level {
+        0 if i.starts_with(b"<<") => None,
+        0 => sym(&["==", "<>", "<=", ">=", "<", ">"]),
+        1 => sym(&["<<"]),
+        2 => word(&[Kw::Or]),
+        3 => word(&[Kw::Xor]),
+        4 => word(&[Kw::And]),
+        5 => word(&[Kw::BOr]),
+        6 => word(&[Kw::BXor]),
+        7 => word(&[Kw::BAnd]),
+        8 => sym(&["+", "-"]),
+        _ => sym(&["*", "/", ":"]).or_else(|| word(&[Kw::Div, Kw::Mod])),
+    }
+}
+
+/// Length of a program path at the start of `i` (`/_N_MPF_DIR/X`, `NC:/X`, `//NC:/X`), 0 if none.
+fn path_len(i: &[u8]) -> usize {
+    let dev = i
+        .iter()
+        .position(|&b| b == b':')
+        .filter(|&k| k > 0 && i[..k].iter().all(|&b| b == b'/' || b.is_ascii_alphabetic()));
+    let body = dev.map_or(0, |k| k + 1);
+    if i.get(body) != Some(&b'/') {
+        return 0;
+    }
+    body + i[body..]
+        .iter()
+        .take_while(|&&b| b == b'/' || is_ident_char(b))
+        .count()
+}
+
+fn is_rparam(name: &[u8]) -> bool {
+    name.len() > 1
+        && (name[0] == b'R' || name[0] == b'r')
+        && name[1..].iter().all(u8::is_ascii_digit)
+}
+
+fn expected_at(i: &[u8], expected: &'static str) -> nom::Err<PErr> {
+    nom::Err::Error(PErr {
+        rest: i.len(),
+        expected,
+    })
+}
+
+/// Names what was expected where a failure happened right at `at` (deeper failures keep their own words).
+fn relabel(e: nom::Err<PErr>, at: &[u8], expected: &'static str) -> nom::Err<PErr> {
+    e.map(|e| {
+        if e.rest >= at.len() || e.expected.is_empty() {
+            PErr {
+                rest: e.rest.min(at.len()),
+                expected,
+            }
+        } else {
+            e
+        }
+    })
+}
+
+/// Offset of the first `;` outside a string (or the length).
+fn comment_start(i: &[u8]) -> usize {
+    let mut in_string = false;
+    for (k, &b) in i.iter().enumerate() {
+        match b {
+            b'"' => in_string = !in_string,
+            b';' if !in_string => return k,
+            _ => {}
+        }
+    }
+    i.len()
+}

@@ -1,0 +1,12 @@
+//! Lossless Sinumerik syntax: one block per line, parsed from raw bytes.
+
+mod fast;
+mod grammar;
+mod keyword;
+mod lexeme;
+mod program;
+mod tree;
+
+pub use program::flag;
+pub use program::{Block, BlockKind, Program, line_syntax_errors, parse, parse_owned};
+pub use tree::{Node, NodeJson, NodeKind, escape};

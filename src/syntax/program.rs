@@ -1,0 +1,340 @@
+//! The parsed program: the retained source plus one compact record per block. Full block trees are
+//! materialised on demand from the block's bytes, which keeps a 100 MB program within twice its size.
+
+use std::io::Write;
+
+use serde::Serialize;
+use serde::ser::{SerializeStruct, Serializer};
+
+use super::tree::{Node, NodeJson, NodeKind};
+use super::{fast, grammar};
+use crate::diagnostic::{Diagnostic, Severity};
+use crate::source::{RawLine, Span, raw_lines};
+use crate::structure;
+
+const BOM: &[u8] = b"\xEF\xBB\xBF";
+
+/// The control-flow role of a block, kept per block so the structure pass never re-parses plain blocks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "lowercase")]
+#[repr(u8)]
+pub enum BlockKind {
+    /// No control keyword (words, assignments, calls, comments, empty lines, one-line jumps).
+    Plain,
+    /// `%…` archive or transfer header: starts a new program unit.
+    Header,
+    If,
+    Else,
+    EndIf,
+    While,
+    EndWhile,
+    For,
+    EndFor,
+    /// `REPEAT` opening a REPEAT … UNTIL loop (not the `REPEAT label` section repeat).
+    Repeat,
+    Until,
+    Loop,
+    EndLoop,
+}
+
+/// Per-block flags, as bits (see [`Program::block_flags`]).
+pub mod flag {
+    pub const LABEL: u8 = 1;
+    pub const JUMP: u8 = 2;
+    pub const ERROR: u8 = 4;
+    /// Inside an archive section that holds text, not NC code (`%_N_…_COM`): kept as opaque text.
+    pub const TEXT: u8 = 8;
+}
+
+/// What the program keeps per block: 8 bytes.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct BlockRec {
+    pub start: u32,
+    pub kind: BlockKind,
+    pub flags: u8,
+    pub terminator_len: u8,
+}
+
+/// A parsed NC program (or archive of programs). Never fails to build; problems are in [`Program::diagnostics`].
+#[derive(Debug, Clone)]
+pub struct Program {
+    src: Vec<u8>,
+    blocks: Vec<BlockRec>,
+    diagnostics: Vec<Diagnostic>,
+}
+
+/// Parses any bytes. Never fails and never panics; `parse(x).to_bytes() == x`.
+pub fn parse(src: &[u8]) -> Program {
+    parse_owned(src.to_vec())
+}
+
+/// Like [`parse`], but takes ownership of the buffer, so the program costs no second copy of the source.
+pub fn parse_owned(src: Vec<u8>) -> Program {
+    if u32::try_from(src.len()).is_err() {
+        let span = Span::new(0, src.len());
+        let blocks = vec![BlockRec {
+            start: 0,
+            kind: BlockKind::Plain,
+            flags: flag::ERROR,
+            terminator_len: 0,
+        }];
+        let diagnostics = vec![
+            Diagnostic::error(span, "file is larger than 4 GiB").with_help("split the program"),
+        ];
+        return Program {
+            src,
+            blocks,
+            diagnostics,
+        };
+    }
+    let mut blocks = Vec::with_capacity(src.len() / 32 + 1);
+    let mut diagnostics = Vec::new();
+    let mut in_text_section = false;
+    for line in raw_lines(&src) {
+        let content = line_content(&src, &line);
+        let bytes = content.slice(&src);
+        let (kind, flags) = if fast::plain_block(bytes) {
+            (BlockKind::Plain, 0)
+        } else if in_text_section && !bytes.starts_with(b"%") {
+            (BlockKind::Plain, flag::TEXT)
+        } else {
+            let parsed = grammar::parse_block(&src, content, line.terminator());
+            diagnostics.extend(parsed.diagnostics);
+            if parsed.kind == BlockKind::Header {
+                in_text_section = is_text_section(bytes);
+            }
+            (parsed.kind, parsed.flags)
+        };
+        blocks.push(BlockRec {
+            start: line.start as u32,
+            kind,
+            flags,
+            terminator_len: (line.end - line.content_end) as u8,
+        });
+    }
+    let mut program = Program {
+        src,
+        blocks,
+        diagnostics,
+    };
+    let structural = structure::analyze(&program).diagnostics;
+    program.diagnostics.extend(structural);
+    program
+        .diagnostics
+        .sort_by_key(|d| (d.span.start, d.severity, d.span.end));
+    program
+}
+
+/// Archive sections named `…_COM` hold alarm texts and HMI masks, not NC code.
+fn is_text_section(header: &[u8]) -> bool {
+    let name = header.trim_ascii_end();
+    name.len() >= 4 && name[name.len() - 4..].eq_ignore_ascii_case(b"_COM")
+}
+
+/// The parsable part of a line: its content without the BOM of the first line.
+fn line_content(src: &[u8], line: &RawLine) -> Span {
+    let skip = if line.start == 0 && src.starts_with(BOM) {
+        BOM.len().min(line.content_end)
+    } else {
+        0
+    };
+    Span::new(line.start + skip, line.content_end)
+}
+
+impl Program {
+    pub fn source(&self) -> &[u8] {
+        &self.src
+    }
+
+    /// The program's bytes; for a parsed program exactly the input.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        self.src.clone()
+    }
+
+    pub fn write_to<W: Write>(&self, w: &mut W) -> std::io::Result<()> {
+        w.write_all(&self.src)
+    }
+
+    /// Syntax and structure diagnostics, sorted by position.
+    pub fn diagnostics(&self) -> &[Diagnostic] {
+        &self.diagnostics
+    }
+
+    pub fn has_errors(&self) -> bool {
+        self.diagnostics
+            .iter()
+            .any(|d| d.severity == Severity::Error)
+    }
+
+    pub fn has_bom(&self) -> bool {
+        self.src.starts_with(BOM)
+    }
+
+    /// Number of blocks (physical lines).
+    pub fn block_count(&self) -> usize {
+        self.blocks.len()
+    }
+
+    /// The whole line of block `i`, terminator included.
+    pub fn block_span(&self, i: usize) -> Span {
+        let start = self.blocks[i].start as usize;
+        let end = self
+            .blocks
+            .get(i + 1)
+            .map_or(self.src.len(), |b| b.start as usize);
+        Span::new(start, end)
+    }
+
+    /// The content of block `i` without its terminator (the BOM, if any, is part of block 0's content).
+    pub fn content_span(&self, i: usize) -> Span {
+        let full = self.block_span(i);
+        Span::new(
+            full.start,
+            full.end - self.blocks[i].terminator_len as usize,
+        )
+    }
+
+    /// The control-flow role of block `i`.
+    pub fn block_kind(&self, i: usize) -> BlockKind {
+        self.blocks[i].kind
+    }
+
+    pub fn block_flags(&self, i: usize) -> u8 {
+        self.blocks[i].flags
+    }
+
+    /// Index of the block containing byte `offset` (the last block for offsets at the end).
+    pub fn block_at(&self, offset: usize) -> usize {
+        self.blocks
+            .partition_point(|b| b.start as usize <= offset)
+            .max(1)
+            - 1
+    }
+
+    /// The full syntax tree of block `i`, built from its bytes.
+    pub fn block(&self, i: usize) -> Block<'_> {
+        let full = self.block_span(i);
+        let content = self.content_span(i);
+        let root = if self.src.len() > u32::MAX as usize {
+            Node::with_children(NodeKind::Block, vec![Node::leaf(NodeKind::Text, full)])
+        } else if self.blocks[i].flags & flag::TEXT != 0 {
+            let text = Node::leaf(NodeKind::Text, content);
+            let newline = Node::leaf(NodeKind::Newline, Span::new(content.end, full.end));
+            Node::with_children(NodeKind::Block, vec![text, newline])
+        } else {
+            let line = RawLine {
+                start: full.start,
+                content_end: content.end,
+                end: full.end,
+            };
+            grammar::parse_block(&self.src, line_content(&self.src, &line), line.terminator()).tree
+        };
+        Block {
+            src: &self.src,
+            index: i,
+            kind: self.blocks[i].kind,
+            root,
+        }
+    }
+
+    pub fn blocks(&self) -> impl ExactSizeIterator<Item = Block<'_>> {
+        (0..self.blocks.len()).map(|i| self.block(i))
+    }
+
+    /// The line ending most blocks use (LF when there is none), for rendering new blocks.
+    pub fn dominant_line_ending(&self) -> &'static [u8] {
+        let (mut lf, mut crlf, mut cr) = (0usize, 0usize, 0usize);
+        for (i, b) in self.blocks.iter().enumerate() {
+            match b.terminator_len {
+                2 => crlf += 1,
+                1 if self.src[self.block_span(i).end - 1] == b'\r' => cr += 1,
+                1 => lf += 1,
+                _ => {}
+            }
+        }
+        if crlf > lf && crlf >= cr {
+            b"\r\n"
+        } else if cr > lf && cr > crlf {
+            b"\r"
+        } else {
+            b"\n"
+        }
+    }
+
+    /// Indented tree dump of every block (for snapshots and debugging).
+    pub fn dump_tree(&self) -> String {
+        let mut out = String::new();
+        for b in self.blocks() {
+            b.root.dump(&self.src, 0, &mut out);
+        }
+        out
+    }
+}
+
+/// One block's full syntax tree.
+#[derive(Debug, Clone)]
+pub struct Block<'a> {
+    pub src: &'a [u8],
+    pub index: usize,
+    pub kind: BlockKind,
+    /// A `Block` node whose leaves cover the line, terminator included.
+    pub root: Node,
+}
+
+impl Block<'_> {
+    pub fn span(&self) -> Span {
+        self.root.span
+    }
+
+    pub fn text(&self, node: &Node) -> &[u8] {
+        node.span.slice(self.src)
+    }
+}
+
+impl Serialize for Block<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut st = s.serialize_struct("Block", 3)?;
+        st.serialize_field("index", &self.index)?;
+        st.serialize_field("kind", &self.kind)?;
+        st.serialize_field(
+            "tree",
+            &NodeJson {
+                node: &self.root,
+                src: self.src,
+            },
+        )?;
+        st.end()
+    }
+}
+
+/// Serialises blocks one at a time, so a dump never holds every tree at once.
+struct BlocksJson<'a>(&'a Program);
+
+impl Serialize for BlocksJson<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_seq(self.0.blocks())
+    }
+}
+
+impl Serialize for Program {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut st = s.serialize_struct("Program", 2)?;
+        st.serialize_field("blocks", &BlocksJson(self))?;
+        st.serialize_field("diagnostics", &self.diagnostics)?;
+        st.end()
+    }
+}
+
+/// Syntax diagnostics of one line on its own (spans relative to `line`); control pairing and jump targets are
+/// not checked, since they depend on the rest of the program.
+pub fn line_syntax_errors(line: &[u8]) -> Vec<Diagnostic> {
+    if fast::plain_block(line) {
+        return Vec::new();
+    }
+    grammar::parse_block(
+        line,
+        Span::new(0, line.len()),
+        Span::new(line.len(), line.len()),
+    )
+    .diagnostics
+}

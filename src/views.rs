@@ -1,0 +1,405 @@
+//! Typed views over block trees: what a program transformer needs to know about each block without walking
+//! syntax nodes itself: block numbers, labels, variables read and written, tool, spindle, feed, motion, axis
+//! targets and work-offset selections.
+//!
+//! Names are compared upper-cased (the control ignores case). A name of one letter with optional digits
+//! (`X`, `X1`, `M3`) is an address or axis, never a user variable.
+
+use std::collections::BTreeSet;
+
+use serde::Serialize;
+
+use crate::source::Span;
+use crate::syntax::{Block, Node, NodeKind, Program};
+
+/// A value as written: a plain number, a string literal, or any other expression (by its span).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Value {
+    Number(f64),
+    Text(String),
+    Expr(Span),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Access {
+    Read,
+    Write,
+    /// Declared by DEF (a write when it has an initialiser is reported separately).
+    Declare,
+}
+
+#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum VarName {
+    /// `R12`; `None` when the number is computed (`R[R1+1]`).
+    R(Option<u32>),
+    /// `$P_UIFR`, `$AA_IM` (indices not included).
+    System(String),
+    /// A user variable (DEF / PROC parameter / GUD).
+    User(String),
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct VarAccess {
+    pub name: VarName,
+    pub access: Access,
+    pub span: Span,
+}
+
+/// An address value with the optional extended-address number: `S1=1000` → spindle 1, `T="MILL"`, `M3=5`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AddressValue {
+    /// The number after the address letter in the extended form (`S1=…` → 1, `M3=5` → 3).
+    pub extension: Option<u32>,
+    pub value: Value,
+    pub span: Span,
+}
+
+/// How an axis value is meant: `AC(…)`, `IC(…)`, `DC`, `ACP`, `ACN`, or as the modal G90/G91 says.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AxisMode {
+    Modal,
+    Ac,
+    Ic,
+    Dc,
+    Acp,
+    Acn,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AxisTarget {
+    pub axis: String,
+    pub mode: AxisMode,
+    pub value: Value,
+    pub span: Span,
+}
+
+/// A work-offset or frame selection.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum WorkOffset {
+    /// G53, G153, G500, G54…G57, G505…G599.
+    G(u32),
+    /// SUPA, TRANS, ATRANS, CTRANS, ROT, AROT, SCALE, ASCALE, MIRROR, AMIRROR, … (upper case).
+    Frame(String),
+    /// A write to a frame system variable such as `$P_UIFR[1,Z,TR]`.
+    FrameWrite(String),
+}
+
+/// Everything a transformer reads off one block.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct BlockFacts {
+    pub index: usize,
+    /// `N10` → 10 (`:10` main blocks too).
+    pub block_number: Option<u64>,
+    /// Upper-cased label defined on this block.
+    pub label: Option<String>,
+    pub variables: Vec<VarAccess>,
+    /// `T` words and `T=` / `Tn=` assignments.
+    pub tools: Vec<AddressValue>,
+    /// `S` words and `S=` / `Sn=` assignments.
+    pub spindle_speeds: Vec<AddressValue>,
+    /// `M` words and `Mn=` assignments (`M3=5`: spindle 3, code 5).
+    pub m_codes: Vec<AddressValue>,
+    pub feed: Option<AddressValue>,
+    /// Motion G codes in the block (0, 1, 2, 3, 33, …).
+    pub motion: Vec<u32>,
+    pub axes: Vec<AxisTarget>,
+    pub work_offsets: Vec<WorkOffset>,
+}
+
+const MOTION_G: &[u32] = &[0, 1, 2, 3, 33, 34, 35, 331, 332];
+const AXIS_LETTERS: &[u8] = b"XYZABCUVW";
+const FRAME_COMMANDS: &[&str] = &[
+    "SUPA", "TRANS", "ATRANS", "CTRANS", "ROT", "AROT", "CROT", "ROTS", "AROTS", "SCALE", "ASCALE",
+    "CSCALE", "MIRROR", "AMIRROR", "CMIRROR",
+];
+
+fn upper(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).to_ascii_uppercase()
+}
+
+fn is_work_offset_g(n: u32) -> bool {
+    matches!(n, 53 | 153 | 500 | 54..=57 | 505..=599)
+}
+
+/// `X`, `X1`, `M3`: an address letter with optional digits.
+fn address_parts(name: &str) -> Option<(u8, Option<u32>)> {
+    let (&letter, digits) = name.as_bytes().split_first()?;
+    if !letter.is_ascii_alphabetic() || !digits.iter().all(u8::is_ascii_digit) {
+        return None;
+    }
+    let ext = if digits.is_empty() {
+        None
+    } else {
+        std::str::from_utf8(digits).ok()?.parse().ok()
+    };
+    Some((letter, ext))
+}
+
+fn number(text: &[u8]) -> Option<f64> {
+    let t = upper(text).replace("EX", "E");
+    t.parse().ok()
+}
+
+fn value_of(block: &Block<'_>, node: &Node) -> Value {
+    match node.kind {
+        NodeKind::Number => number(block.text(node)).map_or(Value::Expr(node.span), Value::Number),
+        NodeKind::Unary if node.children.first().is_some_and(|c| block.text(c) == b"-") => {
+            match node.significant().nth(1).map(|n| value_of(block, n)) {
+                Some(Value::Number(v)) => Value::Number(-v),
+                _ => Value::Expr(node.span),
+            }
+        }
+        NodeKind::Str => {
+            let t = block.text(node);
+            Value::Text(String::from_utf8_lossy(&t[1..t.len() - 1]).into_owned())
+        }
+        _ => Value::Expr(node.span),
+    }
+}
+
+/// The facts of block `block`.
+pub fn facts(block: &Block<'_>) -> BlockFacts {
+    let mut f = BlockFacts {
+        index: block.index,
+        ..BlockFacts::default()
+    };
+    for node in block.root.significant() {
+        match node.kind {
+            NodeKind::BlockNumber => {
+                f.block_number = std::str::from_utf8(block.text(&node.children[1]))
+                    .ok()
+                    .and_then(|t| t.parse().ok());
+            }
+            NodeKind::Label => f.label = node.find(NodeKind::Name).map(|n| upper(block.text(n))),
+            NodeKind::Word => word_facts(block, node, &mut f),
+            NodeKind::Assign => assign_facts(block, node, &mut f),
+            NodeKind::Command => {
+                let name = upper(block.text(node));
+                if FRAME_COMMANDS.contains(&name.as_str()) {
+                    f.work_offsets.push(WorkOffset::Frame(name));
+                }
+            }
+            _ => {}
+        }
+    }
+    collect_variables(block, &block.root, &mut f.variables);
+    f
+}
+
+fn word_facts(block: &Block<'_>, node: &Node, f: &mut BlockFacts) {
+    let letter = block.text(&node.children[0])[0].to_ascii_uppercase();
+    let num = &node.children[1];
+    let value = value_of(block, num);
+    let av = AddressValue {
+        extension: None,
+        value: value.clone(),
+        span: node.span,
+    };
+    let int = match value {
+        Value::Number(v) if v >= 0.0 && v.fract() == 0.0 => Some(v as u32),
+        _ => None,
+    };
+    match letter {
+        b'G' => match int {
+            Some(g) if MOTION_G.contains(&g) => f.motion.push(g),
+            Some(g) if is_work_offset_g(g) => f.work_offsets.push(WorkOffset::G(g)),
+            _ => {}
+        },
+        b'T' => f.tools.push(av),
+        b'S' => f.spindle_speeds.push(av),
+        b'M' => f.m_codes.push(av),
+        b'F' => f.feed = Some(av),
+        l if AXIS_LETTERS.contains(&l) => f.axes.push(AxisTarget {
+            axis: (l as char).to_string(),
+            mode: AxisMode::Modal,
+            value,
+            span: node.span,
+        }),
+        _ => {}
+    }
+}
+
+fn assign_facts(block: &Block<'_>, node: &Node, f: &mut BlockFacts) {
+    let mut parts = node.significant();
+    let (Some(target), _, Some(value)) = (parts.next(), parts.next(), parts.next()) else {
+        return;
+    };
+    let name = target
+        .find(NodeKind::Name)
+        .map(|n| upper(block.text(n)))
+        .unwrap_or_default();
+    if target.kind == NodeKind::SysVar {
+        if name.starts_with("$P_UIFR")
+            || name.starts_with("$P_PFRAME")
+            || name.starts_with("$P_SETFRAME")
+        {
+            f.work_offsets.push(WorkOffset::FrameWrite(name));
+        }
+        return;
+    }
+    if target.kind != NodeKind::Var || target.find(NodeKind::Index).is_some() {
+        return;
+    }
+    let Some((letter, extension)) = address_parts(&name) else {
+        return;
+    };
+    let av = AddressValue {
+        extension,
+        value: value_of(block, value),
+        span: node.span,
+    };
+    match letter.to_ascii_uppercase() {
+        b'T' => f.tools.push(av),
+        b'S' => f.spindle_speeds.push(av),
+        b'M' => f.m_codes.push(av),
+        b'F' => f.feed = Some(av),
+        l if AXIS_LETTERS.contains(&l) => {
+            let (mode, value) = axis_mode(block, value);
+            f.axes.push(AxisTarget {
+                axis: name,
+                mode,
+                value,
+                span: node.span,
+            });
+        }
+        _ => {}
+    }
+}
+
+/// `X=IC(5)` → (Ic, 5); anything else is modal.
+fn axis_mode(block: &Block<'_>, value: &Node) -> (AxisMode, Value) {
+    if value.kind == NodeKind::FnCall {
+        let mode = match upper(block.text(&value.children[0])).as_str() {
+            "AC" => Some(AxisMode::Ac),
+            "IC" => Some(AxisMode::Ic),
+            "DC" => Some(AxisMode::Dc),
+            "ACP" => Some(AxisMode::Acp),
+            "ACN" => Some(AxisMode::Acn),
+            _ => None,
+        };
+        let args: Vec<&Node> = value
+            .find(NodeKind::Args)
+            .map(|a| {
+                a.significant()
+                    .filter(|n| n.kind != NodeKind::Punct)
+                    .collect()
+            })
+            .unwrap_or_default();
+        if let (Some(mode), [arg]) = (mode, args.as_slice()) {
+            return (mode, value_of(block, arg));
+        }
+    }
+    (AxisMode::Modal, value_of(block, value))
+}
+
+/// Every R parameter, system variable and user variable the block reads, writes or declares.
+fn collect_variables(block: &Block<'_>, node: &Node, out: &mut Vec<VarAccess>) {
+    match node.kind {
+        NodeKind::Assign | NodeKind::For => {
+            let mut written = false;
+            for c in &node.children {
+                if !written && matches!(c.kind, NodeKind::RParam | NodeKind::Var | NodeKind::SysVar)
+                {
+                    written = true;
+                    if let Some(name) = var_name(block, c) {
+                        out.push(VarAccess {
+                            name,
+                            access: Access::Write,
+                            span: c.span,
+                        });
+                    }
+                    if let Some(index) = c.find(NodeKind::Index) {
+                        collect_variables(block, index, out);
+                    }
+                } else {
+                    collect_variables(block, c, out);
+                }
+            }
+        }
+        NodeKind::Declarator | NodeKind::Param => {
+            if let Some(n) = node.find(NodeKind::Name) {
+                let name = VarName::User(upper(block.text(n)));
+                out.push(VarAccess {
+                    name,
+                    access: Access::Declare,
+                    span: n.span,
+                });
+            }
+            for c in node.children.iter().filter(|c| c.kind != NodeKind::Name) {
+                collect_variables(block, c, out);
+            }
+        }
+        NodeKind::RParam | NodeKind::Var | NodeKind::SysVar => {
+            if let Some(name) = var_name(block, node) {
+                out.push(VarAccess {
+                    name,
+                    access: Access::Read,
+                    span: node.span,
+                });
+            }
+            if let Some(index) = node.find(NodeKind::Index) {
+                collect_variables(block, index, out);
+            }
+        }
+        // Jump targets and macro bodies name labels and text, not variables.
+        NodeKind::Goto | NodeKind::Define | NodeKind::Repeat | NodeKind::ProgramCall => {}
+        _ => {
+            for c in &node.children {
+                collect_variables(block, c, out);
+            }
+        }
+    }
+}
+
+fn var_name(block: &Block<'_>, node: &Node) -> Option<VarName> {
+    let name = upper(block.text(node.find(NodeKind::Name)?));
+    match node.kind {
+        NodeKind::SysVar => Some(VarName::System(name)),
+        NodeKind::RParam if name.len() > 1 => Some(VarName::R(name[1..].parse().ok())),
+        NodeKind::RParam => {
+            let index = node.find(NodeKind::Index)?;
+            let mut inner = index.significant().filter(|n| n.kind != NodeKind::Punct);
+            let literal = match (inner.next(), inner.next()) {
+                (Some(n), None) if n.kind == NodeKind::Number => {
+                    std::str::from_utf8(block.text(n)).ok()?.parse().ok()
+                }
+                _ => None,
+            };
+            Some(VarName::R(literal))
+        }
+        _ if address_parts(&name).is_some() || matches!(name.as_str(), "TRUE" | "FALSE") => None,
+        _ => Some(VarName::User(name)),
+    }
+}
+
+/// Facts of every block, in order.
+pub fn program_facts(program: &Program) -> impl Iterator<Item = BlockFacts> + '_ {
+    program.blocks().map(|b| facts(&b))
+}
+
+/// R-parameter numbers the program uses anywhere (literal indices only), e.g. to pick free ones.
+pub fn used_r_parameters(program: &Program) -> BTreeSet<u32> {
+    program_facts(program)
+        .flat_map(|f| f.variables)
+        .filter_map(|v| match v.name {
+            VarName::R(Some(n)) => Some(n),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Upper-cased user-variable names the program declares, reads or writes.
+pub fn user_variables(program: &Program) -> BTreeSet<String> {
+    program_facts(program)
+        .flat_map(|f| f.variables)
+        .filter_map(|v| match v.name {
+            VarName::User(n) => Some(n),
+            _ => None,
+        })
+        .collect()
+}
