@@ -10,6 +10,7 @@ pub mod source;
 pub mod structure;
 pub mod syntax;
 pub mod views;
+pub mod vm;
 
 pub use diagnostic::{Diagnostic, Severity};
 pub use edit::{EditError, Editor};

@@ -1,0 +1,237 @@
+//! The virtual machine the interpreter runs against: where the tool centre point really is (thermal drift) and
+//! what a probe cycle returns. The interpreter owns time and the spindle schedule; a [`Machine`] only answers.
+
+use serde::Serialize;
+
+/// Spindle speed over time, piecewise constant: `(from_min, rpm)` in time order, starting at 0 min with 0 rpm.
+/// This is the schedule the thermal side integrates.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SpindleHistory {
+    pub steps: Vec<(f64, f64)>,
+}
+
+impl Default for SpindleHistory {
+    fn default() -> Self {
+        SpindleHistory {
+            steps: vec![(0.0, 0.0)],
+        }
+    }
+}
+
+impl SpindleHistory {
+    /// Records that the speed is `rpm` from `t_min` on.
+    pub fn set(&mut self, t_min: f64, rpm: f64) {
+        match self.steps.last_mut() {
+            Some(last) if last.1 == rpm => {}
+            Some(last) if last.0 == t_min => last.1 = rpm,
+            _ => self.steps.push((t_min, rpm)),
+        }
+    }
+
+    pub fn speed_at(&self, t_min: f64) -> f64 {
+        self.steps
+            .iter()
+            .take_while(|(t, _)| *t <= t_min)
+            .last()
+            .map_or(0.0, |s| s.1)
+    }
+
+    /// Constant-speed intervals `(start, end, rpm)` up to `t_min`.
+    pub fn intervals(&self, t_min: f64) -> impl Iterator<Item = (f64, f64, f64)> + '_ {
+        self.steps
+            .iter()
+            .enumerate()
+            .take_while(move |(_, s)| s.0 < t_min)
+            .map(move |(i, &(start, rpm))| {
+                let end = self.steps.get(i + 1).map_or(t_min, |n| n.0.min(t_min));
+                (start, end, rpm)
+            })
+    }
+}
+
+/// What a probe cycle call hands back to the program.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case", tag = "kind", content = "value")]
+pub enum ProbeResult {
+    /// The drift of the probed axis the probe saw, µm (true drift plus noise); the interpreter turns it into the
+    /// measured position it writes into the result parameter.
+    Drift(f64),
+    /// A value written into the result parameter as it is (garbage, NaN): a faulty probe.
+    Raw(f64),
+    /// The cycle returned without writing the result parameter (no contact).
+    Nothing,
+}
+
+/// One probe cycle call as the machine sees it.
+#[derive(Debug, Clone)]
+pub struct ProbeCall<'a> {
+    /// Upper-cased cycle name, e.g. `BL9700`.
+    pub cycle: &'a str,
+    /// Numeric arguments as evaluated (missing ones are `None`).
+    pub args: &'a [Option<f64>],
+    pub axis: &'a str,
+    pub t_min: f64,
+    pub spindle: &'a SpindleHistory,
+}
+
+/// A machine the interpreter runs against.
+pub trait Machine {
+    /// Thermal displacement of the tool centre point along `axis` at `t_min` (µm; positive = towards +axis,
+    /// so a positive Z drift leaves material on the part).
+    fn drift_um(&mut self, axis: &str, t_min: f64, spindle: &SpindleHistory) -> f64;
+
+    /// Answers a probe cycle call. The default: the true drift of the probed axis, no noise.
+    fn probe(&mut self, call: &ProbeCall<'_>) -> ProbeResult {
+        ProbeResult::Drift(self.drift_um(call.axis, call.t_min, call.spindle))
+    }
+}
+
+/// How a probe call may be made to fail, for testing the program's validity logic.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ProbeFault {
+    /// NaN in the result parameter.
+    Nan,
+    /// A value orders of magnitude off (1e6 mm).
+    Garbage,
+    /// The result parameter is not written.
+    Nothing,
+}
+
+type DriftFn = dyn FnMut(&str, f64, &SpindleHistory) -> f64;
+
+/// A machine whose drift is a function (or zero), with Gaussian probe noise and injected probe faults.
+pub struct SimpleMachine {
+    drift: Box<DriftFn>,
+    noise_um: f64,
+    rng: Rng,
+    /// Probe calls (1-based) that fail, and how.
+    faults: Vec<(usize, ProbeFault)>,
+    calls: usize,
+}
+
+impl SimpleMachine {
+    /// No drift, exact probe.
+    pub fn cold() -> Self {
+        Self::with_drift(|_, _, _| 0.0)
+    }
+
+    pub fn with_drift(drift: impl FnMut(&str, f64, &SpindleHistory) -> f64 + 'static) -> Self {
+        SimpleMachine {
+            drift: Box::new(drift),
+            noise_um: 0.0,
+            rng: Rng::new(1),
+            faults: Vec::new(),
+            calls: 0,
+        }
+    }
+
+    /// Gaussian probe noise with standard deviation `sigma_um`, reproducible from `seed`.
+    pub fn noise(mut self, sigma_um: f64, seed: u64) -> Self {
+        self.noise_um = sigma_um;
+        self.rng = Rng::new(seed);
+        self
+    }
+
+    /// Makes probe call number `call` (1-based) fail with `fault`.
+    pub fn fault(mut self, call: usize, fault: ProbeFault) -> Self {
+        self.faults.push((call, fault));
+        self
+    }
+}
+
+impl Machine for SimpleMachine {
+    fn drift_um(&mut self, axis: &str, t_min: f64, spindle: &SpindleHistory) -> f64 {
+        (self.drift)(axis, t_min, spindle)
+    }
+
+    fn probe(&mut self, call: &ProbeCall<'_>) -> ProbeResult {
+        self.calls += 1;
+        match self.faults.iter().find(|f| f.0 == self.calls).map(|f| f.1) {
+            Some(ProbeFault::Nan) => ProbeResult::Raw(f64::NAN),
+            Some(ProbeFault::Garbage) => ProbeResult::Raw(1.0e6),
+            Some(ProbeFault::Nothing) => ProbeResult::Nothing,
+            None => {
+                let noise = if self.noise_um > 0.0 {
+                    self.noise_um * self.rng.gaussian()
+                } else {
+                    0.0
+                };
+                ProbeResult::Drift(self.drift_um(call.axis, call.t_min, call.spindle) + noise)
+            }
+        }
+    }
+}
+
+/// A small reproducible generator (splitmix64) for probe noise; no dependency needed for a test signal.
+#[derive(Debug, Clone)]
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Rng(seed)
+    }
+
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in (0, 1].
+    fn uniform(&mut self) -> f64 {
+        ((self.next_u64() >> 11) + 1) as f64 / (1u64 << 53) as f64
+    }
+
+    /// Standard normal (Box–Muller).
+    pub fn gaussian(&mut self) -> f64 {
+        let (u1, u2) = (self.uniform(), self.uniform());
+        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spindle_history_merges_repeats_and_reports_intervals() {
+        let mut h = SpindleHistory::default();
+        h.set(0.0, 1000.0);
+        h.set(5.0, 1000.0);
+        h.set(10.0, 0.0);
+        assert_eq!(h.steps, vec![(0.0, 1000.0), (10.0, 0.0)]);
+        assert_eq!(h.speed_at(9.9), 1000.0);
+        assert_eq!(h.speed_at(10.0), 0.0);
+        let iv: Vec<_> = h.intervals(12.0).collect();
+        assert_eq!(iv, vec![(0.0, 10.0, 1000.0), (10.0, 12.0, 0.0)]);
+    }
+
+    #[test]
+    fn gaussian_noise_has_unit_spread() {
+        let mut r = Rng::new(7);
+        let xs: Vec<f64> = (0..20_000).map(|_| r.gaussian()).collect();
+        let mean = xs.iter().sum::<f64>() / xs.len() as f64;
+        let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / xs.len() as f64;
+        assert!(mean.abs() < 0.03, "mean {mean}");
+        assert!((var.sqrt() - 1.0).abs() < 0.03, "sd {}", var.sqrt());
+    }
+
+    #[test]
+    fn faults_hit_the_chosen_call_only() {
+        let mut m = SimpleMachine::with_drift(|_, t, _| t).fault(2, ProbeFault::Nothing);
+        let h = SpindleHistory::default();
+        let call = |t| ProbeCall {
+            cycle: "BL9700",
+            args: &[],
+            axis: "Z",
+            t_min: t,
+            spindle: &h,
+        };
+        assert_eq!(m.probe(&call(3.0)), ProbeResult::Drift(3.0));
+        assert_eq!(m.probe(&call(4.0)), ProbeResult::Nothing);
+        assert_eq!(m.probe(&call(5.0)), ProbeResult::Drift(5.0));
+    }
+}

@@ -1,0 +1,74 @@
+//! Dry run: an interpreter for the Sinumerik subset that part programs and driftloop's own blocks use, running
+//! against a virtual [`Machine`] whose tool centre point drifts. It shows what a (transformed) program will do
+//! before it runs on a real machine: positions per block, time, spindle schedule, probe measurements, work-offset
+//! corrections, alarms, files written, and per pass the Z depth actually cut minus the nominal one.
+//!
+//! ```no_run
+//! use driftloop::vm::{Config, SimpleMachine, run_file};
+//! let mut machine = SimpleMachine::with_drift(|axis, t_min, _spindle| if axis == "Z" { -0.15 * t_min } else { 0.0 });
+//! let run = run_file("part.mpf".as_ref(), &Config::default(), &mut machine).unwrap();
+//! println!("max machined error {:.1} µm", run.totals.max_abs_error_um);
+//! ```
+
+mod config;
+mod eval;
+mod interp;
+mod machine;
+mod motion;
+mod passes;
+mod report;
+mod unit;
+mod value;
+
+use std::path::Path;
+
+pub use config::{Config, MachineSpec, offset_frame, parse_machine_file};
+pub use machine::{
+    Machine, ProbeCall, ProbeFault, ProbeResult, Rng, SimpleMachine, SpindleHistory,
+};
+pub use passes::Pass;
+pub use report::{Alarm, At, Correction, End, Measurement, Message, Run, Totals, TraceRow};
+
+/// A program the dry run cannot carry on with: unsupported construct, undefined variable, missing jump target,
+/// iteration limit. Names the file and line.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{file}:{line}: {message}")]
+pub struct VmError {
+    pub file: String,
+    pub line: usize,
+    pub message: String,
+}
+
+/// Runs the program in `path`; subprograms are looked up beside it.
+pub fn run_file(path: &Path, cfg: &Config, machine: &mut dyn Machine) -> Result<Run, VmError> {
+    let bytes = std::fs::read(path).map_err(|e| VmError {
+        file: path.display().to_string(),
+        line: 0,
+        message: e.to_string(),
+    })?;
+    let dir = path.parent().map(|d| {
+        if d.as_os_str().is_empty() {
+            Path::new(".").to_path_buf()
+        } else {
+            d.to_path_buf()
+        }
+    });
+    let unit = unit::Unit::new(path.display().to_string(), dir, crate::parse_owned(bytes));
+    interp::Interp::new(cfg, machine).run(unit)
+}
+
+/// Runs program text named `name`; subprograms are looked up in `dir` when given.
+pub fn run_source(
+    name: &str,
+    src: &[u8],
+    dir: Option<&Path>,
+    cfg: &Config,
+    machine: &mut dyn Machine,
+) -> Result<Run, VmError> {
+    let unit = unit::Unit::new(
+        name.to_string(),
+        dir.map(Path::to_path_buf),
+        crate::parse(src),
+    );
+    interp::Interp::new(cfg, machine).run(unit)
+}

@@ -1,0 +1,149 @@
+//! Passes and the machined error.
+//!
+//! A tool path segment is the run of feed moves between two rapid moves (or a spindle stop, tool change, or the
+//! end of the program) with the spindle turning. Its pass is what it cuts at its lowest programmed Z: the
+//! planar moves at that Z (weighted by length), or, when it has none there, the end points of the moves that
+//! reach it (a plunge). The machined error of a pass is the Z the tool centre point really was at minus the
+//! nominal Z, in µm: thermal drift plus the correction applied to the work offset since program start. Positive
+//! means material was left on the part.
+
+use serde::Serialize;
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Pass {
+    pub number: usize,
+    pub file: String,
+    /// Line of the first move that cut at the pass's depth.
+    pub line: usize,
+    pub start_min: f64,
+    pub end_min: f64,
+    /// Programmed Z of the pass (work coordinates).
+    pub nominal_z_mm: f64,
+    pub spindle_rpm: f64,
+    /// Mean machined error over the pass (µm).
+    pub error_um: f64,
+    /// Largest machined error in magnitude over the pass (µm).
+    pub worst_um: f64,
+}
+
+/// One cutting sample: where and when, its error and its weight (length of a planar move; 0 for a plunge end).
+#[derive(Debug, Clone)]
+pub struct Cut {
+    pub file: String,
+    pub line: usize,
+    pub start_min: f64,
+    pub end_min: f64,
+    pub z_mm: f64,
+    pub spindle_rpm: f64,
+    pub error_um: f64,
+    pub planar_length_mm: f64,
+}
+
+#[derive(Debug, Default)]
+pub struct PassTracker {
+    lowest: Option<f64>,
+    cuts: Vec<Cut>,
+    pub passes: Vec<Pass>,
+}
+
+const Z_EQUAL_MM: f64 = 1e-6;
+
+impl PassTracker {
+    /// A feed move with the spindle on that ends at `cut.z_mm`; `planar` when it started there too.
+    pub fn feed_move(&mut self, cut: Cut) {
+        let z = cut.z_mm;
+        match self.lowest {
+            Some(low) if z > low + Z_EQUAL_MM => return,
+            Some(low) if z >= low - Z_EQUAL_MM => {}
+            _ => {
+                self.lowest = Some(z);
+                self.cuts.clear();
+            }
+        }
+        self.cuts.push(cut);
+    }
+
+    /// Closes the current segment and records its pass.
+    pub fn end_segment(&mut self) {
+        self.lowest = None;
+        let cuts = std::mem::take(&mut self.cuts);
+        let planar: Vec<&Cut> = cuts.iter().filter(|c| c.planar_length_mm > 0.0).collect();
+        let used: Vec<&Cut> = if planar.is_empty() {
+            cuts.iter().collect()
+        } else {
+            planar
+        };
+        let (Some(first), Some(last)) = (used.first(), used.last()) else {
+            return;
+        };
+        let weight = |c: &Cut| {
+            if c.planar_length_mm > 0.0 {
+                c.planar_length_mm
+            } else {
+                1.0
+            }
+        };
+        let total: f64 = used.iter().map(|c| weight(c)).sum();
+        let mean = used.iter().map(|c| weight(c) * c.error_um).sum::<f64>() / total;
+        let worst = used
+            .iter()
+            .map(|c| c.error_um)
+            .fold(0.0_f64, |w, e| if e.abs() > w.abs() { e } else { w });
+        self.passes.push(Pass {
+            number: self.passes.len() + 1,
+            file: first.file.clone(),
+            line: first.line,
+            start_min: first.start_min,
+            end_min: last.end_min,
+            nominal_z_mm: first.z_mm,
+            spindle_rpm: first.spindle_rpm,
+            error_um: mean,
+            worst_um: worst,
+        });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cut(line: usize, z: f64, len: f64, err: f64) -> Cut {
+        Cut {
+            file: "p".into(),
+            line,
+            start_min: line as f64,
+            end_min: line as f64 + 1.0,
+            z_mm: z,
+            spindle_rpm: 1000.0,
+            error_um: err,
+            planar_length_mm: len,
+        }
+    }
+
+    #[test]
+    fn pass_is_the_planar_cut_at_the_lowest_z_weighted_by_length() {
+        let mut t = PassTracker::default();
+        t.feed_move(cut(1, -1.0, 0.0, 9.0)); // plunge to -1
+        t.feed_move(cut(2, -1.0, 30.0, 2.0));
+        t.feed_move(cut(3, -1.0, 10.0, 6.0));
+        t.feed_move(cut(4, 5.0, 0.0, 0.0)); // retract: above, ignored
+        t.end_segment();
+        assert_eq!(t.passes.len(), 1);
+        let p = &t.passes[0];
+        assert_eq!((p.line, p.nominal_z_mm), (2, -1.0));
+        assert!((p.error_um - 3.0).abs() < 1e-12);
+        assert_eq!(p.worst_um, 6.0);
+    }
+
+    #[test]
+    fn deeper_cut_replaces_and_plunge_alone_counts() {
+        let mut t = PassTracker::default();
+        t.feed_move(cut(1, -1.0, 10.0, 1.0));
+        t.feed_move(cut(2, -2.0, 0.0, -4.0));
+        t.end_segment();
+        t.end_segment();
+        assert_eq!(t.passes.len(), 1, "an empty segment is no pass");
+        assert_eq!(t.passes[0].nominal_z_mm, -2.0);
+        assert_eq!(t.passes[0].error_um, -4.0);
+    }
+}
