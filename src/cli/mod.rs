@@ -8,6 +8,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 
 mod demo;
 mod positioning;
+mod run;
 
 /// Options every subcommand understands.
 #[derive(Debug, Clone, clap::Args)]
@@ -55,6 +56,8 @@ enum Command {
     Demo(demo::Args),
     /// Positioning accuracy (DSTU/GOST 27843, VDI 3441, ISO 230-2) and compensation tables.
     Positioning(positioning::Args),
+    /// Dry run of an NC program on a virtual machine: time, passes, machined error, measurements.
+    Run(run::Args),
 }
 
 /// Entry point of the binary.
@@ -63,6 +66,7 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Demo(args) => demo::run(args, &cli.global),
         Command::Positioning(args) => positioning::run(args, &cli.global),
+        Command::Run(args) => run::run(args, &cli.global),
     };
     match result {
         Ok(code) => code,

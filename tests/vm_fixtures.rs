@@ -1,0 +1,266 @@
+//! Hand-written fixtures in fixtures/vm/: control structures, jumps, subprograms, frames, timing, and the
+//! measurement module's validity logic against a fake probe.
+
+use std::path::Path;
+
+use driftloop::vm::{
+    Config, End, ProbeFault, Run, SimpleMachine, SpindleHistory, run_file, run_source,
+};
+
+fn fixture(name: &str) -> std::path::PathBuf {
+    Path::new("fixtures/vm").join(name)
+}
+
+fn run(name: &str, cfg: &Config, machine: &mut SimpleMachine) -> Run {
+    run_file(&fixture(name), cfg, machine).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn last_machine(run: &Run) -> Vec<f64> {
+    run.trace.last().unwrap().machine[..3].to_vec()
+}
+
+fn messages(run: &Run) -> Vec<&str> {
+    run.messages.iter().map(|m| m.text.as_str()).collect()
+}
+
+#[test]
+fn loops_case_and_int_rounding() {
+    let r = run("loops.mpf", &Config::default(), &mut SimpleMachine::cold());
+    assert_eq!(
+        messages(&r),
+        ["four", "rounded", "SUM=55 I=-1 J=4 A=4.5"],
+        "FOR sums 1..10, WHILE counts to 5, REPEAT steps to -1, LOOP leaves at 4, 7/2 rounds to INT 4"
+    );
+    assert_eq!(last_machine(&r), [55.0, -1.0, 4.0]);
+    assert_eq!(r.end, End::ProgramEnd { code: "M30".into() });
+}
+
+#[test]
+fn jumps_search_in_their_direction() {
+    let r = run("jumps.mpf", &Config::default(), &mut SimpleMachine::cold());
+    assert_eq!(last_machine(&r)[..2], [3.0, 1.0]);
+    let lines: Vec<usize> = r.trace.iter().map(|t| t.line).collect();
+    for skipped in [5, 9, 14] {
+        assert!(
+            !lines.contains(&skipped),
+            "line {skipped} must be jumped over: {lines:?}"
+        );
+    }
+    assert_eq!(
+        lines.iter().filter(|&&l| l == 6).count(),
+        3,
+        "TWICE runs three times"
+    );
+}
+
+#[test]
+fn subprograms_with_parameters_repetitions_and_save() {
+    let r = run(
+        "subprograms.mpf",
+        &Config::default(),
+        &mut SimpleMachine::cold(),
+    );
+    assert_eq!(last_machine(&r), [10.5, 3.0, 1.0]);
+    let l100 = r
+        .trace
+        .iter()
+        .filter(|t| t.file == "L100.spf" && t.line == 3)
+        .count();
+    assert_eq!(l100, 3, "L100 P3 runs the subprogram three times");
+}
+
+#[test]
+fn settable_frames_act_when_selected_and_trans_replaces_atrans_adds() {
+    let cfg = Config {
+        offsets: vec![(1, "Z".into(), -100.0)],
+        ..Config::default()
+    };
+    let r = run("frames.mpf", &cfg, &mut SimpleMachine::cold());
+    let at = |line: usize| {
+        r.trace
+            .iter()
+            .find(|t| t.line == line)
+            .unwrap()
+            .machine
+            .clone()
+    };
+    assert_eq!(at(3)[2], 10.0);
+    assert_eq!(at(5)[2], -90.0);
+    assert_eq!(
+        at(7)[2],
+        -95.0,
+        "the written frame is not active before G54 is selected again"
+    );
+    assert!((at(9)[2] + 94.98).abs() < 1e-9);
+    assert_eq!(at(12)[0], 110.0);
+    assert_eq!(at(14)[0], 115.0);
+    assert_eq!(at(16)[0], 10.0);
+    assert_eq!(r.corrections.len(), 1);
+    assert!((r.corrections[0].new_mm - r.corrections[0].old_mm - 0.02).abs() < 1e-12);
+}
+
+#[test]
+fn time_follows_path_length_feed_rapid_dwell_and_tool_change() {
+    let r = run("timing.mpf", &Config::default(), &mut SimpleMachine::cold());
+    let expected =
+        100.0 / 10_000.0 + 100.0 / 1000.0 + 50.0 * std::f64::consts::PI / 500.0 + 0.5 + 0.1;
+    assert!(
+        (r.time_min - expected).abs() < 1e-9,
+        "{} vs {expected}",
+        r.time_min
+    );
+}
+
+#[test]
+fn unsupported_constructs_and_runaway_loops_name_the_line() {
+    let cfg = Config::default();
+    let err = |src: &str, cfg: &Config| {
+        run_source(
+            "t.mpf",
+            src.as_bytes(),
+            None,
+            cfg,
+            &mut SimpleMachine::cold(),
+        )
+        .unwrap_err()
+    };
+    let e = err("G1 X1 F100\nG33 Z-5 K1\n", &cfg);
+    assert_eq!((e.line, e.file.as_str()), (2, "t.mpf"));
+    assert!(e.message.contains("G33"), "{e}");
+    let e = err("ROT Z45\n", &cfg);
+    assert!(e.to_string().starts_with("t.mpf:1: ROT"), "{e}");
+    let e = err("R1=1\nGOTOF NOWHERE\n", &cfg);
+    assert!(e.message.contains("14080") && e.line == 2, "{e}");
+    let e = err("G1 X10\n", &cfg);
+    assert!(e.message.contains("feed"), "{e}");
+    let e = err("X=UNDECLARED\n", &cfg);
+    assert!(e.message.contains("UNDECLARED"), "{e}");
+    let e = err("N10 MYCYCLE(1)\n", &cfg);
+    assert!(e.message.contains("MYCYCLE"), "{e}");
+    let limited = Config {
+        max_blocks: 1000,
+        ..Config::default()
+    };
+    let e = err("LBL: R1=R1+1\nGOTOB LBL\n", &limited);
+    assert!(e.message.contains("iteration limit of 1000"), "{e}");
+}
+
+// ---- the measurement module against a fake probe ----
+
+/// A spindle-driven first-order lag: the drift of Z approaches `um_per_krpm · rpm / 1000` with time constant
+/// `tau_min`, exactly integrated over the piecewise-constant spindle history.
+fn lag(um_per_krpm: f64, tau_min: f64) -> impl FnMut(&str, f64, &SpindleHistory) -> f64 {
+    move |axis, t, spindle| {
+        if axis != "Z" {
+            return 0.0;
+        }
+        spindle.intervals(t).fold(0.0, |x, (a, b, rpm)| {
+            let target = um_per_krpm * rpm / 1000.0;
+            target + (x - target) * (-(b - a) / tau_min).exp()
+        })
+    }
+}
+
+fn omm_config() -> Config {
+    Config {
+        offsets: vec![(1, "Z".into(), -100.0)],
+        probe_surface_mm: -100.0,
+        ..Config::default()
+    }
+}
+
+fn omm(machine: &mut SimpleMachine) -> Run {
+    run("omm/omm_main.mpf", &omm_config(), machine)
+}
+
+#[test]
+fn valid_measurements_correct_the_work_offset() {
+    let r = omm(&mut SimpleMachine::with_drift(lag(8.0, 30.0)));
+    assert_eq!(r.end, End::ProgramEnd { code: "M30".into() });
+    assert!(r.alarms.is_empty());
+    assert_eq!(
+        r.measurements.len(),
+        6,
+        "zero and one measurement, three agreeing values each"
+    );
+    assert_eq!(r.corrections.len(), 1);
+    let c = &r.corrections[0];
+    let seen = r.measurements[4].true_drift_um - r.measurements[1].true_drift_um;
+    assert!(
+        ((c.new_mm - c.old_mm) * 1000.0 + seen).abs() < 0.2,
+        "correction cancels the drift seen"
+    );
+    assert_eq!(r.passes.len(), 2);
+    let uncorrected = r.measurements[5].true_drift_um;
+    assert!(uncorrected > 10.0, "the machine did heat: {uncorrected}");
+    assert!(r.passes[1].error_um.abs() < 1.0, "{:?}", r.passes[1]);
+    assert_eq!(r.files["DL_LOG"].lines().count(), 6);
+}
+
+#[test]
+fn implausible_values_are_repeated_and_never_reach_the_correction() {
+    let mut m = SimpleMachine::with_drift(lag(8.0, 30.0))
+        .fault(2, ProbeFault::Garbage)
+        .fault(5, ProbeFault::Nan)
+        .fault(6, ProbeFault::Nothing);
+    let r = omm(&mut m);
+    assert!(r.alarms.is_empty());
+    assert_eq!(r.measurements.len(), 9, "each bad value is repeated");
+    assert_eq!(
+        r.files["DL_LOG"].lines().count(),
+        6,
+        "only valid values are logged"
+    );
+    let c = &r.corrections[0];
+    assert!(
+        (c.new_mm - c.old_mm).abs() < 0.05,
+        "no garbage in the correction: {c:?}"
+    );
+    assert!(r.passes[1].error_um.abs() < 1.0);
+}
+
+#[test]
+fn too_few_valid_values_stop_with_an_alarm_and_no_correction() {
+    let mut m = SimpleMachine::with_drift(lag(8.0, 30.0));
+    for call in 4..=8 {
+        m = m.fault(call, ProbeFault::Garbage);
+    }
+    let r = omm(&mut m);
+    assert_eq!(r.end, End::Alarm { number: 65001 });
+    assert_eq!(r.measurements.len(), 8, "five attempts, then the stop");
+    assert!(r.corrections.is_empty());
+    assert_eq!(r.passes.len(), 1, "the finishing pass is not cut");
+    assert!(messages(&r)[0].starts_with("PROBE: fewer than 3"));
+}
+
+#[test]
+fn drift_beyond_the_tolerance_stops_as_scrap() {
+    let r = omm(&mut SimpleMachine::with_drift(lag(20.0, 10.0)));
+    assert_eq!(r.end, End::Alarm { number: 65002 });
+    assert!(r.corrections.is_empty());
+    let msg = messages(&r)[0];
+    assert!(
+        msg.starts_with("SCRAP: drift 6") && msg.ends_with("before pass 2"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn probe_noise_is_reproducible_per_seed() {
+    let values = |seed| {
+        let mut m = SimpleMachine::with_drift(lag(8.0, 30.0)).noise(0.5, seed);
+        omm(&mut m)
+            .measurements
+            .iter()
+            .map(|m| m.value_mm)
+            .collect::<Vec<f64>>()
+    };
+    assert_eq!(values(3), values(3));
+    assert_ne!(values(3), values(4));
+}
+
+#[test]
+fn human_report_snapshot() {
+    let r = omm(&mut SimpleMachine::with_drift(lag(8.0, 30.0)));
+    insta::assert_snapshot!(r.human());
+}
