@@ -52,7 +52,15 @@ impl RawLine {
 /// Splits `src` into lines at LF, CRLF and lone CR. An empty input has no lines; a final line without a
 /// terminator is still a line.
 pub fn raw_lines(src: &[u8]) -> RawLines<'_> {
-    RawLines { src, pos: 0 }
+    raw_lines_in(src, 0, src.len())
+}
+
+/// The lines of `src[start..end]` with offsets into `src`; `start` and `end` must be line boundaries.
+pub fn raw_lines_in(src: &[u8], start: usize, end: usize) -> RawLines<'_> {
+    RawLines {
+        src: &src[..end],
+        pos: start,
+    }
 }
 
 pub struct RawLines<'a> {

@@ -3,7 +3,8 @@
 //! targets and work-offset selections.
 //!
 //! Names are compared upper-cased (the control ignores case). A name of one letter with optional digits
-//! (`X`, `X1`, `M3`) is an address or axis, never a user variable.
+//! (`X`, `X1`, `M3`) is an address or axis, and the predefined addresses (`CR`, `ANG`, `SPOS`, `ID`, …) are
+//! not user variables either.
 
 use std::collections::BTreeSet;
 
@@ -116,6 +117,13 @@ const AXIS_LETTERS: &[u8] = b"XYZABCUVW";
 const FRAME_COMMANDS: &[&str] = &[
     "SUPA", "TRANS", "ATRANS", "CTRANS", "ROT", "AROT", "CROT", "ROTS", "AROTS", "SCALE", "ASCALE",
     "CSCALE", "MIRROR", "AMIRROR", "CMIRROR",
+];
+
+/// Predefined addresses that take `=` but are not variables (arc radius, chamfer, spindle positioning, …).
+const PREDEFINED_ADDRESSES: &[&str] = &[
+    "CR", "AR", "AP", "RP", "ANG", "RND", "RNDM", "CHF", "CHR", "SPOS", "SPOSA", "OFFN", "PRIO",
+    "ID", "IDS", "AX", "FA", "FL", "POS", "POSA", "ACC", "OVR", "SF", "DISC", "DISR", "DISCL",
+    "FAD", "TRUE", "FALSE",
 ];
 
 fn upper(bytes: &[u8]) -> String {
@@ -372,7 +380,9 @@ fn var_name(block: &Block<'_>, node: &Node) -> Option<VarName> {
             };
             Some(VarName::R(literal))
         }
-        _ if address_parts(&name).is_some() || matches!(name.as_str(), "TRUE" | "FALSE") => None,
+        _ if address_parts(&name).is_some() || PREDEFINED_ADDRESSES.contains(&name.as_str()) => {
+            None
+        }
         _ => Some(VarName::User(name)),
     }
 }

@@ -92,3 +92,29 @@ fn diagnostics_are_sorted_by_position() {
     sorted.sort();
     assert_eq!(starts, sorted);
 }
+
+#[test]
+fn label_names_follow_the_control_rules() {
+    let p = parse(b"_1LBL: X1\nA: X2\nOK_1: X3\n");
+    assert_eq!(
+        errors(&p),
+        vec![
+            "1:1 label names have 2 to 32 characters, the first two letters or `_`",
+            "2:1 label names have 2 to 32 characters, the first two letters or `_`"
+        ]
+    );
+}
+
+#[test]
+fn error_spans_cover_whole_utf8_characters_only_when_valid() {
+    let span_of = |src: &[u8]| parse(src).diagnostics()[0].span;
+    assert_eq!(span_of("G1 X=\u{fc}\n".as_bytes()).len(), 2, "ü in UTF-8");
+    assert_eq!(span_of("R1=5 \u{20ac}\n".as_bytes()).len(), 3, "€ in UTF-8");
+    assert_eq!(
+        span_of(b"\n\xef\xbb\xbf \n").len(),
+        3,
+        "a BOM in the middle of the file"
+    );
+    assert_eq!(span_of(b"G1 X=\xfc\n").len(), 1, "Latin-1 ü");
+    assert_eq!(span_of(b"G1 X=\xe2\x82\n").len(), 1, "truncated sequence");
+}

@@ -73,7 +73,14 @@ fn parse_never_panics_on_odd_bytes() {
         b"\x00\x01\x02 G1 \xff",
         b"N N: :: /// $ $[ R[ R[1 'H 'Bx' GOTOF \"",
     ];
-    for src in odd {
+    let deep = [
+        [&b"X="[..], &b"(".repeat(100_000)].concat(),
+        [&b"R1="[..], &b"-".repeat(100_000), b"1"].concat(),
+        [&b"IF "[..], &b"NOT ".repeat(50_000), b"A"].concat(),
+        [&b"R1=SIN("[..], &b"COS(".repeat(50_000)].concat(),
+        b"R[".repeat(50_000),
+    ];
+    for src in odd.iter().copied().chain(deep.iter().map(|d| d.as_slice())) {
         let program = parse(src);
         assert_eq!(program.to_bytes(), src);
         for block in program.blocks() {
@@ -81,4 +88,35 @@ fn parse_never_panics_on_odd_bytes() {
             assert_eq!(len, block.span().len());
         }
     }
+}
+
+#[test]
+fn json_dump_holds_every_block_tree_and_the_diagnostics() {
+    let src = syntax_support::fixture("errors.mpf");
+    let program = parse(&src);
+    let json: serde_json::Value = serde_json::to_value(&program).unwrap();
+    let blocks = json["blocks"].as_array().unwrap();
+    assert_eq!(blocks.len(), program.block_count());
+    assert_eq!(blocks[0]["kind"], "if");
+    assert_eq!(blocks[0]["tree"]["kind"], "Block");
+    fn leaf_text(node: &serde_json::Value, out: &mut String) {
+        match node["children"].as_array() {
+            Some(children) => children.iter().for_each(|c| leaf_text(c, out)),
+            None => out.push_str(node["text"].as_str().unwrap()),
+        }
+    }
+    let mut text = String::new();
+    blocks.iter().for_each(|b| leaf_text(&b["tree"], &mut text));
+    assert_eq!(
+        text.as_bytes(),
+        src,
+        "an ASCII file's leaf texts add up to the file"
+    );
+    let diagnostics = json["diagnostics"].as_array().unwrap();
+    assert_eq!(diagnostics.len(), program.diagnostics().len());
+    assert_eq!(diagnostics[0]["severity"], "error");
+    assert_eq!(
+        diagnostics[0]["span"]["start"],
+        program.diagnostics()[0].span.start
+    );
 }

@@ -198,3 +198,12 @@ fn labels_and_block_numbers() {
         ]
     );
 }
+
+#[test]
+fn predefined_addresses_are_not_user_variables() {
+    let p = parse(b"G2 X10 Y0 CR=5 ANG=30 SPOS=90 ID=1 WHENEVER TRUE DO LIMIT=2\n");
+    assert_eq!(
+        user_variables(&p).into_iter().collect::<Vec<_>>(),
+        vec!["LIMIT".to_string()]
+    );
+}
