@@ -9,6 +9,8 @@ use clap::{Parser, Subcommand, ValueEnum};
 mod demo;
 mod positioning;
 mod run;
+mod fit;
+mod predict;
 
 /// Options every subcommand understands.
 #[derive(Debug, Clone, clap::Args)]
@@ -58,6 +60,10 @@ enum Command {
     Positioning(positioning::Args),
     /// Dry run of an NC program on a virtual machine: time, passes, machined error, measurements.
     Run(run::Args),
+    /// Fit the thermal drift model of one displacement channel from measured data.
+    Fit(fit::Args),
+    /// Predict drift for a spindle schedule or the inputs of a data file.
+    Predict(predict::Args),
 }
 
 /// Entry point of the binary.
@@ -67,6 +73,8 @@ pub fn main() -> ExitCode {
         Command::Demo(args) => demo::run(args, &cli.global),
         Command::Positioning(args) => positioning::run(args, &cli.global),
         Command::Run(args) => run::run(args, &cli.global),
+        Command::Fit(args) => fit::run(args, &cli.global),
+        Command::Predict(args) => predict::run(args, &cli.global),
     };
     match result {
         Ok(code) => code,
