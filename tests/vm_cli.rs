@@ -74,3 +74,47 @@ fn unsupported_construct_exits_2_naming_the_line() {
     let err = String::from_utf8(out.stderr).unwrap();
     assert!(err.contains("bad.mpf:2: AROT"), "{err}");
 }
+
+#[test]
+fn machine_file_with_a_model_drives_the_truth() {
+    let out = driftloop(&[
+        "run",
+        "fixtures/vm/omm/omm_main.mpf",
+        "--machine",
+        "fixtures/vm/machines/model_truth.toml",
+        "--probe-noise",
+        "0",
+        "--format",
+        "json",
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let m = &v["measurements"][3];
+    let on = v["spindle"]["steps"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s[1] == 4000.0)
+        .map(|s| s[0].as_f64().unwrap())
+        .unwrap();
+    let t_abs = m["at"]["time_min"].as_f64().unwrap();
+    let t = t_abs - on;
+    // Two lags at 4000 rpm from cold (14 µm, 12 min; 26 µm, 95 min) plus the creep of 2 µm per 240 min.
+    let expected =
+        14.0 * (1.0 - (-t / 12.0).exp()) + 26.0 * (1.0 - (-t / 95.0).exp()) + 2.0 * t_abs / 240.0;
+    let got = m["true_drift_um"].as_f64().unwrap();
+    assert!(
+        (got - expected).abs() < 1e-9,
+        "{got} vs {expected} at {t_abs} min"
+    );
+    assert_eq!(
+        m["result"]["value"].as_f64().unwrap(),
+        got,
+        "no noise asked for"
+    );
+}

@@ -45,7 +45,8 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     if let Some(path) = &args.machine {
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("cannot read {}", path.display()))?;
-        (cfg, spec) = vm::parse_machine_file(&text, cfg)
+        let dir = path.parent().unwrap_or(Path::new("."));
+        (cfg, spec) = vm::parse_machine_file(&text, dir, cfg)
             .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     }
     if let Some(noise) = args.probe_noise {

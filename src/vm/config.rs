@@ -14,15 +14,19 @@
 //! faults = [{ call = 3, kind = "nan" }]
 //! [offsets]                 # settable work offsets at program start, $P_UIFR[n]
 //! G54 = { Z = -120.0 }
-//! [drift]                   # truth: piecewise-linear drift per axis, [minutes, µm] points
-//! Z = [[0, 0], [240, -38]]
+//! [models]                  # truth: a driftloop model file per axis (path relative to this file)
+//! Z = { file = "truth.toml", scale = 1.0 }
+//! [drift]                   # plus piecewise-linear drift per axis, [minutes, µm] points: effects the
+//! Z = [[0, 0], [240, -3]]   # model does not declare, or the whole truth when there is no model
 //! ```
 
 use std::collections::BTreeMap;
+use std::path::Path;
 
 use serde::Deserialize;
 
 use super::machine::{ProbeFault, SimpleMachine};
+use super::truth::ModelDrift;
 
 /// What the interpreter needs to know about the machine and the run.
 #[derive(Debug, Clone)]
@@ -83,7 +87,21 @@ struct MachineFile {
     offsets: BTreeMap<String, BTreeMap<String, f64>>,
     #[serde(default)]
     drift: BTreeMap<String, Vec<[f64; 2]>>,
+    #[serde(default)]
+    models: BTreeMap<String, ModelRef>,
     axes: Option<Vec<String>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ModelRef {
+    file: String,
+    #[serde(default = "one")]
+    scale: f64,
+}
+
+fn one() -> f64 {
+    1.0
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -121,17 +139,20 @@ pub struct MachineSpec {
     pub faults: Vec<(usize, ProbeFault)>,
     /// Piecewise-linear drift per upper-cased axis: `(minutes, µm)` points in time order.
     pub drift: BTreeMap<String, Vec<(f64, f64)>>,
+    /// Model-driven drift per upper-cased axis (added to the piecewise-linear part).
+    pub models: BTreeMap<String, ModelDrift>,
 }
 
 impl MachineSpec {
-    /// The machine: drift interpolated linearly between the points (held flat outside them), probe noise from
-    /// `seed`.
+    /// The machine: the model's drift for the spindle history plus the points interpolated linearly (held flat
+    /// outside them), probe noise from `seed`.
     pub fn build(&self, seed: u64) -> SimpleMachine {
         let table = self.drift.clone();
-        let mut m = SimpleMachine::with_drift(move |axis, t, _| {
-            table
-                .get(&axis.to_ascii_uppercase())
-                .map_or(0.0, |pts| interpolate(pts, t))
+        let models = self.models.clone();
+        let mut m = SimpleMachine::with_drift(move |axis, t, spindle| {
+            let axis = axis.to_ascii_uppercase();
+            let listed = table.get(&axis).map_or(0.0, |pts| interpolate(pts, t));
+            listed + models.get(&axis).map_or(0.0, |m| m.at(t, spindle))
         })
         .noise(self.noise_um, seed);
         for &(call, kind) in &self.faults {
@@ -157,8 +178,13 @@ fn interpolate(points: &[(f64, f64)], t: f64) -> f64 {
     points.last().map_or(0.0, |p| p.1)
 }
 
-/// Reads a machine file into interpreter settings (starting from `base`) and a machine spec.
-pub fn parse_machine_file(text: &str, base: Config) -> Result<(Config, MachineSpec), String> {
+/// Reads a machine file into interpreter settings (starting from `base`) and a machine spec; model files are
+/// found relative to `dir`.
+pub fn parse_machine_file(
+    text: &str,
+    dir: &Path,
+    base: Config,
+) -> Result<(Config, MachineSpec), String> {
     let file: MachineFile = toml::from_str(text).map_err(|e| e.to_string())?;
     let mut cfg = base;
     let t = file.timing;
@@ -192,10 +218,18 @@ pub fn parse_machine_file(text: &str, base: Config) -> Result<(Config, MachineSp
         }
         drift.insert(axis.to_ascii_uppercase(), pts);
     }
+    let mut models = BTreeMap::new();
+    for (axis, m) in file.models {
+        let model =
+            crate::model::DriftModel::read(&dir.join(&m.file)).map_err(|e| e.to_string())?;
+        let truth = ModelDrift::new(model, m.scale).map_err(|e| format!("models.{axis}: {e}"))?;
+        models.insert(axis.to_ascii_uppercase(), truth);
+    }
     let spec = MachineSpec {
         noise_um: p.noise_um.unwrap_or(0.0),
         faults: p.faults.iter().map(|f| (f.call, f.kind)).collect(),
         drift,
+        models,
     };
     Ok((cfg, spec))
 }
@@ -238,7 +272,7 @@ G54 = { z = -100.0 }
 [drift]
 z = [[0, 0], [100, -20]]
 "#;
-        let (cfg, spec) = parse_machine_file(text, Config::default()).unwrap();
+        let (cfg, spec) = parse_machine_file(text, Path::new("."), Config::default()).unwrap();
         assert_eq!(cfg.rapid_mm_min, 20000.0);
         assert!((cfg.tool_change_min - 0.2).abs() < 1e-12);
         assert_eq!(cfg.probe_cycles, vec!["BL9700"]);
@@ -255,10 +289,22 @@ z = [[0, 0], [100, -20]]
 
     #[test]
     fn machine_file_errors_name_the_field() {
-        let e = parse_machine_file("[offsets]\nG53 = { Z = 1.0 }", Config::default()).unwrap_err();
+        let e = parse_machine_file(
+            "[offsets]\nG53 = { Z = 1.0 }",
+            Path::new("."),
+            Config::default(),
+        )
+        .unwrap_err();
         assert!(e.contains("G53"), "{e}");
-        let e = parse_machine_file("[timing]\nrapid_mm_min = 0", Config::default()).unwrap_err();
+        let e = parse_machine_file(
+            "[timing]\nrapid_mm_min = 0",
+            Path::new("."),
+            Config::default(),
+        )
+        .unwrap_err();
         assert!(e.contains("rapid_mm_min"), "{e}");
-        assert!(parse_machine_file("[timing]\nrapid = 1", Config::default()).is_err());
+        assert!(
+            parse_machine_file("[timing]\nrapid = 1", Path::new("."), Config::default()).is_err()
+        );
     }
 }

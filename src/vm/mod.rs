@@ -17,6 +17,7 @@ mod machine;
 mod motion;
 mod passes;
 mod report;
+mod truth;
 mod unit;
 mod value;
 
@@ -28,6 +29,7 @@ pub use machine::{
 };
 pub use passes::Pass;
 pub use report::{Alarm, At, Correction, End, Measurement, Message, Run, Totals, TraceRow};
+pub use truth::ModelDrift;
 
 /// A program the dry run cannot carry on with: unsupported construct, undefined variable, missing jump target,
 /// iteration limit. Names the file and line.
