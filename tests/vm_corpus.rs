@@ -191,3 +191,33 @@ fn corpus_positions_agree_with_the_reference_interpreter() {
         surprises.join("\n")
     );
 }
+
+/// Real programs of the corpus run to their end: 5-axis CAM output (SUPA, CYCLE800(), tool names as strings)
+/// and an 828D warm-up routine in inch (G70/G700) calling a PROC subprogram from the control's subprogram
+/// folder, whose spindle schedule is what the thermal model needs.
+#[test]
+fn real_corpus_programs_run_to_their_end() {
+    let corpus = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus");
+    if !corpus.is_dir() {
+        eprintln!("skipping: {} is absent", corpus.display());
+        return;
+    }
+    let cam = corpus.join("sinumerik-840d-sl-cas-package/Approach A/CAM TEST.MPF");
+    let run = run_file(&cam, &Config::default(), &mut SimpleMachine::cold()).unwrap();
+    assert_eq!(run.end, driftloop::vm::End::ProgramEnd { code: "M30".into() });
+    assert!(run.spindle.steps.iter().any(|s| s.1 == 1061.0));
+    assert!(!run.passes.is_empty());
+
+    let warmup = corpus.join("syil-x7-warmup-routines");
+    let cfg = Config {
+        subprogram_dirs: vec![warmup.join("subroutines")],
+        ..Config::default()
+    };
+    let run = run_file(&warmup.join("routines/DAILY.MPF"), &cfg, &mut SimpleMachine::cold()).unwrap();
+    let speeds: Vec<f64> = run.spindle.steps.iter().map(|s| s.1).collect();
+    assert_eq!(speeds, [3600.0, 7200.0, 0.0], "30 % then 60 % of the top speed, then M5");
+    // Each call runs 600 s / 15 s = 40 cycles of the same moves, so both speeds last equally long.
+    let steps = &run.spindle.steps;
+    let (first, second) = (steps[1].0 - steps[0].0, steps[2].0 - steps[1].0);
+    assert!((first - second).abs() < 1e-9 && first > 1.0, "{first} vs {second} min");
+}

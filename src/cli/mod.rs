@@ -7,10 +7,10 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand, ValueEnum};
 
 mod demo;
-mod positioning;
-mod run;
 mod fit;
+mod positioning;
 mod predict;
+mod run;
 
 /// Options every subcommand understands.
 #[derive(Debug, Clone, clap::Args)]

@@ -23,6 +23,9 @@ pub struct Args {
     /// Seed of the probe noise.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Further folder searched for subprograms (after the program's own); repeatable.
+    #[arg(long = "subprograms", value_name = "DIR")]
+    pub subprogram_dirs: Vec<PathBuf>,
     /// Executed blocks after which the run is stopped as an endless loop.
     #[arg(long, default_value_t = 1_000_000)]
     pub max_blocks: u64,
@@ -49,6 +52,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         (cfg, spec) = vm::parse_machine_file(&text, dir, cfg)
             .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     }
+    cfg.subprogram_dirs = args.subprogram_dirs;
     if let Some(noise) = args.probe_noise {
         anyhow::ensure!(
             noise >= 0.0 && noise.is_finite(),

@@ -50,6 +50,8 @@ pub struct Config {
     pub probe_min: f64,
     /// Settable work offsets at the start, `(frame number, axis, value)`: G54 is frame 1.
     pub offsets: Vec<(usize, String, f64)>,
+    /// Folders searched for subprograms after the calling program's own folder.
+    pub subprogram_dirs: Vec<std::path::PathBuf>,
     /// Executed blocks after which the run stops with an error (endless loops).
     pub max_blocks: u64,
     /// Keep a trace row per executed block.
@@ -70,6 +72,7 @@ impl Default for Config {
             probe_surface_mm: 0.0,
             probe_min: 0.05,
             offsets: Vec::new(),
+            subprogram_dirs: Vec::new(),
             max_blocks: 1_000_000,
             trace: true,
         }

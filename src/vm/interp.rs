@@ -64,9 +64,11 @@ struct Words {
     ret: bool,
 }
 
-/// Commands that change nothing the dry run models (display, single block, acceleration and look-ahead modes),
-/// accepted by name.
+/// Commands that change nothing the dry run models (display, single block, acceleration and look-ahead modes,
+/// the default feed profile; TRAFOOF because no kinematic transformation is modelled), accepted by name.
 const NO_EFFECT_COMMANDS: &[&str] = &[
+    "FNORM",
+    "TRAFOOF",
     "STOPRE",
     "DISPLOF",
     "DISPLON",
@@ -84,6 +86,8 @@ const NO_EFFECT_COMMANDS: &[&str] = &[
     "STARTFIFO",
     "SAVE",
 ];
+
+const MM_PER_INCH: f64 = 25.4;
 
 /// Frame commands that take axis values; the bare form of an absolute one deletes the programmable frame.
 const ABSOLUTE_FRAMES: &[&str] = &["TRANS", "ROT", "SCALE", "MIRROR"];
@@ -479,8 +483,8 @@ impl<'m> Interp<'m> {
                 NodeKind::Goto => {}
                 NodeKind::Case => w.jump = self.case(u, i, node)?,
                 NodeKind::Def => self.def(u, node)?,
-                // Parameters are bound when the program is called.
-                NodeKind::Proc => {}
+                // Parameters are bound when the program is called; EXTERN only declares a signature.
+                NodeKind::Proc | NodeKind::Extern => {}
                 NodeKind::ProgramCall => self.program_call(u, node, &mut w)?,
                 k => {
                     return Err(format!(
@@ -812,6 +816,12 @@ impl<'m> Interp<'m> {
                 content.push('\n');
                 self.store(u, status, Value::Num(0.0), w)?;
             }
+            // Master spindle 1 is the only spindle; CYCLE800() without values resets the swivel plane.
+            "SETMS"
+                if values
+                    .iter()
+                    .all(|v| v.as_ref().is_none_or(|v| *v == Value::Num(1.0))) => {}
+            "CYCLE800" if values.iter().all(Option::is_none) => {}
             _ if self.cfg.probe_cycles.contains(&name) => {
                 let nums = values
                     .iter()
@@ -851,22 +861,31 @@ impl<'m> Interp<'m> {
         }
     }
 
-    /// Finds `NAME.SPF` / `NAME.MPF` (any case, or `_N_NAME_SPF`) beside the calling program.
+    /// Finds `NAME.SPF` / `NAME.MPF` (any case, or `_N_NAME_SPF`) beside the calling program, then in the
+    /// configured subprogram folders (the control's SPF directory).
     fn load(&mut self, from: &Unit, name: &str) -> Result<Rc<Unit>, String> {
-        let Some(dir) = from.dir.clone() else {
+        let dirs: Vec<PathBuf> = from
+            .dir
+            .iter()
+            .chain(&self.cfg.subprogram_dirs)
+            .cloned()
+            .collect();
+        let found = dirs.iter().find_map(|dir| {
+            let listing = self
+                .listings
+                .entry(dir.clone())
+                .or_insert_with(|| list_programs(dir));
+            listing.get(name).map(|path| (dir.clone(), path.clone()))
+        });
+        let Some((dir, path)) = found else {
+            let searched: Vec<String> = dirs.iter().map(|d| d.display().to_string()).collect();
             return Err(format!(
-                "{name}: subprogram calls need the program to be read from a file"
-            ));
-        };
-        let listing = self
-            .listings
-            .entry(dir.clone())
-            .or_insert_with(|| list_programs(&dir));
-        let Some(path) = listing.get(name).cloned() else {
-            return Err(format!(
-                "{name} is neither a supported command nor a subprogram beside the program \
-                 (no {name}.SPF or {name}.MPF in {})",
-                dir.display()
+                "{name} is neither a supported command nor a subprogram (no {name}.SPF or {name}.MPF in {})",
+                if searched.is_empty() {
+                    "any folder: the program was not read from a file".to_string()
+                } else {
+                    searched.join(", ")
+                }
             ));
         };
         if let Some(unit) = self.loaded.get(&path) {
@@ -958,7 +977,10 @@ impl<'m> Interp<'m> {
                 54..=57 => self.motion.frames.select(g as usize - 53),
                 505..=599 => self.motion.frames.select(g as usize - 500),
                 500 => self.motion.frames.select(0),
-                71 | 710 => {}
+                70 | 700 | 71 | 710 => {
+                    modal.inch = matches!(g, 70 | 700);
+                    modal.inch_feed = g == 700;
+                }
                 90 => modal.absolute = true,
                 91 => modal.absolute = false,
                 94 => modal.feed_per_rev = false,
@@ -966,8 +988,25 @@ impl<'m> Interp<'m> {
                 _ => return Err(format!("G{g} is not supported by the dry run")),
             }
         }
+        let mut w = w;
+        if self.motion.modal.inch {
+            for (_, _, v) in &mut w.axes {
+                *v *= MM_PER_INCH;
+            }
+            for (v, _) in w.centre.iter_mut().flatten() {
+                *v *= MM_PER_INCH;
+            }
+            if let Some(cr) = &mut w.cr {
+                *cr *= MM_PER_INCH;
+            }
+        }
         if let Some(f) = w.feed.filter(|_| !dwell) {
-            self.motion.modal.feed = Some(f);
+            let unit = if self.motion.modal.inch_feed {
+                MM_PER_INCH
+            } else {
+                1.0
+            };
+            self.motion.modal.feed = Some(f * unit);
         }
         if let Some(s) = w.s.filter(|_| !dwell) {
             self.motion.s = s;

@@ -68,6 +68,9 @@ pub struct Modal {
     pub plane: [Option<usize>; 3],
     pub feed: Option<f64>,
     pub feed_per_rev: bool,
+    /// G70 / G700: lengths in inch (G700 also the feed).
+    pub inch: bool,
+    pub inch_feed: bool,
 }
 
 /// What `PROC … SAVE` restores on return: modal G codes and frames.
@@ -108,6 +111,8 @@ impl State {
                 plane: [Some(0), Some(1), Some(2)],
                 feed: None,
                 feed_per_rev: false,
+                inch: false,
+                inch_feed: false,
             },
             frames: Frames::new(axes),
             s: 0.0,
