@@ -264,3 +264,36 @@ fn human_report_snapshot() {
     let r = omm(&mut SimpleMachine::with_drift(lag(8.0, 30.0)));
     insta::assert_snapshot!(r.human());
 }
+
+#[test]
+fn uncompensated_stepped_surface_is_cut_off_by_the_true_drift() {
+    let text = std::fs::read_to_string("fixtures/vm/machines/model_truth.toml").unwrap();
+    let (cfg, spec) = driftloop::vm::parse_machine_file(
+        &text,
+        Path::new("fixtures/vm/machines"),
+        Config::default(),
+    )
+    .unwrap();
+    let r = run("stepped_surface.mpf", &cfg, &mut spec.build(1));
+    let z: Vec<f64> = r.passes.iter().map(|p| p.nominal_z_mm).collect();
+    assert_eq!(z, [0.0, -0.5, -1.0, -1.5, -2.0, -2.5]);
+    let on = r.spindle.steps.iter().find(|s| s.1 == 4000.0).unwrap().0;
+    // The truth of model_truth.toml: two lags at 4000 rpm (14 µm, 12 min; 26 µm, 95 min) + 2 µm / 240 min.
+    let truth = |t: f64| {
+        14.0 * (1.0 - (-(t - on) / 12.0).exp())
+            + 26.0 * (1.0 - (-(t - on) / 95.0).exp())
+            + 2.0 * t / 240.0
+    };
+    for p in &r.passes {
+        let mid = (p.start_min + p.end_min) / 2.0;
+        assert!(
+            (p.error_um - truth(mid)).abs() < 0.1,
+            "{p:?} vs {}",
+            truth(mid)
+        );
+    }
+    let last = &r.passes[5];
+    assert!((239.0..242.0).contains(&last.start_min), "{last:?}");
+    assert!((r.totals.max_abs_error_um - last.error_um).abs() < 1e-12);
+    assert!(r.totals.rms_error_um < r.totals.max_abs_error_um);
+}

@@ -163,7 +163,7 @@ impl Run {
                     p.number,
                     p.start_min,
                     p.end_min,
-                    p.nominal_z_mm,
+                    p.nominal_z_mm + 0.0, // no "-0.000"
                     p.spindle_rpm,
                     p.error_um,
                     p.worst_um,
