@@ -64,7 +64,7 @@ fn subprograms_with_parameters_repetitions_and_save() {
     let l100 = r
         .trace
         .iter()
-        .filter(|t| t.file == "L100.spf" && t.line == 3)
+        .filter(|t| &*t.file == "L100.spf" && t.line == 3)
         .count();
     assert_eq!(l100, 3, "L100 P3 runs the subprogram three times");
 }

@@ -108,7 +108,7 @@ pub(super) struct Interp<'m> {
 
 fn err_at(u: &Unit, i: usize, message: impl Into<String>) -> VmError {
     VmError {
-        file: u.name.clone(),
+        file: u.name.to_string(),
         line: i + 1,
         message: message.into(),
     }
@@ -156,7 +156,7 @@ impl<'m> Interp<'m> {
     }
 
     pub(super) fn run(mut self, main: Unit) -> Result<Run, VmError> {
-        self.run.program = main.name.clone();
+        self.run.program = main.name.to_string();
         let main = Rc::new(main);
         let vars = self
             .bind_params(&main, &[])
@@ -264,7 +264,7 @@ impl<'m> Interp<'m> {
 
     fn at(&self, u: &Unit, i: usize) -> At {
         At {
-            file: u.name.clone(),
+            file: u.name.to_string(),
             line: i + 1,
             time_min: self.time_min,
         }
@@ -289,10 +289,10 @@ impl<'m> Interp<'m> {
     // ---- control structures ----
 
     fn block(&mut self, u: &Rc<Unit>, i: usize) -> Result<Flow, String> {
-        let root = &u.roots[i];
+        let root = u.root(i);
         let kind = u.program.block_kind(i);
         if kind == BlockKind::Plain {
-            return self.plain(u, i, root);
+            return self.plain(u, i, &root);
         }
         let partner = |map: &HashMap<usize, usize>| {
             map.get(&i).copied().ok_or_else(|| {
@@ -357,7 +357,8 @@ impl<'m> Interp<'m> {
             }
             BlockKind::EndFor => {
                 let open = partner(&u.backward)?;
-                let parts: Vec<&Node> = u.roots[open]
+                let opener = u.root(open);
+                let parts: Vec<&Node> = opener
                     .significant()
                     .find(|c| c.kind == NodeKind::For)
                     .map(|f| f.significant().collect())
@@ -908,10 +909,9 @@ impl<'m> Interp<'m> {
         args: &[Option<Value>],
     ) -> Result<HashMap<String, Variable>, String> {
         let mut vars = HashMap::new();
-        let proc = unit.roots[unit.start..unit.end]
-            .iter()
-            .find_map(|r| r.significant().find(|c| c.kind == NodeKind::Proc));
+        let proc = unit.proc();
         let params: Vec<&Node> = proc
+            .as_ref()
             .and_then(|p| p.find(NodeKind::Args))
             .map(|a| {
                 a.significant()
@@ -1287,13 +1287,10 @@ fn ijk(letter: &str) -> usize {
 }
 
 fn proc_has_save(unit: &Unit) -> bool {
-    unit.roots[unit.start..unit.end]
-        .iter()
-        .find_map(|r| r.significant().find(|c| c.kind == NodeKind::Proc))
-        .is_some_and(|p| {
-            p.significant()
-                .any(|c| c.kind == NodeKind::Name && unit.upper(c) == "SAVE")
-        })
+    unit.proc().is_some_and(|p| {
+        p.significant()
+            .any(|c| c.kind == NodeKind::Name && unit.upper(c) == "SAVE")
+    })
 }
 
 /// The parser's first diagnostic on block `i`.

@@ -7,6 +7,8 @@
 //! nominal Z, in µm: thermal drift plus the correction applied to the work offset since program start. Positive
 //! means material was left on the part.
 
+use std::rc::Rc;
+
 use serde::Serialize;
 
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -29,7 +31,7 @@ pub struct Pass {
 /// One cutting sample: where and when, its error and its weight (length of a planar move; 0 for a plunge end).
 #[derive(Debug, Clone)]
 pub struct Cut {
-    pub file: String,
+    pub file: Rc<str>,
     pub line: usize,
     pub start_min: f64,
     pub end_min: f64,
@@ -39,65 +41,76 @@ pub struct Cut {
     pub planar_length_mm: f64,
 }
 
+/// Running sums over the cuts at one depth, so a long segment costs no memory.
+#[derive(Debug, Clone)]
+struct Level {
+    first: Cut,
+    last_end_min: f64,
+    /// (weighted error sum, weight, worst error) over planar cuts, then over plunge ends.
+    planar: (f64, f64, f64),
+    plunge: (f64, f64, f64),
+    /// First planar cut, which names the pass when there is one.
+    first_planar: Option<Cut>,
+}
+
+fn add(acc: &mut (f64, f64, f64), error: f64, weight: f64) {
+    acc.0 += weight * error;
+    acc.1 += weight;
+    if error.abs() > acc.2.abs() {
+        acc.2 = error;
+    }
+}
+
 #[derive(Debug, Default)]
 pub struct PassTracker {
-    lowest: Option<f64>,
-    cuts: Vec<Cut>,
+    level: Option<Level>,
     pub passes: Vec<Pass>,
 }
 
 const Z_EQUAL_MM: f64 = 1e-6;
 
 impl PassTracker {
-    /// A feed move with the spindle on that ends at `cut.z_mm`; `planar` when it started there too.
+    /// A feed move with the spindle on that ends at `cut.z_mm` (planar when `planar_length_mm` > 0).
     pub fn feed_move(&mut self, cut: Cut) {
         let z = cut.z_mm;
-        match self.lowest {
-            Some(low) if z > low + Z_EQUAL_MM => return,
-            Some(low) if z >= low - Z_EQUAL_MM => {}
-            _ => {
-                self.lowest = Some(z);
-                self.cuts.clear();
-            }
+        let level = match &mut self.level {
+            Some(l) if z > l.first.z_mm + Z_EQUAL_MM => return,
+            Some(l) if z >= l.first.z_mm - Z_EQUAL_MM => l,
+            slot => slot.insert(Level {
+                first: cut.clone(),
+                last_end_min: cut.end_min,
+                planar: (0.0, 0.0, 0.0),
+                plunge: (0.0, 0.0, 0.0),
+                first_planar: None,
+            }),
+        };
+        level.last_end_min = cut.end_min;
+        if cut.planar_length_mm > 0.0 {
+            add(&mut level.planar, cut.error_um, cut.planar_length_mm);
+            level.first_planar.get_or_insert(cut);
+        } else {
+            add(&mut level.plunge, cut.error_um, 1.0);
         }
-        self.cuts.push(cut);
     }
 
     /// Closes the current segment and records its pass.
     pub fn end_segment(&mut self) {
-        self.lowest = None;
-        let cuts = std::mem::take(&mut self.cuts);
-        let planar: Vec<&Cut> = cuts.iter().filter(|c| c.planar_length_mm > 0.0).collect();
-        let used: Vec<&Cut> = if planar.is_empty() {
-            cuts.iter().collect()
-        } else {
-            planar
-        };
-        let (Some(first), Some(last)) = (used.first(), used.last()) else {
+        let Some(level) = self.level.take() else {
             return;
         };
-        let weight = |c: &Cut| {
-            if c.planar_length_mm > 0.0 {
-                c.planar_length_mm
-            } else {
-                1.0
-            }
+        let (first, (sum, weight, worst)) = match level.first_planar {
+            Some(first) => (first, level.planar),
+            None => (level.first, level.plunge),
         };
-        let total: f64 = used.iter().map(|c| weight(c)).sum();
-        let mean = used.iter().map(|c| weight(c) * c.error_um).sum::<f64>() / total;
-        let worst = used
-            .iter()
-            .map(|c| c.error_um)
-            .fold(0.0_f64, |w, e| if e.abs() > w.abs() { e } else { w });
         self.passes.push(Pass {
             number: self.passes.len() + 1,
-            file: first.file.clone(),
+            file: first.file.to_string(),
             line: first.line,
             start_min: first.start_min,
-            end_min: last.end_min,
+            end_min: level.last_end_min,
             nominal_z_mm: first.z_mm,
             spindle_rpm: first.spindle_rpm,
-            error_um: mean,
+            error_um: sum / weight,
             worst_um: worst,
         });
     }
@@ -109,7 +122,7 @@ mod tests {
 
     fn cut(line: usize, z: f64, len: f64, err: f64) -> Cut {
         Cut {
-            file: "p".into(),
+            file: Rc::from("p"),
             line,
             start_min: line as f64,
             end_min: line as f64 + 1.0,

@@ -64,9 +64,9 @@ pub struct Message {
 }
 
 /// One executed block.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct TraceRow {
-    pub file: String,
+    pub file: std::rc::Rc<str>,
     pub line: usize,
     pub block_number: Option<u64>,
     pub time_min: f64,

@@ -2,15 +2,17 @@
 
 use std::collections::HashMap;
 use std::path::PathBuf;
+use std::rc::Rc;
 
 use crate::syntax::{BlockKind, Node, NodeKind, Program};
 
+/// Block trees are built when a block runs, not kept: a long CAM program costs its source plus a few bytes per
+/// block.
 pub struct Unit {
     /// As the user named it (main program) or as found beside it (subprograms).
-    pub name: String,
+    pub name: Rc<str>,
     pub dir: Option<PathBuf>,
     pub program: Program,
-    pub roots: Vec<Node>,
     /// First block after the header and the block after the unit (the next `%` header or the end).
     pub start: usize,
     pub end: usize,
@@ -20,13 +22,14 @@ pub struct Unit {
     pub backward: HashMap<usize, usize>,
     pub labels: Vec<Option<String>>,
     pub numbers: Vec<Option<u64>>,
+    /// The block holding the unit's `PROC` statement.
+    pub proc_block: Option<usize>,
 }
 
 impl Unit {
     pub fn new(name: String, dir: Option<PathBuf>, program: Program) -> Self {
         let structure = crate::structure::analyze(&program);
-        let roots: Vec<Node> = program.blocks().map(|b| b.root).collect();
-        let n = roots.len();
+        let n = program.block_count();
         let start = usize::from(n > 0 && program.block_kind(0) == BlockKind::Header);
         let end = (start..n)
             .find(|&i| program.block_kind(i) == BlockKind::Header)
@@ -41,7 +44,9 @@ impl Unit {
         let upper = |n: &Node| String::from_utf8_lossy(n.span.slice(src)).to_ascii_uppercase();
         let mut labels = Vec::with_capacity(n);
         let mut numbers = Vec::with_capacity(n);
-        for root in &roots {
+        let mut proc_block = None;
+        for block in program.blocks() {
+            let root = &block.root;
             labels.push(
                 root.find(NodeKind::Label)
                     .and_then(|l| l.find(NodeKind::Name))
@@ -51,20 +56,36 @@ impl Unit {
                 b.find(NodeKind::Number)
                     .and_then(|d| upper(d).parse::<u64>().ok())
             }));
+            if proc_block.is_none()
+                && (start..end).contains(&block.index)
+                && root.find(NodeKind::Proc).is_some()
+            {
+                proc_block = Some(block.index);
+            }
         }
-        // A closer with an opener in another unit does not exist: pairs are per unit.
         Unit {
-            name,
+            name: name.into(),
             dir,
             program,
-            roots,
             start,
             end,
             forward,
             backward,
             labels,
             numbers,
+            proc_block,
         }
+    }
+
+    /// The syntax tree of block `i`.
+    pub fn root(&self, i: usize) -> Node {
+        self.program.block(i).root
+    }
+
+    /// The unit's `PROC` statement (with its own tree).
+    pub fn proc(&self) -> Option<Node> {
+        let root = self.root(self.proc_block?);
+        root.children.into_iter().find(|c| c.kind == NodeKind::Proc)
     }
 
     pub fn text(&self, node: &Node) -> &[u8] {
