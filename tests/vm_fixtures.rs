@@ -54,13 +54,18 @@ fn jumps_search_in_their_direction() {
 }
 
 #[test]
-fn subprograms_with_parameters_repetitions_and_save() {
+fn subprograms_with_parameters_repetitions_save_and_var() {
     let r = run(
         "subprograms.mpf",
         &Config::default(),
         &mut SimpleMachine::cold(),
     );
     assert_eq!(last_machine(&r), [10.5, 3.0, 1.0]);
+    assert_eq!(
+        r.trace.last().unwrap().machine[3],
+        7.0,
+        "VAR parameters doubled R30 and Q"
+    );
     let l100 = r
         .trace
         .iter()

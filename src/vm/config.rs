@@ -12,6 +12,8 @@
 //! surface_mm = 0.0          # machine coordinate of the probed surface
 //! noise_um = 0.5
 //! faults = [{ call = 3, kind = "nan" }]
+//! [corrections]
+//! include_trans = false     # true: TRANS/ATRANS count as corrections, not as programmed geometry
 //! [offsets]                 # settable work offsets at program start, $P_UIFR[n]
 //! G54 = { Z = -120.0 }
 //! [models]                  # truth: a driftloop model file per axis (path relative to this file)
@@ -50,6 +52,8 @@ pub struct Config {
     pub probe_min: f64,
     /// Settable work offsets at the start, `(frame number, axis, value)`: G54 is frame 1.
     pub offsets: Vec<(usize, String, f64)>,
+    /// Count TRANS / ATRANS as corrections in the machined error (default: only `$P_UIFR` changes are).
+    pub trans_is_correction: bool,
     /// Folders searched for subprograms after the calling program's own folder.
     pub subprogram_dirs: Vec<std::path::PathBuf>,
     /// Executed blocks after which the run stops with an error (endless loops).
@@ -73,6 +77,7 @@ impl Default for Config {
             probe_min: 0.05,
             offsets: Vec::new(),
             subprogram_dirs: Vec::new(),
+            trans_is_correction: false,
             max_blocks: 1_000_000,
             trace: true,
         }
@@ -92,7 +97,17 @@ struct MachineFile {
     drift: BTreeMap<String, Vec<[f64; 2]>>,
     #[serde(default)]
     models: BTreeMap<String, ModelRef>,
+    #[serde(default)]
+    corrections: Corrections,
     axes: Option<Vec<String>>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Corrections {
+    /// TRANS / ATRANS count as corrections (the program corrects through a programmable frame).
+    #[serde(default)]
+    include_trans: bool,
 }
 
 #[derive(Debug, Deserialize)]
@@ -202,6 +217,7 @@ pub fn parse_machine_file(
     cfg.probe_result_r = p.result.unwrap_or(cfg.probe_result_r);
     cfg.probe_axis = p.axis.map_or(cfg.probe_axis, |a| a.to_ascii_uppercase());
     cfg.probe_surface_mm = p.surface_mm.unwrap_or(cfg.probe_surface_mm);
+    cfg.trans_is_correction = file.corrections.include_trans;
     if let Some(axes) = file.axes {
         cfg.axes = axes.iter().map(|a| a.to_ascii_uppercase()).collect();
     }

@@ -27,6 +27,20 @@ pub(super) struct Frame {
     repeats_left: u32,
     args: Vec<Option<Value>>,
     saved: Option<Saved>,
+    /// `VAR` parameters: written back into the caller's variable on return.
+    write_back: Vec<(String, Ref)>,
+}
+
+type CallArgs = Vec<Option<Value>>;
+
+/// A program's local variables, and its `VAR` parameters with the argument position each is bound to.
+type Bound = (HashMap<String, Variable>, Vec<(String, usize)>);
+
+/// A caller's variable passed to a `VAR` parameter.
+#[derive(Debug, Clone)]
+enum Ref {
+    R(usize),
+    Var(String, Vec<usize>),
 }
 
 enum Flow {
@@ -35,6 +49,7 @@ enum Flow {
     Call {
         unit: Rc<Unit>,
         args: Vec<Option<Value>>,
+        refs: Vec<Option<Ref>>,
         repeats: u32,
     },
     Return,
@@ -56,7 +71,7 @@ struct Words {
     cr: Option<f64>,
     frame_command: Option<String>,
     suppress_frames: bool,
-    call: Option<(String, Vec<Option<Value>>)>,
+    call: Option<(String, CallArgs, Vec<Option<Ref>>)>,
     repeat: Option<u32>,
     jump: Option<usize>,
     probe: Option<(String, Vec<Option<f64>>)>,
@@ -124,6 +139,7 @@ impl<'m> Interp<'m> {
             }
         }
         motion.frames.initial = motion.frames.table.clone();
+        motion.frames.trans_is_correction = cfg.trans_is_correction;
         Interp {
             cfg,
             machine,
@@ -158,7 +174,7 @@ impl<'m> Interp<'m> {
     pub(super) fn run(mut self, main: Unit) -> Result<Run, VmError> {
         self.run.program = main.name.to_string();
         let main = Rc::new(main);
-        let vars = self
+        let (vars, _) = self
             .bind_params(&main, &[])
             .map_err(|e| err_at(&main, main.start, e))?;
         self.stack.push(Frame {
@@ -169,6 +185,7 @@ impl<'m> Interp<'m> {
             repeats_left: 0,
             args: Vec::new(),
             saved: None,
+            write_back: Vec::new(),
         });
         let end = loop {
             let frame = self.stack.last().expect("a frame while running");
@@ -198,12 +215,24 @@ impl<'m> Interp<'m> {
                 Flow::Call {
                     unit: callee,
                     args,
+                    refs,
                     repeats,
                 } => {
                     self.top().pc = pc + 1;
-                    let vars = self
+                    let (vars, by_ref) = self
                         .bind_params(&callee, &args)
                         .map_err(|e| err_at(&unit, pc, e))?;
+                    let mut write_back = Vec::new();
+                    for (name, k) in by_ref {
+                        let target = refs.get(k).cloned().flatten().ok_or_else(|| {
+                            err_at(
+                                &unit,
+                                pc,
+                                format!("VAR parameter {name} needs a variable as argument"),
+                            )
+                        })?;
+                        write_back.push((name, target));
+                    }
                     let saved = proc_has_save(&callee).then(|| self.motion.save());
                     self.stack.push(Frame {
                         pc: callee.start,
@@ -213,6 +242,7 @@ impl<'m> Interp<'m> {
                         repeats_left: repeats.saturating_sub(1),
                         args,
                         saved,
+                        write_back,
                     });
                 }
                 Flow::Return => {
@@ -250,7 +280,7 @@ impl<'m> Interp<'m> {
             frame.for_ends.clear();
             let (unit, args) = (frame.unit.clone(), frame.args.clone());
             // Binding succeeded on the first pass with the same arguments.
-            if let Ok(vars) = self.bind_params(&unit, &args) {
+            if let Ok((vars, _)) = self.bind_params(&unit, &args) {
                 self.top().vars = vars;
             }
             return Some(());
@@ -258,6 +288,20 @@ impl<'m> Interp<'m> {
         let frame = self.stack.pop().expect("checked above");
         if let Some(saved) = frame.saved {
             self.motion.restore(saved);
+        }
+        for (name, target) in frame.write_back {
+            let Some(v) = frame.vars.get(&name).and_then(|v| v.get(&[]).ok()) else {
+                continue;
+            };
+            match target {
+                Ref::R(i) => self.r[i] = v.num().unwrap_or(f64::NAN),
+                Ref::Var(var, index) => {
+                    if let Some(caller) = self.top().vars.get_mut(&var) {
+                        // The caller's type converts as on any assignment; a mismatch leaves it unchanged.
+                        let _ = caller.set(&index, v);
+                    }
+                }
+            }
         }
         Some(())
     }
@@ -516,7 +560,7 @@ impl<'m> Interp<'m> {
             "S" => w.s = Some(value),
             "T" => w.tool = Some(value),
             "D" => w.d = Some(value),
-            "L" => w.call = Some((format!("L{}", whole()?), Vec::new())),
+            "L" => w.call = Some((format!("L{}", whole()?), Vec::new(), Vec::new())),
             "P" => w.repeat = Some(whole()?),
             "I" | "J" | "K" => w.centre[ijk(&letter)] = Some((value, false)),
             _ => match self.axis_index(&letter) {
@@ -789,6 +833,10 @@ impl<'m> Interp<'m> {
                 None => None,
             });
         }
+        let refs = args
+            .iter()
+            .map(|a| a.and_then(|a| self.reference(u, a)))
+            .collect();
         match name.as_str() {
             "MSG" => {
                 if let Some(Some(v)) = values.first() {
@@ -830,9 +878,22 @@ impl<'m> Interp<'m> {
                     .collect();
                 w.probe = Some((name, nums));
             }
-            _ => w.call = Some((name, values)),
+            _ => w.call = Some((name, values, refs)),
         }
         Ok(())
+    }
+
+    /// The variable an argument names, if it is one (for `VAR` parameters).
+    fn reference(&self, u: &Unit, arg: &Node) -> Option<Ref> {
+        match arg.kind {
+            NodeKind::RParam => self.r_index(u, arg).ok().map(Ref::R),
+            NodeKind::Var => {
+                let name = u.upper(arg.find(NodeKind::Name)?);
+                self.variable(&name)?;
+                Some(Ref::Var(name, self.indices(u, arg).ok()?))
+            }
+            _ => None,
+        }
     }
 
     fn command(&mut self, u: &Unit, node: &Node, w: &mut Words) -> Result<(), String> {
@@ -844,7 +905,7 @@ impl<'m> Interp<'m> {
                 w.frame_command = Some(name)
             }
             _ if NO_EFFECT_COMMANDS.contains(&name.as_str()) => {}
-            _ => w.call = Some((name, Vec::new())),
+            _ => w.call = Some((name, Vec::new(), Vec::new())),
         }
         Ok(())
     }
@@ -855,7 +916,7 @@ impl<'m> Interp<'m> {
         match (keyword.as_str(), parts.get(1)) {
             ("CALL", Some(target)) if target.kind != NodeKind::Text => {
                 let name = self.eval(u, target)?.text().to_ascii_uppercase();
-                w.call = Some((name, Vec::new()));
+                w.call = Some((name, Vec::new(), Vec::new()));
                 Ok(())
             }
             _ => Err(format!("{keyword} is not supported by the dry run")),
@@ -903,12 +964,9 @@ impl<'m> Interp<'m> {
     }
 
     /// Local variables of a program from its PROC parameters and the call's arguments.
-    fn bind_params(
-        &self,
-        unit: &Unit,
-        args: &[Option<Value>],
-    ) -> Result<HashMap<String, Variable>, String> {
+    fn bind_params(&self, unit: &Unit, args: &[Option<Value>]) -> Result<Bound, String> {
         let mut vars = HashMap::new();
+        let mut by_ref = Vec::new();
         let proc = unit.proc();
         let params: Vec<&Node> = proc
             .as_ref()
@@ -929,11 +987,10 @@ impl<'m> Interp<'m> {
         }
         for (k, p) in params.iter().enumerate() {
             let mut ty = None;
+            let mut var_param = false;
             for c in p.significant().filter(|c| c.kind == NodeKind::Keyword) {
                 let word = unit.upper(c);
-                if word == "VAR" {
-                    return Err("call-by-reference (VAR) parameters are not supported".into());
-                }
+                var_param |= word == "VAR";
                 ty = ty.or(VarType::from_keyword(&word));
             }
             let ty = ty.ok_or("PROC parameter without a supported type")?;
@@ -948,9 +1005,12 @@ impl<'m> Interp<'m> {
             if let Some(Some(v)) = args.get(k) {
                 var.set(&[], v.clone())?;
             }
+            if var_param {
+                by_ref.push((name.clone(), k));
+            }
             vars.insert(name, var);
         }
-        Ok(vars)
+        Ok((vars, by_ref))
     }
 
     // ---- applying a block ----
@@ -1092,11 +1152,12 @@ impl<'m> Interp<'m> {
         if w.ret {
             return Ok(Flow::Return);
         }
-        if let Some((name, args)) = w.call {
+        if let Some((name, args, refs)) = w.call {
             let unit = self.load(u, &name)?;
             return Ok(Flow::Call {
                 unit,
                 args,
+                refs,
                 repeats: w.repeat.unwrap_or(1).max(1),
             });
         }

@@ -30,6 +30,8 @@ pub struct Frames {
     pub active: Vec<f64>,
     /// Programmable translation (TRANS / ATRANS).
     pub trans: Vec<f64>,
+    /// Count the programmable translation as a correction too (for programs corrected through ATRANS).
+    pub trans_is_correction: bool,
 }
 
 impl Frames {
@@ -40,6 +42,7 @@ impl Frames {
             selected: 0,
             active: vec![0.0; axes],
             trans: vec![0.0; axes],
+            trans_is_correction: false,
         }
     }
 
@@ -55,7 +58,12 @@ impl Frames {
 
     /// How far the active settable frame has been corrected since program start, along `axis` (mm).
     pub fn correction(&self, axis: usize) -> f64 {
-        self.active[axis] - self.initial[self.selected][axis]
+        let programmable = if self.trans_is_correction {
+            self.trans[axis]
+        } else {
+            0.0
+        };
+        self.active[axis] - self.initial[self.selected][axis] + programmable
     }
 }
 
@@ -317,5 +325,11 @@ mod tests {
         assert!((f.correction(2) + 0.02).abs() < 1e-12);
         f.trans[2] = 1.0;
         assert!((f.offset(2) + 99.02).abs() < 1e-12);
+        assert!(
+            (f.correction(2) + 0.02).abs() < 1e-12,
+            "TRANS is programmed geometry"
+        );
+        f.trans_is_correction = true;
+        assert!((f.correction(2) - 0.98).abs() < 1e-12);
     }
 }
