@@ -302,3 +302,13 @@ fn uncompensated_stepped_surface_is_cut_off_by_the_true_drift() {
     assert!((r.totals.max_abs_error_um - last.error_um).abs() < 1e-12);
     assert!(r.totals.rms_error_um < r.totals.max_abs_error_um);
 }
+
+#[test]
+fn section_repetitions() {
+    let r = run(
+        "sections.mpf",
+        &Config::default(),
+        &mut SimpleMachine::cold(),
+    );
+    assert_eq!(last_machine(&r), [3.0, 600.0, 5.0]);
+}

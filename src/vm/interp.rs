@@ -23,6 +23,8 @@ pub(super) struct Frame {
     pub(super) vars: HashMap<String, Variable>,
     /// End value of each active FOR loop, by its block.
     for_ends: HashMap<usize, f64>,
+    /// Active section repetitions (`REPEAT`), innermost last.
+    sections: Vec<Section>,
     /// Further passes of a subprogram called with `P n`, and the arguments to bind again.
     repeats_left: u32,
     args: Vec<Option<Value>>,
@@ -35,6 +37,15 @@ type CallArgs = Vec<Option<Value>>;
 
 /// A program's local variables, and its `VAR` parameters with the argument position each is bound to.
 type Bound = (HashMap<String, Variable>, Vec<(String, usize)>);
+
+/// A program section being repeated: blocks `start..=end`, `left` more passes, then on at `resume`.
+#[derive(Debug, Clone, Copy)]
+struct Section {
+    start: usize,
+    end: usize,
+    left: u32,
+    resume: usize,
+}
 
 /// A caller's variable passed to a `VAR` parameter.
 #[derive(Debug, Clone)]
@@ -77,6 +88,8 @@ struct Words {
     probe: Option<(String, Vec<Option<f64>>)>,
     alarm: Option<(i64, Option<String>)>,
     ret: bool,
+    /// `REPEAT` section (first block, last block) to run `P` times.
+    section: Option<(usize, usize)>,
 }
 
 /// Commands that change nothing the dry run models (display, single block, acceleration and look-ahead modes,
@@ -182,6 +195,7 @@ impl<'m> Interp<'m> {
             unit: main,
             vars,
             for_ends: HashMap::new(),
+            sections: Vec::new(),
             repeats_left: 0,
             args: Vec::new(),
             saved: None,
@@ -210,7 +224,7 @@ impl<'m> Interp<'m> {
             let flow = self.block(&unit, pc).map_err(|e| err_at(&unit, pc, e))?;
             self.trace(&unit, pc);
             match flow {
-                Flow::Next => self.top().pc = pc + 1,
+                Flow::Next => self.top().pc = self.next_block(pc),
                 Flow::Jump(to) => self.top().pc = to,
                 Flow::Call {
                     unit: callee,
@@ -239,6 +253,7 @@ impl<'m> Interp<'m> {
                         unit: callee,
                         vars,
                         for_ends: HashMap::new(),
+                        sections: Vec::new(),
                         repeats_left: repeats.saturating_sub(1),
                         args,
                         saved,
@@ -264,6 +279,23 @@ impl<'m> Interp<'m> {
         Ok(run)
     }
 
+    /// The block after `pc`, or the start of the next pass of a repeated section that ends at `pc`.
+    fn next_block(&mut self, pc: usize) -> usize {
+        let frame = self.top();
+        match frame.sections.last_mut() {
+            Some(s) if s.end == pc && s.left > 0 => {
+                s.left -= 1;
+                s.start
+            }
+            Some(s) if s.end == pc => {
+                let resume = s.resume;
+                frame.sections.pop();
+                resume
+            }
+            _ => pc + 1,
+        }
+    }
+
     fn top(&mut self) -> &mut Frame {
         self.stack.last_mut().expect("a frame while running")
     }
@@ -278,6 +310,7 @@ impl<'m> Interp<'m> {
             frame.repeats_left -= 1;
             frame.pc = frame.unit.start;
             frame.for_ends.clear();
+            frame.sections.clear();
             let (unit, args) = (frame.unit.clone(), frame.args.clone());
             // Binding succeeded on the first pass with the same arguments.
             if let Ok((vars, _)) = self.bind_params(&unit, &args) {
@@ -480,6 +513,43 @@ impl<'m> Interp<'m> {
         }
     }
 
+    /// `REPEAT start [end]` (from the start label to the end label, or to the block before the REPEAT) and
+    /// `REPEATB label` (that one block). The start label is searched towards the beginning first.
+    fn section(&self, u: &Unit, i: usize, node: &Node) -> Result<(usize, usize), String> {
+        let parts: Vec<&Node> = node.significant().collect();
+        let keyword = u.upper(parts[0]);
+        let names: Vec<String> = parts[1..].iter().map(|n| u.upper(n)).collect();
+        let find = |name: &str, from: usize| {
+            let target = JumpTarget::Label(name.to_string());
+            u.search(from, &target, false, true)
+                .or_else(|| u.search(from, &target, true, false))
+                .ok_or_else(|| format!("{keyword}: label {name} not found (alarm 14080)"))
+        };
+        let start = find(
+            names.first().ok_or("REPEAT without a label")?,
+            i.saturating_sub(1),
+        )?;
+        let end = match (keyword.as_str(), names.get(1)) {
+            ("REPEATB", _) => start,
+            (_, Some(end)) => {
+                let target = JumpTarget::Label(end.clone());
+                u.search(start.saturating_sub(1), &target, true, false)
+                    .filter(|&e| e >= start)
+                    .ok_or_else(|| {
+                        format!("{keyword}: end label {end} not found after {}", names[0])
+                    })?
+            }
+            (_, None) => i
+                .checked_sub(1)
+                .filter(|&e| e >= start)
+                .ok_or("REPEAT section is empty")?,
+        };
+        if (start..=end).contains(&i) {
+            return Err(format!("{keyword} would repeat itself"));
+        }
+        Ok((start, end))
+    }
+
     fn case(&self, u: &Unit, i: usize, node: &Node) -> Result<Option<usize>, String> {
         let mut parts = node.significant();
         parts.next(); // CASE
@@ -531,6 +601,7 @@ impl<'m> Interp<'m> {
                 // Parameters are bound when the program is called; EXTERN only declares a signature.
                 NodeKind::Proc | NodeKind::Extern => {}
                 NodeKind::ProgramCall => self.program_call(u, node, &mut w)?,
+                NodeKind::Repeat => w.section = Some(self.section(u, i, node)?),
                 k => {
                     return Err(format!(
                         "{} `{}` is not supported by the dry run",
@@ -619,6 +690,13 @@ impl<'m> Interp<'m> {
             }
             "I" | "J" | "K" => w.centre[ijk(name)] = Some(self.centre_value(u, value)?),
             "M" => w.m.push(self.num(u, value)? as u32),
+            "P" => {
+                let p = self.num(u, value)?;
+                if p < 1.0 || p.fract() != 0.0 {
+                    return Err(format!("P={p}: repetitions must be a whole number ≥ 1"));
+                }
+                w.repeat = Some(p as u32);
+            }
             _ if name.starts_with('M') && name[1..].bytes().all(|b| b.is_ascii_digit()) => {
                 if &name[1..] != "1" {
                     return Err(format!("{name}=: only spindle 1 is modelled"));
@@ -1161,8 +1239,18 @@ impl<'m> Interp<'m> {
                 repeats: w.repeat.unwrap_or(1).max(1),
             });
         }
+        if let Some((start, end)) = w.section {
+            let passes = w.repeat.unwrap_or(1);
+            self.top().sections.push(Section {
+                start,
+                end,
+                left: passes - 1,
+                resume: i + 1,
+            });
+            return Ok(Flow::Jump(start));
+        }
         if w.repeat.is_some() {
-            return Err("P (repetitions) without a subprogram call".into());
+            return Err("P (repetitions) without a subprogram call or REPEAT".into());
         }
         Ok(w.jump.map_or(Flow::Next, Flow::Jump))
     }
