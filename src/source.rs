@@ -40,6 +40,20 @@ pub struct RawLine {
 }
 
 impl RawLine {
+    /// The line starting at `start` whose content ends at `content_end` (a CR, an LF or the end of `src`).
+    pub fn ending_at(src: &[u8], start: usize, content_end: usize) -> Self {
+        let terminator = match src.get(content_end) {
+            None => 0,
+            Some(b'\r') if src.get(content_end + 1) == Some(&b'\n') => 2,
+            Some(_) => 1,
+        };
+        RawLine {
+            start,
+            content_end,
+            end: content_end + terminator,
+        }
+    }
+
     pub fn content(&self) -> Span {
         Span::new(self.start, self.content_end)
     }

@@ -9,7 +9,7 @@ use serde::ser::{SerializeStruct, Serializer};
 use super::tree::{Node, NodeJson, NodeKind};
 use super::{fast, grammar};
 use crate::diagnostic::{Diagnostic, Severity};
-use crate::source::{RawLine, Span, raw_lines_in};
+use crate::source::{RawLine, Span};
 use crate::structure;
 
 const BOM: &[u8] = b"\xEF\xBB\xBF";
@@ -115,10 +115,17 @@ struct Chunk {
 fn parse_chunk(src: &[u8], start: usize, end: usize, mut in_text_section: bool) -> Chunk {
     let mut blocks = Vec::with_capacity((end - start) / 32 + 1);
     let mut diagnostics = Vec::new();
-    for line in raw_lines_in(src, start, end) {
+    let mut pos = start;
+    while pos < end {
+        let rest = &src[pos..end];
+        let plain = fast::plain_prefix(rest);
+        let content_end = pos
+            + plain.unwrap_or_else(|| memchr::memchr2(b'\n', b'\r', rest).unwrap_or(rest.len()));
+        let line = RawLine::ending_at(src, pos, content_end);
+        pos = line.end;
         let content = line_content(src, &line);
         let bytes = content.slice(src);
-        let (kind, flags) = if fast::plain_block(bytes) {
+        let (kind, flags) = if plain.is_some() {
             (BlockKind::Plain, 0)
         } else if in_text_section && !bytes.starts_with(b"%") {
             (BlockKind::Plain, flag::TEXT)
