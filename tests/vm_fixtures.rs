@@ -147,7 +147,7 @@ fn unsupported_constructs_and_runaway_loops_name_the_line() {
         ..Config::default()
     };
     let e = err("LBL: R1=R1+1\nGOTOB LBL\n", &limited);
-    assert!(e.message.contains("iteration limit of 1000"), "{e}");
+    assert!(e.message.contains("1002 executed blocks (1000 more"), "{e}");
 }
 
 // ---- the measurement module against a fake probe ----

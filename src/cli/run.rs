@@ -26,7 +26,7 @@ pub struct Args {
     /// Further folder searched for subprograms (after the program's own); repeatable.
     #[arg(long = "subprograms", value_name = "DIR")]
     pub subprogram_dirs: Vec<PathBuf>,
-    /// Executed blocks after which the run is stopped as an endless loop.
+    /// Executed blocks beyond the program's own block count after which the run is stopped as an endless loop.
     #[arg(long, default_value_t = 1_000_000)]
     pub max_blocks: u64,
     #[arg(long, value_enum, default_value_t = Format::Human)]

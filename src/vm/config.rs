@@ -56,7 +56,8 @@ pub struct Config {
     pub trans_is_correction: bool,
     /// Folders searched for subprograms after the calling program's own folder.
     pub subprogram_dirs: Vec<std::path::PathBuf>,
-    /// Executed blocks after which the run stops with an error (endless loops).
+    /// Executed blocks beyond the main program's own block count after which the run stops with an error
+    /// (endless loops); a straight program of any length runs through.
     pub max_blocks: u64,
     /// Keep a trace row per executed block.
     pub trace: bool,

@@ -201,6 +201,7 @@ impl<'m> Interp<'m> {
             saved: None,
             write_back: Vec::new(),
         });
+        let limit = self.cfg.max_blocks + self.stack[0].unit.end as u64;
         let end = loop {
             let frame = self.stack.last().expect("a frame while running");
             let (unit, pc) = (frame.unit.clone(), frame.pc);
@@ -211,12 +212,13 @@ impl<'m> Interp<'m> {
                 }
             }
             self.run.blocks_executed += 1;
-            if self.run.blocks_executed > self.cfg.max_blocks {
+            if self.run.blocks_executed > limit {
                 return Err(err_at(
                     &unit,
                     pc,
                     format!(
-                        "iteration limit of {} executed blocks reached (endless loop?)",
+                        "iteration limit reached: {limit} executed blocks ({} more than the program has; \
+                         endless loop?)",
                         self.cfg.max_blocks
                     ),
                 ));
