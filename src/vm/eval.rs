@@ -195,8 +195,12 @@ impl Interp<'_> {
         let m = &self.motion;
         let v = match (name.as_str(), idx.as_slice()) {
             ("$P_UIFR", [frame, axis, tr]) => {
-                let (f, a) = self.uifr_address(u, frame, axis, tr)?;
-                m.frames.table[f][a]
+                let (f, a, fine) = self.uifr_address(u, frame, axis, tr)?;
+                if fine {
+                    m.frames.fine[f][a]
+                } else {
+                    m.frames.table[f][a]
+                }
             }
             ("$AA_IM", [axis]) => m.machine[self.axis_arg(u, axis)?],
             ("$AA_IW", [axis]) => {
@@ -221,25 +225,28 @@ impl Interp<'_> {
         Ok(Value::Num(v))
     }
 
-    /// `$P_UIFR[n, axis, TR]` → (frame, axis index).
+    /// `$P_UIFR[n, axis, TR | FI]` → (frame, axis index, fine).
     pub(super) fn uifr_address(
         &self,
         u: &Unit,
         frame: &Node,
         axis: &Node,
         part: &Node,
-    ) -> Result<(usize, usize), String> {
+    ) -> Result<(usize, usize, bool), String> {
         let f = self.num(u, frame)?;
         if !(0.0..super::motion::FRAMES as f64).contains(&f) || f.fract() != 0.0 {
             return Err(format!("$P_UIFR frame number {f} out of range 0…99"));
         }
-        let part = u.upper(part);
-        if part != "TR" {
-            return Err(format!(
-                "$P_UIFR component {part} is not supported (only the translation TR)"
-            ));
-        }
-        Ok((f as usize, self.axis_arg(u, axis)?))
+        let fine = match u.upper(part).as_str() {
+            "TR" => false,
+            "FI" => true,
+            other => {
+                return Err(format!(
+                    "$P_UIFR component {other} is not supported (translations TR and FI only)"
+                ));
+            }
+        };
+        Ok((f as usize, self.axis_arg(u, axis)?, fine))
     }
 
     fn function(&self, u: &Unit, n: &Node) -> Result<Value, String> {

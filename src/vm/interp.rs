@@ -151,7 +151,7 @@ impl<'m> Interp<'m> {
                 motion.frames.table[*frame][a] = *v;
             }
         }
-        motion.frames.initial = motion.frames.table.clone();
+        motion.frames.mark_initial();
         motion.frames.trans_is_correction = cfg.trans_is_correction;
         Interp {
             cfg,
@@ -793,12 +793,19 @@ impl<'m> Interp<'m> {
             .unwrap_or_default();
         match (name.as_str(), idx.as_slice()) {
             ("$P_UIFR", [frame, axis, part]) => {
-                let (f, a) = self.uifr_address(u, frame, axis, part)?;
+                let (f, a, fine) = self.uifr_address(u, frame, axis, part)?;
                 let new = self.num(u, value)?;
-                let old = std::mem::replace(&mut self.motion.frames.table[f][a], new);
+                let frames = &mut self.motion.frames;
+                let slot = if fine {
+                    &mut frames.fine[f][a]
+                } else {
+                    &mut frames.table[f][a]
+                };
+                let old = std::mem::replace(slot, new);
                 self.run.corrections.push(Correction {
                     at: self.at(u, i),
                     frame: f,
+                    component: if fine { "FI" } else { "TR" }.to_string(),
                     axis: self.cfg.axes[a].clone(),
                     old_mm: old,
                     new_mm: new,

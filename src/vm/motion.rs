@@ -22,7 +22,9 @@ pub enum Dim {
 pub struct Frames {
     /// `$P_UIFR[n, axis, TR]`.
     pub table: Vec<Vec<f64>>,
-    /// The table as it was at program start (corrections are measured against it).
+    /// `$P_UIFR[n, axis, FI]`: the fine offset, added to the coarse one.
+    pub fine: Vec<Vec<f64>>,
+    /// Coarse plus fine offset of each frame at program start (corrections are measured against it).
     pub initial: Vec<Vec<f64>>,
     /// Selected frame number (0 = G500).
     pub selected: usize,
@@ -38,6 +40,7 @@ impl Frames {
     pub fn new(axes: usize) -> Self {
         Frames {
             table: vec![vec![0.0; axes]; FRAMES],
+            fine: vec![vec![0.0; axes]; FRAMES],
             initial: vec![vec![0.0; axes]; FRAMES],
             selected: 0,
             active: vec![0.0; axes],
@@ -48,7 +51,21 @@ impl Frames {
 
     pub fn select(&mut self, n: usize) {
         self.selected = n;
-        self.active = self.table[n].clone();
+        self.active = self.total(n);
+    }
+
+    /// Coarse plus fine offset of frame `n`.
+    pub fn total(&self, n: usize) -> Vec<f64> {
+        self.table[n]
+            .iter()
+            .zip(&self.fine[n])
+            .map(|(c, f)| c + f)
+            .collect()
+    }
+
+    /// Remembers the current table as the start state.
+    pub fn mark_initial(&mut self) {
+        self.initial = (0..FRAMES).map(|n| self.total(n)).collect();
     }
 
     /// Total offset of `axis` (local → machine).
@@ -313,7 +330,7 @@ mod tests {
     fn correction_is_measured_against_the_start_table() {
         let mut f = Frames::new(3);
         f.table[1][2] = -100.0;
-        f.initial = f.table.clone();
+        f.mark_initial();
         f.select(1);
         f.table[1][2] = -100.02;
         assert_eq!(
@@ -331,5 +348,11 @@ mod tests {
         );
         f.trans_is_correction = true;
         assert!((f.correction(2) - 0.98).abs() < 1e-12);
+        f.fine[1][2] = 0.005;
+        f.select(1);
+        assert!(
+            (f.correction(2) - 0.985).abs() < 1e-12,
+            "the fine offset adds to the coarse one"
+        );
     }
 }

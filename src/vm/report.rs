@@ -40,11 +40,13 @@ pub struct Measurement {
     pub value_mm: f64,
 }
 
-/// A write to a settable frame (`$P_UIFR[n, axis, TR]`): a work-offset correction.
+/// A write to a settable frame (`$P_UIFR[n, axis, TR | FI]`): a work-offset correction.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Correction {
     pub at: At,
     pub frame: usize,
+    /// `TR` (coarse) or `FI` (fine).
+    pub component: String,
     pub axis: String,
     pub old_mm: f64,
     pub new_mm: f64,
@@ -196,10 +198,11 @@ impl Run {
             for c in &self.corrections {
                 let _ = writeln!(
                     o,
-                    "  {}  $P_UIFR[{},{},TR] {:.4} → {:.4} mm ({:+.2} µm)",
+                    "  {}  $P_UIFR[{},{},{}] {:.4} → {:.4} mm ({:+.2} µm)",
                     at(&c.at),
                     c.frame,
                     c.axis,
+                    c.component,
                     c.old_mm,
                     c.new_mm,
                     (c.new_mm - c.old_mm) * 1000.0

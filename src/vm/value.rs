@@ -71,6 +71,7 @@ impl VarType {
     fn default_value(self) -> Value {
         match self {
             VarType::Str => Value::Str(String::new()),
+            VarType::Char => Value::Str("\0".into()),
             _ => Value::Num(0.0),
         }
     }
@@ -82,9 +83,14 @@ impl VarType {
             // The control rounds to the nearest integer on assignment (.5 away from zero).
             (VarType::Int, Value::Num(x)) => Value::Num(x.round()),
             (VarType::Bool, Value::Num(x)) => Value::Num(if x != 0.0 { 1.0 } else { 0.0 }),
-            (VarType::Char, Value::Num(x)) => Value::Num(x.round()),
-            (VarType::Char, Value::Str(s)) if s.chars().count() == 1 => {
-                Value::Num(f64::from(u32::from(s.chars().next().unwrap_or('\0'))))
+            // A CHAR holds one character; a number is taken as its code.
+            (VarType::Char, Value::Num(x)) => match char::from_u32(x.round() as u32) {
+                Some(c) if x >= 0.0 => Value::Str(c.to_string()),
+                _ => return Err(format!("{x} is not a character code")),
+            },
+            (VarType::Char, Value::Str(s)) if s.chars().count() == 1 => Value::Str(s),
+            (VarType::Char, Value::Str(s)) => {
+                return Err(format!("\"{s}\" is not one character"));
             }
             (VarType::Str, v) => Value::Str(v.text()),
             (_, Value::Str(s)) => {
@@ -155,6 +161,10 @@ mod tests {
         assert_eq!(v.get(&[]).unwrap(), Value::Num(3.0));
         v.set(&[], Value::Num(-2.4)).unwrap();
         assert_eq!(v.get(&[]).unwrap(), Value::Num(-2.0));
+        let mut c = Variable::new(VarType::Char, vec![]);
+        c.set(&[], Value::Num(65.0)).unwrap();
+        assert_eq!(c.get(&[]).unwrap(), Value::Str("A".into()));
+        assert!(c.set(&[], Value::Str("AB".into())).is_err());
         let mut b = Variable::new(VarType::Bool, vec![]);
         b.set(&[], Value::Num(-7.0)).unwrap();
         assert_eq!(b.get(&[]).unwrap(), Value::Num(1.0));
