@@ -9,36 +9,23 @@ use super::value::{Value, Variable};
 /// Highest R parameter number (R0 … R999).
 pub const R_COUNT: usize = 1000;
 
-/// The expressions of an argument list `( a, , c )`: `None` for an empty argument.
+/// The expressions of an argument list `( a, , c )`: `None` for an empty argument. The list's own direct
+/// punctuation is its parentheses (first and last) and the commas between; an argument is never a bare `Punct`.
 pub fn arg_nodes(args: &Node) -> Vec<Option<&Node>> {
-    let mut out = Vec::new();
-    let mut current = None;
-    for c in args.significant() {
-        match (c.kind, c.span.len()) {
-            (NodeKind::Punct, 1) if matches!(args_punct(c, args), Some(b'(')) => {}
-            (NodeKind::Punct, 1) if matches!(args_punct(c, args), Some(b',')) => {
-                out.push(current.take());
-            }
-            (NodeKind::Punct, 1) if matches!(args_punct(c, args), Some(b')')) => {
-                if current.is_some() || !out.is_empty() {
-                    out.push(current.take());
-                }
-            }
-            _ => current = Some(c),
+    let parts: Vec<&Node> = args.significant().collect();
+    let inner = parts.get(1..parts.len().saturating_sub(1)).unwrap_or(&[]);
+    if inner.is_empty() {
+        return Vec::new();
+    }
+    let mut out = vec![None];
+    for &c in inner {
+        match (c.kind, out.last_mut()) {
+            (NodeKind::Punct, _) => out.push(None),
+            (_, Some(slot)) => *slot = Some(c),
+            (_, None) => {}
         }
     }
     out
-}
-
-/// Argument lists only hold `(`, `,` and `)` as direct punctuation; tell them apart by position.
-fn args_punct(c: &Node, args: &Node) -> Option<u8> {
-    if c.span.start == args.span.start {
-        Some(b'(')
-    } else if c.span.end == args.span.end {
-        Some(b')')
-    } else {
-        Some(b',')
-    }
 }
 
 /// The expressions of an index `[a, b]`.
@@ -377,6 +364,22 @@ pub fn binary(op: &str, l: Value, r: Value) -> Result<Value, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn argument_lists_keep_empty_arguments() {
+        let count = |src: &str| {
+            let p = crate::parse(src.as_bytes());
+            let root = p.block(0).root;
+            let call = root.find(NodeKind::Call).unwrap();
+            arg_nodes(call.find(NodeKind::Args).unwrap())
+                .iter()
+                .map(Option::is_some)
+                .collect::<Vec<bool>>()
+        };
+        assert_eq!(count("SUB(1,,R1+2)"), [true, false, true]);
+        assert_eq!(count("SUB(,)"), [false, false]);
+        assert_eq!(count("SUB()"), Vec::<bool>::new());
+    }
 
     #[test]
     fn div_truncates_and_mod_keeps_the_fraction() {
