@@ -204,7 +204,10 @@ fn real_corpus_programs_run_to_their_end() {
     }
     let cam = corpus.join("sinumerik-840d-sl-cas-package/Approach A/CAM TEST.MPF");
     let run = run_file(&cam, &Config::default(), &mut SimpleMachine::cold()).unwrap();
-    assert_eq!(run.end, driftloop::vm::End::ProgramEnd { code: "M30".into() });
+    assert_eq!(
+        run.end,
+        driftloop::vm::End::ProgramEnd { code: "M30".into() }
+    );
     assert!(run.spindle.steps.iter().any(|s| s.1 == 1061.0));
     assert!(!run.passes.is_empty());
 
@@ -213,11 +216,23 @@ fn real_corpus_programs_run_to_their_end() {
         subprogram_dirs: vec![warmup.join("subroutines")],
         ..Config::default()
     };
-    let run = run_file(&warmup.join("routines/DAILY.MPF"), &cfg, &mut SimpleMachine::cold()).unwrap();
+    let run = run_file(
+        &warmup.join("routines/DAILY.MPF"),
+        &cfg,
+        &mut SimpleMachine::cold(),
+    )
+    .unwrap();
     let speeds: Vec<f64> = run.spindle.steps.iter().map(|s| s.1).collect();
-    assert_eq!(speeds, [3600.0, 7200.0, 0.0], "30 % then 60 % of the top speed, then M5");
+    assert_eq!(
+        speeds,
+        [3600.0, 7200.0, 0.0],
+        "30 % then 60 % of the top speed, then M5"
+    );
     // Each call runs 600 s / 15 s = 40 cycles of the same moves, so both speeds last equally long.
     let steps = &run.spindle.steps;
     let (first, second) = (steps[1].0 - steps[0].0, steps[2].0 - steps[1].0);
-    assert!((first - second).abs() < 1e-9 && first > 1.0, "{first} vs {second} min");
+    assert!(
+        (first - second).abs() < 1e-9 && first > 1.0,
+        "{first} vs {second} min"
+    );
 }
