@@ -1,13 +1,14 @@
 //! A loaded program file: its parse, block trees, control-structure partners, labels and N numbers.
 
+use std::cell::RefCell;
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::rc::Rc;
 
 use crate::syntax::{BlockKind, Node, NodeKind, Program};
 
-/// Block trees are built when a block runs, not kept: a long CAM program costs its source plus a few bytes per
-/// block.
+/// Block trees are built when a block runs; only the first [`CACHED_TREES`] built are kept (loop bodies run
+/// again without re-parsing), so a long CAM program costs its source plus a few bytes per block.
 pub struct Unit {
     /// As the user named it (main program) or as found beside it (subprograms).
     pub name: Rc<str>,
@@ -24,7 +25,11 @@ pub struct Unit {
     pub numbers: Vec<Option<u64>>,
     /// The block holding the unit's `PROC` statement.
     pub proc_block: Option<usize>,
+    trees: RefCell<HashMap<usize, Rc<Node>>>,
 }
+
+/// How many block trees a unit keeps.
+pub const CACHED_TREES: usize = 4096;
 
 impl Unit {
     pub fn new(name: String, dir: Option<PathBuf>, program: Program) -> Self {
@@ -74,18 +79,27 @@ impl Unit {
             labels,
             numbers,
             proc_block,
+            trees: RefCell::new(HashMap::new()),
         }
     }
 
     /// The syntax tree of block `i`.
-    pub fn root(&self, i: usize) -> Node {
-        self.program.block(i).root
+    pub fn root(&self, i: usize) -> Rc<Node> {
+        if let Some(tree) = self.trees.borrow().get(&i) {
+            return tree.clone();
+        }
+        let tree = Rc::new(self.program.block(i).root);
+        let mut trees = self.trees.borrow_mut();
+        if trees.len() < CACHED_TREES {
+            trees.insert(i, tree.clone());
+        }
+        tree
     }
 
-    /// The unit's `PROC` statement (with its own tree).
+    /// The unit's `PROC` statement.
     pub fn proc(&self) -> Option<Node> {
         let root = self.root(self.proc_block?);
-        root.children.into_iter().find(|c| c.kind == NodeKind::Proc)
+        root.children.iter().find(|c| c.kind == NodeKind::Proc).cloned()
     }
 
     pub fn text(&self, node: &Node) -> &[u8] {
