@@ -312,3 +312,21 @@ fn section_repetitions() {
     );
     assert_eq!(last_machine(&r), [3.0, 600.0, 5.0]);
 }
+
+#[test]
+fn functions_and_string_conversion() {
+    let src = br#"DEF STRING[20] S = "12.5"
+DEF CHAR C = "A"
+MSG(ROUND(2.5) << " " << TRUNC(-2.7) << " " << MINVAL(3, -1) << " " << MAXVAL(3, -1) << " " << BOUND(0, 10, 12))
+MSG(POT(2, 3) << " " << POT(3) << " " << STRLEN(S) << " " << NUMBER(S) * 2 << " " << ATAN2(1, 1) << " " << ABS(-4))
+MSG(TOUPPER("ab") << (C == "A") << EXP(0) << LN(1) << SQRT(16) << " " << 'H1F' << " " << 'B101' << " " << 5 B_XOR 1)
+M30
+"#;
+    let r = run_source("f.mpf", src, None, &Config::default(), &mut SimpleMachine::cold()).unwrap();
+    assert_eq!(
+        messages(&r),
+        ["3 -2 -1 3 10", "8 9 4 25 45 4", "AB1104 31 5 4"]
+    );
+    let e = run_source("f.mpf", b"R1 = SQRT(-1)\n", None, &Config::default(), &mut SimpleMachine::cold());
+    assert!(e.unwrap_err().message.contains("SQRT"));
+}
