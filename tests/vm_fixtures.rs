@@ -322,11 +322,51 @@ MSG(POT(2, 3) << " " << POT(3) << " " << STRLEN(S) << " " << NUMBER(S) * 2 << " 
 MSG(TOUPPER("ab") << (C == "A") << EXP(0) << LN(1) << SQRT(16) << " " << 'H1F' << " " << 'B101' << " " << 5 B_XOR 1)
 M30
 "#;
-    let r = run_source("f.mpf", src, None, &Config::default(), &mut SimpleMachine::cold()).unwrap();
+    let r = run_source(
+        "f.mpf",
+        src,
+        None,
+        &Config::default(),
+        &mut SimpleMachine::cold(),
+    )
+    .unwrap();
     assert_eq!(
         messages(&r),
         ["3 -2 -1 3 10", "8 9 4 25 45 4", "AB1104 31 5 4"]
     );
-    let e = run_source("f.mpf", b"R1 = SQRT(-1)\n", None, &Config::default(), &mut SimpleMachine::cold());
+    let e = run_source(
+        "f.mpf",
+        b"R1 = SQRT(-1)\n",
+        None,
+        &Config::default(),
+        &mut SimpleMachine::cold(),
+    );
     assert!(e.unwrap_err().message.contains("SQRT"));
+}
+
+#[test]
+fn ambient_signal_drives_the_truth_and_is_readable_as_an_analog_input() {
+    let text = std::fs::read_to_string("fixtures/vm/machines/ambient_machine.toml").unwrap();
+    let dir = Path::new("fixtures/vm/machines");
+    let (cfg, spec) = driftloop::vm::parse_machine_file(&text, dir, Config::default()).unwrap();
+    // Spindle stopped: only the ambient term acts.
+    let src = b"G54\nG4 F3600\nMSG(\"T=\" << $A_INA[1])\nBL9700()\nM30\n";
+    let r = run_source("a.mpf", src, None, &cfg, &mut spec.build(1)).unwrap();
+    assert_eq!(
+        messages(&r),
+        ["T=22"],
+        "the sensor reads the signal at 60 min"
+    );
+    let m = &r.measurements[0];
+    assert!((m.at.time_min - 60.0).abs() < 1e-9);
+    // u(t) = 20 + t/30 °C: the lag of a ramp, 2 µm/°C · (1/30)·(t − τ(1 − e^(−t/τ))), sampled per minute.
+    let tau: f64 = 30.0;
+    let ramp = 2.0 / 30.0 * (60.0 - tau * (1.0 - (-60.0 / tau).exp()));
+    assert!(
+        (m.true_drift_um - ramp).abs() < 0.05,
+        "{} vs {ramp}",
+        m.true_drift_um
+    );
+    let e = run_source("a.mpf", b"R1 = $A_INA[2]\n", None, &cfg, &mut spec.build(1));
+    assert!(e.unwrap_err().message.contains("$A_INA[2]"));
 }

@@ -18,6 +18,9 @@
 //! G54 = { Z = -120.0 }
 //! [models]                  # truth: a driftloop model file per axis (path relative to this file)
 //! Z = { file = "truth.toml", scale = 1.0 }
+//! [signals.ambient_c]       # a model input over time, [minutes, value]; `input = 1`: $A_INA[1] reads it
+//! input = 1
+//! points = [[0, 20.0], [240, 23.5]]
 //! [drift]                   # plus piecewise-linear drift per axis, [minutes, µm] points: effects the
 //! Z = [[0, 0], [240, -3]]   # model does not declare, or the whole truth when there is no model
 //! ```
@@ -27,7 +30,7 @@ use std::path::Path;
 
 use serde::Deserialize;
 
-use super::machine::{ProbeFault, SimpleMachine};
+use super::machine::{ProbeFault, SimpleMachine, piecewise_linear};
 use super::truth::ModelDrift;
 
 /// What the interpreter needs to know about the machine and the run.
@@ -100,7 +103,18 @@ struct MachineFile {
     models: BTreeMap<String, ModelRef>,
     #[serde(default)]
     corrections: Corrections,
+    #[serde(default)]
+    signals: BTreeMap<String, SignalSpec>,
     axes: Option<Vec<String>>,
+}
+
+/// A measured quantity over time (ambient temperature …): feeds a truth model's declared input of the same
+/// name and, with `input = n`, is readable by the program as `$A_INA[n]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SignalSpec {
+    input: Option<usize>,
+    points: Vec<[f64; 2]>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -160,6 +174,8 @@ pub struct MachineSpec {
     pub drift: BTreeMap<String, Vec<(f64, f64)>>,
     /// Model-driven drift per upper-cased axis (added to the piecewise-linear part).
     pub models: BTreeMap<String, ModelDrift>,
+    /// Analog inputs: number → `(minutes, value)` points.
+    pub analog: Vec<(usize, Vec<(f64, f64)>)>,
 }
 
 impl MachineSpec {
@@ -170,31 +186,18 @@ impl MachineSpec {
         let models = self.models.clone();
         let mut m = SimpleMachine::with_drift(move |axis, t, spindle| {
             let axis = axis.to_ascii_uppercase();
-            let listed = table.get(&axis).map_or(0.0, |pts| interpolate(pts, t));
+            let listed = table.get(&axis).map_or(0.0, |pts| piecewise_linear(pts, t));
             listed + models.get(&axis).map_or(0.0, |m| m.at(t, spindle))
         })
         .noise(self.noise_um, seed);
         for &(call, kind) in &self.faults {
             m = m.fault(call, kind);
         }
+        for (n, points) in &self.analog {
+            m = m.analog(*n, points.clone());
+        }
         m
     }
-}
-
-fn interpolate(points: &[(f64, f64)], t: f64) -> f64 {
-    let Some(first) = points.first() else {
-        return 0.0;
-    };
-    if t <= first.0 {
-        return first.1;
-    }
-    for w in points.windows(2) {
-        let ((t0, v0), (t1, v1)) = (w[0], w[1]);
-        if t <= t1 {
-            return v0 + (v1 - v0) * (t - t0) / (t1 - t0);
-        }
-    }
-    points.last().map_or(0.0, |p| p.1)
 }
 
 /// Reads a machine file into interpreter settings (starting from `base`) and a machine spec; model files are
@@ -238,11 +241,24 @@ pub fn parse_machine_file(
         }
         drift.insert(axis.to_ascii_uppercase(), pts);
     }
+    let mut signals = BTreeMap::new();
+    let mut analog = Vec::new();
+    for (name, sig) in file.signals {
+        let pts: Vec<(f64, f64)> = sig.points.iter().map(|p| (p[0], p[1])).collect();
+        if pts.is_empty() || pts.windows(2).any(|w| w[1].0 <= w[0].0) {
+            return Err(format!("signals.{name}: points needed, times increasing"));
+        }
+        if let Some(n) = sig.input {
+            analog.push((n, pts.clone()));
+        }
+        signals.insert(name.to_ascii_lowercase(), pts);
+    }
     let mut models = BTreeMap::new();
     for (axis, m) in file.models {
         let model =
             crate::model::DriftModel::read(&dir.join(&m.file)).map_err(|e| e.to_string())?;
-        let truth = ModelDrift::new(model, m.scale).map_err(|e| format!("models.{axis}: {e}"))?;
+        let truth =
+            ModelDrift::new(model, m.scale, &signals).map_err(|e| format!("models.{axis}: {e}"))?;
         models.insert(axis.to_ascii_uppercase(), truth);
     }
     let spec = MachineSpec {
@@ -250,6 +266,7 @@ pub fn parse_machine_file(
         faults: p.faults.iter().map(|f| (f.call, f.kind)).collect(),
         drift,
         models,
+        analog,
     };
     Ok((cfg, spec))
 }

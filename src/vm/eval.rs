@@ -201,6 +201,12 @@ impl Interp<'_> {
             ("$P_F", []) => m.modal.feed.unwrap_or(0.0),
             ("$AA_S", [_] | []) => m.spindle_rpm(),
             ("$P_TOOLNO", []) => m.tool_number,
+            ("$A_INA", [n]) => {
+                let n = self.num(u, n)?;
+                self.machine_input(n as usize).ok_or_else(|| {
+                    format!("analog input $A_INA[{n}] is not connected on this machine")
+                })?
+            }
             ("$P_TOOL", []) => m.d,
             _ => {
                 return Err(format!(

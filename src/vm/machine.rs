@@ -84,6 +84,28 @@ pub trait Machine {
     fn probe(&mut self, call: &ProbeCall<'_>) -> ProbeResult {
         ProbeResult::Drift(self.drift_um(call.axis, call.t_min, call.spindle))
     }
+
+    /// Analog input `n` (`$A_INA[n]`, e.g. a temperature sensor) at `t_min`; `None`: not connected.
+    fn analog_input(&self, _n: usize, _t_min: f64) -> Option<f64> {
+        None
+    }
+}
+
+/// Linear interpolation through `(t, value)` points in time order, held flat outside them (0 without points).
+pub fn piecewise_linear(points: &[(f64, f64)], t: f64) -> f64 {
+    let Some(first) = points.first() else {
+        return 0.0;
+    };
+    if t <= first.0 {
+        return first.1;
+    }
+    for w in points.windows(2) {
+        let ((t0, v0), (t1, v1)) = (w[0], w[1]);
+        if t <= t1 {
+            return v0 + (v1 - v0) * (t - t0) / (t1 - t0);
+        }
+    }
+    points.last().map_or(0.0, |p| p.1)
 }
 
 /// How a probe call may be made to fail, for testing the program's validity logic.
@@ -108,6 +130,8 @@ pub struct SimpleMachine {
     /// Probe calls (1-based) that fail, and how.
     faults: Vec<(usize, ProbeFault)>,
     calls: usize,
+    /// Analog inputs: number → signal over time.
+    analog: Vec<(usize, Vec<(f64, f64)>)>,
 }
 
 impl SimpleMachine {
@@ -123,7 +147,14 @@ impl SimpleMachine {
             rng: Rng::new(1),
             faults: Vec::new(),
             calls: 0,
+            analog: Vec::new(),
         }
+    }
+
+    /// Connects analog input `n` (`$A_INA[n]`) to a signal given as `(minutes, value)` points.
+    pub fn analog(mut self, n: usize, points: Vec<(f64, f64)>) -> Self {
+        self.analog.push((n, points));
+        self
     }
 
     /// Gaussian probe noise with standard deviation `sigma_um`, reproducible from `seed`.
@@ -141,6 +172,13 @@ impl SimpleMachine {
 }
 
 impl Machine for SimpleMachine {
+    fn analog_input(&self, n: usize, t_min: f64) -> Option<f64> {
+        self.analog
+            .iter()
+            .find(|a| a.0 == n)
+            .map(|a| piecewise_linear(&a.1, t_min))
+    }
+
     fn drift_um(&mut self, axis: &str, t_min: f64, spindle: &SpindleHistory) -> f64 {
         (self.drift)(axis, t_min, spindle)
     }

@@ -99,7 +99,10 @@ impl Unit {
     /// The unit's `PROC` statement.
     pub fn proc(&self) -> Option<Node> {
         let root = self.root(self.proc_block?);
-        root.children.iter().find(|c| c.kind == NodeKind::Proc).cloned()
+        root.children
+            .iter()
+            .find(|c| c.kind == NodeKind::Proc)
+            .cloned()
     }
 
     pub fn text(&self, node: &Node) -> &[u8] {

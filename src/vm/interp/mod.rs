@@ -305,6 +305,10 @@ impl<'m> Interp<'m> {
         }
     }
 
+    pub(super) fn machine_input(&self, n: usize) -> Option<f64> {
+        self.machine.analog_input(n, self.time_min)
+    }
+
     fn top(&mut self) -> &mut Frame {
         self.stack.last_mut().expect("a frame while running")
     }
