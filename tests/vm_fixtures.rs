@@ -196,8 +196,9 @@ fn valid_measurements_correct_the_work_offset() {
         "correction cancels the drift seen"
     );
     assert_eq!(r.passes.len(), 2);
-    let uncorrected = r.measurements[5].true_drift_um;
+    let uncorrected = r.passes[1].drift_um;
     assert!(uncorrected > 10.0, "the machine did heat: {uncorrected}");
+    assert!((r.totals.max_abs_drift_um - uncorrected).abs() < 1e-12);
     assert!(r.passes[1].error_um.abs() < 1.0, "{:?}", r.passes[1]);
     assert_eq!(r.files["DL_LOG"].lines().count(), 6);
 }

@@ -26,6 +26,8 @@ pub struct Pass {
     pub error_um: f64,
     /// Largest machined error in magnitude over the pass (µm).
     pub worst_um: f64,
+    /// Mean thermal drift during the pass (µm): the error had no correction been applied.
+    pub drift_um: f64,
 }
 
 /// One cutting sample: where and when, its error and its weight (length of a planar move; 0 for a plunge end).
@@ -38,6 +40,7 @@ pub struct Cut {
     pub z_mm: f64,
     pub spindle_rpm: f64,
     pub error_um: f64,
+    pub drift_um: f64,
     pub planar_length_mm: f64,
 }
 
@@ -46,18 +49,29 @@ pub struct Cut {
 struct Level {
     first: Cut,
     last_end_min: f64,
-    /// (weighted error sum, weight, worst error) over planar cuts, then over plunge ends.
-    planar: (f64, f64, f64),
-    plunge: (f64, f64, f64),
+    /// Over planar cuts, then over plunge ends.
+    planar: Sums,
+    plunge: Sums,
     /// First planar cut, which names the pass when there is one.
     first_planar: Option<Cut>,
 }
 
-fn add(acc: &mut (f64, f64, f64), error: f64, weight: f64) {
-    acc.0 += weight * error;
-    acc.1 += weight;
-    if error.abs() > acc.2.abs() {
-        acc.2 = error;
+#[derive(Debug, Clone, Copy, Default)]
+struct Sums {
+    error: f64,
+    drift: f64,
+    weight: f64,
+    worst: f64,
+}
+
+impl Sums {
+    fn add(&mut self, cut: &Cut, weight: f64) {
+        self.error += weight * cut.error_um;
+        self.drift += weight * cut.drift_um;
+        self.weight += weight;
+        if cut.error_um.abs() > self.worst.abs() {
+            self.worst = cut.error_um;
+        }
     }
 }
 
@@ -79,17 +93,17 @@ impl PassTracker {
             slot => slot.insert(Level {
                 first: cut.clone(),
                 last_end_min: cut.end_min,
-                planar: (0.0, 0.0, 0.0),
-                plunge: (0.0, 0.0, 0.0),
+                planar: Sums::default(),
+                plunge: Sums::default(),
                 first_planar: None,
             }),
         };
         level.last_end_min = cut.end_min;
         if cut.planar_length_mm > 0.0 {
-            add(&mut level.planar, cut.error_um, cut.planar_length_mm);
+            level.planar.add(&cut, cut.planar_length_mm);
             level.first_planar.get_or_insert(cut);
         } else {
-            add(&mut level.plunge, cut.error_um, 1.0);
+            level.plunge.add(&cut, 1.0);
         }
     }
 
@@ -98,7 +112,7 @@ impl PassTracker {
         let Some(level) = self.level.take() else {
             return;
         };
-        let (first, (sum, weight, worst)) = match level.first_planar {
+        let (first, sums) = match level.first_planar {
             Some(first) => (first, level.planar),
             None => (level.first, level.plunge),
         };
@@ -110,8 +124,9 @@ impl PassTracker {
             end_min: level.last_end_min,
             nominal_z_mm: first.z_mm,
             spindle_rpm: first.spindle_rpm,
-            error_um: sum / weight,
-            worst_um: worst,
+            error_um: sums.error / sums.weight,
+            worst_um: sums.worst,
+            drift_um: sums.drift / sums.weight,
         });
     }
 }
@@ -129,6 +144,7 @@ mod tests {
             z_mm: z,
             spindle_rpm: 1000.0,
             error_um: err,
+            drift_um: err + 1.0,
             planar_length_mm: len,
         }
     }
@@ -145,6 +161,7 @@ mod tests {
         let p = &t.passes[0];
         assert_eq!((p.line, p.nominal_z_mm), (2, -1.0));
         assert!((p.error_um - 3.0).abs() < 1e-12);
+        assert!((p.drift_um - 4.0).abs() < 1e-12);
         assert_eq!(p.worst_um, 6.0);
     }
 

@@ -86,6 +86,9 @@ pub struct Totals {
     pub passes: usize,
     pub max_abs_error_um: f64,
     pub rms_error_um: f64,
+    /// The same over the drift during the passes: the machined error had no correction been applied.
+    pub max_abs_drift_um: f64,
+    pub rms_drift_um: f64,
 }
 
 /// The outcome of a dry run.
@@ -114,16 +117,20 @@ pub struct Run {
 impl Totals {
     pub fn of(passes: &[Pass]) -> Totals {
         let n = passes.len();
-        let max = passes.iter().map(|p| p.error_um.abs()).fold(0.0, f64::max);
-        let rms = if n == 0 {
-            0.0
-        } else {
-            (passes.iter().map(|p| p.error_um.powi(2)).sum::<f64>() / n as f64).sqrt()
+        let max = |f: fn(&Pass) -> f64| passes.iter().map(|p| f(p).abs()).fold(0.0, f64::max);
+        let rms = |f: fn(&Pass) -> f64| {
+            if n == 0 {
+                0.0
+            } else {
+                (passes.iter().map(|p| f(p).powi(2)).sum::<f64>() / n as f64).sqrt()
+            }
         };
         Totals {
             passes: n,
-            max_abs_error_um: max,
-            rms_error_um: rms,
+            max_abs_error_um: max(|p| p.error_um),
+            rms_error_um: rms(|p| p.error_um),
+            max_abs_drift_um: max(|p| p.drift_um),
+            rms_drift_um: rms(|p| p.drift_um),
         }
     }
 }
@@ -150,23 +157,24 @@ impl Run {
         let t = &self.totals;
         let _ = writeln!(
             o,
-            "machined error over {} passes: max {:.2} µm, RMS {:.2} µm",
-            t.passes, t.max_abs_error_um, t.rms_error_um
+            "machined error over {} passes: max {:.2} µm, RMS {:.2} µm (drift during them: max {:.2} µm, RMS {:.2} µm)",
+            t.passes, t.max_abs_error_um, t.rms_error_um, t.max_abs_drift_um, t.rms_drift_um
         );
         if !self.passes.is_empty() {
             let _ = writeln!(
                 o,
-                "\npasses (error = Z cut − nominal Z, µm; + leaves material)\n    #    start      end   nominal Z      rpm    error    worst  at"
+                "\npasses (error = Z cut − nominal Z, µm; + leaves material; drift = error without correction)\n    #    start      end   nominal Z      rpm    drift    error    worst  at"
             );
             for p in &self.passes {
                 let _ = writeln!(
                     o,
-                    "{:>5} {:>8.2} {:>8.2} {:>11.3} {:>8.0} {:>8.2} {:>8.2}  {}:{}",
+                    "{:>5} {:>8.2} {:>8.2} {:>11.3} {:>8.0} {:>8.2} {:>8.2} {:>8.2}  {}:{}",
                     p.number,
                     p.start_min,
                     p.end_min,
                     p.nominal_z_mm + 0.0, // no "-0.000"
                     p.spindle_rpm,
+                    p.drift_um,
                     p.error_um,
                     p.worst_um,
                     p.file,

@@ -307,6 +307,7 @@ impl Interp<'_> {
             z_mm: self.motion.local[z],
             spindle_rpm: rpm,
             error_um: drift + correction,
+            drift_um: drift,
             planar_length_mm: if planar { length } else { 0.0 },
         });
         Ok(())
