@@ -118,3 +118,25 @@ fn machine_file_with_a_model_drives_the_truth() {
         "no noise asked for"
     );
 }
+
+#[test]
+fn program_from_stdin() {
+    use std::io::Write;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_driftloop"))
+        .args(["run", "-", "--format", "json"])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(b"G1 X100 F1000\nM30\n")
+        .unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(0));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["program"], "<stdin>");
+    assert!((v["time_min"].as_f64().unwrap() - 0.1).abs() < 1e-12);
+}
