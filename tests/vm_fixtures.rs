@@ -192,7 +192,7 @@ fn valid_measurements_correct_the_work_offset() {
     let c = &r.corrections[0];
     let seen = r.measurements[4].true_drift_um - r.measurements[1].true_drift_um;
     assert!(
-        ((c.new_mm - c.old_mm) * 1000.0 + seen).abs() < 0.2,
+        ((c.new_mm - c.old_mm) * 1000.0 - seen).abs() < 0.2,
         "correction cancels the drift seen"
     );
     assert_eq!(r.passes.len(), 2);

@@ -76,8 +76,9 @@ pub struct ProbeCall<'a> {
 
 /// A machine the interpreter runs against.
 pub trait Machine {
-    /// Thermal displacement of the tool centre point along `axis` at `t_min` (µm; positive = towards +axis,
-    /// so a positive Z drift leaves material on the part).
+    /// Thermal drift along `axis` at `t_min` (µm): commanded minus actual tool centre point position. A
+    /// positive Z drift is a spindle grown towards the part: the tool cuts deeper, and a probe meets the surface
+    /// that much higher (the transform's convention: δ > 0 is corrected by adding δ to the Z offset).
     fn drift_um(&mut self, axis: &str, t_min: f64, spindle: &SpindleHistory) -> f64;
 
     /// Answers a probe cycle call. The default: the true drift of the probed axis, no noise.

@@ -3,9 +3,9 @@
 //! A tool path segment is the run of feed moves between two rapid moves (or a spindle stop, tool change, or the
 //! end of the program) with the spindle turning. Its pass is what it cuts at its lowest programmed Z: the
 //! planar moves at that Z (weighted by length), or, when it has none there, the end points of the moves that
-//! reach it (a plunge). The machined error of a pass is the Z the tool centre point really was at minus the
-//! nominal Z, in µm: thermal drift plus the correction applied to the work offset since program start. Positive
-//! means material was left on the part.
+//! reach it (a plunge). The machined error of a pass is the depth actually cut minus the nominal depth, in µm
+//! (nominal Z minus the Z the tool centre point really was at): the thermal drift minus the correction applied
+//! to the work offset since program start. Positive means cut too deep.
 
 use std::rc::Rc;
 

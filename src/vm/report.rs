@@ -163,7 +163,7 @@ impl Run {
         if !self.passes.is_empty() {
             let _ = writeln!(
                 o,
-                "\npasses (error = Z cut − nominal Z, µm; + leaves material; drift = error without correction)\n    #    start      end   nominal Z      rpm    drift    error    worst  at"
+                "\npasses (error = depth cut − nominal depth, µm; + too deep; drift = error without correction)\n    #    start      end   nominal Z      rpm    drift    error    worst  at"
             );
             for p in &self.passes {
                 let _ = writeln!(

@@ -306,7 +306,7 @@ impl Interp<'_> {
             end_min: self.time_min,
             z_mm: self.motion.local[z],
             spindle_rpm: rpm,
-            error_um: drift + correction,
+            error_um: drift - correction,
             drift_um: drift,
             planar_length_mm: if planar { length } else { 0.0 },
         });
@@ -330,9 +330,9 @@ impl Interp<'_> {
             .axis_index(&axis)
             .map_or(0.0, |a| self.motion.frames.offset(a));
         match result {
-            // The probe triggers when the real tool tip reaches the surface, so the control reads the surface
-            // minus the drift.
-            ProbeResult::Drift(d) => self.r[r] = self.cfg.probe_surface_mm - offset - d / 1000.0,
+            // The probe triggers when the real tool tip (commanded − drift) reaches the surface, so the control
+            // reads the surface plus the drift.
+            ProbeResult::Drift(d) => self.r[r] = self.cfg.probe_surface_mm - offset + d / 1000.0,
             ProbeResult::Raw(v) => self.r[r] = v,
             ProbeResult::Nothing => {}
         }
