@@ -300,6 +300,15 @@ fn uncompensated_stepped_surface_is_cut_off_by_the_true_drift() {
     }
     let last = &r.passes[5];
     assert!((239.0..242.0).contains(&last.start_min), "{last:?}");
+    let flat = run("stepped_surface_flat.mpf", &cfg, &mut spec.build(1));
+    assert_eq!(flat.passes.len(), 6);
+    for (a, b) in r.passes.iter().zip(&flat.passes) {
+        assert_eq!((a.nominal_z_mm, a.start_min), (b.nominal_z_mm, b.start_min));
+        assert!(
+            (a.error_um - b.error_um).abs() < 1e-12,
+            "the unrolled program cuts the same"
+        );
+    }
     assert!((r.totals.max_abs_error_um - last.error_um).abs() < 1e-12);
     assert!(r.totals.rms_error_um < r.totals.max_abs_error_um);
 }
