@@ -380,3 +380,21 @@ fn ambient_signal_drives_the_truth_and_is_readable_as_an_analog_input() {
     let e = run_source("a.mpf", b"R1 = $A_INA[2]\n", None, &cfg, &mut spec.build(1));
     assert!(e.unwrap_err().message.contains("$A_INA[2]"));
 }
+
+#[test]
+fn probe_result_in_the_measuring_cycle_array() {
+    let cfg = Config {
+        probe_result: driftloop::vm::ProbeTarget::Array("_OVR".into(), 4),
+        ..Config::default()
+    };
+    let src =
+        b"G4 F60\nCYCLE978(100,10001,,1,0,1,3)\nR1 = _OVR[4] * 1000\nMSG(\"R1=\" << R1)\nM30\n";
+    let mut m = SimpleMachine::with_drift(|_, t, _| 2.0 * t);
+    let r = run_source("c.mpf", src, None, &cfg, &mut m).unwrap();
+    assert_eq!(
+        messages(&r),
+        ["R1=2"],
+        "surface 0 + 2 µm of drift after 1 min, in mm × 1000"
+    );
+    assert_eq!(r.measurements[0].value_mm, 0.002);
+}

@@ -46,8 +46,9 @@ pub struct Config {
     pub default_feed_mm_min: Option<f64>,
     /// Upper-cased names of the probe cycles.
     pub probe_cycles: Vec<String>,
-    /// R parameter that receives the probe result.
-    pub probe_result_r: usize,
+    /// Where the probe cycle leaves its result: an R parameter, or an element of a global array such as the
+    /// measuring cycles' `_OVR[4]` (created as a REAL array when the program starts).
+    pub probe_result: ProbeTarget,
     pub probe_axis: String,
     /// Machine coordinate of the surface the probe touches.
     pub probe_surface_mm: f64,
@@ -75,7 +76,7 @@ impl Default for Config {
             stop_min: 0.0,
             default_feed_mm_min: None,
             probe_cycles: vec!["BL9700".into(), "CYCLE978".into()],
-            probe_result_r: 2,
+            probe_result: ProbeTarget::R(2),
             probe_axis: "Z".into(),
             probe_surface_mm: 0.0,
             probe_min: 0.05,
@@ -150,12 +151,47 @@ struct Timing {
 #[serde(deny_unknown_fields)]
 struct Probe {
     cycles: Option<Vec<String>>,
-    result: Option<usize>,
+    result: Option<ResultSpec>,
     axis: Option<String>,
     surface_mm: Option<f64>,
     noise_um: Option<f64>,
     #[serde(default)]
     faults: Vec<Fault>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(untagged)]
+enum ResultSpec {
+    Number(usize),
+    Name(String),
+}
+
+/// Where a probe result goes.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum ProbeTarget {
+    R(usize),
+    /// A global REAL array element, `_OVR[4]`.
+    Array(String, usize),
+}
+
+impl ProbeTarget {
+    /// `R2`, `R[02]`, `_OVR[4]` (case-insensitive).
+    pub fn parse(text: &str) -> Option<ProbeTarget> {
+        let t = text.trim().to_ascii_uppercase();
+        let (name, index) = match t.split_once('[') {
+            Some((name, rest)) => (
+                name.to_string(),
+                rest.strip_suffix(']')?.trim().parse().ok()?,
+            ),
+            None if t.starts_with('R') => return t[1..].parse().ok().map(ProbeTarget::R),
+            None => return None,
+        };
+        match name.as_str() {
+            "R" => Some(ProbeTarget::R(index)),
+            "" => None,
+            _ => Some(ProbeTarget::Array(name, index)),
+        }
+    }
 }
 
 #[derive(Debug, Deserialize)]
@@ -218,7 +254,14 @@ pub fn parse_machine_file(
     if let Some(c) = p.cycles {
         cfg.probe_cycles = c.iter().map(|c| c.to_ascii_uppercase()).collect();
     }
-    cfg.probe_result_r = p.result.unwrap_or(cfg.probe_result_r);
+    if let Some(result) = p.result {
+        cfg.probe_result = match result {
+            ResultSpec::Number(n) => ProbeTarget::R(n),
+            ResultSpec::Name(name) => ProbeTarget::parse(&name).ok_or_else(|| {
+                format!("probe.result: `{name}` is neither R<n>, R[<n>] nor NAME[<n>]")
+            })?,
+        };
+    }
     cfg.probe_axis = p.axis.map_or(cfg.probe_axis, |a| a.to_ascii_uppercase());
     cfg.probe_surface_mm = p.surface_mm.unwrap_or(cfg.probe_surface_mm);
     cfg.trans_is_correction = file.corrections.include_trans;
@@ -313,7 +356,7 @@ z = [[0, 0], [100, -20]]
         assert_eq!(cfg.rapid_mm_min, 20000.0);
         assert!((cfg.tool_change_min - 0.2).abs() < 1e-12);
         assert_eq!(cfg.probe_cycles, vec!["BL9700"]);
-        assert_eq!(cfg.probe_result_r, 5);
+        assert_eq!(cfg.probe_result, ProbeTarget::R(5));
         assert_eq!(cfg.offsets, vec![(1, "Z".to_string(), -100.0)]);
         assert_eq!(spec.faults, vec![(2, ProbeFault::Garbage)]);
         let mut m = spec.build(1);
@@ -322,6 +365,24 @@ z = [[0, 0], [100, -20]]
         assert_eq!(m.drift_um("Z", 50.0, &h), -10.0);
         assert_eq!(m.drift_um("Z", 500.0, &h), -20.0);
         assert_eq!(m.drift_um("X", 50.0, &h), 0.0);
+    }
+
+    #[test]
+    fn probe_targets() {
+        assert_eq!(ProbeTarget::parse("R2"), Some(ProbeTarget::R(2)));
+        assert_eq!(ProbeTarget::parse("r[02]"), Some(ProbeTarget::R(2)));
+        assert_eq!(
+            ProbeTarget::parse("_OVR[4]"),
+            Some(ProbeTarget::Array("_OVR".into(), 4))
+        );
+        assert_eq!(ProbeTarget::parse("X"), None);
+        let (cfg, _) = parse_machine_file(
+            "[probe]\nresult = \"_OVR[4]\"",
+            Path::new("."),
+            Config::default(),
+        )
+        .unwrap();
+        assert_eq!(cfg.probe_result, ProbeTarget::Array("_OVR".into(), 4));
     }
 
     #[test]

@@ -142,8 +142,12 @@ impl Interp<'_> {
             .collect()
     }
 
+    /// A variable of the running program, or a global one (the probe's result array).
     pub(super) fn variable(&self, name: &str) -> Option<&Variable> {
-        self.stack.last().and_then(|f| f.vars.get(name))
+        self.stack
+            .last()
+            .and_then(|f| f.vars.get(name))
+            .or_else(|| self.globals.get(name))
     }
 
     fn read_var(&self, u: &Unit, n: &Node) -> Result<Value, String> {

@@ -23,7 +23,7 @@ mod value;
 
 use std::path::Path;
 
-pub use config::{Config, MachineSpec, offset_frame, parse_machine_file};
+pub use config::{Config, MachineSpec, ProbeTarget, offset_frame, parse_machine_file};
 pub use machine::{
     Machine, ProbeCall, ProbeFault, ProbeResult, Rng, SimpleMachine, SpindleHistory,
 };

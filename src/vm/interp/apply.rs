@@ -325,17 +325,17 @@ impl Interp<'_> {
             t_min: t,
             spindle: &self.spindle,
         });
-        let r = self.cfg.probe_result_r;
         let offset = self
             .axis_index(&axis)
             .map_or(0.0, |a| self.motion.frames.offset(a));
-        match result {
+        let written = match result {
             // The probe triggers when the real tool tip (commanded − drift) reaches the surface, so the control
             // reads the surface plus the drift.
-            ProbeResult::Drift(d) => self.r[r] = self.cfg.probe_surface_mm - offset + d / 1000.0,
-            ProbeResult::Raw(v) => self.r[r] = v,
-            ProbeResult::Nothing => {}
-        }
+            ProbeResult::Drift(d) => Some(self.cfg.probe_surface_mm - offset + d / 1000.0),
+            ProbeResult::Raw(v) => Some(v),
+            ProbeResult::Nothing => None,
+        };
+        let value_mm = self.probe_result(written);
         let at = self.at(u, i);
         self.run.measurements.push(Measurement {
             at,
@@ -343,8 +343,34 @@ impl Interp<'_> {
             axis,
             true_drift_um: true_drift,
             result,
-            value_mm: self.r[r],
+            value_mm,
         });
         self.time_min += self.cfg.probe_min;
+    }
+
+    /// Writes the probe result (if any) where the configuration says; returns what is there afterwards.
+    fn probe_result(&mut self, value: Option<f64>) -> f64 {
+        match &self.cfg.probe_result {
+            ProbeTarget::R(r) => match self.r.get_mut(*r) {
+                Some(slot) => {
+                    if let Some(v) = value {
+                        *slot = v;
+                    }
+                    *slot
+                }
+                None => f64::NAN,
+            },
+            ProbeTarget::Array(name, index) => {
+                let array = self.globals.get_mut(name).expect("created at start");
+                if let Some(v) = value {
+                    let _ = array.set(&[*index], Value::Num(v));
+                }
+                array
+                    .get(&[*index])
+                    .ok()
+                    .and_then(|v| v.num().ok())
+                    .unwrap_or(f64::NAN)
+            }
+        }
     }
 }

@@ -15,7 +15,7 @@ use std::rc::Rc;
 use crate::syntax::{BlockKind, Node, NodeKind};
 
 use super::VmError;
-use super::config::Config;
+use super::config::{Config, ProbeTarget};
 use super::eval::{R_COUNT, arg_nodes, index_nodes};
 use super::machine::{Machine, ProbeCall, ProbeResult, SpindleHistory};
 use super::motion::{ArcSpec, Dim, Saved, State, arc_length};
@@ -131,6 +131,8 @@ pub(super) struct Interp<'m> {
     pub(super) cfg: &'m Config,
     machine: &'m mut dyn Machine,
     pub(super) r: Vec<f64>,
+    /// Global variables: the probe result array (`_OVR`).
+    pub(super) globals: HashMap<String, Variable>,
     pub(super) stack: Vec<Frame>,
     pub(super) motion: State,
     pub(super) time_min: f64,
@@ -164,6 +166,13 @@ impl<'m> Interp<'m> {
             cfg,
             machine,
             r: vec![0.0; R_COUNT],
+            globals: match &cfg.probe_result {
+                ProbeTarget::Array(name, index) => HashMap::from([(
+                    name.clone(),
+                    Variable::new(VarType::Real, vec![(index + 1).max(32)]),
+                )]),
+                ProbeTarget::R(_) => HashMap::new(),
+            },
             stack: Vec::new(),
             motion,
             time_min: 0.0,

@@ -199,7 +199,9 @@ impl Interp<'_> {
                 let name = u.upper(target.find(NodeKind::Name).ok_or("variable without name")?);
                 let index = self.indices(u, target)?;
                 let axis = self.axis_index(&name).filter(|_| index.is_empty());
-                match (self.top().vars.get_mut(&name), axis) {
+                let frame = self.stack.last_mut().expect("a frame while running");
+                let var = frame.vars.get_mut(&name).or(self.globals.get_mut(&name));
+                match (var, axis) {
                     (Some(var), _) => var.set(&index, v),
                     (None, Some(a)) => {
                         w.axes.push((a, Dim::Modal, v.num()?));
