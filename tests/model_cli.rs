@@ -167,3 +167,33 @@ fn a_degenerate_fixed_order_falls_back_and_says_why() {
     );
     assert_eq!(orders[1]["note"], "chosen");
 }
+
+#[test]
+fn fit_reads_stdin_and_writes_the_model_to_stdout() {
+    use std::io::Write;
+    use std::process::Stdio;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_driftloop"))
+        .args([
+            "fit",
+            "-",
+            "--channel",
+            "drift_z_um",
+            "--modes",
+            "2",
+            "-o",
+            "-",
+        ])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let data = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join(FIXTURE)).unwrap();
+    child.stdin.take().unwrap().write_all(&data).unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    let model = driftloop::model::DriftModel::from_toml(&text(&out.stdout), "stdout").unwrap();
+    assert_eq!(model.data.unwrap().file, "<stdin>");
+    assert!(text(&out.stderr).starts_with("drift_z_um: 2 spindle modes"));
+}

@@ -40,7 +40,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             schedule.to_dataset(args.step)
         }
         (None, Some(path)) => read_path(path, Require::InputsOnly)?,
-        (None, None) => unreachable!("clap requires --schedule or --data"),
+        (None, None) => anyhow::bail!("give --schedule or --data"),
     };
     warn_extrapolation(&model, &input);
     let predicted = model.predict(&input)?;
@@ -50,7 +50,11 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     match &args.output {
         Some(path) if path.as_os_str() != "-" => std::fs::write(path, bytes)
             .with_context(|| format!("cannot write {}", path.display()))?,
-        _ => std::io::stdout().write_all(&bytes)?,
+        _ => match std::io::stdout().write_all(&bytes) {
+            // A reader that stops early (`| head`) is not an error.
+            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+            other => other?,
+        },
     }
     Ok(ExitCode::SUCCESS)
 }
