@@ -3,6 +3,8 @@
 
 use serde::Serialize;
 
+use crate::model::synth::Rng;
+
 /// Spindle speed over time, piecewise constant: `(from_min, rpm)` in time order, starting at 0 min with 0 rpm.
 /// This is the schedule the thermal side integrates.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -192,42 +194,13 @@ impl Machine for SimpleMachine {
             Some(ProbeFault::Nothing) => ProbeResult::Nothing,
             None => {
                 let noise = if self.noise_um > 0.0 {
-                    self.noise_um * self.rng.gaussian()
+                    self.noise_um * self.rng.normal()
                 } else {
                     0.0
                 };
                 ProbeResult::Drift(self.drift_um(call.axis, call.t_min, call.spindle) + noise)
             }
         }
-    }
-}
-
-/// A small reproducible generator (splitmix64) for probe noise; no dependency needed for a test signal.
-#[derive(Debug, Clone)]
-pub struct Rng(u64);
-
-impl Rng {
-    pub fn new(seed: u64) -> Self {
-        Rng(seed)
-    }
-
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in (0, 1].
-    fn uniform(&mut self) -> f64 {
-        ((self.next_u64() >> 11) + 1) as f64 / (1u64 << 53) as f64
-    }
-
-    /// Standard normal (Box–Muller).
-    pub fn gaussian(&mut self) -> f64 {
-        let (u1, u2) = (self.uniform(), self.uniform());
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
     }
 }
 
@@ -246,16 +219,6 @@ mod tests {
         assert_eq!(h.speed_at(10.0), 0.0);
         let iv: Vec<_> = h.intervals(12.0).collect();
         assert_eq!(iv, vec![(0.0, 10.0, 1000.0), (10.0, 12.0, 0.0)]);
-    }
-
-    #[test]
-    fn gaussian_noise_has_unit_spread() {
-        let mut r = Rng::new(7);
-        let xs: Vec<f64> = (0..20_000).map(|_| r.gaussian()).collect();
-        let mean = xs.iter().sum::<f64>() / xs.len() as f64;
-        let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / xs.len() as f64;
-        assert!(mean.abs() < 0.03, "mean {mean}");
-        assert!((var.sqrt() - 1.0).abs() < 0.03, "sd {}", var.sqrt());
     }
 
     #[test]
