@@ -137,7 +137,6 @@ fn expectation(name: &str) -> Result<(), &'static str> {
             "reads AA and BB, which the program never defines (alarm 12550 on a control)"
         }
         "edge_cases" => "assigns E_MULTIPLIER without DEF (alarm 12550 on a control)",
-        "flatten_demo" | "spline" => "BSPLINE / ASPLINE interpolation (PW=, SD=) is not modelled",
         "simple" => "G2 without centre or radius (an alarm on a control)",
         "function_calls" => "SETAL stops the program in the dry run; the reference carries on",
         "increment" => "the reference gives Y = 900.9 for Y=IC(0.1*NN) with NN = 9; we get 0.9",

@@ -398,3 +398,22 @@ fn probe_result_in_the_measuring_cycle_array() {
     );
     assert_eq!(r.measurements[0].value_mm, 0.002);
 }
+
+#[test]
+fn splines_are_timed_along_their_programmed_points() {
+    let src = b"G90 G94 F600\nBSPLINE SD=3 X30 Y40 PW=2\nX30 Y0\nG1 X0 Y0\nM30\n";
+    let r = run_source(
+        "s.mpf",
+        src,
+        None,
+        &Config::default(),
+        &mut SimpleMachine::cold(),
+    )
+    .unwrap();
+    assert!(
+        (r.time_min - (50.0 + 40.0 + 30.0) / 600.0).abs() < 1e-12,
+        "{}",
+        r.time_min
+    );
+    assert_eq!(last_machine(&r), [0.0, 0.0, 0.0]);
+}

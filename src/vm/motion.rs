@@ -10,6 +10,10 @@
 /// Number of settable frames, `$P_UIFR[0]` (G500) … `$P_UIFR[99]`.
 pub const FRAMES: usize = 100;
 
+/// The motion mode of BSPLINE / ASPLINE / CSPLINE (modal like G1). The dry run times a spline by the polygon
+/// through its programmed points, an approximation: the curve is shorter (B spline) or close to it.
+pub const SPLINE: u32 = 1000;
+
 /// How an axis value in a block is meant.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Dim {

@@ -37,6 +37,9 @@ impl Interp<'_> {
                 _ => return Err(format!("G{g} is not supported by the dry run")),
             }
         }
+        if w.spline {
+            self.motion.modal.motion = SPLINE;
+        }
         let mut w = w;
         if self.motion.modal.inch {
             for (_, _, v) in &mut w.axes {

@@ -87,6 +87,7 @@ impl Interp<'_> {
         match name.as_str() {
             "RET" => w.ret = true,
             "SUPA" => w.suppress_frames = true,
+            "BSPLINE" | "ASPLINE" | "CSPLINE" => w.spline = true,
             "TRANS" | "ATRANS" | "ROT" | "AROT" | "SCALE" | "ASCALE" | "MIRROR" | "AMIRROR" => {
                 w.frame_command = Some(name)
             }

@@ -18,7 +18,7 @@ use super::VmError;
 use super::config::{Config, ProbeTarget};
 use super::eval::{R_COUNT, arg_nodes, index_nodes};
 use super::machine::{Machine, ProbeCall, ProbeResult, SpindleHistory};
-use super::motion::{ArcSpec, Dim, Saved, State, arc_length};
+use super::motion::{ArcSpec, Dim, SPLINE, Saved, State, arc_length};
 use super::passes::{Cut, PassTracker};
 use super::report::{Alarm, At, Correction, End, Measurement, Message, Run, Totals, TraceRow};
 use super::unit::{JumpTarget, Unit};
@@ -95,6 +95,8 @@ struct Words {
     probe: Option<(String, Vec<Option<f64>>)>,
     alarm: Option<(i64, Option<String>)>,
     ret: bool,
+    /// BSPLINE / ASPLINE / CSPLINE.
+    spline: bool,
     /// `REPEAT` section (first block, last block) to run `P` times.
     section: Option<(usize, usize)>,
 }
@@ -102,6 +104,13 @@ struct Words {
 /// Commands that change nothing the dry run models (display, single block, acceleration and look-ahead modes,
 /// the default feed profile; TRAFOOF because no kinematic transformation is modelled), accepted by name.
 const NO_EFFECT_COMMANDS: &[&str] = &[
+    // Spline start and end conditions shape the curve between the programmed points.
+    "BNAT",
+    "BTAN",
+    "BAUTO",
+    "ENAT",
+    "ETAN",
+    "EAUTO",
     "FNORM",
     "TRAFOOF",
     "STOPRE",

@@ -139,8 +139,9 @@ impl Interp<'_> {
             _ if name.starts_with('S') && name[1..].bytes().all(|b| b.is_ascii_digit()) => {
                 return Err(format!("{name}=: only spindle 1 is modelled"));
             }
+            // Point weight, degree and parameter interval shape a spline, not where its points are.
             "PW" | "SD" | "PL" => {
-                return Err(format!("{name}= (spline interpolation) is not supported"));
+                self.num(u, value)?;
             }
             "AP" | "RP" => return Err(format!("{name}= (polar coordinates) is not supported")),
             _ => return Ok(false),
