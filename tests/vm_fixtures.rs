@@ -417,3 +417,24 @@ fn splines_are_timed_along_their_programmed_points() {
     );
     assert_eq!(last_machine(&r), [0.0, 0.0, 0.0]);
 }
+
+#[test]
+fn archive_units_call_each_other() {
+    let r = run(
+        "archive.arc",
+        &Config::default(),
+        &mut SimpleMachine::cold(),
+    );
+    assert_eq!(last_machine(&r)[0], 12.0, "SUB_A twice: 5 + 0, then 5 + 2");
+    let sub_rows = r
+        .trace
+        .iter()
+        .filter(|t| t.file.ends_with("[SUB_A]"))
+        .count();
+    assert_eq!(
+        sub_rows,
+        2 * 3,
+        "PROC, R1=…, M17 per call; the header is not run"
+    );
+    assert_eq!(r.end, End::ProgramEnd { code: "M30".into() });
+}

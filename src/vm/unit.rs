@@ -1,44 +1,62 @@
-//! A loaded program file: its parse, block trees, control-structure partners, labels and N numbers.
+//! A loaded program file and the program units in it: parse, block trees, control-structure partners, labels
+//! and N numbers. A file is one unit, or an archive of several (`%_N_NAME_MPF`, `%_N_SUB_SPF`, …) whose
+//! subprograms can be called from the others.
 
 use std::cell::RefCell;
 use std::collections::HashMap;
+use std::ops::Deref;
 use std::path::PathBuf;
 use std::rc::Rc;
 
 use crate::syntax::{BlockKind, Node, NodeKind, Program};
 
-/// Block trees are built when a block runs; only the first [`CACHED_TREES`] built are kept (loop bodies run
-/// again without re-parsing), so a long CAM program costs its source plus a few bytes per block.
-pub struct Unit {
-    /// As the user named it (main program) or as found beside it (subprograms).
-    pub name: Rc<str>,
-    pub dir: Option<PathBuf>,
+/// One parsed file. Block trees are built when a block runs; only the first [`CACHED_TREES`] built are kept
+/// (loop bodies run again without re-parsing), so a long CAM program costs its source plus a few bytes per block.
+pub struct Source {
+    /// The file's name as shown in messages.
+    pub file: Rc<str>,
     pub program: Program,
-    /// First block after the header and the block after the unit (the next `%` header or the end).
-    pub start: usize,
-    pub end: usize,
     /// Opener → its next partner (IF → ELSE or ENDIF, ELSE → ENDIF, WHILE → ENDWHILE …).
     pub forward: HashMap<usize, usize>,
     /// Closer → its opener.
     pub backward: HashMap<usize, usize>,
     pub labels: Vec<Option<String>>,
     pub numbers: Vec<Option<u64>>,
-    /// The block holding the unit's `PROC` statement.
-    pub proc_block: Option<usize>,
+    /// Blocks holding a `PROC` statement.
+    procs: Vec<usize>,
+    /// Upper-cased `%` header lines and their blocks.
+    headers: Vec<(String, usize)>,
     trees: RefCell<HashMap<usize, Rc<Node>>>,
 }
 
-/// How many block trees a unit keeps.
+/// How many block trees a file keeps.
 pub const CACHED_TREES: usize = 4096;
 
-impl Unit {
-    pub fn new(name: String, dir: Option<PathBuf>, program: Program) -> Self {
+/// One program unit of a file: blocks `start..end`.
+pub struct Unit {
+    /// As the user named it (main program) or as found beside it (subprograms).
+    pub name: Rc<str>,
+    pub dir: Option<PathBuf>,
+    pub source: Rc<Source>,
+    /// First block after the header and the block after the unit (the next `%` header or the end).
+    pub start: usize,
+    pub end: usize,
+    /// The block holding the unit's `PROC` statement.
+    pub proc_block: Option<usize>,
+}
+
+impl Deref for Unit {
+    type Target = Source;
+
+    fn deref(&self) -> &Source {
+        &self.source
+    }
+}
+
+impl Source {
+    fn new(file: Rc<str>, program: Program) -> Self {
         let structure = crate::structure::analyze(&program);
         let n = program.block_count();
-        let start = usize::from(n > 0 && program.block_kind(0) == BlockKind::Header);
-        let end = (start..n)
-            .find(|&i| program.block_kind(i) == BlockKind::Header)
-            .unwrap_or(n);
         let mut forward = HashMap::new();
         let mut backward = HashMap::new();
         for &(open, close) in &structure.pairs {
@@ -49,7 +67,7 @@ impl Unit {
         let upper = |n: &Node| String::from_utf8_lossy(n.span.slice(src)).to_ascii_uppercase();
         let mut labels = Vec::with_capacity(n);
         let mut numbers = Vec::with_capacity(n);
-        let mut proc_block = None;
+        let mut procs = Vec::new();
         for block in program.blocks() {
             let root = &block.root;
             labels.push(
@@ -61,24 +79,26 @@ impl Unit {
                 b.find(NodeKind::Number)
                     .and_then(|d| upper(d).parse::<u64>().ok())
             }));
-            if proc_block.is_none()
-                && (start..end).contains(&block.index)
-                && root.find(NodeKind::Proc).is_some()
-            {
-                proc_block = Some(block.index);
+            if root.find(NodeKind::Proc).is_some() {
+                procs.push(block.index);
             }
         }
-        Unit {
-            name: name.into(),
-            dir,
+        let headers = (0..n)
+            .filter(|&i| program.block_kind(i) == BlockKind::Header)
+            .map(|i| {
+                let text = program.content_span(i).slice(src);
+                (String::from_utf8_lossy(text).trim().to_ascii_uppercase(), i)
+            })
+            .collect();
+        Source {
+            file,
             program,
-            start,
-            end,
             forward,
             backward,
             labels,
             numbers,
-            proc_block,
+            procs,
+            headers,
             trees: RefCell::new(HashMap::new()),
         }
     }
@@ -94,6 +114,55 @@ impl Unit {
             trees.insert(i, tree.clone());
         }
         tree
+    }
+}
+
+impl Unit {
+    /// The first unit of `program` (the whole file when it has no `%` headers).
+    pub fn new(name: String, dir: Option<PathBuf>, program: Program) -> Self {
+        let name: Rc<str> = name.into();
+        let source = Rc::new(Source::new(name.clone(), program));
+        let first = usize::from(
+            source.program.block_count() > 0 && source.program.block_kind(0) == BlockKind::Header,
+        );
+        Unit::at(name, dir, source, first)
+    }
+
+    fn at(name: Rc<str>, dir: Option<PathBuf>, source: Rc<Source>, start: usize) -> Self {
+        let program = &source.program;
+        let end = (start..program.block_count())
+            .find(|&i| program.block_kind(i) == BlockKind::Header)
+            .unwrap_or(program.block_count());
+        let proc_block = source
+            .procs
+            .iter()
+            .copied()
+            .find(|b| (start..end).contains(b));
+        Unit {
+            name,
+            dir,
+            source,
+            start,
+            end,
+            proc_block,
+        }
+    }
+
+    /// Another unit of the same file (an archive), by program name: `%_N_NAME_SPF` or `%_N_NAME_MPF`.
+    pub fn sibling(&self, name: &str) -> Option<Unit> {
+        let wanted = [format!("%_N_{name}_SPF"), format!("%_N_{name}_MPF")];
+        let &(_, header) = self
+            .source
+            .headers
+            .iter()
+            .find(|(h, _)| wanted.contains(h))?;
+        let display = format!("{}[{name}]", self.source.file);
+        Some(Unit::at(
+            display.into(),
+            self.dir.clone(),
+            self.source.clone(),
+            header + 1,
+        ))
     }
 
     /// The unit's `PROC` statement.

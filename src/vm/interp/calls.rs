@@ -118,6 +118,14 @@ impl Interp<'_> {
     /// Finds `NAME.SPF` / `NAME.MPF` (any case, or `_N_NAME_SPF`) beside the calling program, then in the
     /// configured subprogram folders (the control's SPF directory).
     pub(super) fn load(&mut self, from: &Unit, name: &str) -> Result<Rc<Unit>, String> {
+        if let Some(unit) = from.sibling(name) {
+            let key = (Rc::as_ptr(&from.source) as usize, unit.start);
+            let unit = self
+                .archive_units
+                .entry(key)
+                .or_insert_with(|| Rc::new(unit));
+            return Ok(unit.clone());
+        }
         let dirs: Vec<PathBuf> = from
             .dir
             .iter()

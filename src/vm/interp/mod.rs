@@ -150,6 +150,8 @@ pub(super) struct Interp<'m> {
     run: Run,
     listings: HashMap<PathBuf, HashMap<String, PathBuf>>,
     loaded: HashMap<PathBuf, Rc<Unit>>,
+    /// Units of archive files, by (file, first block).
+    archive_units: HashMap<(usize, usize), Rc<Unit>>,
 }
 
 fn err_at(u: &Unit, i: usize, message: impl Into<String>) -> VmError {
@@ -206,6 +208,7 @@ impl<'m> Interp<'m> {
             },
             listings: HashMap::new(),
             loaded: HashMap::new(),
+            archive_units: HashMap::new(),
         }
     }
 
