@@ -433,8 +433,8 @@ fn archive_units_call_each_other() {
         .count();
     assert_eq!(
         sub_rows,
-        2 * 3,
-        "PROC, R1=…, M17 per call; the header is not run"
+        2 * 4,
+        "$PATH, PROC, R1=…, M17 per call; the header is not run"
     );
     assert_eq!(r.end, End::ProgramEnd { code: "M30".into() });
 }
