@@ -438,3 +438,35 @@ fn archive_units_call_each_other() {
     );
     assert_eq!(r.end, End::ProgramEnd { code: "M30".into() });
 }
+
+#[test]
+fn feed_per_revolution_other_planes_and_inch() {
+    let time = |src: &str| {
+        run_source(
+            "t.mpf",
+            src.as_bytes(),
+            None,
+            &Config::default(),
+            &mut SimpleMachine::cold(),
+        )
+        .unwrap()
+        .time_min
+    };
+    // G95: 0.1 mm/rev at 1000 rpm = 100 mm/min.
+    assert!((time("S1000 M3\nG95 G1 X10 F0.1\nM30\n") - 0.1).abs() < 1e-12);
+    // G18 half circle in Z-X around centre I10 (X) K0 (Z): radius 10.
+    let half = std::f64::consts::PI * 10.0 / 1000.0;
+    assert!((time("G18 G94 G2 X20 Z0 I10 K0 F1000\nM30\n") - half).abs() < 1e-12);
+    // G700: 10 inch at 10 inch/min is one minute whatever the unit.
+    assert!((time("G700 G94 G1 X10 F10\nM30\n") - 1.0).abs() < 1e-12);
+    // G70: lengths in inch, feed in mm/min: 254 mm at 254 mm/min.
+    assert!((time("G70 G94 G1 X10 F254\nM30\n") - 1.0).abs() < 1e-12);
+    let e = run_source(
+        "t.mpf",
+        b"G95 G1 X10 F0.1\n",
+        None,
+        &Config::default(),
+        &mut SimpleMachine::cold(),
+    );
+    assert!(e.unwrap_err().message.contains("G95"));
+}
