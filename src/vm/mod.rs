@@ -3,11 +3,17 @@
 //! before it runs on a real machine: positions per block, time, spindle schedule, probe measurements, work-offset
 //! corrections, alarms, files written, and per pass the Z depth actually cut minus the nominal one.
 //!
-//! ```no_run
-//! use driftloop::vm::{Config, SimpleMachine, run_file};
-//! let mut machine = SimpleMachine::with_drift(|axis, t_min, _spindle| if axis == "Z" { -0.15 * t_min } else { 0.0 });
-//! let run = run_file("part.mpf".as_ref(), &Config::default(), &mut machine).unwrap();
-//! println!("max machined error {:.1} µm", run.totals.max_abs_error_um);
+//! The drift is commanded minus actual tool centre point (µm): a positive Z drift is a spindle grown towards
+//! the part, so the machined error of a pass is the drift minus the correction applied since program start.
+//!
+//! ```
+//! use driftloop::vm::{Config, SimpleMachine, run_source};
+//! // The spindle grows 0.15 µm per minute; nothing corrects it.
+//! let mut machine = SimpleMachine::with_drift(|axis, t_min, _spindle| if axis == "Z" { 0.15 * t_min } else { 0.0 });
+//! let program = b"G90 G94 S3000 M3\nG4 F600\nG0 X0 Y0 Z1\nG1 Z0 F100\nG1 X100 F1000\nG0 Z5\nM30\n";
+//! let run = run_source("part.mpf", program, None, &Config::default(), &mut machine).unwrap();
+//! assert_eq!(run.passes.len(), 1);
+//! assert!((run.totals.max_abs_error_um - 0.15 * run.passes[0].start_min).abs() < 0.01);
 //! ```
 
 mod config;
