@@ -470,3 +470,26 @@ fn feed_per_revolution_other_planes_and_inch() {
     );
     assert!(e.unwrap_err().message.contains("G95"));
 }
+
+#[test]
+fn auxiliary_functions_are_counted_not_skipped() {
+    let src = b"M8 H2 H=3\nG=1 X10 F100 M101\nH2\nM30\n";
+    let r = run_source(
+        "a.mpf",
+        src,
+        None,
+        &Config::default(),
+        &mut SimpleMachine::cold(),
+    )
+    .unwrap();
+    let aux: Vec<(&str, u64)> = r
+        .aux_functions
+        .iter()
+        .map(|(k, n)| (k.as_str(), *n))
+        .collect();
+    assert_eq!(aux, [("H2", 2), ("H3", 1), ("M101", 1), ("M8", 1)]);
+    assert!(
+        (r.time_min - 0.1).abs() < 1e-12,
+        "G=1 selects linear interpolation"
+    );
+}

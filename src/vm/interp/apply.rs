@@ -85,7 +85,7 @@ impl Interp<'_> {
                     self.time_min += self.cfg.tool_change_min;
                 }
                 5 | 0 | 1 | 2 | 30 | 17 => {}
-                _ => *self.run.aux_functions.entry(format!("M{m}")).or_default() += 1,
+                _ => self.aux(format!("M{m}")),
             }
         }
         if let Some(frame) = &w.frame_command {

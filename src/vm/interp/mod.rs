@@ -326,6 +326,11 @@ impl<'m> Interp<'m> {
         }
     }
 
+    /// Counts an auxiliary function output to the PLC (no effect in the dry run).
+    pub(super) fn aux(&mut self, name: String) {
+        *self.run.aux_functions.entry(name).or_default() += 1;
+    }
+
     pub(super) fn machine_input(&self, n: usize) -> Option<f64> {
         self.machine.analog_input(n, self.time_min)
     }

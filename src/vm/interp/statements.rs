@@ -67,6 +67,8 @@ impl Interp<'_> {
             "L" => w.call = Some((format!("L{}", whole()?), Vec::new(), Vec::new())),
             "P" => w.repeat = Some(whole()?),
             "I" | "J" | "K" => w.centre[ijk(&letter)] = Some((value, false)),
+            // H: an auxiliary function for the PLC, like M codes beyond the modelled ones.
+            "H" => self.aux(format!("H{}", crate::vm::value::format_number(value))),
             _ => match self.axis_index(&letter) {
                 Some(a) => w.axes.push((a, Dim::Modal, value)),
                 None => return Err(format!("address {letter} is not supported by the dry run")),
@@ -123,6 +125,14 @@ impl Interp<'_> {
             }
             "I" | "J" | "K" => w.centre[ijk(name)] = Some(self.centre_value(u, value)?),
             "M" => w.m.push(self.num(u, value)? as u32),
+            "G" => {
+                let g = self.num(u, value)?;
+                if g < 0.0 || g.fract() != 0.0 {
+                    return Err(format!("G={g} needs a whole number"));
+                }
+                w.g.push(g as u32);
+            }
+            "H" => self.aux(format!("H{}", self.eval(u, value)?.text())),
             "P" => {
                 let p = self.num(u, value)?;
                 if p < 1.0 || p.fract() != 0.0 {
