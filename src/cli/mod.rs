@@ -14,6 +14,7 @@ mod parse;
 mod positioning;
 mod predict;
 mod render;
+mod run;
 
 /// Options every subcommand understands.
 #[derive(Debug, Clone, clap::Args)]
@@ -61,6 +62,8 @@ enum Command {
     Demo(demo::Args),
     /// Positioning accuracy (DSTU/GOST 27843, VDI 3441, ISO 230-2) and compensation tables.
     Positioning(positioning::Args),
+    /// Dry run of an NC program on a virtual machine: time, passes, machined error, measurements.
+    Run(run::Args),
     /// Fit the thermal drift model of one displacement channel from measured data.
     Fit(fit::Args),
     /// Predict drift for a spindle schedule or the inputs of a data file.
@@ -84,6 +87,7 @@ pub fn main() -> ExitCode {
         Command::Check(args) => check::run(args, &cli.global),
         Command::Parse(args) => parse::run(args, &cli.global),
         Command::Bench(args) => bench::run(args, &cli.global),
+        Command::Run(args) => run::run(args, &cli.global),
     };
     match result {
         Ok(code) => code,

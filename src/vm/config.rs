@@ -1,0 +1,408 @@
+//! Interpreter settings and the machine file (`--machine truth.toml`).
+//!
+//! ```toml
+//! [timing]
+//! rapid_mm_min = 10000      # G0 path speed
+//! tool_change_s = 6         # per M6
+//! stop_s = 0                # operator time at M0 / M1
+//! [probe]
+//! cycles = ["BL9700", "CYCLE978"]
+//! result = 2                # R[02] receives the measured position
+//! axis = "Z"
+//! surface_mm = 0.0          # machine coordinate of the probed surface
+//! noise_um = 0.5
+//! faults = [{ call = 3, kind = "nan" }]
+//! [corrections]
+//! include_trans = false     # true: TRANS/ATRANS count as corrections, not as programmed geometry
+//! [offsets]                 # settable work offsets at program start, $P_UIFR[n]
+//! G54 = { Z = -120.0 }
+//! [models]                  # truth: a driftloop model file per axis (path relative to this file)
+//! Z = { file = "truth.toml", scale = 1.0 }
+//! [signals.ambient_c]       # a model input over time, [minutes, value]; `input = 1`: $A_INA[1] reads it
+//! input = 1
+//! points = [[0, 20.0], [240, 23.5]]
+//! [drift]                   # plus piecewise-linear drift per axis, [minutes, µm] points: effects the
+//! Z = [[0, 0], [240, -3]]   # model does not declare, or the whole truth when there is no model
+//! ```
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::Deserialize;
+
+use super::machine::{ProbeFault, SimpleMachine, piecewise_linear};
+use super::truth::ModelDrift;
+
+/// What the interpreter needs to know about the machine and the run.
+#[derive(Debug, Clone)]
+pub struct Config {
+    /// Axis names, upper case. Names of one letter plus digits that are not listed are not axes.
+    pub axes: Vec<String>,
+    pub rapid_mm_min: f64,
+    pub tool_change_min: f64,
+    /// Time the operator takes to restart after M0 / M1.
+    pub stop_min: f64,
+    /// Feed used when a feed move has none programmed; `None`: such a move is an error (alarm 10860).
+    pub default_feed_mm_min: Option<f64>,
+    /// Upper-cased names of the probe cycles.
+    pub probe_cycles: Vec<String>,
+    /// Where the probe cycle leaves its result: an R parameter, or an element of a global array such as the
+    /// measuring cycles' `_OVR[4]` (created as a REAL array when the program starts).
+    pub probe_result: ProbeTarget,
+    pub probe_axis: String,
+    /// Machine coordinate of the surface the probe touches.
+    pub probe_surface_mm: f64,
+    /// Time one probe cycle takes.
+    pub probe_min: f64,
+    /// Settable work offsets at the start, `(frame number, axis, value)`: G54 is frame 1.
+    pub offsets: Vec<(usize, String, f64)>,
+    /// Count TRANS / ATRANS as corrections in the machined error (default: only `$P_UIFR` changes are).
+    pub trans_is_correction: bool,
+    /// Folders searched for subprograms after the calling program's own folder.
+    pub subprogram_dirs: Vec<std::path::PathBuf>,
+    /// Executed blocks beyond the main program's own block count after which the run stops with an error
+    /// (endless loops); a straight program of any length runs through.
+    pub max_blocks: u64,
+    /// Keep a trace row per executed block.
+    pub trace: bool,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            axes: ["X", "Y", "Z", "A", "B", "C"].map(String::from).to_vec(),
+            rapid_mm_min: 10_000.0,
+            tool_change_min: 0.1,
+            stop_min: 0.0,
+            default_feed_mm_min: None,
+            probe_cycles: vec!["BL9700".into(), "CYCLE978".into()],
+            probe_result: ProbeTarget::R(2),
+            probe_axis: "Z".into(),
+            probe_surface_mm: 0.0,
+            probe_min: 0.05,
+            offsets: Vec::new(),
+            subprogram_dirs: Vec::new(),
+            trans_is_correction: false,
+            max_blocks: 1_000_000,
+            trace: true,
+        }
+    }
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MachineFile {
+    #[serde(default)]
+    timing: Timing,
+    #[serde(default)]
+    probe: Probe,
+    #[serde(default)]
+    offsets: BTreeMap<String, BTreeMap<String, f64>>,
+    #[serde(default)]
+    drift: BTreeMap<String, Vec<[f64; 2]>>,
+    #[serde(default)]
+    models: BTreeMap<String, ModelRef>,
+    #[serde(default)]
+    corrections: Corrections,
+    #[serde(default)]
+    signals: BTreeMap<String, SignalSpec>,
+    axes: Option<Vec<String>>,
+}
+
+/// A measured quantity over time (ambient temperature …): feeds a truth model's declared input of the same
+/// name and, with `input = n`, is readable by the program as `$A_INA[n]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SignalSpec {
+    input: Option<usize>,
+    points: Vec<[f64; 2]>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Corrections {
+    /// TRANS / ATRANS count as corrections (the program corrects through a programmable frame).
+    #[serde(default)]
+    include_trans: bool,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ModelRef {
+    file: String,
+    #[serde(default = "one")]
+    scale: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Timing {
+    rapid_mm_min: Option<f64>,
+    tool_change_s: Option<f64>,
+    stop_s: Option<f64>,
+    probe_s: Option<f64>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Probe {
+    cycles: Option<Vec<String>>,
+    result: Option<ResultSpec>,
+    axis: Option<String>,
+    surface_mm: Option<f64>,
+    noise_um: Option<f64>,
+    #[serde(default)]
+    faults: Vec<Fault>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(untagged)]
+enum ResultSpec {
+    Number(usize),
+    Name(String),
+}
+
+/// Where a probe result goes.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum ProbeTarget {
+    R(usize),
+    /// A global REAL array element, `_OVR[4]`.
+    Array(String, usize),
+}
+
+impl ProbeTarget {
+    /// `R2`, `R[02]`, `_OVR[4]` (case-insensitive).
+    pub fn parse(text: &str) -> Option<ProbeTarget> {
+        let t = text.trim().to_ascii_uppercase();
+        let (name, index) = match t.split_once('[') {
+            Some((name, rest)) => (
+                name.to_string(),
+                rest.strip_suffix(']')?.trim().parse().ok()?,
+            ),
+            None if t.starts_with('R') => return t[1..].parse().ok().map(ProbeTarget::R),
+            None => return None,
+        };
+        match name.as_str() {
+            "R" => Some(ProbeTarget::R(index)),
+            "" => None,
+            _ => Some(ProbeTarget::Array(name, index)),
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Fault {
+    call: usize,
+    kind: ProbeFault,
+}
+
+/// A parsed machine file: settings for the interpreter and the parts a [`SimpleMachine`] is built from.
+#[derive(Debug, Clone, Default)]
+pub struct MachineSpec {
+    pub noise_um: f64,
+    pub faults: Vec<(usize, ProbeFault)>,
+    /// Piecewise-linear drift per upper-cased axis: `(minutes, µm)` points in time order.
+    pub drift: BTreeMap<String, Vec<(f64, f64)>>,
+    /// Model-driven drift per upper-cased axis (added to the piecewise-linear part).
+    pub models: BTreeMap<String, ModelDrift>,
+    /// Analog inputs: number → `(minutes, value)` points.
+    pub analog: Vec<(usize, Vec<(f64, f64)>)>,
+}
+
+impl MachineSpec {
+    /// The machine: the model's drift for the spindle history plus the points interpolated linearly (held flat
+    /// outside them), probe noise from `seed`.
+    pub fn build(&self, seed: u64) -> SimpleMachine {
+        let table = self.drift.clone();
+        let models = self.models.clone();
+        let mut m = SimpleMachine::with_drift(move |axis, t, spindle| {
+            let axis = axis.to_ascii_uppercase();
+            let listed = table.get(&axis).map_or(0.0, |pts| piecewise_linear(pts, t));
+            listed + models.get(&axis).map_or(0.0, |m| m.at(t, spindle))
+        })
+        .noise(self.noise_um, seed);
+        for &(call, kind) in &self.faults {
+            m = m.fault(call, kind);
+        }
+        for (n, points) in &self.analog {
+            m = m.analog(*n, points.clone());
+        }
+        m
+    }
+}
+
+/// Reads a machine file into interpreter settings (starting from `base`) and a machine spec; model files are
+/// found relative to `dir`.
+pub fn parse_machine_file(
+    text: &str,
+    dir: &Path,
+    base: Config,
+) -> Result<(Config, MachineSpec), String> {
+    let file: MachineFile = toml::from_str(text).map_err(|e| e.to_string())?;
+    let mut cfg = base;
+    let t = file.timing;
+    cfg.rapid_mm_min = positive(t.rapid_mm_min, cfg.rapid_mm_min, "timing.rapid_mm_min")?;
+    cfg.tool_change_min = t.tool_change_s.map_or(cfg.tool_change_min, |s| s / 60.0);
+    cfg.stop_min = t.stop_s.map_or(cfg.stop_min, |s| s / 60.0);
+    cfg.probe_min = t.probe_s.map_or(cfg.probe_min, |s| s / 60.0);
+    let p = file.probe;
+    if let Some(c) = p.cycles {
+        cfg.probe_cycles = c.iter().map(|c| c.to_ascii_uppercase()).collect();
+    }
+    if let Some(result) = p.result {
+        cfg.probe_result = match result {
+            ResultSpec::Number(n) => ProbeTarget::R(n),
+            ResultSpec::Name(name) => ProbeTarget::parse(&name).ok_or_else(|| {
+                format!("probe.result: `{name}` is neither R<n>, R[<n>] nor NAME[<n>]")
+            })?,
+        };
+    }
+    cfg.probe_axis = p.axis.map_or(cfg.probe_axis, |a| a.to_ascii_uppercase());
+    cfg.probe_surface_mm = p.surface_mm.unwrap_or(cfg.probe_surface_mm);
+    cfg.trans_is_correction = file.corrections.include_trans;
+    if let Some(axes) = file.axes {
+        cfg.axes = axes.iter().map(|a| a.to_ascii_uppercase()).collect();
+    }
+    for (g, values) in &file.offsets {
+        let frame = offset_frame(g).ok_or_else(|| {
+            format!("offsets: `{g}` is not a settable work offset (G54…G57, G505…G599)")
+        })?;
+        for (axis, v) in values {
+            cfg.offsets.push((frame, axis.to_ascii_uppercase(), *v));
+        }
+    }
+    let mut drift = BTreeMap::new();
+    for (axis, pts) in file.drift {
+        let pts: Vec<(f64, f64)> = pts.iter().map(|p| (p[0], p[1])).collect();
+        if pts.windows(2).any(|w| w[1].0 <= w[0].0) {
+            return Err(format!("drift.{axis}: times must increase"));
+        }
+        drift.insert(axis.to_ascii_uppercase(), pts);
+    }
+    let mut signals = BTreeMap::new();
+    let mut analog = Vec::new();
+    for (name, sig) in file.signals {
+        let pts: Vec<(f64, f64)> = sig.points.iter().map(|p| (p[0], p[1])).collect();
+        if pts.is_empty() || pts.windows(2).any(|w| w[1].0 <= w[0].0) {
+            return Err(format!("signals.{name}: points needed, times increasing"));
+        }
+        if let Some(n) = sig.input {
+            analog.push((n, pts.clone()));
+        }
+        signals.insert(name.to_ascii_lowercase(), pts);
+    }
+    let mut models = BTreeMap::new();
+    for (axis, m) in file.models {
+        let model =
+            crate::model::DriftModel::read(&dir.join(&m.file)).map_err(|e| e.to_string())?;
+        let truth =
+            ModelDrift::new(model, m.scale, &signals).map_err(|e| format!("models.{axis}: {e}"))?;
+        models.insert(axis.to_ascii_uppercase(), truth);
+    }
+    let spec = MachineSpec {
+        noise_um: p.noise_um.unwrap_or(0.0),
+        faults: p.faults.iter().map(|f| (f.call, f.kind)).collect(),
+        drift,
+        models,
+        analog,
+    };
+    Ok((cfg, spec))
+}
+
+fn positive(v: Option<f64>, default: f64, name: &str) -> Result<f64, String> {
+    match v {
+        Some(x) if x <= 0.0 || !x.is_finite() => Err(format!("{name} must be positive")),
+        Some(x) => Ok(x),
+        None => Ok(default),
+    }
+}
+
+/// `G54` → 1 … `G57` → 4, `G505` → 5 … `G599` → 99: the `$P_UIFR` number a G code selects.
+pub fn offset_frame(g: &str) -> Option<usize> {
+    let n: usize = g.strip_prefix(['G', 'g'])?.parse().ok()?;
+    match n {
+        54..=57 => Some(n - 53),
+        505..=599 => Some(n - 500),
+        _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn machine_file_sets_timing_probe_offsets_and_drift() {
+        let text = r#"
+[timing]
+rapid_mm_min = 20000
+tool_change_s = 12
+[probe]
+cycles = ["bl9700"]
+result = 5
+noise_um = 0.5
+faults = [{ call = 2, kind = "garbage" }]
+[offsets]
+G54 = { z = -100.0 }
+[drift]
+z = [[0, 0], [100, -20]]
+"#;
+        let (cfg, spec) = parse_machine_file(text, Path::new("."), Config::default()).unwrap();
+        assert_eq!(cfg.rapid_mm_min, 20000.0);
+        assert!((cfg.tool_change_min - 0.2).abs() < 1e-12);
+        assert_eq!(cfg.probe_cycles, vec!["BL9700"]);
+        assert_eq!(cfg.probe_result, ProbeTarget::R(5));
+        assert_eq!(cfg.offsets, vec![(1, "Z".to_string(), -100.0)]);
+        assert_eq!(spec.faults, vec![(2, ProbeFault::Garbage)]);
+        let mut m = spec.build(1);
+        use crate::vm::machine::{Machine, SpindleHistory};
+        let h = SpindleHistory::default();
+        assert_eq!(m.drift_um("Z", 50.0, &h), -10.0);
+        assert_eq!(m.drift_um("Z", 500.0, &h), -20.0);
+        assert_eq!(m.drift_um("X", 50.0, &h), 0.0);
+    }
+
+    #[test]
+    fn probe_targets() {
+        assert_eq!(ProbeTarget::parse("R2"), Some(ProbeTarget::R(2)));
+        assert_eq!(ProbeTarget::parse("r[02]"), Some(ProbeTarget::R(2)));
+        assert_eq!(
+            ProbeTarget::parse("_OVR[4]"),
+            Some(ProbeTarget::Array("_OVR".into(), 4))
+        );
+        assert_eq!(ProbeTarget::parse("X"), None);
+        let (cfg, _) = parse_machine_file(
+            "[probe]\nresult = \"_OVR[4]\"",
+            Path::new("."),
+            Config::default(),
+        )
+        .unwrap();
+        assert_eq!(cfg.probe_result, ProbeTarget::Array("_OVR".into(), 4));
+    }
+
+    #[test]
+    fn machine_file_errors_name_the_field() {
+        let e = parse_machine_file(
+            "[offsets]\nG53 = { Z = 1.0 }",
+            Path::new("."),
+            Config::default(),
+        )
+        .unwrap_err();
+        assert!(e.contains("G53"), "{e}");
+        let e = parse_machine_file(
+            "[timing]\nrapid_mm_min = 0",
+            Path::new("."),
+            Config::default(),
+        )
+        .unwrap_err();
+        assert!(e.contains("rapid_mm_min"), "{e}");
+        assert!(
+            parse_machine_file("[timing]\nrapid = 1", Path::new("."), Config::default()).is_err()
+        );
+    }
+}

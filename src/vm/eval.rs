@@ -1,0 +1,420 @@
+//! Expressions, variables and system variables.
+
+use crate::syntax::{Node, NodeKind};
+
+use super::interp::Interp;
+use super::unit::Unit;
+use super::value::{Value, Variable};
+
+/// Highest R parameter number (R0 … R999).
+pub const R_COUNT: usize = 1000;
+
+/// The expressions of an argument list `( a, , c )`: `None` for an empty argument. The list's own direct
+/// punctuation is its parentheses (first and last) and the commas between; an argument is never a bare `Punct`.
+pub fn arg_nodes(args: &Node) -> Vec<Option<&Node>> {
+    let parts: Vec<&Node> = args.significant().collect();
+    let inner = parts.get(1..parts.len().saturating_sub(1)).unwrap_or(&[]);
+    if inner.is_empty() {
+        return Vec::new();
+    }
+    let mut out = vec![None];
+    for &c in inner {
+        match (c.kind, out.last_mut()) {
+            (NodeKind::Punct, _) => out.push(None),
+            (_, Some(slot)) => *slot = Some(c),
+            (_, None) => {}
+        }
+    }
+    out
+}
+
+/// The expressions of an index `[a, b]`.
+pub fn index_nodes(index: &Node) -> Vec<&Node> {
+    index
+        .significant()
+        .filter(|c| c.kind != NodeKind::Punct)
+        .collect()
+}
+
+pub fn parse_number(text: &str) -> Result<f64, String> {
+    text.to_ascii_uppercase()
+        .replace("EX", "E")
+        .parse()
+        .map_err(|_| format!("`{text}` is not a number"))
+}
+
+fn deg(f: fn(f64) -> f64) -> impl Fn(f64) -> f64 {
+    move |x| f(x.to_radians())
+}
+
+impl Interp<'_> {
+    pub(super) fn eval(&self, u: &Unit, n: &Node) -> Result<Value, String> {
+        match n.kind {
+            NodeKind::Number => Ok(Value::Num(parse_number(&u.upper(n))?)),
+            NodeKind::Str => {
+                let t = u.text(n);
+                Ok(Value::Str(
+                    String::from_utf8_lossy(&t[1..t.len() - 1]).into_owned(),
+                ))
+            }
+            NodeKind::BitLiteral => {
+                let t = u.upper(n);
+                let body = &t[2..t.len() - 1];
+                let radix = if t.as_bytes()[1] == b'H' { 16 } else { 2 };
+                i64::from_str_radix(body, radix)
+                    .map(|v| Value::Num(v as f64))
+                    .map_err(|_| format!("bad bit literal {t}"))
+            }
+            NodeKind::Paren => {
+                let inner = n
+                    .significant()
+                    .find(|c| c.kind != NodeKind::Punct)
+                    .ok_or("empty parentheses")?;
+                self.eval(u, inner)
+            }
+            NodeKind::Unary => {
+                let parts: Vec<&Node> = n.significant().collect();
+                let v = self.eval(u, parts[parts.len() - 1])?;
+                match u.upper(parts[0]).as_str() {
+                    "-" => Ok(Value::Num(-v.num()?)),
+                    "+" => Ok(Value::Num(v.num()?)),
+                    "NOT" => Ok(Value::Num(f64::from(!v.truth()?))),
+                    "B_NOT" => Ok(Value::Num(!(v.num()? as i64) as f64)),
+                    op => Err(format!("unknown operator {op}")),
+                }
+            }
+            NodeKind::Binary => {
+                let parts: Vec<&Node> = n.significant().collect();
+                let op = u.upper(parts[1]);
+                let l = self.eval(u, parts[0])?;
+                let r = self.eval(u, parts[2])?;
+                binary(&op, l, r)
+            }
+            NodeKind::FnCall => self.function(u, n),
+            NodeKind::RParam => Ok(Value::Num(self.r[self.r_index(u, n)?])),
+            NodeKind::SysVar => self.sysvar(u, n),
+            NodeKind::Var => self.read_var(u, n),
+            k => Err(format!("{} cannot be evaluated here", k.name())),
+        }
+    }
+
+    pub(super) fn num(&self, u: &Unit, n: &Node) -> Result<f64, String> {
+        self.eval(u, n)?.num()
+    }
+
+    pub(super) fn r_index(&self, u: &Unit, n: &Node) -> Result<usize, String> {
+        let name = u.upper(n.find(NodeKind::Name).ok_or("R parameter without name")?);
+        let i = match n.find(NodeKind::Index) {
+            Some(ix) => {
+                let [e] = index_nodes(ix)[..] else {
+                    return Err("R[…] takes one index".into());
+                };
+                let v = self.num(u, e)?;
+                if v < 0.0 || v.fract() != 0.0 {
+                    return Err(format!("R parameter number {v} is not a whole number ≥ 0"));
+                }
+                v as usize
+            }
+            None => name[1..]
+                .parse()
+                .map_err(|_| format!("bad R parameter {name}"))?,
+        };
+        if i >= R_COUNT {
+            return Err(format!("R{i} is beyond R{} (alarm 12140)", R_COUNT - 1));
+        }
+        Ok(i)
+    }
+
+    /// Index values of an indexed user variable.
+    pub(super) fn indices(&self, u: &Unit, n: &Node) -> Result<Vec<usize>, String> {
+        let Some(ix) = n.find(NodeKind::Index) else {
+            return Ok(Vec::new());
+        };
+        index_nodes(ix)
+            .into_iter()
+            .map(|e| {
+                let v = self.num(u, e)?;
+                if v < 0.0 {
+                    return Err(format!("negative index {v}"));
+                }
+                Ok(v.round() as usize)
+            })
+            .collect()
+    }
+
+    /// A variable of the running program, or a global one (the probe's result array).
+    pub(super) fn variable(&self, name: &str) -> Option<&Variable> {
+        self.stack
+            .last()
+            .and_then(|f| f.vars.get(name))
+            .or_else(|| self.globals.get(name))
+    }
+
+    fn read_var(&self, u: &Unit, n: &Node) -> Result<Value, String> {
+        let name = u.upper(n.find(NodeKind::Name).ok_or("variable without name")?);
+        match name.as_str() {
+            "TRUE" => return Ok(Value::Num(1.0)),
+            "FALSE" => return Ok(Value::Num(0.0)),
+            _ => {}
+        }
+        if let Some(v) = self.variable(&name) {
+            return v.get(&self.indices(u, n)?);
+        }
+        if self.axis_index(&name).is_some() {
+            return Err(format!("axis {name} used as a value"));
+        }
+        Err(format!("variable {name} is not defined (alarm 12550)"))
+    }
+
+    pub(super) fn axis_index(&self, name: &str) -> Option<usize> {
+        self.cfg.axes.iter().position(|a| a == name)
+    }
+
+    /// An axis named in a system-variable index: `$AA_IM[Z]`.
+    fn axis_arg(&self, u: &Unit, n: &Node) -> Result<usize, String> {
+        let name = u.upper(n);
+        self.axis_index(&name)
+            .ok_or_else(|| format!("{name} is not an axis of this machine"))
+    }
+
+    fn sysvar(&self, u: &Unit, n: &Node) -> Result<Value, String> {
+        let name = u.upper(
+            n.find(NodeKind::Name)
+                .ok_or("system variable without name")?,
+        );
+        let idx: Vec<&Node> = n.find(NodeKind::Index).map(index_nodes).unwrap_or_default();
+        let m = &self.motion;
+        let v = match (name.as_str(), idx.as_slice()) {
+            ("$P_UIFR", [frame, axis, tr]) => {
+                let (f, a, fine) = self.uifr_address(u, frame, axis, tr)?;
+                if fine {
+                    m.frames.fine[f][a]
+                } else {
+                    m.frames.table[f][a]
+                }
+            }
+            ("$AA_IM", [axis]) => m.machine[self.axis_arg(u, axis)?],
+            ("$AA_IW", [axis]) => {
+                let a = self.axis_arg(u, axis)?;
+                m.machine[a] - m.frames.offset(a)
+            }
+            ("$P_EP", [axis]) => m.local[self.axis_arg(u, axis)?],
+            ("$P_UIFRNUM", []) => m.frames.selected as f64,
+            ("$AN_POWERON_TIME" | "$AN_SETUP_TIME", []) => self.time_min,
+            ("$AC_CYCLE_TIME" | "$AC_OPERATING_TIME", []) => self.time_min * 60.0,
+            ("$P_F", []) => m.modal.feed.unwrap_or(0.0),
+            ("$AA_S", [_] | []) => m.spindle_rpm(),
+            ("$P_TOOLNO", []) => m.tool_number,
+            ("$A_INA", [n]) => {
+                let n = self.num(u, n)?;
+                self.machine_input(n as usize).ok_or_else(|| {
+                    format!("analog input $A_INA[{n}] is not connected on this machine")
+                })?
+            }
+            ("$P_TOOL", []) => m.d,
+            _ => {
+                return Err(format!(
+                    "system variable {name} with {} index value(s) is not supported by the dry run",
+                    idx.len()
+                ));
+            }
+        };
+        Ok(Value::Num(v))
+    }
+
+    /// `$P_UIFR[n, axis, TR | FI]` → (frame, axis index, fine).
+    pub(super) fn uifr_address(
+        &self,
+        u: &Unit,
+        frame: &Node,
+        axis: &Node,
+        part: &Node,
+    ) -> Result<(usize, usize, bool), String> {
+        let f = self.num(u, frame)?;
+        if !(0.0..super::motion::FRAMES as f64).contains(&f) || f.fract() != 0.0 {
+            return Err(format!("$P_UIFR frame number {f} out of range 0…99"));
+        }
+        let fine = match u.upper(part).as_str() {
+            "TR" => false,
+            "FI" => true,
+            other => {
+                return Err(format!(
+                    "$P_UIFR component {other} is not supported (translations TR and FI only)"
+                ));
+            }
+        };
+        Ok((f as usize, self.axis_arg(u, axis)?, fine))
+    }
+
+    fn function(&self, u: &Unit, n: &Node) -> Result<Value, String> {
+        let name = u.upper(&n.children[0]);
+        let args = n.find(NodeKind::Args).map(arg_nodes).unwrap_or_default();
+        let mut vals = Vec::with_capacity(args.len());
+        for a in &args {
+            vals.push(match a {
+                Some(a) => self.eval(u, a)?,
+                None => return Err(format!("{name}: empty argument")),
+            });
+        }
+        let nums = || {
+            vals.iter()
+                .map(Value::num)
+                .collect::<Result<Vec<f64>, String>>()
+        };
+        let one = |f: &dyn Fn(f64) -> f64| -> Result<Value, String> {
+            match nums()?[..] {
+                [x] => Ok(Value::Num(f(x))),
+                _ => Err(format!("{name} takes one argument")),
+            }
+        };
+        let checked = |v: f64| {
+            if v.is_finite() {
+                Ok(Value::Num(v))
+            } else {
+                Err(format!("{name}: argument out of range"))
+            }
+        };
+        match name.as_str() {
+            "SIN" => one(&deg(f64::sin)),
+            "COS" => one(&deg(f64::cos)),
+            "TAN" => one(&deg(f64::tan)),
+            "ASIN" => checked(one(&|x| x.asin().to_degrees())?.num()?),
+            "ACOS" => checked(one(&|x| x.acos().to_degrees())?.num()?),
+            "ATAN2" => match nums()?[..] {
+                [y, x] => Ok(Value::Num(y.atan2(x).to_degrees())),
+                _ => Err("ATAN2 takes two arguments".into()),
+            },
+            "ABS" => one(&f64::abs),
+            "SQRT" => checked(one(&f64::sqrt)?.num()?),
+            "POT" => match nums()?[..] {
+                [x] => Ok(Value::Num(x * x)),
+                [x, y] => checked(x.powf(y)),
+                _ => Err("POT takes one or two arguments".into()),
+            },
+            "EXP" => one(&f64::exp),
+            "LN" => checked(one(&f64::ln)?.num()?),
+            "TRUNC" => one(&f64::trunc),
+            "ROUND" => one(&f64::round),
+            "ROUNDUP" => one(&f64::ceil),
+            "MINVAL" | "MAXVAL" => match nums()?[..] {
+                [a, b] => Ok(Value::Num(if name == "MINVAL" {
+                    a.min(b)
+                } else {
+                    a.max(b)
+                })),
+                _ => Err(format!("{name} takes two arguments")),
+            },
+            "BOUND" => match nums()?[..] {
+                [lo, hi, x] => Ok(Value::Num(x.clamp(lo.min(hi), hi.max(lo)))),
+                _ => Err("BOUND takes three arguments (min, max, value)".into()),
+            },
+            "STRLEN" => match &vals[..] {
+                [Value::Str(s)] => Ok(Value::Num(s.chars().count() as f64)),
+                _ => Err("STRLEN takes one string".into()),
+            },
+            "NUMBER" => match &vals[..] {
+                [Value::Str(s)] => parse_number(s.trim()).map(Value::Num),
+                _ => Err("NUMBER takes one string".into()),
+            },
+            "TOUPPER" | "TOLOWER" => match &vals[..] {
+                [Value::Str(s)] => Ok(Value::Str(if name == "TOUPPER" {
+                    s.to_uppercase()
+                } else {
+                    s.to_lowercase()
+                })),
+                _ => Err(format!("{name} takes one string")),
+            },
+            "IC" | "AC" | "ACP" | "ACN" | "DC" => {
+                Err(format!("{name}() is only allowed as an axis value"))
+            }
+            _ => Err(format!("function {name} is not supported by the dry run")),
+        }
+    }
+}
+
+/// Applies a binary operator.
+pub fn binary(op: &str, l: Value, r: Value) -> Result<Value, String> {
+    if op == "<<" {
+        return Ok(Value::Str(l.text() + &r.text()));
+    }
+    if let (Value::Str(a), Value::Str(b)) = (&l, &r) {
+        return match op {
+            "==" => Ok(Value::Num(f64::from(a == b))),
+            "<>" => Ok(Value::Num(f64::from(a != b))),
+            _ => Err(format!("operator {op} does not apply to strings")),
+        };
+    }
+    let (a, b) = (l.num()?, r.num()?);
+    let bool_num = |v: bool| Value::Num(f64::from(v));
+    let int = |v: f64| v as i64;
+    Ok(match op {
+        "+" => Value::Num(a + b),
+        "-" => Value::Num(a - b),
+        "*" => Value::Num(a * b),
+        "/" | "DIV" | "MOD" if b == 0.0 => return Err("division by zero".into()),
+        "/" => Value::Num(a / b),
+        "DIV" => Value::Num((a / b).trunc()),
+        "MOD" => Value::Num(a % b),
+        "==" => bool_num(a == b),
+        "<>" => bool_num(a != b),
+        "<" => bool_num(a < b),
+        ">" => bool_num(a > b),
+        "<=" => bool_num(a <= b),
+        ">=" => bool_num(a >= b),
+        "AND" => bool_num(a != 0.0 && b != 0.0),
+        "OR" => bool_num(a != 0.0 || b != 0.0),
+        "XOR" => bool_num((a != 0.0) != (b != 0.0)),
+        "B_AND" => Value::Num((int(a) & int(b)) as f64),
+        "B_OR" => Value::Num((int(a) | int(b)) as f64),
+        "B_XOR" => Value::Num((int(a) ^ int(b)) as f64),
+        _ => return Err(format!("operator {op} is not supported by the dry run")),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn argument_lists_keep_empty_arguments() {
+        let count = |src: &str| {
+            let p = crate::parse(src.as_bytes());
+            let root = p.block(0).root;
+            let call = root.find(NodeKind::Call).unwrap();
+            arg_nodes(call.find(NodeKind::Args).unwrap())
+                .iter()
+                .map(Option::is_some)
+                .collect::<Vec<bool>>()
+        };
+        assert_eq!(count("SUB(1,,R1+2)"), [true, false, true]);
+        assert_eq!(count("SUB(,)"), [false, false]);
+        assert_eq!(count("SUB()"), Vec::<bool>::new());
+    }
+
+    #[test]
+    fn div_truncates_and_mod_keeps_the_fraction() {
+        let n = |v| Value::Num(v);
+        assert_eq!(binary("DIV", n(7.0), n(4.1)), Ok(n(1.0)));
+        assert_eq!(binary("DIV", n(7.0), n(0.4)), Ok(n(17.0)));
+        let m = binary("MOD", n(7.0), n(4.1)).unwrap().num().unwrap();
+        assert!((m - 2.9).abs() < 1e-12);
+        assert!(binary("/", n(1.0), n(0.0)).is_err());
+    }
+
+    #[test]
+    fn logic_bits_and_strings() {
+        let n = |v| Value::Num(v);
+        assert_eq!(binary("XOR", n(1.0), n(1.0)), Ok(n(0.0)));
+        assert_eq!(binary("B_AND", n(6.0), n(3.0)), Ok(n(2.0)));
+        assert_eq!(binary("B_OR", n(4.0), n(1.0)), Ok(n(5.0)));
+        assert_eq!(
+            binary("<<", Value::Str("R=".into()), n(1.5)),
+            Ok(Value::Str("R=1.5".into()))
+        );
+        assert_eq!(
+            binary("==", Value::Str("A".into()), Value::Str("A".into())),
+            Ok(n(1.0))
+        );
+        assert!(binary("<", Value::Str("A".into()), n(1.0)).is_err());
+    }
+}

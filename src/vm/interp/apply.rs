@@ -1,0 +1,379 @@
+//! What a block does to the machine: modal G codes, spindle, tool, frames, moves with their time and cut,
+//! dwell, probe, program end.
+
+use super::*;
+
+impl Interp<'_> {
+    pub(super) fn apply(&mut self, u: &Rc<Unit>, i: usize, w: Words) -> Result<Flow, String> {
+        let mut dwell = false;
+        let mut suppress = w.suppress_frames;
+        let planes = [
+            self.plane(["X", "Y", "Z"]),
+            self.plane(["Z", "X", "Y"]),
+            self.plane(["Y", "Z", "X"]),
+        ];
+        for &g in &w.g {
+            let modal = &mut self.motion.modal;
+            match g {
+                0..=3 => modal.motion = g,
+                4 => dwell = true,
+                // Exact stop / continuous path: change corners, not the path length this dry run times.
+                9 | 60 | 64 | 601..=603 | 641..=645 => {}
+                17..=19 => modal.plane = planes[g as usize - 17],
+                // Cutter radius compensation moves the contour in the plane, never the depth.
+                40..=42 => {}
+                53 | 153 => suppress = true,
+                54..=57 => self.motion.frames.select(g as usize - 53),
+                505..=599 => self.motion.frames.select(g as usize - 500),
+                500 => self.motion.frames.select(0),
+                70 | 700 | 71 | 710 => {
+                    modal.inch = matches!(g, 70 | 700);
+                    modal.inch_feed = g == 700;
+                }
+                90 => modal.absolute = true,
+                91 => modal.absolute = false,
+                94 => modal.feed_per_rev = false,
+                95 => modal.feed_per_rev = true,
+                _ => return Err(format!("G{g} is not supported by the dry run")),
+            }
+        }
+        if w.spline {
+            self.motion.modal.motion = SPLINE;
+        }
+        let mut w = w;
+        if self.motion.modal.inch {
+            for (_, _, v) in &mut w.axes {
+                *v *= MM_PER_INCH;
+            }
+            for (v, _) in w.centre.iter_mut().flatten() {
+                *v *= MM_PER_INCH;
+            }
+            if let Some(cr) = &mut w.cr {
+                *cr *= MM_PER_INCH;
+            }
+        }
+        if let Some(f) = w.feed.filter(|_| !dwell) {
+            let unit = if self.motion.modal.inch_feed {
+                MM_PER_INCH
+            } else {
+                1.0
+            };
+            self.motion.modal.feed = Some(f * unit);
+        }
+        if let Some(s) = w.s.filter(|_| !dwell) {
+            self.motion.s = s;
+            if self.motion.rotation != 0 {
+                self.spindle.set(self.time_min, s);
+            }
+        }
+        if let Some(t) = w.tool {
+            self.motion.pending_tool = Some(t);
+        }
+        if let Some(d) = w.d {
+            self.motion.d = d;
+        }
+        let mut end = None;
+        for &m in &w.m {
+            match m {
+                3 | 4 => {
+                    self.motion.rotation = m;
+                    self.spindle.set(self.time_min, self.motion.s);
+                }
+                6 => {
+                    self.passes.end_segment();
+                    self.motion.tool_number = self.motion.pending_tool.take().unwrap_or(0.0);
+                    self.time_min += self.cfg.tool_change_min;
+                }
+                5 | 0 | 1 | 2 | 30 | 17 => {}
+                _ => self.aux(format!("M{m}")),
+            }
+        }
+        if let Some(frame) = &w.frame_command {
+            self.frame_command(frame, &w.axes)?;
+        } else if !w.axes.is_empty() {
+            self.travel(u, i, &w, suppress)?;
+        }
+        if dwell {
+            let minutes = match (w.feed, w.s) {
+                (Some(s), None) => s / 60.0,
+                (None, Some(rev)) if self.motion.spindle_rpm() > 0.0 => {
+                    rev / self.motion.spindle_rpm()
+                }
+                (None, Some(_)) => {
+                    return Err(
+                        "G4 S… dwells spindle revolutions, but the spindle is stopped".into(),
+                    );
+                }
+                _ => return Err("G4 needs exactly one of F (seconds) or S (revolutions)".into()),
+            };
+            self.time_min += minutes;
+        }
+        for &m in &w.m {
+            match m {
+                5 => {
+                    self.passes.end_segment();
+                    self.motion.rotation = 0;
+                    self.spindle.set(self.time_min, 0.0);
+                }
+                0 | 1 => self.time_min += self.cfg.stop_min,
+                2 | 30 => {
+                    end = Some(End::ProgramEnd {
+                        code: format!("M{m}"),
+                    })
+                }
+                17 => end = end.or(Some(End::ProgramEnd { code: "M17".into() })),
+                _ => {}
+            }
+        }
+        if let Some((cycle, args)) = &w.probe {
+            self.probe(u, i, cycle, args);
+        }
+        if let Some((number, text)) = w.alarm {
+            self.run.alarms.push(Alarm {
+                at: self.at(u, i),
+                number,
+                text,
+            });
+            return Ok(Flow::End(End::Alarm { number }));
+        }
+        match end {
+            Some(End::ProgramEnd { code }) if code == "M17" => return Ok(Flow::Return),
+            Some(end) => return Ok(Flow::End(end)),
+            None => {}
+        }
+        if w.ret {
+            return Ok(Flow::Return);
+        }
+        if let Some((name, args, refs)) = w.call {
+            let unit = self.load(u, &name)?;
+            return Ok(Flow::Call {
+                unit,
+                args,
+                refs,
+                repeats: w.repeat.unwrap_or(1).max(1),
+            });
+        }
+        if let Some((start, end)) = w.section {
+            let passes = w.repeat.unwrap_or(1);
+            self.top().sections.push(Section {
+                start,
+                end,
+                left: passes - 1,
+                resume: i + 1,
+            });
+            return Ok(Flow::Jump(start));
+        }
+        if w.repeat.is_some() {
+            return Err("P (repetitions) without a subprogram call or REPEAT".into());
+        }
+        Ok(w.jump.map_or(Flow::Next, Flow::Jump))
+    }
+
+    pub(super) fn plane(&self, names: [&str; 3]) -> [Option<usize>; 3] {
+        names.map(|n| self.axis_index(n))
+    }
+
+    pub(super) fn frame_command(
+        &mut self,
+        name: &str,
+        axes: &[(usize, Dim, f64)],
+    ) -> Result<(), String> {
+        let f = &mut self.motion.frames;
+        match name {
+            "TRANS" | "ATRANS" => {
+                if name == "TRANS" {
+                    f.trans.iter_mut().for_each(|t| *t = 0.0);
+                }
+                for &(a, _, v) in axes {
+                    f.trans[a] += v;
+                }
+                Ok(())
+            }
+            _ if ABSOLUTE_FRAMES.contains(&name) && axes.is_empty() => {
+                f.trans.iter_mut().for_each(|t| *t = 0.0);
+                Ok(())
+            }
+            _ => Err(format!(
+                "{name} with values is not supported (the dry run models translations only)"
+            )),
+        }
+    }
+
+    /// Moves the programmed axes: geometry, time, and the cut it makes.
+    pub(super) fn travel(
+        &mut self,
+        u: &Unit,
+        i: usize,
+        w: &Words,
+        suppress: bool,
+    ) -> Result<(), String> {
+        let st = &mut self.motion;
+        let start_local = st.local.clone();
+        let start_machine = st.machine.clone();
+        for &(a, dim, v) in &w.axes {
+            let absolute = match dim {
+                Dim::Modal => st.modal.absolute,
+                Dim::Absolute => true,
+                Dim::Incremental => false,
+            };
+            let offset = if suppress { 0.0 } else { st.frames.offset(a) };
+            st.local[a] = if absolute { v } else { st.local[a] + v };
+            st.machine[a] = st.local[a] + offset;
+            st.moved |= 1 << a;
+        }
+        let motion = st.modal.motion;
+        let chord: f64 = start_machine
+            .iter()
+            .zip(&st.machine)
+            .map(|(a, b)| (b - a).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let length = if matches!(motion, 2 | 3) {
+            let [Some(p), Some(q), infeed] = st.modal.plane else {
+                return Err("circle in a plane whose axes this machine lacks".into());
+            };
+            let centre_of = |axis: usize| -> Option<(f64, bool)> {
+                let name = self.cfg.axes[axis].as_str();
+                let k = ["X", "Y", "Z"].iter().position(|&n| n == name)?;
+                w.centre[k]
+            };
+            let (cp, cq) = (centre_of(p), centre_of(q));
+            let centre = match (cp, cq) {
+                (None, None) => None,
+                _ => Some([cp.map_or(0.0, |c| c.0), cq.map_or(0.0, |c| c.0)]),
+            };
+            let centre_absolute = cp.is_some_and(|c| c.1) || cq.is_some_and(|c| c.1);
+            let arc = ArcSpec {
+                clockwise: motion == 2,
+                centre,
+                centre_absolute,
+                radius: w.cr,
+            };
+            let rise = infeed.map_or(0.0, |k| st.local[k] - start_local[k]);
+            arc_length(
+                &arc,
+                [start_local[p], start_local[q]],
+                [st.local[p], st.local[q]],
+                rise,
+            )?
+        } else {
+            chord
+        };
+        let minutes = if motion == 0 {
+            length / self.cfg.rapid_mm_min
+        } else {
+            let feed = st
+                .modal
+                .feed
+                .or(self.cfg.default_feed_mm_min)
+                .ok_or("feed move without a programmed feed F (alarm 10860)")?;
+            let rate = if st.modal.feed_per_rev {
+                let rpm = st.spindle_rpm();
+                if rpm <= 0.0 {
+                    return Err("G95 feed per revolution with the spindle stopped".into());
+                }
+                feed * rpm
+            } else {
+                feed
+            };
+            if rate <= 0.0 {
+                return Err(format!("feed {rate} mm/min must be positive"));
+            }
+            length / rate
+        };
+        let t0 = self.time_min;
+        self.time_min += minutes;
+        if motion == 0 {
+            self.passes.end_segment();
+            return Ok(());
+        }
+        let rpm = self.motion.spindle_rpm();
+        let Some(z) = self.axis_index("Z") else {
+            return Ok(());
+        };
+        if rpm <= 0.0 || length == 0.0 {
+            return Ok(());
+        }
+        let mid = (t0 + self.time_min) / 2.0;
+        let drift = self.machine.drift_um("Z", mid, &self.spindle);
+        let correction = if suppress {
+            0.0
+        } else {
+            self.motion.frames.correction(z) * 1000.0
+        };
+        let planar = (start_local[z] - self.motion.local[z]).abs() < 1e-9;
+        self.passes.feed_move(Cut {
+            file: u.name.clone(),
+            line: i + 1,
+            start_min: t0,
+            end_min: self.time_min,
+            z_mm: self.motion.local[z],
+            spindle_rpm: rpm,
+            error_um: drift - correction,
+            drift_um: drift,
+            planar_length_mm: if planar { length } else { 0.0 },
+        });
+        Ok(())
+    }
+
+    pub(super) fn probe(&mut self, u: &Unit, i: usize, cycle: &str, args: &[Option<f64>]) {
+        self.passes.end_segment();
+        let axis = self.cfg.probe_axis.clone();
+        let t = self.time_min;
+        let true_drift = self.machine.drift_um(&axis, t, &self.spindle);
+        let result = self.machine.probe(&ProbeCall {
+            cycle,
+            args,
+            axis: &axis,
+            t_min: t,
+            spindle: &self.spindle,
+        });
+        let offset = self
+            .axis_index(&axis)
+            .map_or(0.0, |a| self.motion.frames.offset(a));
+        let written = match result {
+            // The probe triggers when the real tool tip (commanded − drift) reaches the surface, so the control
+            // reads the surface plus the drift.
+            ProbeResult::Drift(d) => Some(self.cfg.probe_surface_mm - offset + d / 1000.0),
+            ProbeResult::Raw(v) => Some(v),
+            ProbeResult::Nothing => None,
+        };
+        let value_mm = self.probe_result(written);
+        let at = self.at(u, i);
+        self.run.measurements.push(Measurement {
+            at,
+            cycle: cycle.to_string(),
+            axis,
+            true_drift_um: true_drift,
+            result,
+            value_mm,
+        });
+        self.time_min += self.cfg.probe_min;
+    }
+
+    /// Writes the probe result (if any) where the configuration says; returns what is there afterwards.
+    fn probe_result(&mut self, value: Option<f64>) -> f64 {
+        match &self.cfg.probe_result {
+            ProbeTarget::R(r) => match self.r.get_mut(*r) {
+                Some(slot) => {
+                    if let Some(v) = value {
+                        *slot = v;
+                    }
+                    *slot
+                }
+                None => f64::NAN,
+            },
+            ProbeTarget::Array(name, index) => {
+                let array = self.globals.get_mut(name).expect("created at start");
+                if let Some(v) = value {
+                    let _ = array.set(&[*index], Value::Num(v));
+                }
+                array
+                    .get(&[*index])
+                    .ok()
+                    .and_then(|v| v.num().ok())
+                    .unwrap_or(f64::NAN)
+            }
+        }
+    }
+}

@@ -1,0 +1,244 @@
+//! Subprogram calls and built-in procedures (MSG, SETAL, WRITE, probe cycles), parameter binding.
+
+use super::*;
+
+impl Interp<'_> {
+    pub(super) fn call(
+        &mut self,
+        u: &Unit,
+        i: usize,
+        node: &Node,
+        w: &mut Words,
+    ) -> Result<(), String> {
+        let name = u.upper(&node.children[0]);
+        let args = node.find(NodeKind::Args).map(arg_nodes).unwrap_or_default();
+        let mut values = Vec::with_capacity(args.len());
+        for a in &args {
+            values.push(match a {
+                Some(a) => Some(self.eval(u, a)?),
+                None => None,
+            });
+        }
+        let refs = args
+            .iter()
+            .map(|a| a.and_then(|a| self.reference(u, a)))
+            .collect();
+        match name.as_str() {
+            "MSG" => {
+                if let Some(Some(v)) = values.first() {
+                    let text = v.text();
+                    let at = self.at(u, i);
+                    self.run.messages.push(Message { at, text });
+                }
+            }
+            "SETAL" => {
+                let number = match values.first() {
+                    Some(Some(v)) => v.num()? as i64,
+                    _ => return Err("SETAL needs an alarm number".into()),
+                };
+                let text = values.get(1).and_then(|v| v.as_ref()).map(Value::text);
+                w.alarm = Some((number, text));
+            }
+            "WRITE" => {
+                let ([Some(status), Some(_), Some(_)], [_, Some(file), Some(line)]) =
+                    (&args[..], &values[..])
+                else {
+                    return Err("WRITE needs (status variable, file, text)".into());
+                };
+                let (file, line) = (file.text(), line.text());
+                let content = self.run.files.entry(file.to_ascii_uppercase()).or_default();
+                content.push_str(&line);
+                content.push('\n');
+                self.store(u, status, Value::Num(0.0), w)?;
+            }
+            // Master spindle 1 is the only spindle; CYCLE800() without values resets the swivel plane.
+            "SETMS"
+                if values
+                    .iter()
+                    .all(|v| v.as_ref().is_none_or(|v| *v == Value::Num(1.0))) => {}
+            "CYCLE800" if values.iter().all(Option::is_none) => {}
+            _ if self.cfg.probe_cycles.contains(&name) => {
+                let nums = values
+                    .iter()
+                    .map(|v| v.as_ref().and_then(|v| v.num().ok()))
+                    .collect();
+                w.probe = Some((name, nums));
+            }
+            _ => w.call = Some((name, values, refs)),
+        }
+        Ok(())
+    }
+
+    /// The variable an argument names, if it is one (for `VAR` parameters).
+    pub(super) fn reference(&self, u: &Unit, arg: &Node) -> Option<Ref> {
+        match arg.kind {
+            NodeKind::RParam => self.r_index(u, arg).ok().map(Ref::R),
+            NodeKind::Var => {
+                let name = u.upper(arg.find(NodeKind::Name)?);
+                self.variable(&name)?;
+                Some(Ref::Var(name, self.indices(u, arg).ok()?))
+            }
+            _ => None,
+        }
+    }
+
+    pub(super) fn command(&mut self, u: &Unit, node: &Node, w: &mut Words) -> Result<(), String> {
+        let name = u.upper(node);
+        match name.as_str() {
+            "RET" => w.ret = true,
+            "SUPA" => w.suppress_frames = true,
+            "BSPLINE" | "ASPLINE" | "CSPLINE" => w.spline = true,
+            "TRANS" | "ATRANS" | "ROT" | "AROT" | "SCALE" | "ASCALE" | "MIRROR" | "AMIRROR" => {
+                w.frame_command = Some(name)
+            }
+            _ if NO_EFFECT_COMMANDS.contains(&name.as_str()) => {}
+            _ => w.call = Some((name, Vec::new(), Vec::new())),
+        }
+        Ok(())
+    }
+
+    pub(super) fn program_call(
+        &mut self,
+        u: &Unit,
+        node: &Node,
+        w: &mut Words,
+    ) -> Result<(), String> {
+        let parts: Vec<&Node> = node.significant().collect();
+        let keyword = u.upper(parts[0]);
+        match (keyword.as_str(), parts.get(1)) {
+            ("CALL", Some(target)) if target.kind != NodeKind::Text => {
+                let name = self.eval(u, target)?.text().to_ascii_uppercase();
+                w.call = Some((name, Vec::new(), Vec::new()));
+                Ok(())
+            }
+            _ => Err(format!("{keyword} is not supported by the dry run")),
+        }
+    }
+
+    /// Finds `NAME.SPF` / `NAME.MPF` (any case, or `_N_NAME_SPF`) beside the calling program, then in the
+    /// configured subprogram folders (the control's SPF directory).
+    pub(super) fn load(&mut self, from: &Unit, name: &str) -> Result<Rc<Unit>, String> {
+        if let Some(unit) = from.sibling(name) {
+            let key = (Rc::as_ptr(&from.source) as usize, unit.start);
+            let unit = self
+                .archive_units
+                .entry(key)
+                .or_insert_with(|| Rc::new(unit));
+            return Ok(unit.clone());
+        }
+        let dirs: Vec<PathBuf> = from
+            .dir
+            .iter()
+            .chain(&self.cfg.subprogram_dirs)
+            .cloned()
+            .collect();
+        let found = dirs.iter().find_map(|dir| {
+            let listing = self
+                .listings
+                .entry(dir.clone())
+                .or_insert_with(|| list_programs(dir));
+            listing.get(name).map(|path| (dir.clone(), path.clone()))
+        });
+        let Some((dir, path)) = found else {
+            let searched: Vec<String> = dirs.iter().map(|d| d.display().to_string()).collect();
+            return Err(format!(
+                "{name} is neither a supported command nor a subprogram (no {name}.SPF or {name}.MPF in {})",
+                if searched.is_empty() {
+                    "any folder: the program was not read from a file".to_string()
+                } else {
+                    searched.join(", ")
+                }
+            ));
+        };
+        if let Some(unit) = self.loaded.get(&path) {
+            return Ok(unit.clone());
+        }
+        let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let display = path.file_name().map_or_else(
+            || path.display().to_string(),
+            |f| f.to_string_lossy().into_owned(),
+        );
+        let unit = Rc::new(Unit::new(display, Some(dir), crate::parse_owned(bytes)));
+        self.loaded.insert(path, unit.clone());
+        Ok(unit)
+    }
+
+    /// Local variables of a program from its PROC parameters and the call's arguments.
+    pub(super) fn bind_params(&self, unit: &Unit, args: &[Option<Value>]) -> Result<Bound, String> {
+        let mut vars = HashMap::new();
+        let mut by_ref = Vec::new();
+        let proc = unit.proc();
+        let params: Vec<&Node> = proc
+            .as_ref()
+            .and_then(|p| p.find(NodeKind::Args))
+            .map(|a| {
+                a.significant()
+                    .filter(|c| c.kind == NodeKind::Param)
+                    .collect()
+            })
+            .unwrap_or_default();
+        if args.len() > params.len() {
+            return Err(format!(
+                "{} takes {} parameter(s), the call passes {}",
+                unit.name,
+                params.len(),
+                args.len()
+            ));
+        }
+        for (k, p) in params.iter().enumerate() {
+            let mut ty = None;
+            let mut var_param = false;
+            for c in p.significant().filter(|c| c.kind == NodeKind::Keyword) {
+                let word = unit.upper(c);
+                var_param |= word == "VAR";
+                ty = ty.or(VarType::from_keyword(&word));
+            }
+            let ty = ty.ok_or("PROC parameter without a supported type")?;
+            if p.find(NodeKind::Index).is_some() {
+                return Err("array parameters are not supported".into());
+            }
+            let name = unit.upper(
+                p.find(NodeKind::Name)
+                    .ok_or("PROC parameter without name")?,
+            );
+            let mut var = Variable::new(ty, Vec::new());
+            if let Some(Some(v)) = args.get(k) {
+                var.set(&[], v.clone())?;
+            }
+            if var_param {
+                by_ref.push((name.clone(), k));
+            }
+            vars.insert(name, var);
+        }
+        Ok((vars, by_ref))
+    }
+}
+
+pub(super) fn proc_has_save(unit: &Unit) -> bool {
+    unit.proc().is_some_and(|p| {
+        p.significant()
+            .any(|c| c.kind == NodeKind::Name && unit.upper(c) == "SAVE")
+    })
+}
+
+/// Upper-cased program name → path, for the `.SPF` / `.MPF` files of a folder (`_N_NAME_SPF` too).
+pub(super) fn list_programs(dir: &Path) -> HashMap<String, PathBuf> {
+    let mut out = HashMap::new();
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return out;
+    };
+    for e in entries.flatten() {
+        let file = e.file_name().to_string_lossy().to_ascii_uppercase();
+        let stem = file
+            .strip_suffix(".SPF")
+            .or_else(|| file.strip_suffix(".MPF"))
+            .or_else(|| {
+                file.strip_prefix("_N_")
+                    .and_then(|f| f.strip_suffix("_SPF").or_else(|| f.strip_suffix("_MPF")))
+            });
+        if let Some(stem) = stem {
+            out.entry(stem.to_string()).or_insert(e.path());
+        }
+    }
+    out
+}

@@ -1,0 +1,373 @@
+//! The statements of a plain block: words, assignments, declarations.
+
+use super::*;
+
+impl Interp<'_> {
+    pub(super) fn plain(&mut self, u: &Rc<Unit>, i: usize, root: &Node) -> Result<Flow, String> {
+        let mut w = Words::default();
+        let mut condition = true;
+        for node in root.significant() {
+            match node.kind {
+                NodeKind::BlockNumber | NodeKind::Label | NodeKind::Skip | NodeKind::Header => {}
+                NodeKind::Error => {
+                    return Err(
+                        first_message(u, i).unwrap_or_else(|| "the block cannot be parsed".into())
+                    );
+                }
+                NodeKind::Word => self.word(u, node, &mut w)?,
+                NodeKind::Assign => {
+                    let parts: Vec<&Node> = node.significant().collect();
+                    let [target, _, value] = parts[..] else {
+                        return Err("malformed assignment".into());
+                    };
+                    self.assign(u, i, target, value, &mut w)?;
+                }
+                NodeKind::Call => self.call(u, i, node, &mut w)?,
+                NodeKind::Command => self.command(u, node, &mut w)?,
+                NodeKind::If => condition = self.condition(u, node)?,
+                NodeKind::Goto if condition => {
+                    w.jump = self.goto(u, i, node)?;
+                }
+                NodeKind::Goto => {}
+                NodeKind::Case => w.jump = self.case(u, i, node)?,
+                NodeKind::Def => self.def(u, node)?,
+                // Parameters are bound when the program is called; EXTERN only declares a signature.
+                NodeKind::Proc | NodeKind::Extern => {}
+                NodeKind::ProgramCall => self.program_call(u, node, &mut w)?,
+                NodeKind::Repeat => w.section = Some(self.section(u, i, node)?),
+                k => {
+                    return Err(format!(
+                        "{} `{}` is not supported by the dry run",
+                        k.name(),
+                        String::from_utf8_lossy(u.text(node)).trim()
+                    ));
+                }
+            }
+        }
+        self.apply(u, i, w)
+    }
+
+    pub(super) fn word(&mut self, u: &Unit, node: &Node, w: &mut Words) -> Result<(), String> {
+        let letter = u.upper(&node.children[0]);
+        let value = crate::vm::eval::parse_number(&u.upper(&node.children[1]))?;
+        let whole = || {
+            if value >= 0.0 && value.fract() == 0.0 {
+                Ok(value as u32)
+            } else {
+                Err(format!("{letter}{value} needs a whole number"))
+            }
+        };
+        match letter.as_str() {
+            "G" => w.g.push(whole()?),
+            "M" => w.m.push(whole()?),
+            "F" => w.feed = Some(value),
+            "S" => w.s = Some(value),
+            "T" => w.tool = Some(value),
+            "D" => w.d = Some(value),
+            "L" => w.call = Some((format!("L{}", whole()?), Vec::new(), Vec::new())),
+            "P" => w.repeat = Some(whole()?),
+            "I" | "J" | "K" => w.centre[ijk(&letter)] = Some((value, false)),
+            // H: an auxiliary function for the PLC, like M codes beyond the modelled ones.
+            "H" => self.aux(format!("H{}", crate::vm::value::format_number(value))),
+            _ => match self.axis_index(&letter) {
+                Some(a) => w.axes.push((a, Dim::Modal, value)),
+                None => return Err(format!("address {letter} is not supported by the dry run")),
+            },
+        }
+        Ok(())
+    }
+
+    pub(super) fn assign(
+        &mut self,
+        u: &Unit,
+        i: usize,
+        target: &Node,
+        value: &Node,
+        w: &mut Words,
+    ) -> Result<(), String> {
+        if target.kind == NodeKind::Var && target.find(NodeKind::Index).is_none() {
+            let name = u.upper(target);
+            if let Some(a) = self.axis_index(&name) {
+                let (dim, v) = self.axis_value(u, value)?;
+                w.axes.push((a, dim, v));
+                return Ok(());
+            }
+            if self.variable(&name).is_none() && self.address(u, &name, value, w)? {
+                return Ok(());
+            }
+        }
+        if target.kind == NodeKind::SysVar {
+            return self.write_sysvar(u, i, target, value);
+        }
+        let v = self.eval(u, value)?;
+        self.store(u, target, v, w)
+    }
+
+    /// `NAME = value` where NAME is an address: F, S, S1, T, D, M, Mn, CR, I, J, K.
+    pub(super) fn address(
+        &mut self,
+        u: &Unit,
+        name: &str,
+        value: &Node,
+        w: &mut Words,
+    ) -> Result<bool, String> {
+        match name {
+            "F" => w.feed = Some(self.num(u, value)?),
+            "S" | "S1" => w.s = Some(self.num(u, value)?),
+            "D" => w.d = Some(self.num(u, value)?),
+            "CR" => w.cr = Some(self.num(u, value)?),
+            "T" => {
+                w.tool = Some(match self.eval(u, value)? {
+                    Value::Num(n) => n,
+                    // A tool named by string: the dry run knows no tool table, only that one was selected.
+                    Value::Str(_) => 0.0,
+                })
+            }
+            "I" | "J" | "K" => w.centre[ijk(name)] = Some(self.centre_value(u, value)?),
+            "M" => w.m.push(self.num(u, value)? as u32),
+            "G" => {
+                let g = self.num(u, value)?;
+                if g < 0.0 || g.fract() != 0.0 {
+                    return Err(format!("G={g} needs a whole number"));
+                }
+                w.g.push(g as u32);
+            }
+            "H" => self.aux(format!("H{}", self.eval(u, value)?.text())),
+            "P" => {
+                let p = self.num(u, value)?;
+                if p < 1.0 || p.fract() != 0.0 {
+                    return Err(format!("P={p}: repetitions must be a whole number ≥ 1"));
+                }
+                w.repeat = Some(p as u32);
+            }
+            _ if name.starts_with('M') && name[1..].bytes().all(|b| b.is_ascii_digit()) => {
+                if &name[1..] != "1" {
+                    return Err(format!("{name}=: only spindle 1 is modelled"));
+                }
+                w.m.push(self.num(u, value)? as u32);
+            }
+            _ if name.starts_with('S') && name[1..].bytes().all(|b| b.is_ascii_digit()) => {
+                return Err(format!("{name}=: only spindle 1 is modelled"));
+            }
+            // Point weight, degree and parameter interval shape a spline, not where its points are.
+            "PW" | "SD" | "PL" => {
+                self.num(u, value)?;
+            }
+            "AP" | "RP" => return Err(format!("{name}= (polar coordinates) is not supported")),
+            _ => return Ok(false),
+        }
+        Ok(true)
+    }
+
+    pub(super) fn centre_value(&self, u: &Unit, value: &Node) -> Result<(f64, bool), String> {
+        let (dim, v) = self.axis_value(u, value)?;
+        Ok((v, dim == Dim::Absolute))
+    }
+
+    /// `AC(v)`, `IC(v)` or a plain value.
+    pub(super) fn axis_value(&self, u: &Unit, value: &Node) -> Result<(Dim, f64), String> {
+        if value.kind == NodeKind::FnCall {
+            let name = u.upper(&value.children[0]);
+            let dim = match name.as_str() {
+                "AC" => Some(Dim::Absolute),
+                "IC" => Some(Dim::Incremental),
+                "DC" | "ACP" | "ACN" => {
+                    return Err(format!(
+                        "{name}() (rotary axis positioning) is not supported"
+                    ));
+                }
+                _ => None,
+            };
+            if let Some(dim) = dim {
+                let args = value
+                    .find(NodeKind::Args)
+                    .map(arg_nodes)
+                    .unwrap_or_default();
+                let [Some(arg)] = args[..] else {
+                    return Err(format!("{name}() takes one value"));
+                };
+                return Ok((dim, self.num(u, arg)?));
+            }
+        }
+        Ok((Dim::Modal, self.num(u, value)?))
+    }
+
+    /// Stores into an R parameter or a user variable.
+    pub(super) fn store(
+        &mut self,
+        u: &Unit,
+        target: &Node,
+        v: Value,
+        w: &mut Words,
+    ) -> Result<(), String> {
+        match target.kind {
+            NodeKind::RParam => {
+                let i = self.r_index(u, target)?;
+                self.r[i] = v.num()?;
+                Ok(())
+            }
+            NodeKind::Var => {
+                let name = u.upper(target.find(NodeKind::Name).ok_or("variable without name")?);
+                let index = self.indices(u, target)?;
+                let axis = self.axis_index(&name).filter(|_| index.is_empty());
+                let frame = self.stack.last_mut().expect("a frame while running");
+                let var = frame.vars.get_mut(&name).or(self.globals.get_mut(&name));
+                match (var, axis) {
+                    (Some(var), _) => var.set(&index, v),
+                    (None, Some(a)) => {
+                        w.axes.push((a, Dim::Modal, v.num()?));
+                        Ok(())
+                    }
+                    (None, None) => Err(format!("variable {name} is not defined (alarm 12550)")),
+                }
+            }
+            k => Err(format!("cannot assign to {}", k.name())),
+        }
+    }
+
+    pub(super) fn write_sysvar(
+        &mut self,
+        u: &Unit,
+        i: usize,
+        target: &Node,
+        value: &Node,
+    ) -> Result<(), String> {
+        let name = u.upper(
+            target
+                .find(NodeKind::Name)
+                .ok_or("system variable without name")?,
+        );
+        let idx: Vec<&Node> = target
+            .find(NodeKind::Index)
+            .map(index_nodes)
+            .unwrap_or_default();
+        match (name.as_str(), idx.as_slice()) {
+            ("$P_UIFR", [frame, axis, part]) => {
+                let (f, a, fine) = self.uifr_address(u, frame, axis, part)?;
+                let new = self.num(u, value)?;
+                let frames = &mut self.motion.frames;
+                let slot = if fine {
+                    &mut frames.fine[f][a]
+                } else {
+                    &mut frames.table[f][a]
+                };
+                let old = std::mem::replace(slot, new);
+                self.run.corrections.push(Correction {
+                    at: self.at(u, i),
+                    frame: f,
+                    component: if fine { "FI" } else { "TR" }.to_string(),
+                    axis: self.cfg.axes[a].clone(),
+                    old_mm: old,
+                    new_mm: new,
+                });
+                Ok(())
+            }
+            _ => Err(format!("writing {name} is not supported by the dry run")),
+        }
+    }
+
+    pub(super) fn def(&mut self, u: &Unit, node: &Node) -> Result<(), String> {
+        let mut ty = None;
+        for c in node.significant() {
+            match c.kind {
+                NodeKind::Keyword => {
+                    let word = u.upper(c);
+                    if let Some(t) = VarType::from_keyword(&word) {
+                        ty = Some(t);
+                    } else if matches!(word.as_str(), "AXIS" | "FRAME") {
+                        return Err(format!("DEF {word} variables are not supported"));
+                    }
+                }
+                NodeKind::Declarator => {
+                    let ty = ty.ok_or("DEF without a type")?;
+                    self.declare(u, ty, c)?;
+                }
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+
+    pub(super) fn declare(&mut self, u: &Unit, ty: VarType, d: &Node) -> Result<(), String> {
+        let name = u.upper(d.find(NodeKind::Name).ok_or("declarator without name")?);
+        let dims: Vec<usize> = match d.find(NodeKind::Index) {
+            Some(ix) => index_nodes(ix)
+                .into_iter()
+                .map(|e| {
+                    let v = self.num(u, e)?;
+                    if v >= 1.0 && v.fract() == 0.0 {
+                        Ok(v as usize)
+                    } else {
+                        Err(format!("array size {v} must be a whole number ≥ 1"))
+                    }
+                })
+                .collect::<Result<_, String>>()?,
+            None => Vec::new(),
+        };
+        let mut var = Variable::new(ty, dims);
+        let init = d
+            .significant()
+            .skip_while(|c| !(c.kind == NodeKind::Punct && u.text(c) == b"="))
+            .nth(1);
+        if let Some(init) = init {
+            self.initialise(u, &mut var, init)?;
+        }
+        self.top().vars.insert(name, var);
+        Ok(())
+    }
+
+    /// `= value`, `= SET(a, , c)`, `= (a, b)`, `= REP(v [, n])`.
+    pub(super) fn initialise(
+        &self,
+        u: &Unit,
+        var: &mut Variable,
+        init: &Node,
+    ) -> Result<(), String> {
+        let fn_name = (init.kind == NodeKind::FnCall).then(|| u.upper(&init.children[0]));
+        let list = match (init.kind, fn_name.as_deref()) {
+            (NodeKind::Args, _) => Some(arg_nodes(init)),
+            (NodeKind::FnCall, Some("SET")) => init.find(NodeKind::Args).map(arg_nodes),
+            (NodeKind::FnCall, Some("REP")) => {
+                let args = init.find(NodeKind::Args).map(arg_nodes).unwrap_or_default();
+                let (v, n) = match args[..] {
+                    [Some(v)] => (self.eval(u, v)?, var.data.len()),
+                    [Some(v), Some(n)] => (self.eval(u, v)?, self.num(u, n)? as usize),
+                    _ => return Err("REP takes a value and an optional count".into()),
+                };
+                let v = var.ty.convert(v)?;
+                for slot in var.data.iter_mut().take(n) {
+                    *slot = v.clone();
+                }
+                return Ok(());
+            }
+            _ => None,
+        };
+        match list {
+            Some(items) => {
+                if items.len() > var.data.len() {
+                    return Err(format!(
+                        "{} initial values for {} elements",
+                        items.len(),
+                        var.data.len()
+                    ));
+                }
+                for (slot, item) in var.data.iter_mut().zip(items) {
+                    if let Some(item) = item {
+                        *slot = var.ty.convert(self.eval(u, item)?)?;
+                    }
+                }
+                Ok(())
+            }
+            None if var.dims.is_empty() => var.set(&[], self.eval(u, init)?),
+            None => Err("an array is initialised with SET(…) or REP(…)".into()),
+        }
+    }
+}
+
+pub(super) fn ijk(letter: &str) -> usize {
+    match letter {
+        "I" => 0,
+        "J" => 1,
+        _ => 2,
+    }
+}
