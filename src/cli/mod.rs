@@ -7,9 +7,11 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand, ValueEnum};
 
 mod demo;
+mod diagnose;
 mod fit;
 mod positioning;
 mod predict;
+mod simulate;
 
 /// Options every subcommand understands.
 #[derive(Debug, Clone, clap::Args)]
@@ -61,6 +63,10 @@ enum Command {
     Fit(fit::Args),
     /// Predict drift for a spindle schedule or the inputs of a data file.
     Predict(predict::Args),
+    /// Trace a model's residual on new data to the effects it lacks, add them, report before and after.
+    Diagnose(diagnose::Args),
+    /// Write simulated characterisation runs and a production log with a chosen undeclared effect.
+    SimulateData(simulate::Args),
 }
 
 /// Entry point of the binary.
@@ -71,6 +77,8 @@ pub fn main() -> ExitCode {
         Command::Positioning(args) => positioning::run(args, &cli.global),
         Command::Fit(args) => fit::run(args, &cli.global),
         Command::Predict(args) => predict::run(args, &cli.global),
+        Command::Diagnose(args) => diagnose::run(args, &cli.global),
+        Command::SimulateData(args) => simulate::run(args, &cli.global),
     };
     match result {
         Ok(code) => code,
