@@ -250,23 +250,31 @@ fn best_of(
     best
 }
 
-/// Root-mean-square error of time-blocked cross-validation on the fit window: the fit rows are cut into
-/// `blocks` consecutive stretches; each is predicted from amplitudes fitted on the others (θ held).
+/// Root-mean-square error of rolling-origin (forward) cross-validation in time blocks on the fit window:
+/// the fit rows are cut into `blocks` consecutive stretches; from the third on, each is predicted from
+/// amplitudes fitted on the stretches before it only (θ held). A model is used to predict forward in
+/// time, so it is validated forward: a term that fits the past but extrapolates badly (a trend bending a
+/// lag) loses here, where leaving out an interior block would only test interpolation.
 pub fn blocked_cv_rms(ctx: &Ctx, fitted: &Fitted, blocks: usize) -> Option<f64> {
     let phi = fitted.joint.basis(ctx);
     let fit_idx: Vec<usize> = (0..ctx.n()).filter(|&i| ctx.fit[i]).collect();
-    let per = fit_idx.len().div_ceil(blocks.max(1));
+    let per = fit_idx.len().div_ceil(blocks.max(1)).max(1);
+    let chunks: Vec<&[usize]> = fit_idx.chunks(per).collect();
     let mut sse = 0.0;
-    for chunk in fit_idx.chunks(per.max(1)) {
-        let mut train = ctx.fit.clone();
-        for &i in chunk {
-            train[i] = false;
+    let mut count = 0usize;
+    let mut train = vec![false; ctx.n()];
+    for (k, chunk) in chunks.iter().enumerate() {
+        if k >= 2 {
+            let c = fitted.joint.amplitudes(&phi, &ctx.y, &train)?;
+            for &i in chunk.iter() {
+                let pred: f64 = (0..phi.ncols()).map(|j| phi[(i, j)] * c[j]).sum();
+                sse += (ctx.y[i] - pred).powi(2);
+            }
+            count += chunk.len();
         }
-        let c = fitted.joint.amplitudes(&phi, &ctx.y, &train)?;
-        for &i in chunk {
-            let pred: f64 = (0..phi.ncols()).map(|j| phi[(i, j)] * c[j]).sum();
-            sse += (ctx.y[i] - pred).powi(2);
+        for &i in chunk.iter() {
+            train[i] = true;
         }
     }
-    Some((sse / fit_idx.len().max(1) as f64).sqrt())
+    Some((sse / count.max(1) as f64).sqrt())
 }

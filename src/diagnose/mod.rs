@@ -245,7 +245,9 @@ pub fn diagnose(
 }
 
 /// Screens every candidate, refits the best few jointly and returns, of those passing both tests, the one
-/// with the lowest joint BIC.
+/// that predicts best forward in time (rolling-origin CV). Choosing by the forward CV rather than by the
+/// BIC matters when a cause-less effect and a measured one fit the window alike: a warming hall looks like
+/// a trend there, but the trend extrapolates blindly while the temperature keeps measuring the cause.
 fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Option<(Fitted, Added)> {
     let resid = ctx.fit_rows(&residual(ctx, &current.prediction));
     let proj = Projector::new(ctx, current);
@@ -294,7 +296,10 @@ fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Optio
             cv_rms_before_um: cv_without,
             cv_rms_after_um: cv_with,
         };
-        if best.as_ref().is_none_or(|(_, b)| a.delta_bic < b.delta_bic) {
+        if best
+            .as_ref()
+            .is_none_or(|(_, b)| a.cv_rms_after_um < b.cv_rms_after_um)
+        {
             best = Some((fitted, a));
         }
     }
