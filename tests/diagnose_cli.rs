@@ -125,7 +125,10 @@ fn json_refined_model_and_report() {
 
     let html = std::fs::read_to_string(p("report.html")).unwrap();
     assert!(html.contains("<svg") && html.contains("How to read") && html.contains("step"));
-    assert!(!html.contains("http://") || html.contains("http://www.w3.org/2000/svg"));
+    // Self-contained: no scripts, nothing loaded from anywhere.
+    assert!(
+        !html.contains("<script") && !html.contains("src=\"http") && !html.contains("href=\"http")
+    );
 }
 
 #[test]
@@ -158,4 +161,21 @@ fn human_output_says_in_sample_without_holdout_and_bad_input_exits_2() {
     );
     let out = driftloop(&["simulate-data", &p("x"), "--effect", "gremlin"]);
     assert_eq!(out.status.code(), Some(2));
+}
+
+#[test]
+fn golden_human_and_json_output() {
+    use driftloop::diagnose::scenario::{CHANNEL, Scenario, simulate};
+    use driftloop::model::effects::Kind;
+    use driftloop::model::{FitOptions, fit};
+    let sc = Scenario::new(5, Some(Kind::InputLag));
+    let sim = simulate(&sc).unwrap();
+    let declared = fit(&sim.characterisation, &FitOptions::new(CHANNEL)).unwrap();
+    let opts = Options::new(CHANNEL).holdout_from(sc.holdout_from_min);
+    let d = diagnose(&declared, &sim.production, &opts).unwrap();
+    insta::assert_snapshot!("diagnose_human", d.human());
+    insta::assert_snapshot!(
+        "diagnose_json",
+        serde_json::to_string_pretty(&d.json()).unwrap()
+    );
 }

@@ -46,7 +46,7 @@ fn check(kind: Kind, signal: Option<&str>, cases: &[(u64, f64, f64)]) {
 
 #[test]
 fn control_blames_no_column() {
-    for (seed, step) in [(1, 3.0), (2, 5.0), (3, 4.0)] {
+    for (seed, step) in [(1, 3.0), (2, 5.0), (3, 4.0), (4, 0.5)] {
         let (sc, d) = run(seed, None, 0.0, step);
         assert!(
             d.effects_added.iter().all(|a| a.effect.signal.is_none()),

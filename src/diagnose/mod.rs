@@ -37,13 +37,18 @@ use serde::Serialize;
 
 use crate::data::{ColumnKind, Dataset};
 use crate::model::DriftModel;
-use crate::model::effects::Effect;
+use crate::model::effects::{Effect, Kind};
 use candidates::{Projector, blocked_cv_rms, screen};
 use joint::{Ctx, Fitted, Joint};
 use stats::{ErrorStats, effective_n, ljung_box_white};
 
 /// Lags of the Ljung–Box whiteness test.
 const WHITENESS_LAGS: usize = 10;
+/// Least share of the fit-window residual variance an effect must explain to be worth adding. The declared
+/// model never fits a new log exactly (its gain shape is an estimate), and on a dense log a wandering
+/// temperature can "significantly" soak up a few hundredths of a micrometre of that misfit; an effect
+/// that removes less than a tenth of what is left is not a finding a process engineer could act on.
+const MIN_SHARE: f64 = 0.1;
 /// Cross-validation blocks.
 const CV_BLOCKS: usize = 5;
 /// Best-screened candidates given a full joint refit per round. Screening holds the rest of the model
@@ -206,7 +211,7 @@ pub fn diagnose(
         .iter()
         .skip(start.effects.len())
         .map(|e| match e.kind {
-            crate::model::effects::Kind::CoolingAsymmetry => {
+            Kind::CoolingAsymmetry => {
                 let mut plain = current.model.clone();
                 plain.effects.retain(|s| s.kind != e.kind.name());
                 let without = plain.predict(ds).unwrap_or_else(|_| after_pred.clone());
@@ -272,6 +277,23 @@ fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Optio
         let delta_bic = n_eff * (fitted.rss.max(f64::MIN_POSITIVE) / rss0).ln() + dof * n_eff.ln();
         let cv_with = blocked_cv_rms(ctx, &fitted, CV_BLOCKS).unwrap_or(f64::INFINITY);
         let name = text::effect_name(&s.effect);
+        let added = fitted.joint.effects.last();
+        if let Some(tau) = added.and_then(|e| at_upper_tau_bound(ctx, e)) {
+            rejected.push(format!(
+                "{name}: its time constant ran to the bound of the search ({}): a lag as long as the window is a trend in disguise, not identified by these data",
+                text::duration(tau)
+            ));
+            continue;
+        }
+        let share = 1.0 - fitted.rss / rss0;
+        if share < MIN_SHARE {
+            rejected.push(format!(
+                "{name}: explains only {:.0} % of the residual variance (less than {:.0} %)",
+                100.0 * share,
+                100.0 * MIN_SHARE
+            ));
+            continue;
+        }
         if delta_bic >= 0.0 {
             rejected.push(format!(
                 "{name}: the BIC on the effective sample size does not fall ({delta_bic:+.1})"
@@ -304,6 +326,16 @@ fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Optio
         }
     }
     best
+}
+
+/// The effect's time constant when the refit left it at the upper bound of its search.
+fn at_upper_tau_bound(ctx: &Ctx, e: &Effect) -> Option<f64> {
+    let lagged = matches!(
+        e.kind,
+        Kind::InputLag | Kind::ExtraMode | Kind::PositionSlope
+    );
+    let (_, hi) = ctx.effect_tau_bounds(e.kind);
+    (lagged && e.theta[0] >= 0.99 * hi).then(|| e.theta[0])
 }
 
 fn residual(ctx: &Ctx, prediction: &[f64]) -> Vec<f64> {

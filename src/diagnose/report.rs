@@ -4,7 +4,7 @@
 use super::stats::ErrorStats;
 use super::text::{duration, sentence};
 use super::{Diagnosis, Windows};
-use crate::report::{Cell, Chart, Document, Mark, Series, Table};
+use crate::report::{Cell, Chart, Document, Mark, PALETTE, Series, Table};
 
 /// Most points drawn per series; longer series are thinned evenly (every k-th row).
 const MAX_POINTS: usize = 3000;
@@ -33,7 +33,8 @@ impl Diagnosis {
             holdout,
             "An effect is added only if it lowers the BIC computed on the effective number of independent \
              samples (neighbouring samples of a dense log are correlated) and if it predicts better in a \
-             time-blocked cross-validation on the fit window. The compensation rate is 1 − after/uncompensated RMS: \
+             time-blocked cross-validation on the fit window (each block predicted from the blocks before it), and if \
+             it explains at least a tenth of the residual variance. The compensation rate is 1 − after/uncompensated RMS: \
              the share of the drift a correction by the model would remove."
                 .to_string(),
         ]);
@@ -125,16 +126,22 @@ impl Diagnosis {
             "time in min",
             "residual in µm",
         ))
-        .series(Series::new(
-            "before",
-            Mark::Dashed,
-            points(t, &resid(&self.predicted_before)),
-        ))
-        .series(Series::new(
-            "after",
-            Mark::Line,
-            points(t, &resid(&self.predicted_after)),
-        ));
+        .series(
+            Series::new(
+                "before",
+                Mark::Dashed,
+                points(t, &resid(&self.predicted_before)),
+            )
+            .with_color(PALETTE[1]),
+        )
+        .series(
+            Series::new(
+                "after",
+                Mark::Line,
+                points(t, &resid(&self.predicted_after)),
+            )
+            .with_color(PALETTE[2]),
+        );
         doc.figure(
             &chart,
             "What each model leaves unexplained; a good model leaves noise around zero.",
