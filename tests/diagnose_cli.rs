@@ -181,6 +181,9 @@ fn golden_human_and_json_output() {
     let opts = Options::new(CHANNEL).holdout_from(sc.holdout_from_min);
     let d = diagnose(&declared, &sim.production, &opts).unwrap();
     insta::assert_snapshot!("diagnose_human", d.human());
+    // The report shows the column the effect reads beside its contribution.
+    let html = d.html();
+    assert!(html.contains("The column coolant_c") && html.matches("<svg").count() == 4);
     insta::assert_snapshot!(
         "diagnose_json",
         serde_json::to_string_pretty(&d.json()).unwrap()

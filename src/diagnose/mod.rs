@@ -146,6 +146,8 @@ pub struct Diagnosis {
     pub predicted_after: Vec<f64>,
     /// Each added effect's own contribution per row (µm), in the order added.
     pub contributions: Vec<Vec<f64>>,
+    /// The column each added effect reads (`None` for effects of time or speed only).
+    pub signals: Vec<Option<Vec<f64>>>,
 }
 
 /// Runs the diagnosis of `model` on `ds`.
@@ -224,6 +226,16 @@ pub fn diagnose(
             _ => e.contribution(&series(e.signal.as_deref())),
         })
         .collect();
+    let signals = added
+        .iter()
+        .map(|a| {
+            a.effect
+                .signal
+                .as_deref()
+                .and_then(|name| ds.values(name))
+                .map(<[f64]>::to_vec)
+        })
+        .collect();
     let first = ctx.y.first().copied().unwrap_or(0.0);
     let uncomp: Vec<f64> = ctx.y.iter().map(|v| v - first).collect();
     let zero = vec![0.0; ctx.n()];
@@ -246,6 +258,7 @@ pub fn diagnose(
         predicted_before: before_pred,
         predicted_after: after_pred,
         contributions,
+        signals,
     })
 }
 
