@@ -9,12 +9,14 @@ use clap::{Parser, Subcommand, ValueEnum};
 mod bench;
 mod check;
 mod demo;
+mod diagnose;
 mod fit;
 mod parse;
 mod positioning;
 mod predict;
 mod render;
 mod run;
+mod simulate;
 
 /// Options every subcommand understands.
 #[derive(Debug, Clone, clap::Args)]
@@ -74,6 +76,10 @@ enum Command {
     Parse(parse::Args),
     /// Measure parse + print throughput and peak memory on a generated 100 MB program.
     Bench(bench::Args),
+    /// Trace a model's residual on new data to the effects it lacks, add them, report before and after.
+    Diagnose(diagnose::Args),
+    /// Write simulated characterisation runs and a production log with a chosen undeclared effect.
+    SimulateData(simulate::Args),
 }
 
 /// Entry point of the binary.
@@ -88,6 +94,8 @@ pub fn main() -> ExitCode {
         Command::Parse(args) => parse::run(args, &cli.global),
         Command::Bench(args) => bench::run(args, &cli.global),
         Command::Run(args) => run::run(args, &cli.global),
+        Command::Diagnose(args) => diagnose::run(args, &cli.global),
+        Command::SimulateData(args) => simulate::run(args, &cli.global),
     };
     match result {
         Ok(code) => code,
