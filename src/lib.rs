@@ -2,8 +2,10 @@
 //! compensation for CNC machines that drift while they warm up.
 
 pub mod cli;
+pub mod data;
 pub mod diagnostic;
 pub mod edit;
+pub mod model;
 pub mod positioning;
 pub mod report;
 pub mod source;

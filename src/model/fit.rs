@@ -1,0 +1,767 @@
+//! Fitting a [`DriftModel`] to measured data: separable least squares ([`super::varpro`]) started from a
+//! scan over a log-spaced grid of time constants, model order by BIC unless fixed, degenerate fits
+//! rejected with a reason, standard errors from the Jacobian.
+
+use std::str::FromStr;
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::data::{Dataset, SPINDLE};
+
+use super::speed_grid::SpeedGrid;
+use super::varpro::{self, Layout, Point, Problem};
+use super::{
+    DataProvenance, DriftModel, Extrapolation, FitSummary, InputLag, Interpolation, Mode,
+    OrderTrial, RunStats, SCHEMA, SpindleModes,
+};
+
+/// Highest order `--modes auto` tries.
+pub const MAX_AUTO_MODES: usize = 4;
+/// Highest order `--modes N` accepts.
+pub const MAX_MODES: usize = 6;
+
+/// How many spindle modes to fit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ModesChoice {
+    /// 1…[`MAX_AUTO_MODES`], the lowest BIC among the non-degenerate fits.
+    Auto,
+    /// Exactly N, or fewer when N gives a degenerate fit (the summary says why).
+    Fixed(usize),
+}
+
+impl FromStr for ModesChoice {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        if s.eq_ignore_ascii_case("auto") {
+            return Ok(ModesChoice::Auto);
+        }
+        match s.parse::<usize>() {
+            Ok(n) if (1..=MAX_MODES).contains(&n) => Ok(ModesChoice::Fixed(n)),
+            _ => Err(format!(
+                "expected `auto` or a number of modes 1…{MAX_MODES}, got `{s}`"
+            )),
+        }
+    }
+}
+
+/// What to fit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitOptions {
+    /// Displacement channel (`*_um` column).
+    pub channel: String,
+    /// Declared inputs: `spindle_rpm` gives the spindle modes, any other column a lagged linear term.
+    pub inputs: Vec<String>,
+    pub modes: ModesChoice,
+    /// Fit only rows before this time (minutes).
+    pub until_min: Option<f64>,
+}
+
+impl FitOptions {
+    /// Spindle speed as the only input, order chosen automatically, all rows.
+    pub fn new(channel: impl Into<String>) -> FitOptions {
+        FitOptions {
+            channel: channel.into(),
+            inputs: vec![SPINDLE.to_string()],
+            modes: ModesChoice::Auto,
+            until_min: None,
+        }
+    }
+}
+
+/// Why a fit could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum FitError {
+    #[error("{source_name}: no channel `{channel}`; displacement channels: {available}")]
+    NoChannel {
+        source_name: String,
+        channel: String,
+        available: String,
+    },
+    #[error("{source_name}: declared input `{column}` is not a column of the data")]
+    MissingInput { source_name: String, column: String },
+    #[error("`{0}` is a displacement channel, not an input")]
+    ChannelAsInput(String),
+    #[error("no inputs declared: declare spindle_rpm and/or other columns")]
+    NoInputs,
+    #[error(
+        "{source_name}: spindle_rpm is never above 0 in the fitted rows: there is no heating to fit spindle modes to"
+    )]
+    NoSpeed { source_name: String },
+    #[error("{samples} samples in the fitted rows; the model needs at least {needed}")]
+    TooFewSamples { samples: usize, needed: usize },
+    #[error("the fit failed numerically (singular least-squares problem) for every model order")]
+    Numerical,
+}
+
+/// Fits the model of `opts.channel` to `ds`.
+pub fn fit(ds: &Dataset, opts: &FitOptions) -> Result<DriftModel, FitError> {
+    let windowed;
+    let ds = match opts.until_min {
+        Some(u) => {
+            windowed = ds.until(u);
+            &windowed
+        }
+        None => ds,
+    };
+    let prep = Prepared::new(ds, opts)?;
+    let p = &prep.problem;
+    let (lo, hi) = prep.tau_bounds;
+    let (tlo, thi) = (lo.ln(), hi.ln());
+    let orders: Vec<usize> = match (prep.spindle, opts.modes) {
+        (false, _) => vec![0],
+        (true, ModesChoice::Fixed(n)) => (1..=n).rev().collect(),
+        (true, ModesChoice::Auto) => (1..=MAX_AUTO_MODES).collect(),
+    };
+    let n = p.n();
+    let needed = |k: usize| {
+        let lay = p.layout(k);
+        lay.n_linear() + lay.n_nonlinear() + 2
+    };
+    if n < needed(orders.iter().copied().min().unwrap_or(0)) {
+        return Err(FitError::TooFewSamples {
+            samples: n,
+            needed: needed(orders.iter().copied().min().unwrap_or(0)),
+        });
+    }
+    let scan = Scan::new(p, tlo, thi);
+    let mut trials: Vec<Trial> = Vec::new();
+    for &k in &orders {
+        if n < needed(k) {
+            continue;
+        }
+        let lay = p.layout(k);
+        let best = scan
+            .starts(k, 3)
+            .into_iter()
+            .filter_map(|t0| varpro::minimise(p, lay, &t0, tlo, thi))
+            .min_by(|a, b| a.rss.total_cmp(&b.rss));
+        let Some(best) = best else { continue };
+        let trial = Trial::new(p, lay, sort_modes(p, lay, best), (tlo, thi));
+        // Fixed: the first usable order from N down. Auto: forward selection, stopping at the first order
+        // that is degenerate or does not lower the BIC.
+        let stop = match opts.modes {
+            ModesChoice::Fixed(_) => trial.degenerate.is_none(),
+            ModesChoice::Auto => {
+                let best_bic = trials
+                    .iter()
+                    .filter(|t| t.degenerate.is_none())
+                    .map(|t| t.bic)
+                    .fold(f64::INFINITY, f64::min);
+                trial.degenerate.is_some() || trial.bic >= best_bic
+            }
+        };
+        trials.push(trial);
+        if stop {
+            break;
+        }
+    }
+    let chosen = choose(&trials).ok_or(FitError::Numerical)?;
+    Ok(prep.model(ds, opts, &trials, chosen))
+}
+
+/// The data of one fit and what was found out about it.
+struct Prepared {
+    problem: Problem,
+    grid: SpeedGrid,
+    spindle: bool,
+    inputs: Vec<String>,
+    tau_bounds: (f64, f64),
+}
+
+impl Prepared {
+    fn new(ds: &Dataset, opts: &FitOptions) -> Result<Prepared, FitError> {
+        let y = ds
+            .column(&opts.channel)
+            .filter(|c| c.kind == crate::data::ColumnKind::Displacement)
+            .ok_or_else(|| FitError::NoChannel {
+                source_name: ds.source.clone(),
+                channel: opts.channel.clone(),
+                available: ds
+                    .channels()
+                    .map(|c| c.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            })?
+            .values
+            .clone();
+        if opts.inputs.is_empty() {
+            return Err(FitError::NoInputs);
+        }
+        let mut spindle = false;
+        let mut inputs = Vec::new();
+        for name in &opts.inputs {
+            let name = name.to_ascii_lowercase();
+            let col = ds.column(&name).ok_or_else(|| FitError::MissingInput {
+                source_name: ds.source.clone(),
+                column: name.clone(),
+            })?;
+            match col.kind {
+                crate::data::ColumnKind::Spindle => spindle = true,
+                crate::data::ColumnKind::Displacement => {
+                    return Err(FitError::ChannelAsInput(name));
+                }
+                _ if !inputs.contains(&name) => inputs.push(name),
+                _ => {}
+            }
+        }
+        let rpm = if spindle { ds.values(SPINDLE) } else { None };
+        let grid = SpeedGrid::from_speeds(rpm.unwrap_or(&[]));
+        if spindle && grid.nodes().is_empty() {
+            return Err(FitError::NoSpeed {
+                source_name: ds.source.clone(),
+            });
+        }
+        let runs: Vec<_> = ds.runs().collect();
+        let mut dt = vec![0.0; ds.len()];
+        for r in &runs {
+            let t = &ds.time_min[r.clone()];
+            for (d, w) in dt[r.start + 1..r.end].iter_mut().zip(t.windows(2)) {
+                *d = w[1] - w[0];
+            }
+        }
+        let w = match rpm {
+            Some(r) => r.iter().map(|&s| grid.weights(s)).collect(),
+            None => vec![grid.weights(0.0); ds.len()],
+        };
+        let u = inputs
+            .iter()
+            .map(|name| {
+                let v = ds.values(name).unwrap_or(&[]);
+                let mut out = vec![0.0; v.len()];
+                for r in &runs {
+                    for i in r.clone() {
+                        out[i] = v[i] - v[r.start];
+                    }
+                }
+                out
+            })
+            .collect();
+        let longest = ds.longest_run_min();
+        let lo = ds.min_step_min().unwrap_or(0.0);
+        if longest <= 0.0 || lo <= 0.0 {
+            return Err(FitError::TooFewSamples {
+                samples: ds.len(),
+                needed: 3,
+            });
+        }
+        let hi = (3.0 * longest).max(2.0 * lo);
+        Ok(Prepared {
+            problem: Problem {
+                y,
+                dt,
+                runs,
+                w,
+                m: if spindle { grid.nodes().len() } else { 0 },
+                u,
+            },
+            grid,
+            spindle,
+            inputs,
+            tau_bounds: (lo, hi),
+        })
+    }
+
+    fn model(
+        &self,
+        ds: &Dataset,
+        opts: &FitOptions,
+        trials: &[Trial],
+        chosen: usize,
+    ) -> DriftModel {
+        let t = &trials[chosen];
+        let p = &self.problem;
+        let lay = t.layout;
+        let m = lay.m;
+        let c = &t.point.c;
+        let modes = (0..lay.k)
+            .map(|k| Mode {
+                tau_min: t.point.theta[k].exp(),
+                tau_se_min: t.se_theta[k].map(|s| s * t.point.theta[k].exp()),
+                gain_um: c.as_slice()[k * m..(k + 1) * m].to_vec(),
+                gain_se_um: (0..m)
+                    .map(|j| t.se_c[k * m + j].unwrap_or(f64::NAN))
+                    .collect(),
+            })
+            .map(|mut mode| {
+                // An undetermined gain error is left out rather than written as NaN.
+                if mode.gain_se_um.iter().any(|s| !s.is_finite()) {
+                    mode.gain_se_um.clear();
+                }
+                mode
+            })
+            .collect();
+        let inputs = self
+            .inputs
+            .iter()
+            .enumerate()
+            .map(|(j, name)| {
+                let theta = t.point.theta[lay.k + j];
+                InputLag {
+                    signal: name.clone(),
+                    tau_min: theta.exp(),
+                    tau_se_min: t.se_theta[lay.k + j].map(|s| s * theta.exp()),
+                    gain_um_per_unit: c[lay.k * m + j],
+                    gain_se_um_per_unit: t.se_c[lay.k * m + j],
+                }
+            })
+            .collect();
+        let per_run = p
+            .runs
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                let e = &t.point.resid.as_slice()[r.clone()];
+                RunStats {
+                    run: ds.run_label(i),
+                    samples: e.len(),
+                    rms_um: rms(e),
+                    max_abs_um: max_abs(e),
+                }
+            })
+            .collect();
+        let resid = t.point.resid.as_slice();
+        let mean = p.y.iter().sum::<f64>() / p.n() as f64;
+        let tss: f64 = p.y.iter().map(|v| (v - mean).powi(2)).sum();
+        let unit = ds.time_unit;
+        DriftModel {
+            schema: SCHEMA,
+            channel: opts.channel.to_ascii_lowercase(),
+            offset_um: c[c.len() - 1],
+            spindle: SpindleModes {
+                grid_rpm: if self.spindle {
+                    self.grid.nodes().to_vec()
+                } else {
+                    Vec::new()
+                },
+                interpolation: Interpolation::PiecewiseLinear,
+                extrapolation: Extrapolation::LinearLastSegment,
+                modes,
+            },
+            inputs,
+            effects: Vec::new(),
+            fit: Some(FitSummary {
+                samples: p.n(),
+                until: opts.until_min.map(|u| unit.from_minutes(u)),
+                tau_bounds_min: [self.tau_bounds.0, self.tau_bounds.1],
+                rms_um: rms(resid),
+                max_abs_um: max_abs(resid),
+                r2: if tss > 0.0 {
+                    1.0 - t.point.rss / tss
+                } else {
+                    0.0
+                },
+                sigma_um: t.sigma,
+                bic: t.bic,
+                aicc: t.aicc,
+                selection: match opts.modes {
+                    ModesChoice::Auto => "auto-bic".into(),
+                    ModesChoice::Fixed(_) => "fixed".into(),
+                },
+                per_run,
+                orders: trials
+                    .iter()
+                    .enumerate()
+                    .map(|(i, tr)| tr.summary(i == chosen, &trials[chosen]))
+                    .collect(),
+            }),
+            data: Some(DataProvenance {
+                file: ds.source.clone(),
+                sha256: ds.sha256.clone().unwrap_or_default(),
+                rows: ds.len(),
+                time_unit: unit,
+            }),
+        }
+    }
+}
+
+/// Puts the spindle modes in ascending τ order (the amplitudes follow on re-evaluation).
+fn sort_modes(p: &Problem, lay: Layout, pt: Point) -> Point {
+    let mut theta = pt.theta.clone();
+    theta[..lay.k].sort_by(f64::total_cmp);
+    if theta == pt.theta {
+        return pt;
+    }
+    let mut phi = DMatrix::zeros(0, 0);
+    varpro::evaluate(p, lay, &theta, &mut phi).unwrap_or(pt)
+}
+
+/// Residual RMS.
+pub(crate) fn rms(e: &[f64]) -> f64 {
+    if e.is_empty() {
+        return 0.0;
+    }
+    (e.iter().map(|v| v * v).sum::<f64>() / e.len() as f64).sqrt()
+}
+
+/// Largest absolute value.
+pub(crate) fn max_abs(e: &[f64]) -> f64 {
+    e.iter().fold(0.0, |a, v| a.max(v.abs()))
+}
+
+/// One model order fitted, with its statistics and whether it is degenerate.
+struct Trial {
+    layout: Layout,
+    point: Point,
+    sigma: f64,
+    bic: f64,
+    aicc: f64,
+    se_theta: Vec<Option<f64>>,
+    se_c: Vec<Option<f64>>,
+    degenerate: Option<String>,
+}
+
+impl Trial {
+    fn new(p: &Problem, lay: Layout, point: Point, (tlo, thi): (f64, f64)) -> Trial {
+        let n = p.n() as f64;
+        let q = lay.n_nonlinear();
+        let np = (lay.n_linear() + q) as f64;
+        let rss = point.rss.max(f64::MIN_POSITIVE);
+        let sigma = (point.rss / (n - np).max(1.0)).sqrt();
+        let bic = n * (rss / n).ln() + np * n.ln();
+        let aicc = n * (rss / n).ln() + 2.0 * np + 2.0 * np * (np + 1.0) / (n - np - 1.0).max(1.0);
+        let (se_theta, se_c) = standard_errors(p, lay, &point, sigma);
+        let mut trial = Trial {
+            layout: lay,
+            point,
+            sigma,
+            bic,
+            aicc,
+            se_theta,
+            se_c,
+            degenerate: None,
+        };
+        trial.degenerate = trial.degeneracy(p, tlo, thi);
+        trial
+    }
+
+    fn taus(&self) -> Vec<f64> {
+        self.point.theta.iter().map(|t| t.exp()).collect()
+    }
+
+    fn gains(&self, k: usize) -> &[f64] {
+        let m = self.layout.m;
+        &self.point.c.as_slice()[k * m..(k + 1) * m]
+    }
+
+    /// Why this fit must not be used, if it must not.
+    fn degeneracy(&self, p: &Problem, tlo: f64, thi: f64) -> Option<String> {
+        let lay = self.layout;
+        let taus = self.taus();
+        let what = |i: usize| {
+            if i < lay.k {
+                format!("mode {} (τ = {})", i + 1, fmt_tau(taus[i]))
+            } else {
+                format!(
+                    "the lag of input {} (τ = {})",
+                    i - lay.k + 1,
+                    fmt_tau(taus[i])
+                )
+            }
+        };
+        for (i, th) in self.point.theta.iter().enumerate() {
+            if (th - tlo).abs() < 0.01 {
+                return Some(format!(
+                    "{} sits at the lower bound (the sampling step): the data cannot resolve it",
+                    what(i)
+                ));
+            }
+            if (thi - th).abs() < 0.01 {
+                return Some(format!(
+                    "{} sits at the upper bound (3 × the longest run): the data cannot resolve it",
+                    what(i)
+                ));
+            }
+        }
+        let range = p.y.iter().fold(f64::NEG_INFINITY, |a, &v| a.max(v))
+            - p.y.iter().fold(f64::INFINITY, |a, &v| a.min(v));
+        for k in 0..lay.k {
+            for l in k + 1..lay.k {
+                let ratio = taus[l] / taus[k];
+                if ratio < 1.25 {
+                    return Some(format!(
+                        "modes {} and {} have nearly equal time constants ({} and {}): not separable",
+                        k + 1,
+                        l + 1,
+                        fmt_tau(taus[k]),
+                        fmt_tau(taus[l])
+                    ));
+                }
+                let cancel = self.gains(k).iter().zip(self.gains(l)).any(|(&a, &b)| {
+                    let small = a.abs().min(b.abs());
+                    a * b < 0.0 && small > 2.0 * (a + b).abs() && small > 0.5 * range
+                });
+                if ratio < 3.0 && cancel {
+                    return Some(format!(
+                        "modes {} and {} ({} and {}) have large gains of opposite sign that cancel",
+                        k + 1,
+                        l + 1,
+                        fmt_tau(taus[k]),
+                        fmt_tau(taus[l])
+                    ));
+                }
+            }
+            if let Some(g) = self.gains(k).iter().find(|g| g.abs() > 10.0 * range) {
+                return Some(format!(
+                    "mode {} has a gain of {g:.1} µm, over ten times the measured range of {range:.1} µm",
+                    k + 1
+                ));
+            }
+        }
+        for (i, se) in self.se_theta.iter().enumerate() {
+            match se {
+                Some(s) if *s <= 1.0 => {}
+                Some(s) => {
+                    return Some(format!(
+                        "{} is not determined by the data (standard error ×{:.1})",
+                        what(i),
+                        s.exp()
+                    ));
+                }
+                None => return Some(format!("{} is not determined by the data", what(i))),
+            }
+        }
+        None
+    }
+
+    fn summary(&self, chosen: bool, best: &Trial) -> OrderTrial {
+        let note = match (&self.degenerate, chosen) {
+            (Some(why), true) => {
+                format!("chosen although degenerate (no simpler order left): {why}")
+            }
+            (Some(why), false) => format!("rejected: {why}"),
+            (None, true) => "chosen".into(),
+            (None, false) => format!("BIC {:.1} above the chosen order's", self.bic - best.bic),
+        };
+        OrderTrial {
+            modes: self.layout.k,
+            rms_um: rms(self.point.resid.as_slice()),
+            bic: self.bic,
+            aicc: self.aicc,
+            tau_min: self.taus()[..self.layout.k].to_vec(),
+            chosen,
+            note,
+        }
+    }
+}
+
+/// The non-degenerate trial of least BIC; the lowest order when every trial is degenerate.
+fn choose(trials: &[Trial]) -> Option<usize> {
+    let ok = trials
+        .iter()
+        .enumerate()
+        .filter(|(_, t)| t.degenerate.is_none())
+        .min_by(|a, b| a.1.bic.total_cmp(&b.1.bic))
+        .map(|(i, _)| i);
+    ok.or_else(|| {
+        trials
+            .iter()
+            .enumerate()
+            .min_by_key(|(_, t)| t.layout.k)
+            .map(|(i, _)| i)
+    })
+}
+
+/// Standard errors of θ = ln τ and of the amplitudes from the full Jacobian [∂ŷ/∂θ, Φ].
+fn standard_errors(
+    p: &Problem,
+    lay: Layout,
+    pt: &Point,
+    sigma: f64,
+) -> (Vec<Option<f64>>, Vec<Option<f64>>) {
+    let q = lay.n_nonlinear();
+    let np = lay.n_linear();
+    let mut phi = DMatrix::zeros(0, 0);
+    p.basis(lay, &pt.theta, &mut phi);
+    let v = p.sensitivities(lay, &pt.theta, &pt.c);
+    let mut a = DMatrix::zeros(p.n(), q + np);
+    a.columns_mut(0, q).copy_from(&v);
+    a.columns_mut(q, np).copy_from(&phi);
+    let info = varpro::cross(&a, &a);
+    let cov = varpro::solve_normal(&info, &DMatrix::identity(q + np, q + np));
+    let se = |i: usize| {
+        cov.as_ref()
+            .map(|c| c[(i, i)] * sigma * sigma)
+            .filter(|v| v.is_finite() && *v >= 0.0)
+            .map(f64::sqrt)
+    };
+    ((0..q).map(se).collect(), (q..q + np).map(se).collect())
+}
+
+/// τ for messages.
+pub(crate) fn fmt_tau(tau_min: f64) -> String {
+    if tau_min < 10.0 {
+        format!("{tau_min:.2} min")
+    } else {
+        format!("{tau_min:.1} min")
+    }
+}
+
+/// The starting-value scan: the unit responses of every grid time constant are computed once, with their
+/// Gram matrix; each combination of K grid values is then a small normal-equations solve.
+struct Scan {
+    theta: Vec<f64>,
+    input_theta: Vec<f64>,
+    m: usize,
+    l: usize,
+    gram: DMatrix<f64>,
+    b: DVector<f64>,
+    yy: f64,
+}
+
+const SCAN_POINTS: usize = 20;
+const SCAN_INPUT_POINTS: usize = 10;
+
+impl Scan {
+    fn new(p: &Problem, tlo: f64, thi: f64) -> Scan {
+        // About a factor 1.5 between neighbours, at most SCAN_POINTS: LM refines from there.
+        let by_ratio = ((thi - tlo) / 1.5f64.ln()).ceil() as usize + 1;
+        let spaced = |most: usize| -> Vec<f64> {
+            let count = by_ratio.clamp(2, most);
+            (0..count)
+                .map(|i| tlo + (thi - tlo) * i as f64 / (count - 1) as f64)
+                .collect()
+        };
+        let theta = if p.m > 0 {
+            spaced(SCAN_POINTS)
+        } else {
+            Vec::new()
+        };
+        let input_theta = spaced(SCAN_INPUT_POINTS);
+        let l = p.u.len();
+        let n = p.n();
+        let ncols = theta.len() * p.m + l * input_theta.len() + 1;
+        let mut all = DMatrix::zeros(n, ncols);
+        {
+            let mut cols: Vec<&mut [f64]> = all.as_mut_slice().chunks_mut(n).collect();
+            for (g, th) in theta.iter().enumerate() {
+                p.spindle_columns(th.exp(), &mut cols[g * p.m..(g + 1) * p.m]);
+            }
+            let base = theta.len() * p.m;
+            for j in 0..l {
+                for (g, th) in input_theta.iter().enumerate() {
+                    p.input_column(j, th.exp(), cols[base + j * input_theta.len() + g]);
+                }
+            }
+            cols[ncols - 1].fill(1.0);
+        }
+        let y = DMatrix::from_column_slice(n, 1, &p.y);
+        Scan {
+            gram: varpro::cross(&all, &all),
+            b: DVector::from_column_slice(varpro::cross(&all, &y).as_slice()),
+            yy: varpro::dot(&p.y, &p.y),
+            theta,
+            input_theta,
+            m: p.m,
+            l,
+        }
+    }
+
+    /// The `count` best θ vectors for K modes among all grid combinations (modes in ascending τ).
+    fn starts(&self, k: usize, count: usize) -> Vec<Vec<f64>> {
+        let mut best: Vec<(f64, Vec<f64>)> = Vec::new();
+        let gi = self.input_theta.len();
+        let mut modes = Vec::new();
+        let mut inputs = vec![0usize; self.l];
+        combinations(self.theta.len(), k, &mut modes, &mut |modes| {
+            inputs.fill(0);
+            loop {
+                if let Some(rss) = self.rss(modes, &inputs) {
+                    let theta: Vec<f64> = modes
+                        .iter()
+                        .map(|&g| self.theta[g])
+                        .chain(inputs.iter().map(|&g| self.input_theta[g]))
+                        .collect();
+                    best.push((rss, theta));
+                    if best.len() > 4 * count {
+                        best.sort_by(|a, b| a.0.total_cmp(&b.0));
+                        best.truncate(count);
+                    }
+                }
+                // Next combination of input grid indices (an odometer).
+                let Some(pos) = inputs.iter().position(|&g| g + 1 < gi) else {
+                    break;
+                };
+                inputs[pos] += 1;
+                inputs[..pos].fill(0);
+            }
+        });
+        best.sort_by(|a, b| a.0.total_cmp(&b.0));
+        best.truncate(count);
+        best.into_iter().map(|(_, t)| t).collect()
+    }
+
+    fn rss(&self, modes: &[usize], inputs: &[usize]) -> Option<f64> {
+        let base = self.theta.len() * self.m;
+        let gi = self.input_theta.len();
+        let idx: Vec<usize> = modes
+            .iter()
+            .flat_map(|&g| g * self.m..(g + 1) * self.m)
+            .chain(inputs.iter().enumerate().map(|(j, &g)| base + j * gi + g))
+            .chain(std::iter::once(self.gram.nrows() - 1))
+            .collect();
+        let p = idx.len();
+        let mut a: Vec<f64> = (0..p * p)
+            .map(|k| self.gram[(idx[k / p], idx[k % p])])
+            .collect();
+        let b: Vec<f64> = idx.iter().map(|&i| self.b[i]).collect();
+        let c = cholesky_solve(&mut a, &b)?;
+        let rss = self.yy - c.iter().zip(&b).map(|(x, y)| x * y).sum::<f64>();
+        rss.is_finite().then_some(rss)
+    }
+}
+
+/// Solves A x = b for a symmetric positive definite A (row-major p × p, overwritten by its Cholesky
+/// factor); `None` when A is not numerically positive definite. Hand-written because the scan solves
+/// thousands of tiny systems, where a general matrix type's overhead dominates.
+fn cholesky_solve(a: &mut [f64], b: &[f64]) -> Option<Vec<f64>> {
+    let p = b.len();
+    for j in 0..p {
+        let mut d = a[j * p + j];
+        for k in 0..j {
+            d -= a[j * p + k] * a[j * p + k];
+        }
+        if d.is_nan() || d <= 1e-12 * a[j * p + j].abs().max(f64::MIN_POSITIVE) {
+            return None;
+        }
+        let d = d.sqrt();
+        a[j * p + j] = d;
+        for i in j + 1..p {
+            let mut v = a[i * p + j];
+            for k in 0..j {
+                v -= a[i * p + k] * a[j * p + k];
+            }
+            a[i * p + j] = v / d;
+        }
+    }
+    let mut x = b.to_vec();
+    for i in 0..p {
+        for k in 0..i {
+            x[i] -= a[i * p + k] * x[k];
+        }
+        x[i] /= a[i * p + i];
+    }
+    for i in (0..p).rev() {
+        for k in i + 1..p {
+            x[i] -= a[k * p + i] * x[k];
+        }
+        x[i] /= a[i * p + i];
+    }
+    Some(x)
+}
+
+/// Calls `f` with every strictly increasing choice of `k` indices below `n`.
+fn combinations(n: usize, k: usize, current: &mut Vec<usize>, f: &mut impl FnMut(&[usize])) {
+    if current.len() == k {
+        f(current);
+        return;
+    }
+    let start = current.last().map_or(0, |&l| l + 1);
+    for i in start..n {
+        if n - i < k - current.len() {
+            break;
+        }
+        current.push(i);
+        combinations(n, k, current, f);
+        current.pop();
+    }
+}
