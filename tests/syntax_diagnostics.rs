@@ -92,3 +92,15 @@ fn diagnostics_are_sorted_by_position() {
     sorted.sort();
     assert_eq!(starts, sorted);
 }
+
+#[test]
+fn label_names_follow_the_control_rules() {
+    let p = parse(b"_1LBL: X1\nA: X2\nOK_1: X3\n");
+    assert_eq!(
+        errors(&p),
+        vec![
+            "1:1 label names have 2 to 32 characters, the first two letters or `_`",
+            "2:1 label names have 2 to 32 characters, the first two letters or `_`"
+        ]
+    );
+}

@@ -73,7 +73,14 @@ fn parse_never_panics_on_odd_bytes() {
         b"\x00\x01\x02 G1 \xff",
         b"N N: :: /// $ $[ R[ R[1 'H 'Bx' GOTOF \"",
     ];
-    for src in odd {
+    let deep = [
+        [&b"X="[..], &b"(".repeat(100_000)].concat(),
+        [&b"R1="[..], &b"-".repeat(100_000), b"1"].concat(),
+        [&b"IF "[..], &b"NOT ".repeat(50_000), b"A"].concat(),
+        [&b"R1=SIN("[..], &b"COS(".repeat(50_000)].concat(),
+        b"R[".repeat(50_000),
+    ];
+    for src in odd.iter().copied().chain(deep.iter().map(|d| d.as_slice())) {
         let program = parse(src);
         assert_eq!(program.to_bytes(), src);
         for block in program.blocks() {

@@ -2,7 +2,7 @@
 //! comment. Whatever it accepts the full grammar accepts as a plain block without diagnostics (a test checks
 //! this over every fixture line); anything else goes to the full grammar.
 
-use super::lexeme::{skip_blanks, word};
+use super::lexeme::{scan_word, skip_blanks};
 
 pub(crate) fn plain_block(line: &[u8]) -> bool {
     let mut i = skip_blanks(line);
@@ -16,9 +16,9 @@ pub(crate) fn plain_block(line: &[u8]) -> bool {
         i = skip_blanks(i);
         match i.first() {
             None | Some(b';') => return true,
-            Some(_) => match word(i) {
-                Ok((rest, _)) => i = rest,
-                Err(_) => return false,
+            Some(_) => match scan_word(i) {
+                Some(end) => i = &i[end..],
+                None => return false,
             },
         }
     }

@@ -29,6 +29,7 @@ pub(crate) fn parse_block(src: &[u8], content: Span, terminator: Span) -> Parsed
     let cx = Cx {
         base: content.start,
         len: line.len(),
+        depth: std::cell::Cell::new(0),
     };
     let mut children = Vec::new();
     if content.start == 3 && src.starts_with(b"\xEF\xBB\xBF") {
@@ -104,12 +105,16 @@ fn classify(src: &[u8], tree: &Node) -> (BlockKind, u8) {
     (kind, flags)
 }
 
-/// Turns suffixes of the block's content into absolute spans.
-#[derive(Clone, Copy)]
+/// Turns suffixes of the block's content into absolute spans, and bounds expression nesting.
 struct Cx {
     base: usize,
     len: usize,
+    depth: std::cell::Cell<usize>,
 }
+
+/// Deepest nesting of parentheses, calls, indices and prefix operators: keeps hostile input (a line of 100 000
+/// `(`) from exhausting the stack. Real programs stay far below it.
+const MAX_DEPTH: usize = 64;
 
 /// Expression levels from loosest to tightest binding (Sinumerik "priority of operations", reversed).
 const LEVELS: usize = 10;
@@ -204,6 +209,21 @@ impl Cx {
             i = self.ws(rest, out);
         }
         if let Some((rest, node)) = self.label(i) {
+            let name = &i[..node.children[0].span.len()];
+            let leading_ok = name.len() >= 2
+                && name[..2]
+                    .iter()
+                    .all(|&b| b.is_ascii_alphabetic() || b == b'_');
+            if !leading_ok || name.len() > 32 {
+                let span = node.children[0].span;
+                diags.push(
+                    Diagnostic::error(
+                        span,
+                        "label names have 2 to 32 characters, the first two letters or `_`",
+                    )
+                    .with_help("rename the label and the jumps to it"),
+                );
+            }
             out.push(node);
             i = rest;
         }
@@ -824,7 +844,18 @@ impl Cx {
     }
 
     fn expr<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
-        self.binary(i, 0)
+        self.nested(i, |cx| cx.binary(i, 0))
+    }
+
+    /// Runs `parse` one nesting level deeper, failing beyond [`MAX_DEPTH`].
+    fn nested<'a>(&self, i: &'a [u8], parse: impl FnOnce(&Self) -> R<'a, Node>) -> R<'a, Node> {
+        if self.depth.get() >= MAX_DEPTH {
+            return fail(i, "a less deeply nested expression");
+        }
+        self.depth.set(self.depth.get() + 1);
+        let result = parse(self);
+        self.depth.set(self.depth.get() - 1);
+        result
     }
 
     fn binary<'a>(&self, i: &'a [u8], level: usize) -> R<'a, Node> {
@@ -866,7 +897,9 @@ impl Cx {
         let mut parts = Vec::new();
         let j = self.take(kind, i, len, &mut parts);
         let j = self.ws(j, &mut parts);
-        let (rest, operand) = self.unary(j).map_err(|e| relabel(e, j, "an operand"))?;
+        let (rest, operand) = self
+            .nested(j, |cx| cx.unary(j))
+            .map_err(|e| relabel(e, j, "an operand"))?;
         parts.push(operand);
         Ok((rest, Node::with_children(K::Unary, parts)))
     }

@@ -3,8 +3,7 @@
 
 use nom::branch::alt;
 use nom::bytes::complete::{tag, tag_no_case, take_till, take_while, take_while_m_n, take_while1};
-use nom::character::complete::{digit0, digit1};
-use nom::combinator::{opt, recognize};
+use nom::combinator::recognize;
 use nom::error::{ErrorKind, ParseError};
 use nom::{IResult, Parser};
 
@@ -47,6 +46,7 @@ pub(crate) fn fail<'a, T>(at: &'a [u8], expected: &'static str) -> R<'a, T> {
 }
 
 /// Blanks separate tokens: space, tab, `&` (a space in Sinumerik), vertical tab and form feed.
+#[inline]
 pub(crate) fn is_blank(b: u8) -> bool {
     matches!(b, b' ' | b'\t' | b'&' | 0x0b | 0x0c)
 }
@@ -59,8 +59,12 @@ pub(crate) fn blanks(i: &[u8]) -> R<'_, &[u8]> {
     take_while1(is_blank).parse(i)
 }
 
+#[inline]
 pub(crate) fn skip_blanks(i: &[u8]) -> &[u8] {
-    let n = i.iter().take_while(|&&b| is_blank(b)).count();
+    let mut n = 0;
+    while n < i.len() && is_blank(i[n]) {
+        n += 1;
+    }
     &i[n..]
 }
 
@@ -73,35 +77,82 @@ pub(crate) fn ident(i: &[u8]) -> R<'_, &[u8]> {
     .parse(i)
 }
 
-/// `12`, `12.`, `12.5`, `.5`, each optionally with a Sinumerik exponent `EX[+-]digits`.
+#[inline]
+fn digits_end(i: &[u8], mut end: usize) -> usize {
+    while end < i.len() && i[end].is_ascii_digit() {
+        end += 1;
+    }
+    end
+}
+
+/// Length of the number at the start of `i`: `12`, `12.`, `12.5`, `.5`, each optionally with a Sinumerik
+/// exponent `EX[+-]digits`. Hand-rolled because every word of every block goes through it.
+#[inline]
+fn scan_unsigned_number(i: &[u8]) -> Option<usize> {
+    let int_end = digits_end(i, 0);
+    let mut end = int_end;
+    if i.get(end) == Some(&b'.') {
+        let frac_end = digits_end(i, end + 1);
+        if int_end == 0 && frac_end == end + 1 {
+            return None;
+        }
+        end = frac_end;
+    } else if int_end == 0 {
+        return None;
+    }
+    if matches!(i.get(end), Some(b'E' | b'e')) && matches!(i.get(end + 1), Some(b'X' | b'x')) {
+        let sign = usize::from(matches!(i.get(end + 2), Some(b'+' | b'-')));
+        let exp_end = digits_end(i, end + 2 + sign);
+        if exp_end > end + 2 + sign {
+            end = exp_end;
+        }
+    }
+    Some(end)
+}
+
+#[inline]
+fn scan_signed_number(i: &[u8]) -> Option<usize> {
+    let sign = usize::from(matches!(i.first(), Some(b'+' | b'-')));
+    scan_unsigned_number(&i[sign..]).map(|n| n + sign)
+}
+
+fn lexeme<'a>(i: &'a [u8], len: Option<usize>, expected: &'static str) -> R<'a, &'a [u8]> {
+    match len {
+        Some(n) => Ok((&i[n..], &i[..n])),
+        None => fail(i, expected),
+    }
+}
+
 pub(crate) fn unsigned_number(i: &[u8]) -> R<'_, &[u8]> {
-    let mantissa = alt((
-        recognize((digit1, opt((tag("."), digit0)))),
-        recognize((tag("."), digit1)),
-    ));
-    let exponent = (tag_no_case("EX"), opt(alt((tag("+"), tag("-")))), digit1);
-    recognize((mantissa, opt(exponent))).parse(i)
+    lexeme(i, scan_unsigned_number(i), "a number")
 }
 
 pub(crate) fn signed_number(i: &[u8]) -> R<'_, &[u8]> {
-    recognize((opt(alt((tag("+"), tag("-")))), unsigned_number)).parse(i)
+    lexeme(i, scan_signed_number(i), "a number")
 }
 
-/// Address letter and number, `G1`, `X-3.2`, `F.5`: not when the name goes on (`X1_A`), is indexed or called
-/// (`R1[`, `L1(`, `L340 (`) or assigned (`X1=5` is an assignment to axis `X1`).
-pub(crate) fn word(i: &[u8]) -> R<'_, (&[u8], &[u8])> {
-    let (rest, (letter, number)) = (
-        take_while_m_n(1, 1, |b: u8| b.is_ascii_alphabetic()),
-        signed_number,
-    )
-        .parse(i)?;
+/// Length of the address letter and number at the start of `i` (`G1`, `X-3.2`, `F.5`), or None when the
+/// name goes on (`X1_A`), is indexed or called (`R1[`, `L1(`, `L340 (`) or assigned (`X1=5` is an
+/// assignment to axis `X1`).
+#[inline]
+pub(crate) fn scan_word(i: &[u8]) -> Option<usize> {
+    if !i.first()?.is_ascii_alphabetic() {
+        return None;
+    }
+    let end = 1 + scan_signed_number(&i[1..])?;
+    let rest = &i[end..];
     let next = skip_blanks(rest);
     let continues = matches!(rest.first(), Some(b'_' | b'[')) || next.first() == Some(&b'(');
     let assigned = next.first() == Some(&b'=') && next.get(1) != Some(&b'=');
-    if continues || assigned {
-        return fail(i, "a word");
+    (!continues && !assigned).then_some(end)
+}
+
+/// A word as (letter, number).
+pub(crate) fn word(i: &[u8]) -> R<'_, (&[u8], &[u8])> {
+    match scan_word(i) {
+        Some(end) => Ok((&i[end..], (&i[..1], &i[1..end]))),
+        None => fail(i, "a word"),
     }
-    Ok((rest, (letter, number)))
 }
 
 /// `"…"`: any bytes but the quote; strings cannot span lines.
