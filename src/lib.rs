@@ -12,6 +12,7 @@ pub mod source;
 pub mod structure;
 pub mod syntax;
 pub mod views;
+pub mod walk;
 
 pub use diagnostic::{Diagnostic, Severity};
 pub use edit::{EditError, Editor};

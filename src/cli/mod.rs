@@ -6,8 +6,12 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
+mod bench;
+mod check;
 mod demo;
+mod parse;
 mod positioning;
+mod render;
 
 /// Options every subcommand understands.
 #[derive(Debug, Clone, clap::Args)]
@@ -55,6 +59,12 @@ enum Command {
     Demo(demo::Args),
     /// Positioning accuracy (DSTU/GOST 27843, VDI 3441, ISO 230-2) and compensation tables.
     Positioning(positioning::Args),
+    /// Report the diagnostics of programs and directories of programs.
+    Check(check::Args),
+    /// Dump the syntax tree of a program as JSON, or print the program back from it.
+    Parse(parse::Args),
+    /// Measure parse + print throughput and peak memory on a generated 100 MB program.
+    Bench(bench::Args),
 }
 
 /// Entry point of the binary.
@@ -63,6 +73,9 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Demo(args) => demo::run(args, &cli.global),
         Command::Positioning(args) => positioning::run(args, &cli.global),
+        Command::Check(args) => check::run(args, &cli.global),
+        Command::Parse(args) => parse::run(args, &cli.global),
+        Command::Bench(args) => bench::run(args, &cli.global),
     };
     match result {
         Ok(code) => code,
