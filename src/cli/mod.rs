@@ -10,8 +10,10 @@ mod bench;
 mod check;
 mod demo;
 mod parse;
+mod plan;
 mod positioning;
 mod render;
+mod transform;
 
 /// Options every subcommand understands.
 #[derive(Debug, Clone, clap::Args)]
@@ -65,6 +67,10 @@ enum Command {
     Parse(parse::Args),
     /// Measure parse + print throughput and peak memory on a generated 100 MB program.
     Bench(bench::Args),
+    /// Insert probe measurements, nested measuring loops and drift corrections into NC programs.
+    Transform(transform::Args),
+    /// Print the timeline, predicted drift and planned measurements of a program.
+    Plan(plan::Args),
 }
 
 /// Entry point of the binary.
@@ -76,6 +82,8 @@ pub fn main() -> ExitCode {
         Command::Check(args) => check::run(args, &cli.global),
         Command::Parse(args) => parse::run(args, &cli.global),
         Command::Bench(args) => bench::run(args, &cli.global),
+        Command::Transform(args) => transform::run(args, &cli.global),
+        Command::Plan(args) => plan::run(args, &cli.global),
     };
     match result {
         Ok(code) => code,
