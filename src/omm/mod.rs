@@ -7,6 +7,7 @@ pub mod emit;
 pub mod nc;
 pub mod plan;
 pub mod profile;
+pub mod report;
 pub mod timeline;
 
 use serde::Serialize;

@@ -161,6 +161,12 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
         let predicted = p.drift();
         max = max.max(predicted.abs());
         let tool_change_follows = matches!(site.kind, SiteKind::PassStart { tool_change: true });
+        // Declarations must stay first: a pass marked inside them is measured after them.
+        let block = if k == 0 {
+            site.block.max(timeline.preamble_end)
+        } else {
+            site.block
+        };
         let restorable =
             site.before.motion < 2 && (tool_change_follows || site.before.tool.is_some());
         let (kind, can_measure) = match site.kind {
@@ -185,7 +191,7 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
         gates.push(Gate {
             number: gates.len() + 1,
             kind,
-            block: site.block,
+            block,
             pass: site.pass,
             time_min,
             rpm,

@@ -210,10 +210,10 @@ fn scan(program: &Program, i: usize, marker: &str) -> Scan {
             NodeKind::Comment => {
                 let text = block.text(node);
                 s.path_comment = text.starts_with(b";$PATH");
+                let words = text[1..].trim_ascii_start();
                 s.marker = !marker.is_empty()
-                    && String::from_utf8_lossy(text)
-                        .to_ascii_uppercase()
-                        .contains(marker);
+                    && words.len() >= marker.len()
+                    && words[..marker.len()].eq_ignore_ascii_case(marker.as_bytes());
             }
             NodeKind::Def | NodeKind::Proc | NodeKind::Extern | NodeKind::Define => {
                 s.declaration = true
