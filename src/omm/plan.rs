@@ -213,3 +213,37 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
         total_min: timeline.total_min + shift,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Schedule;
+
+    #[test]
+    fn predictor_steps_agree_with_the_model() {
+        // The update the NC program runs at its gates, over an uneven schedule, equals the model's own
+        // prediction: the exact update does not depend on where the steps fall.
+        let model = DriftModel::from_modes(
+            "drift_z_um",
+            vec![1000.0, 3000.0, 5000.0],
+            &[(12.0, vec![2.0, 7.0, 12.0]), (90.0, vec![5.0, 16.0, 28.0])],
+            0.0,
+        );
+        let schedule: Schedule = "4000:37,0:11,2500:52".parse().unwrap();
+        let ds = schedule.to_dataset(1.0);
+        let truth = model.predict(&ds).unwrap();
+        let mut p = Predictor::new(&model).unwrap();
+        let mut t = 0.0;
+        for seg in &schedule.segments {
+            p.set_rpm(seg.rpm);
+            // Two uneven steps per segment, like gates at arbitrary blocks.
+            p.advance(seg.minutes * 0.3);
+            p.advance(seg.minutes * 0.7);
+            t += seg.minutes;
+        }
+        let last = *truth.last().unwrap();
+        assert!((ds.time_min.last().unwrap() - t).abs() < 1e-9);
+        assert!((p.drift() - last).abs() < 1e-9, "{} vs {last}", p.drift());
+        assert!(last > 1.0);
+    }
+}
