@@ -98,8 +98,7 @@ pub fn is_pc_archive(src: &[u8]) -> bool {
 
 /// Line (1-based) of a driftloop header comment, if the program carries one.
 pub fn transformed_line(src: &[u8]) -> Option<usize> {
-    let sig = SIGNATURE.as_bytes();
-    let at = src.windows(sig.len()).position(|w| w == sig)?;
+    let at = memchr::memmem::find(src, SIGNATURE.as_bytes())?;
     Some(src[..at].iter().filter(|&&b| b == b'\n').count() + 1)
 }
 

@@ -107,7 +107,7 @@ pub struct Timeline {
 }
 
 /// What one block says, reduced to what the timeline needs (built in parallel).
-#[derive(Debug, Default)]
+#[derive(Debug, Default, PartialEq)]
 struct Scan {
     g: Vec<u32>,
     axes: [Option<(f64, bool)>; 3],
@@ -150,6 +150,17 @@ pub fn build(program: &Program, profile: &Profile) -> Timeline {
 }
 
 fn scan(program: &Program, i: usize, marker: &str) -> Scan {
+    let content = program.content_span(i);
+    let line = &program.source()[content.start..content.end];
+    if program.block_kind(i) == BlockKind::Plain
+        && let Some(s) = scan_words(line, marker)
+    {
+        return s;
+    }
+    scan_tree(program, i, marker)
+}
+
+fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
     let block = program.block(i);
     let f = facts(&block);
     let mut s = Scan {
@@ -207,14 +218,7 @@ fn scan(program: &Program, i: usize, marker: &str) -> Scan {
         match node.kind {
             NodeKind::Word => word(&block, node, &mut s),
             NodeKind::Assign => assign(&block, node, &mut s),
-            NodeKind::Comment => {
-                let text = block.text(node);
-                s.path_comment = text.starts_with(b";$PATH");
-                let words = text[1..].trim_ascii_start();
-                s.marker = !marker.is_empty()
-                    && words.len() >= marker.len()
-                    && words[..marker.len()].eq_ignore_ascii_case(marker.as_bytes());
-            }
+            NodeKind::Comment => comment(block.text(node), marker, &mut s),
             NodeKind::Def | NodeKind::Proc | NodeKind::Extern | NodeKind::Define => {
                 s.declaration = true
             }
@@ -222,6 +226,76 @@ fn scan(program: &Program, i: usize, marker: &str) -> Scan {
         }
     }
     s
+}
+
+/// The same facts without a syntax tree, for the lines CAM output is made of: one-letter address words with
+/// plain numbers and an optional comment (`N120 G1 X10.5 Y-3 F800 ; finish`). Anything else — `=`, names,
+/// strings, labels, R-parameters — returns `None` and takes the tree path.
+fn scan_words(line: &[u8], marker: &str) -> Option<Scan> {
+    let mut s = Scan::default();
+    let mut i = 0;
+    while i < line.len() {
+        let b = line[i];
+        if matches!(b, b' ' | b'\t') {
+            i += 1;
+            continue;
+        }
+        if b == b';' {
+            comment(&line[i..], marker, &mut s);
+            break;
+        }
+        let letter = b.to_ascii_uppercase();
+        if !letter.is_ascii_uppercase() || letter == b'R' {
+            return None;
+        }
+        let start = i + 1;
+        let mut end = start;
+        while end < line.len() && matches!(line[end], b'0'..=b'9' | b'.' | b'-' | b'+') {
+            end += 1;
+        }
+        if end == start
+            || line
+                .get(end)
+                .is_some_and(|c| !matches!(c, b' ' | b'\t' | b';'))
+        {
+            return None;
+        }
+        let text = std::str::from_utf8(&line[start..end]).ok()?;
+        let v: f64 = text.parse().ok()?;
+        let int = (v >= 0.0 && v.fract() == 0.0).then_some(v as u32);
+        match letter {
+            b'G' => {
+                let g = int?;
+                if matches!(g, 53 | 153 | 500 | 54..=57 | 505..=599) {
+                    s.offsets.push(g);
+                }
+                s.g.push(g);
+            }
+            b'X' => s.axes[0] = Some((v, false)),
+            b'Y' => s.axes[1] = Some((v, false)),
+            b'Z' => s.axes[2] = Some((v, false)),
+            b'I' => s.centre[0] = Some(v),
+            b'J' => s.centre[1] = Some(v),
+            b'K' => s.centre[2] = Some(v),
+            b'F' => s.f = Some(v),
+            b'S' => s.s = Some(v),
+            b'M' => s.m.push(int?),
+            b'T' => s.tool = Some(text.to_string()),
+            b'D' => s.d = Some(int?),
+            _ => {}
+        }
+        i = end;
+    }
+    Some(s)
+}
+
+/// Marker and `;$PATH` facts of a comment (`text` starts at the `;`).
+fn comment(text: &[u8], marker: &str, s: &mut Scan) {
+    s.path_comment = text.starts_with(b";$PATH");
+    let words = text[1..].trim_ascii_start();
+    s.marker = !marker.is_empty()
+        && words.len() >= marker.len()
+        && words[..marker.len()].eq_ignore_ascii_case(marker.as_bytes());
 }
 
 /// The text after `T`/`T=` in a tool word or assignment.
@@ -597,4 +671,44 @@ fn speed_max(speeds: &[(f64, f64)], from: f64, to: f64) -> f64 {
         }
     }
     max
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every line the word scanner accepts gives the same facts as the syntax tree.
+    #[test]
+    fn word_scanner_agrees_with_the_tree() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mut sources = vec![
+            b"N10 G1 X10.5 Y-3 F800 ; PASS finish\nG0 Z50.\nT12 M6\nS3000 M3 D2\nG2 X1 Y2 I-.5 J0\nG54 G90\n"
+                .to_vec(),
+        ];
+        for name in ["handwritten.mpf", "crlf.mpf", "latin1.mpf"] {
+            sources.push(std::fs::read(dir.join("fixtures/omm").join(name)).unwrap());
+        }
+        let cam =
+            dir.join("../shared/corpus/sinumerik-840d-sl-cas-package/Approach A/CAM TEST.MPF");
+        match std::fs::read(&cam) {
+            Ok(bytes) => sources.push(bytes),
+            Err(_) => eprintln!("skipped: {} is absent", cam.display()),
+        }
+        let mut fast = 0;
+        for src in sources {
+            let program = crate::parse(&src);
+            for i in 0..program.block_count() {
+                let span = program.content_span(i);
+                if let Some(mut quick) = scan_words(&program.source()[span.start..span.end], "PASS")
+                {
+                    let mut tree = scan_tree(&program, i, "PASS");
+                    quick.g.sort_unstable();
+                    tree.g.sort_unstable();
+                    assert_eq!(quick, tree, "line {}", i + 1);
+                    fast += 1;
+                }
+            }
+        }
+        assert!(fast > 50, "the scanner took only {fast} lines");
+    }
 }
