@@ -92,7 +92,8 @@ enum Target {
 
 struct Outcome {
     bytes: Vec<u8>,
-    original: Vec<u8>,
+    /// The input, parsed (its source is the original bytes, kept without a copy).
+    program: crate::Program,
     summary: Summary,
 }
 
@@ -149,7 +150,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 let differs = if args.check {
                     let current = match &job.target {
                         Target::File(p) => std::fs::read(p).ok(),
-                        _ => Some(o.original.clone()),
+                        _ => Some(o.program.source().to_vec()),
                     };
                     current.as_deref() != Some(o.bytes.as_slice())
                 } else {
@@ -208,7 +209,12 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     if args.diff {
         let mut out = io::stdout().lock();
         for (job, o) in jobs.iter().zip(&outcomes) {
-            write_diff(&mut out, &job.input.to_string(), &o.original, &o.bytes)?;
+            write_diff(
+                &mut out,
+                &job.input.to_string(),
+                o.program.source(),
+                &o.bytes,
+            )?;
         }
     } else if !args.check {
         for (job, o) in jobs.iter().zip(&outcomes) {
@@ -240,7 +246,7 @@ fn transform_one(
         .map_err(|e| e.to_string())?;
     Ok(Outcome {
         bytes: t.bytes,
-        original: program.source().to_vec(),
+        program,
         summary: t.summary,
     })
 }

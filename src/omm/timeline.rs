@@ -8,6 +8,7 @@
 //! as coordinates count as no move (`inexact_blocks` says how many blocks that affected).
 
 use std::collections::BTreeSet;
+use std::sync::Arc;
 
 use rayon::prelude::*;
 
@@ -20,7 +21,7 @@ use super::profile::Profile;
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Modal {
     /// The tool as written after `T=` or `T` (`"DRILL 8.5"` with quotes, or `12`).
-    pub tool: Option<String>,
+    pub tool: Option<Arc<str>>,
     pub d: Option<u32>,
     /// Programmed spindle speed and direction (3, 4 or 5 = stopped).
     pub s: f64,
@@ -77,7 +78,7 @@ pub struct Pass {
     pub start_min: f64,
     pub end_min: f64,
     /// Tool of the pass as written, when known.
-    pub tool: Option<String>,
+    pub tool: Option<Arc<str>>,
     /// Highest spindle speed in the pass (rpm).
     pub max_rpm: f64,
 }
@@ -109,15 +110,15 @@ pub struct Timeline {
 /// What one block says, reduced to what the timeline needs (built in parallel).
 #[derive(Debug, Default, PartialEq)]
 struct Scan {
-    g: Vec<u32>,
+    g: Codes,
     axes: [Option<(f64, bool)>; 3],
     inexact: bool,
     centre: [Option<f64>; 3],
     radius: Option<f64>,
     f: Option<f64>,
     s: Option<f64>,
-    m: Vec<u32>,
-    tool: Option<String>,
+    m: Codes,
+    tool: Option<Arc<str>>,
     d: Option<u32>,
     marker: bool,
     declaration: bool,
@@ -137,10 +138,15 @@ pub fn build(program: &Program, profile: &Profile) -> Timeline {
     let mut start = 0;
     while start < n {
         let end = (start + CHUNK).min(n);
-        let scans: Vec<Scan> = (start..end)
-            .into_par_iter()
-            .map(|i| scan(program, i, &marker))
-            .collect();
+        // Small programs are scanned in line: a batch of them is already spread over the cores.
+        let scans: Vec<Scan> = if n <= CHUNK {
+            (start..end).map(|i| scan(program, i, &marker)).collect()
+        } else {
+            (start..end)
+                .into_par_iter()
+                .map(|i| scan(program, i, &marker))
+                .collect()
+        };
         for (k, s) in scans.iter().enumerate() {
             b.block(start + k, s);
         }
@@ -198,17 +204,21 @@ fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
         .iter()
         .find(|a| a.extension.is_none_or(|e| e == 1))
         .and_then(|a| num(&a.value));
-    s.m = f
+    for v in f
         .m_codes
         .iter()
         .filter(|a| a.extension.is_none_or(|e| e == 1))
-        .filter_map(|a| num(&a.value).map(|v| v as u32))
-        .collect();
+        .filter_map(|a| num(&a.value))
+    {
+        s.m.push(v as u32);
+    }
     s.tool = f
         .tools
         .first()
-        .map(|a| String::from_utf8_lossy(tool_text(&block, a.span)).into_owned());
-    s.g = f.motion.clone();
+        .map(|a| Arc::from(String::from_utf8_lossy(tool_text(&block, a.span)).as_ref()));
+    for &g in &f.motion {
+        s.g.push(g);
+    }
     for w in &f.work_offsets {
         if let WorkOffset::G(g) = w {
             s.offsets.push(*g);
@@ -260,16 +270,22 @@ fn scan_words(line: &[u8], marker: &str) -> Option<Scan> {
         {
             return None;
         }
-        let text = std::str::from_utf8(&line[start..end]).ok()?;
-        let v: f64 = text.parse().ok()?;
-        let int = (v >= 0.0 && v.fract() == 0.0).then_some(v as u32);
+        i = end;
+        if letter == b'N' {
+            continue;
+        }
+        let digits = &line[start..end];
+        let v = decimal(digits)?;
+        let int = (v >= 0.0 && v == (v as u32) as f64).then_some(v as u32);
         match letter {
             b'G' => {
                 let g = int?;
                 if matches!(g, 53 | 153 | 500 | 54..=57 | 505..=599) {
                     s.offsets.push(g);
                 }
-                s.g.push(g);
+                if !s.g.push(g) {
+                    return None;
+                }
             }
             b'X' => s.axes[0] = Some((v, false)),
             b'Y' => s.axes[1] = Some((v, false)),
@@ -279,14 +295,85 @@ fn scan_words(line: &[u8], marker: &str) -> Option<Scan> {
             b'K' => s.centre[2] = Some(v),
             b'F' => s.f = Some(v),
             b'S' => s.s = Some(v),
-            b'M' => s.m.push(int?),
-            b'T' => s.tool = Some(text.to_string()),
+            b'M' => {
+                if !s.m.push(int?) {
+                    return None;
+                }
+            }
+            b'T' => s.tool = Some(Arc::from(std::str::from_utf8(digits).ok()?)),
             b'D' => s.d = Some(int?),
             _ => {}
         }
-        i = end;
     }
     Some(s)
+}
+
+/// The G or M codes of one block, without a heap allocation per block. A block holds far fewer than
+/// [`Codes::CAP`]; should one hold more, the word scanner hands it to the tree path, which keeps the first
+/// ones (the timeline only needs motion, G4, G90/G91, G94/G95, work offsets, M3/M4/M5/M6/M2/M30).
+#[derive(Debug, Default, Clone, Copy, PartialEq)]
+struct Codes {
+    len: u8,
+    v: [u16; Codes::CAP],
+}
+
+impl Codes {
+    const CAP: usize = 16;
+
+    /// Adds a code; false when it does not fit.
+    fn push(&mut self, code: u32) -> bool {
+        let (Ok(code), true) = (u16::try_from(code), usize::from(self.len) < Codes::CAP) else {
+            return false;
+        };
+        self.v[usize::from(self.len)] = code;
+        self.len += 1;
+        true
+    }
+
+    fn iter(&self) -> impl Iterator<Item = u32> + '_ {
+        self.v[..usize::from(self.len)]
+            .iter()
+            .map(|&c| u32::from(c))
+    }
+
+    fn contains(&self, code: u32) -> bool {
+        self.iter().any(|c| c == code)
+    }
+
+    fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+}
+
+/// `[+-]digits[.digits]` as f64, for the word scanner: exact for up to 15 significant digits, which is
+/// what CAM output carries; anything else (exponents, more digits) returns `None` and takes the tree path.
+fn decimal(text: &[u8]) -> Option<f64> {
+    const POW10: [f64; 16] = [
+        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+    ];
+    let (negative, body) = match text.first()? {
+        b'-' => (true, &text[1..]),
+        b'+' => (false, &text[1..]),
+        _ => (false, text),
+    };
+    let mut mantissa: u64 = 0;
+    let (mut digits, mut scale, mut point) = (0usize, 0usize, false);
+    for &b in body {
+        match b {
+            b'0'..=b'9' => {
+                mantissa = mantissa * 10 + u64::from(b - b'0');
+                digits += 1;
+                scale += usize::from(point);
+            }
+            b'.' if !point => point = true,
+            _ => return None,
+        }
+    }
+    if digits == 0 || digits > 15 {
+        return None;
+    }
+    let v = mantissa as f64 / POW10[scale];
+    Some(if negative { -v } else { v })
 }
 
 /// Marker and `;$PATH` facts of a comment (`text` starts at the `;`).
@@ -313,7 +400,9 @@ fn word(block: &Block<'_>, node: &Node, s: &mut Scan) {
         .ok()
         .and_then(|t| t.parse::<f64>().ok());
     match (letter.as_slice(), value) {
-        (b"G", Some(g)) if g.fract() == 0.0 && !s.g.contains(&(g as u32)) => s.g.push(g as u32),
+        (b"G", Some(g)) if g.fract() == 0.0 && !s.g.contains(g as u32) => {
+            s.g.push(g as u32);
+        }
         (b"D", Some(d)) if d >= 0.0 && d.fract() == 0.0 => s.d = Some(d as u32),
         (b"I", Some(v)) => s.centre[0] = Some(v),
         (b"J", Some(v)) => s.centre[1] = Some(v),
@@ -425,7 +514,7 @@ impl<'p> Builder<'p> {
             }
         }
         // Modal words first: they hold for this block's move.
-        for &g in &s.g {
+        for g in s.g.iter() {
             match g {
                 0..=3 => self.state.motion = g,
                 90 => self.state.absolute = true,
@@ -436,7 +525,7 @@ impl<'p> Builder<'p> {
             }
         }
         if let Some(f) = s.f
-            && !s.g.contains(&4)
+            && !s.g.contains(4)
         {
             self.state.feed = Some(f);
         }
@@ -446,7 +535,7 @@ impl<'p> Builder<'p> {
         if let Some(d) = s.d {
             self.state.d = Some(d);
         }
-        for &m in &s.m {
+        for m in s.m.iter() {
             match m {
                 3..=5 => self.state.direction = m,
                 6 => self.m6_seen = true,
@@ -454,7 +543,7 @@ impl<'p> Builder<'p> {
                 _ => {}
             }
         }
-        let tool_change = s.m.contains(&6);
+        let tool_change = s.m.contains(6);
         if let Some(tool) = &s.tool {
             self.state.tool = Some(tool.clone());
         }
@@ -517,7 +606,7 @@ impl<'p> Builder<'p> {
         }
         let mut minutes = 0.0;
         let mut inexact = s.inexact;
-        if s.g.contains(&4) {
+        if s.g.contains(4) {
             minutes += match (s.f, s.s) {
                 (Some(sec), _) => sec / 60.0,
                 (None, Some(rev)) if rpm > 0.0 => rev / rpm,
@@ -658,7 +747,7 @@ struct PassMark {
     time: f64,
     before: Modal,
     rpm: f64,
-    tool: Option<String>,
+    tool: Option<Arc<str>>,
 }
 
 /// Highest speed held at any time in [from, to).
@@ -702,13 +791,38 @@ mod tests {
                 if let Some(mut quick) = scan_words(&program.source()[span.start..span.end], "PASS")
                 {
                     let mut tree = scan_tree(&program, i, "PASS");
-                    quick.g.sort_unstable();
-                    tree.g.sort_unstable();
+                    let len = usize::from(quick.g.len);
+                    quick.g.v[..len].sort_unstable();
+                    let len = usize::from(tree.g.len);
+                    tree.g.v[..len].sort_unstable();
                     assert_eq!(quick, tree, "line {}", i + 1);
                     fast += 1;
                 }
             }
         }
         assert!(fast > 50, "the scanner took only {fast} lines");
+    }
+
+    #[test]
+    fn decimals_match_the_standard_parser() {
+        for t in [
+            "0",
+            "-0.5",
+            "+12.",
+            ".25",
+            "165.356",
+            "-224.452",
+            "19083.899",
+            "123456789012345",
+        ] {
+            assert_eq!(
+                decimal(t.as_bytes()),
+                Some(t.parse::<f64>().unwrap()),
+                "{t}"
+            );
+        }
+        for t in ["", "-", "1.2.3", "1e5", "1234567890123456", "12a"] {
+            assert_eq!(decimal(t.as_bytes()), None, "{t}");
+        }
     }
 }
