@@ -295,11 +295,8 @@ fn scan_words(line: &[u8], marker: &str) -> Option<Scan> {
             b'K' => s.centre[2] = Some(v),
             b'F' => s.f = Some(v),
             b'S' => s.s = Some(v),
-            b'M' => {
-                if !s.m.push(int?) {
-                    return None;
-                }
-            }
+            // The guard stores the code; a block with more codes than fit goes to the tree path.
+            b'M' if !s.m.push(int?) => return None,
             b'T' => s.tool = Some(Arc::from(std::str::from_utf8(digits).ok()?)),
             b'D' => s.d = Some(int?),
             _ => {}
