@@ -254,6 +254,16 @@ fn scan_words(line: &[u8], marker: &str) -> Option<Scan> {
             comment(&line[i..], marker, &mut s);
             break;
         }
+        // `CR=radius` is the one assignment CAM arcs carry; it is read here so arcs stay on this path.
+        if line.len() >= i + 3 && line[i..i + 3].eq_ignore_ascii_case(b"CR=") {
+            let end = line[i + 3..]
+                .iter()
+                .position(|c| matches!(c, b' ' | b'\t' | b';'))
+                .map_or(line.len(), |p| i + 3 + p);
+            s.radius = Some(decimal(&line[i + 3..end])?);
+            i = end;
+            continue;
+        }
         let letter = b.to_ascii_uppercase();
         if !letter.is_ascii_uppercase() || letter == b'R' {
             return None;
@@ -414,18 +424,30 @@ fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
         return;
     };
     let name = block.text(target).to_ascii_uppercase();
-    let v = match value.kind {
-        NodeKind::Number => std::str::from_utf8(block.text(value))
-            .ok()
-            .and_then(|t| t.parse::<f64>().ok()),
-        _ => None,
-    };
+    let v = literal(block, value);
     match name.as_slice() {
         b"CR" => s.radius = v,
         b"I" => s.centre[0] = v,
         b"J" => s.centre[1] = v,
         b"K" => s.centre[2] = v,
         _ => {}
+    }
+}
+
+/// A number written as such, with an optional sign (`12.5`, `-3`); `None` for any other expression.
+fn literal(block: &Block<'_>, node: &Node) -> Option<f64> {
+    match node.kind {
+        NodeKind::Number => std::str::from_utf8(block.text(node)).ok()?.parse().ok(),
+        NodeKind::Unary => {
+            let mut parts = node.significant();
+            let sign = match block.text(parts.next()?) {
+                b"-" => -1.0,
+                b"+" => 1.0,
+                _ => return None,
+            };
+            Some(sign * literal(block, parts.next()?)?)
+        }
+        _ => None,
     }
 }
 
@@ -768,7 +790,7 @@ mod tests {
     fn word_scanner_agrees_with_the_tree() {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
         let mut sources = vec![
-            b"N10 G1 X10.5 Y-3 F800 ; PASS finish\nG0 Z50.\nT12 M6\nS3000 M3 D2\nG2 X1 Y2 I-.5 J0\nG54 G90\n"
+            b"N10 G1 X10.5 Y-3 F800 ; PASS finish\nG0 Z50.\nT12 M6\nS3000 M3 D2\nG2 X1 Y2 I-.5 J0\nG54 G90\nG3 X5 Y5 CR=-12.5 F100\n"
                 .to_vec(),
         ];
         for name in ["handwritten.mpf", "crlf.mpf", "latin1.mpf"] {
