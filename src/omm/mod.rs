@@ -172,8 +172,11 @@ pub fn transform(
     };
     let mut editor = Editor::new(program);
     let mut inserted = 0;
+    let mut inserted_bytes = 0;
     let mut insert = |editor: &mut Editor, block: usize, text: String| {
         inserted += text.lines().count();
+        // Line endings may grow to CRLF.
+        inserted_bytes += text.len() + 2 * text.lines().count();
         editor.insert_before(block, &text)
     };
     let pass_tool = |pass: usize| {
@@ -206,10 +209,16 @@ pub fn transform(
         insert(&mut editor, end, emitter.end())?;
     }
     if timeline.ends.is_empty() && program.block_count() > 0 {
-        inserted += emitter.end().lines().count();
-        editor.insert_after(program.block_count() - 1, &emitter.end())?;
+        let end = emitter.end();
+        inserted += end.lines().count();
+        inserted_bytes += end.len() + 2 * end.lines().count() + 2;
+        editor.insert_after(program.block_count() - 1, &end)?;
     }
-    let bytes = editor.to_bytes();
+    // Sized once: growing a 100 MB buffer would copy it again.
+    let mut bytes = Vec::with_capacity(program.source().len() + inserted_bytes);
+    editor
+        .write_to(&mut bytes)
+        .expect("writing to a Vec cannot fail");
     Ok(Transformed {
         bytes,
         summary: Summary {

@@ -494,7 +494,19 @@ impl<'p> Builder<'p> {
     }
 
     fn block(&mut self, i: usize, s: &Scan) {
-        let before = self.state.clone();
+        // The state before the block is kept only where a site or pass mark can arise: a copy per block
+        // would cost more than the rest of the scan.
+        let may_mark = !s.m.is_empty()
+            || s.s.is_some()
+            || s.tool.is_some()
+            || s.marker
+            || self.last_was_z_retract
+            || !self.profile.passes.lines.is_empty();
+        let before = if may_mark {
+            self.state.clone()
+        } else {
+            Modal::default()
+        };
         let start = self.time;
         if !self.header_done {
             if s.kind_header || s.path_comment {
