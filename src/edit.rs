@@ -1,4 +1,4 @@
-//! Editing a parsed program: insert blocks before or after a block, replace a block. Untouched blocks are
+//! Editing a parsed program: insert blocks before or after a block, replace or delete a block. Untouched blocks are
 //! written verbatim; new blocks are given as text, checked by the block grammar before they are accepted,
 //! and written with the file's dominant line ending. A BOM stays first and a missing final newline stays
 //! missing.
@@ -61,6 +61,16 @@ impl<'p> Editor<'p> {
     pub fn replace(&mut self, index: usize, text: &str) -> Result<(), EditError> {
         let lines = self.accept(index, text)?;
         self.slots.entry(index).or_default().replace = Some(lines);
+        Ok(())
+    }
+
+    /// Removes block `index`, terminator included.
+    pub fn delete(&mut self, index: usize) -> Result<(), EditError> {
+        let count = self.program.block_count();
+        if index >= count {
+            return Err(EditError::NoSuchBlock { index, count });
+        }
+        self.slots.entry(index).or_default().replace = Some(Vec::new());
         Ok(())
     }
 

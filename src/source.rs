@@ -40,6 +40,20 @@ pub struct RawLine {
 }
 
 impl RawLine {
+    /// The line starting at `start` whose content ends at `content_end` (a CR, an LF or the end of `src`).
+    pub fn ending_at(src: &[u8], start: usize, content_end: usize) -> Self {
+        let terminator = match src.get(content_end) {
+            None => 0,
+            Some(b'\r') if src.get(content_end + 1) == Some(&b'\n') => 2,
+            Some(_) => 1,
+        };
+        RawLine {
+            start,
+            content_end,
+            end: content_end + terminator,
+        }
+    }
+
     pub fn content(&self) -> Span {
         Span::new(self.start, self.content_end)
     }
@@ -52,7 +66,15 @@ impl RawLine {
 /// Splits `src` into lines at LF, CRLF and lone CR. An empty input has no lines; a final line without a
 /// terminator is still a line.
 pub fn raw_lines(src: &[u8]) -> RawLines<'_> {
-    RawLines { src, pos: 0 }
+    raw_lines_in(src, 0, src.len())
+}
+
+/// The lines of `src[start..end]` with offsets into `src`; `start` and `end` must be line boundaries.
+pub fn raw_lines_in(src: &[u8], start: usize, end: usize) -> RawLines<'_> {
+    RawLines {
+        src: &src[..end],
+        pos: start,
+    }
 }
 
 pub struct RawLines<'a> {

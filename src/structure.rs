@@ -7,7 +7,7 @@ use std::collections::HashMap;
 
 use crate::diagnostic::{Diagnostic, Severity};
 use crate::source::Span;
-use crate::syntax::{BlockKind, Node, NodeKind, Program, flag};
+use crate::syntax::{BlockKind, Node, NodeKind, Program, flag, leading_block_number};
 
 /// The analysed structure of a program.
 #[derive(Debug, Clone, Default)]
@@ -42,10 +42,20 @@ pub fn analyze(program: &Program) -> Structure {
     let mut out = Structure::default();
     let n = program.block_count();
     let mut unit_start = 0;
+    // Units without control keywords, labels or jumps (all of a CAM program) need no second look.
+    let mut interesting = false;
     for i in 0..=n {
         if i == n || (program.block_kind(i) == BlockKind::Header && i > unit_start) {
-            analyze_unit(program, unit_start, i, &mut out);
+            if interesting {
+                analyze_unit(program, unit_start, i, &mut out);
+            }
             unit_start = i;
+            interesting = false;
+        }
+        if i < n {
+            let kind = program.block_kind(i);
+            interesting |= !matches!(kind, BlockKind::Plain | BlockKind::Header)
+                || program.block_flags(i) & (flag::LABEL | flag::JUMP) != 0;
         }
     }
     out
@@ -374,7 +384,8 @@ fn is_block_number(name: &str) -> bool {
     name.len() > 1 && name.starts_with('N') && name[1..].bytes().all(|b| b.is_ascii_digit())
 }
 
-/// Blocks carrying each block number of a unit (`N100` may repeat), built only when a jump needs them.
+/// Blocks carrying each block number of a unit (`N100` may repeat), built only when a jump needs them; read
+/// straight from the bytes, so no block tree is built.
 fn collect_block_numbers(
     program: &Program,
     start: usize,
@@ -382,9 +393,13 @@ fn collect_block_numbers(
 ) -> HashMap<String, Vec<usize>> {
     let mut numbers: HashMap<String, Vec<usize>> = HashMap::new();
     for i in start..end {
-        let block = program.block(i);
-        if let Some(n) = block.root.find(NodeKind::BlockNumber) {
-            numbers.entry(upper(block.text(n))).or_default().push(i);
+        if program.block_flags(i) & flag::TEXT != 0 {
+            continue;
+        }
+        let content = program.content_span(i).slice(program.source());
+        let content = content.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(content);
+        if let Some(number) = leading_block_number(content) {
+            numbers.entry(upper(number)).or_default().push(i);
         }
     }
     numbers

@@ -3,7 +3,8 @@
 //! targets and work-offset selections.
 //!
 //! Names are compared upper-cased (the control ignores case). A name of one letter with optional digits
-//! (`X`, `X1`, `M3`) is an address or axis, never a user variable.
+//! (`X`, `X1`, `M3`) is an address or axis, and the predefined addresses (`CR`, `ANG`, `SPOS`, `ID`, …) are
+//! not user variables either.
 
 use std::collections::BTreeSet;
 
@@ -105,10 +106,15 @@ pub struct BlockFacts {
     /// `M` words and `Mn=` assignments (`M3=5`: spindle 3, code 5).
     pub m_codes: Vec<AddressValue>,
     pub feed: Option<AddressValue>,
+    /// Every G code of the block in order (modal settings such as G90/G91, G17, G70/G71 included).
+    pub g_codes: Vec<u32>,
     /// Motion G codes in the block (0, 1, 2, 3, 33, …).
     pub motion: Vec<u32>,
     pub axes: Vec<AxisTarget>,
     pub work_offsets: Vec<WorkOffset>,
+    /// Upper-cased names the block calls or commands: cycles and subprograms with arguments (`CYCLE800(…)`,
+    /// `MSG(…)`) and bare names (`SUBPROG`, `STOPRE`, `TRANS`).
+    pub calls: Vec<String>,
 }
 
 const MOTION_G: &[u32] = &[0, 1, 2, 3, 33, 34, 35, 331, 332];
@@ -116,6 +122,13 @@ const AXIS_LETTERS: &[u8] = b"XYZABCUVW";
 const FRAME_COMMANDS: &[&str] = &[
     "SUPA", "TRANS", "ATRANS", "CTRANS", "ROT", "AROT", "CROT", "ROTS", "AROTS", "SCALE", "ASCALE",
     "CSCALE", "MIRROR", "AMIRROR", "CMIRROR",
+];
+
+/// Predefined addresses that take `=` but are not variables (arc radius, chamfer, spindle positioning, …).
+const PREDEFINED_ADDRESSES: &[&str] = &[
+    "CR", "AR", "AP", "RP", "ANG", "RND", "RNDM", "CHF", "CHR", "SPOS", "SPOSA", "OFFN", "PRIO",
+    "ID", "IDS", "AX", "FA", "FL", "POS", "POSA", "ACC", "OVR", "SF", "DISC", "DISR", "DISCL",
+    "FAD", "TRUE", "FALSE",
 ];
 
 fn upper(bytes: &[u8]) -> String {
@@ -181,9 +194,11 @@ pub fn facts(block: &Block<'_>) -> BlockFacts {
             NodeKind::Command => {
                 let name = upper(block.text(node));
                 if FRAME_COMMANDS.contains(&name.as_str()) {
-                    f.work_offsets.push(WorkOffset::Frame(name));
+                    f.work_offsets.push(WorkOffset::Frame(name.clone()));
                 }
+                f.calls.push(name);
             }
+            NodeKind::Call => f.calls.push(upper(block.text(&node.children[0]))),
             _ => {}
         }
     }
@@ -205,11 +220,16 @@ fn word_facts(block: &Block<'_>, node: &Node, f: &mut BlockFacts) {
         _ => None,
     };
     match letter {
-        b'G' => match int {
-            Some(g) if MOTION_G.contains(&g) => f.motion.push(g),
-            Some(g) if is_work_offset_g(g) => f.work_offsets.push(WorkOffset::G(g)),
-            _ => {}
-        },
+        b'G' => {
+            if let Some(g) = int {
+                f.g_codes.push(g);
+                if MOTION_G.contains(&g) {
+                    f.motion.push(g);
+                } else if is_work_offset_g(g) {
+                    f.work_offsets.push(WorkOffset::G(g));
+                }
+            }
+        }
         b'T' => f.tools.push(av),
         b'S' => f.spindle_speeds.push(av),
         b'M' => f.m_codes.push(av),
@@ -306,16 +326,7 @@ fn collect_variables(block: &Block<'_>, node: &Node, out: &mut Vec<VarAccess>) {
                 if !written && matches!(c.kind, NodeKind::RParam | NodeKind::Var | NodeKind::SysVar)
                 {
                     written = true;
-                    if let Some(name) = var_name(block, c) {
-                        out.push(VarAccess {
-                            name,
-                            access: Access::Write,
-                            span: c.span,
-                        });
-                    }
-                    if let Some(index) = c.find(NodeKind::Index) {
-                        collect_variables(block, index, out);
-                    }
+                    record_access(block, c, Access::Write, out);
                 } else {
                     collect_variables(block, c, out);
                 }
@@ -335,16 +346,7 @@ fn collect_variables(block: &Block<'_>, node: &Node, out: &mut Vec<VarAccess>) {
             }
         }
         NodeKind::RParam | NodeKind::Var | NodeKind::SysVar => {
-            if let Some(name) = var_name(block, node) {
-                out.push(VarAccess {
-                    name,
-                    access: Access::Read,
-                    span: node.span,
-                });
-            }
-            if let Some(index) = node.find(NodeKind::Index) {
-                collect_variables(block, index, out);
-            }
+            record_access(block, node, Access::Read, out)
         }
         // Jump targets and macro bodies name labels and text, not variables.
         NodeKind::Goto | NodeKind::Define | NodeKind::Repeat | NodeKind::ProgramCall => {}
@@ -353,6 +355,20 @@ fn collect_variables(block: &Block<'_>, node: &Node, out: &mut Vec<VarAccess>) {
                 collect_variables(block, c, out);
             }
         }
+    }
+}
+
+/// Records the access of a variable node; the variables in its index are read.
+fn record_access(block: &Block<'_>, node: &Node, access: Access, out: &mut Vec<VarAccess>) {
+    if let Some(name) = var_name(block, node) {
+        out.push(VarAccess {
+            name,
+            access,
+            span: node.span,
+        });
+    }
+    if let Some(index) = node.find(NodeKind::Index) {
+        collect_variables(block, index, out);
     }
 }
 
@@ -372,7 +388,9 @@ fn var_name(block: &Block<'_>, node: &Node) -> Option<VarName> {
             };
             Some(VarName::R(literal))
         }
-        _ if address_parts(&name).is_some() || matches!(name.as_str(), "TRUE" | "FALSE") => None,
+        _ if address_parts(&name).is_some() || PREDEFINED_ADDRESSES.contains(&name.as_str()) => {
+            None
+        }
         _ => Some(VarName::User(name)),
     }
 }

@@ -104,3 +104,17 @@ fn label_names_follow_the_control_rules() {
         ]
     );
 }
+
+#[test]
+fn error_spans_cover_whole_utf8_characters_only_when_valid() {
+    let span_of = |src: &[u8]| parse(src).diagnostics()[0].span;
+    assert_eq!(span_of("G1 X=\u{fc}\n".as_bytes()).len(), 2, "ü in UTF-8");
+    assert_eq!(span_of("R1=5 \u{20ac}\n".as_bytes()).len(), 3, "€ in UTF-8");
+    assert_eq!(
+        span_of(b"\n\xef\xbb\xbf \n").len(),
+        3,
+        "a BOM in the middle of the file"
+    );
+    assert_eq!(span_of(b"G1 X=\xfc\n").len(), 1, "Latin-1 ü");
+    assert_eq!(span_of(b"G1 X=\xe2\x82\n").len(), 1, "truncated sequence");
+}

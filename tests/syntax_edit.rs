@@ -90,3 +90,27 @@ fn inserted_structures_are_checked_on_the_finished_program() {
         .collect();
     assert_eq!(msgs, vec!["IF on line 2 has no ENDIF"]);
 }
+
+#[test]
+fn deleting_blocks_keeps_the_rest_verbatim() {
+    let p = parse(&fixture("no_final_newline.mpf"));
+    let mut e = Editor::new(&p);
+    e.delete(1).unwrap();
+    assert_eq!(
+        e.to_bytes(),
+        b"N10 G0 X0".to_vec(),
+        "the new last block has no final newline either"
+    );
+    let p = parse(&fixture("crlf.mpf"));
+    let mut e = Editor::new(&p);
+    e.delete(0).unwrap();
+    e.insert_after(1, "M1").unwrap();
+    assert_eq!(
+        e.to_bytes(),
+        b"N20 G1 X10 F100\r\nM1\r\nN30 M30\r\n".to_vec()
+    );
+    assert!(matches!(
+        e.delete(3),
+        Err(EditError::NoSuchBlock { index: 3, count: 3 })
+    ));
+}

@@ -89,3 +89,34 @@ fn parse_never_panics_on_odd_bytes() {
         }
     }
 }
+
+#[test]
+fn json_dump_holds_every_block_tree_and_the_diagnostics() {
+    let src = syntax_support::fixture("errors.mpf");
+    let program = parse(&src);
+    let json: serde_json::Value = serde_json::to_value(&program).unwrap();
+    let blocks = json["blocks"].as_array().unwrap();
+    assert_eq!(blocks.len(), program.block_count());
+    assert_eq!(blocks[0]["kind"], "if");
+    assert_eq!(blocks[0]["tree"]["kind"], "Block");
+    fn leaf_text(node: &serde_json::Value, out: &mut String) {
+        match node["children"].as_array() {
+            Some(children) => children.iter().for_each(|c| leaf_text(c, out)),
+            None => out.push_str(node["text"].as_str().unwrap()),
+        }
+    }
+    let mut text = String::new();
+    blocks.iter().for_each(|b| leaf_text(&b["tree"], &mut text));
+    assert_eq!(
+        text.as_bytes(),
+        src,
+        "an ASCII file's leaf texts add up to the file"
+    );
+    let diagnostics = json["diagnostics"].as_array().unwrap();
+    assert_eq!(diagnostics.len(), program.diagnostics().len());
+    assert_eq!(diagnostics[0]["severity"], "error");
+    assert_eq!(
+        diagnostics[0]["span"]["start"],
+        program.diagnostics()[0].span.start
+    );
+}

@@ -52,3 +52,5 @@ snapshot!(syntax_crlf, "crlf.mpf");
 snapshot!(syntax_latin1, "latin1.mpf");
 snapshot!(syntax_errors, "errors.mpf");
 snapshot!(syntax_jumps, "jumps.mpf");
+snapshot!(syntax_archive, "archive.arc");
+snapshot!(syntax_declarations, "declarations.spf");

@@ -22,6 +22,7 @@ fn words_give_tools_spindle_feed_motion_and_axes() {
     let f: Vec<_> = program_facts(&p).collect();
     assert_eq!(f[0].block_number, Some(10));
     assert_eq!(f[0].motion, vec![0]);
+    assert_eq!(f[0].g_codes, vec![0, 90, 17]);
     assert_eq!(numbers(&f[1].tools), vec![(None, Value::Number(1.0))]);
     assert_eq!(numbers(&f[1].m_codes), vec![(None, Value::Number(6.0))]);
     assert_eq!(
@@ -195,6 +196,27 @@ fn labels_and_block_numbers() {
             (None, Some("START".into())),
             (Some(50), Some("AB_12".into())),
             (Some(60), None)
+        ]
+    );
+}
+
+#[test]
+fn predefined_addresses_are_not_user_variables() {
+    let p = parse(b"G2 X10 Y0 CR=5 ANG=30 SPOS=90 ID=1 WHENEVER TRUE DO LIMIT=2\n");
+    assert_eq!(
+        user_variables(&p).into_iter().collect::<Vec<_>>(),
+        vec!["LIMIT".to_string()]
+    );
+}
+
+#[test]
+fn calls_and_commands_by_name() {
+    let p = parse(&fixture("calls.mpf"));
+    let calls: Vec<String> = program_facts(&p).flat_map(|f| f.calls).collect();
+    assert_eq!(
+        calls,
+        vec![
+            "SUBPROG", "SUBPROG", "CYCLE800", "MSG", "SETAL", "STOPRE", "WRITE", "RET"
         ]
     );
 }

@@ -2,24 +2,28 @@
 //! comment. Whatever it accepts the full grammar accepts as a plain block without diagnostics (a test checks
 //! this over every fixture line); anything else goes to the full grammar.
 
-use super::lexeme::{scan_word, skip_blanks};
+use super::lexeme::{is_blank, skip_blanks, skip_level_len, word_end};
 
 pub(crate) fn plain_block(line: &[u8]) -> bool {
-    let mut i = skip_blanks(line);
-    if let Some(rest) = i.strip_prefix(b"/") {
-        i = match rest.first() {
-            Some(d) if d.is_ascii_digit() => &rest[1..],
-            _ => rest,
-        };
-    }
+    plain_prefix(line) == Some(line.len())
+}
+
+/// Length of the plain block at the start of `rest`, up to (not including) its CR / LF, or None when the
+/// line is not plain. Finds the line end in the same pass as the words.
+pub(crate) fn plain_prefix(rest: &[u8]) -> Option<usize> {
+    let n = rest.len();
+    let mut k = n - skip_blanks(rest).len();
+    k += skip_level_len(&rest[k..]);
     loop {
-        i = skip_blanks(i);
-        match i.first() {
-            None | Some(b';') => return true,
-            Some(_) => match scan_word(i) {
-                Some(end) => i = &i[end..],
-                None => return false,
-            },
+        while k < n && is_blank(rest[k]) {
+            k += 1;
+        }
+        match rest.get(k) {
+            None | Some(b'\r' | b'\n') => return Some(k),
+            Some(b';') => {
+                return Some(k + memchr::memchr2(b'\n', b'\r', &rest[k..]).unwrap_or(n - k));
+            }
+            Some(_) => k = word_end(rest, k)?.1,
         }
     }
 }

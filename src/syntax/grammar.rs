@@ -7,8 +7,8 @@ use nom::bytes::complete::tag;
 
 use super::keyword::{Kw, keyword};
 use super::lexeme::{
-    PErr, R, bit_literal, blanks, fail, ident, is_ident_char, signed_number, skip_blanks, string,
-    sysvar_name, unsigned_number, word,
+    PErr, R, bit_literal, blanks, block_number_len, fail, ident, is_ident_char, signed_number,
+    skip_blanks, skip_level_len, string, sysvar_name, unsigned_number, word,
 };
 use super::program::{BlockKind, flag};
 use super::tree::{Node, NodeKind as K};
@@ -193,15 +193,11 @@ impl Cx {
             out.push(Node::with_children(K::Header, header));
             return;
         }
-        if i.first() == Some(&b'/') {
-            let len = if i.get(1).is_some_and(u8::is_ascii_digit) {
-                2
-            } else {
-                1
-            };
-            let mut skip = Vec::new();
-            i = self.take(K::Punct, i, len, &mut skip);
-            out.push(Node::with_children(K::Skip, skip));
+        let skip = skip_level_len(i);
+        if skip > 0 {
+            let mut parts = Vec::new();
+            i = self.take(K::Punct, i, skip, &mut parts);
+            out.push(Node::with_children(K::Skip, parts));
             i = self.ws(i, out);
         }
         if let Some((rest, node)) = self.block_number(i) {
@@ -284,7 +280,7 @@ impl Cx {
                 format!("`{}`", at[..n].escape_ascii())
             }
         };
-        let span = Span::new(self.pos(at), self.pos(at) + usize::from(!at.is_empty()));
+        let span = Span::new(self.pos(at), self.pos(at) + char_len(at));
         let help = if at.first() == Some(&b'(') && i.first() == Some(&b'(') {
             "`( … )` is not a comment in Sinumerik programs; start comments with `;`"
         } else if at.first() == Some(&b'"') {
@@ -299,20 +295,7 @@ impl Cx {
 
     /// `N10` or `:10` at the start of a block.
     fn block_number<'a>(&self, i: &'a [u8]) -> Option<(&'a [u8], Node)> {
-        let rest = match i.first()? {
-            b'N' | b'n' => match word(i) {
-                Ok((rest, (_, num))) if num.iter().all(u8::is_ascii_digit) => rest,
-                _ => return None,
-            },
-            b':' => {
-                let digits = i[1..].iter().take_while(|b| b.is_ascii_digit()).count();
-                if digits == 0 || i.get(1 + digits).is_some_and(|&b| is_ident_char(b)) {
-                    return None;
-                }
-                &i[1 + digits..]
-            }
-            _ => return None,
-        };
+        let rest = &i[block_number_len(i)?..];
         let parts = vec![
             self.leaf(K::Address, i, &i[1..]),
             self.leaf(K::Number, &i[1..], rest),
@@ -402,13 +385,7 @@ impl Cx {
             K::Var
         };
         let mut parts = vec![self.leaf(K::Name, i, after)];
-        let mut rest = after;
-        if skip_blanks(after).first() == Some(&b'[') {
-            let after = self.ws(after, &mut parts);
-            let (r, index) = self.index(after)?;
-            parts.push(index);
-            rest = r;
-        }
+        let rest = self.opt_index(after, &mut parts)?;
         Ok((rest, Node::with_children(kind, parts)))
     }
 
@@ -542,36 +519,15 @@ impl Cx {
         }
         parts.push(self.leaf(K::Keyword, j, after));
         i = after;
-        if skip_blanks(i).first() == Some(&b'[') {
-            i = self.ws(i, parts);
-            let (rest, len) = self.index(i)?;
-            parts.push(len);
-            i = rest;
-        }
+        i = self.opt_index(i, parts)?;
         i = self.attributes(i, parts);
         loop {
             let j = self.ws(i, parts);
             let mut decl = Vec::new();
             let (rest, _) = ident(j).map_err(|_| expected_at(j, "a variable name"))?;
             decl.push(self.leaf(K::Name, j, rest));
-            let mut k = rest;
-            if skip_blanks(k).first() == Some(&b'[') {
-                k = self.ws(k, &mut decl);
-                let (r, dims) = self.index(k)?;
-                decl.push(dims);
-                k = r;
-            }
-            if skip_blanks(k).first() == Some(&b'=') {
-                let (r, ()) = self.punct(k, "=", "`=`", &mut decl)?;
-                let r = self.ws(r, &mut decl);
-                let (r, init) = if r.first() == Some(&b'(') {
-                    self.args(r)?
-                } else {
-                    self.expr(r)?
-                };
-                decl.push(init);
-                k = r;
-            }
+            let k = self.opt_index(rest, &mut decl)?;
+            let k = self.opt_value(k, &mut decl)?;
             parts.push(Node::with_children(K::Declarator, decl));
             i = k;
             if skip_blanks(i).first() != Some(&b',') {
@@ -688,30 +644,13 @@ impl Cx {
         }
         parts.push(self.leaf(K::Keyword, type_at, rest));
         let mut i = rest;
-        if skip_blanks(i).first() == Some(&b'[') {
-            i = self.ws(i, &mut parts);
-            let (rest, dims) = self.index(i)?;
-            parts.push(dims);
-            i = rest;
-        }
+        i = self.opt_index(i, &mut parts)?;
         if named {
             let j = self.ws(i, &mut parts);
             let (rest, _) = ident(j).map_err(|_| expected_at(j, "a parameter name"))?;
             parts.push(self.leaf(K::Name, j, rest));
-            i = rest;
-            if skip_blanks(i).first() == Some(&b'[') {
-                i = self.ws(i, &mut parts);
-                let (rest, dims) = self.index(i)?;
-                parts.push(dims);
-                i = rest;
-            }
-            if skip_blanks(i).first() == Some(&b'=') {
-                let (rest, ()) = self.punct(i, "=", "`=`", &mut parts)?;
-                let rest = self.ws(rest, &mut parts);
-                let (rest, default) = self.expr(rest)?;
-                parts.push(default);
-                i = rest;
-            }
+            i = self.opt_index(rest, &mut parts)?;
+            i = self.opt_value(i, &mut parts)?;
         }
         Ok((i, Node::with_children(K::Param, parts)))
     }
@@ -741,8 +680,7 @@ impl Cx {
         }
         parts.append(&mut trivia);
         let mut i = j;
-        let mut probe = Vec::new();
-        if self.keyword_leaf(j, Kw::Block, "", &mut probe).is_err() {
+        if !at_keyword(j, Kw::Block) {
             let path = path_len(j);
             i = if path > 0 {
                 let rest = self.take(K::Text, j, path, parts);
@@ -759,23 +697,28 @@ impl Cx {
                 rest
             };
         }
-        let mut probe = Vec::new();
-        if self.keyword_leaf(i, Kw::Block, "", &mut probe).is_ok() {
-            let (rest, ()) = self.keyword_leaf(i, Kw::Block, "`BLOCK`", parts)?;
-            let j = self.ws(rest, parts);
-            let (rest, start) = self.expr(j).map_err(|e| relabel(e, j, "a start label"))?;
-            parts.push(start);
-            i = rest;
-            let mut probe = Vec::new();
-            if self.keyword_leaf(i, Kw::To, "", &mut probe).is_ok() {
-                let (rest, ()) = self.keyword_leaf(i, Kw::To, "`TO`", parts)?;
-                let j = self.ws(rest, parts);
-                let (rest, end) = self.expr(j).map_err(|e| relabel(e, j, "an end label"))?;
-                parts.push(end);
-                i = rest;
+        if at_keyword(i, Kw::Block) {
+            i = self.keyword_then_expr(i, Kw::Block, "a start label", parts)?;
+            if at_keyword(i, Kw::To) {
+                i = self.keyword_then_expr(i, Kw::To, "an end label", parts)?;
             }
         }
         Ok((i, i))
+    }
+
+    /// The keyword `kw` (known to come next) followed by an expression.
+    fn keyword_then_expr<'a>(
+        &self,
+        i: &'a [u8],
+        kw: Kw,
+        expected: &'static str,
+        parts: &mut Vec<Node>,
+    ) -> Result<&'a [u8], nom::Err<PErr>> {
+        let (rest, ()) = self.keyword_leaf(i, kw, "a keyword", parts)?;
+        let j = self.ws(rest, parts);
+        let (rest, value) = self.expr(j).map_err(|e| relabel(e, j, expected))?;
+        parts.push(value);
+        Ok(rest)
     }
 
     /// `REDEF target {attribute [value]}`: attributes and values are kept as operands.
@@ -821,6 +764,33 @@ impl Cx {
                 }
             }
         }
+    }
+
+    /// An optional index list (after optional blanks), pushed to `out`.
+    fn opt_index<'a>(&self, i: &'a [u8], out: &mut Vec<Node>) -> Result<&'a [u8], nom::Err<PErr>> {
+        if skip_blanks(i).first() != Some(&b'[') {
+            return Ok(i);
+        }
+        let j = self.ws(i, out);
+        let (rest, index) = self.index(j)?;
+        out.push(index);
+        Ok(rest)
+    }
+
+    /// An optional `= value` (initialiser or default): an expression or a parenthesised list.
+    fn opt_value<'a>(&self, i: &'a [u8], out: &mut Vec<Node>) -> Result<&'a [u8], nom::Err<PErr>> {
+        if skip_blanks(i).first() != Some(&b'=') {
+            return Ok(i);
+        }
+        let (j, ()) = self.punct(i, "=", "`=`", out)?;
+        let j = self.ws(j, out);
+        let (rest, value) = if j.first() == Some(&b'(') {
+            self.args(j)?
+        } else {
+            self.expr(j)?
+        };
+        out.push(value);
+        Ok(rest)
     }
 
     /// `[ expr {, expr} ]`
@@ -975,6 +945,11 @@ fn operator(level: usize, i: &[u8]) -> Option<(usize, K)> {
     }
 }
 
+/// Whether the next word (after blanks) is the keyword `kw`.
+fn at_keyword(i: &[u8], kw: Kw) -> bool {
+    ident(skip_blanks(i)).is_ok_and(|(_, name)| keyword(name) == Some(kw))
+}
+
 /// Length of a program path at the start of `i` (`/_N_MPF_DIR/X`, `NC:/X`, `//NC:/X`), 0 if none.
 fn path_len(i: &[u8]) -> usize {
     let dev = i
@@ -1016,6 +991,23 @@ fn relabel(e: nom::Err<PErr>, at: &[u8], expected: &'static str) -> nom::Err<PEr
             e
         }
     })
+}
+
+/// Length of the character at the start of `i`: a whole UTF-8 sequence when the bytes form one (so spans
+/// never split a character of a UTF-8 file), else one byte (Latin-1, GBK, broken bytes); 0 at the end.
+fn char_len(i: &[u8]) -> usize {
+    let n = match i.first() {
+        None => return 0,
+        Some(0xC0..=0xDF) => 2,
+        Some(0xE0..=0xEF) => 3,
+        Some(0xF0..=0xF7) => 4,
+        Some(_) => 1,
+    };
+    if i.len() >= n && std::str::from_utf8(&i[..n]).is_ok() {
+        n
+    } else {
+        1
+    }
 }
 
 /// Offset of the first `;` outside a string (or the length).

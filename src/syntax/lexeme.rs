@@ -77,43 +77,46 @@ pub(crate) fn ident(i: &[u8]) -> R<'_, &[u8]> {
     .parse(i)
 }
 
-#[inline]
-fn digits_end(i: &[u8], mut end: usize) -> usize {
-    while end < i.len() && i[end].is_ascii_digit() {
-        end += 1;
+/// End of the number starting at `s[k]`: `12`, `12.`, `12.5`, `.5` (with a sign if `signed`), each optionally
+/// with a Sinumerik exponent `EX[+-]digits`. Index-based and inlined: every word of every block goes
+/// through it.
+#[inline(always)]
+fn number_end(s: &[u8], mut k: usize, signed: bool) -> Option<usize> {
+    let n = s.len();
+    if signed && k < n && (s[k] == b'+' || s[k] == b'-') {
+        k += 1;
     }
-    end
-}
-
-/// Length of the number at the start of `i`: `12`, `12.`, `12.5`, `.5`, each optionally with a Sinumerik
-/// exponent `EX[+-]digits`. Hand-rolled because every word of every block goes through it.
-#[inline]
-fn scan_unsigned_number(i: &[u8]) -> Option<usize> {
-    let int_end = digits_end(i, 0);
-    let mut end = int_end;
-    if i.get(end) == Some(&b'.') {
-        let frac_end = digits_end(i, end + 1);
-        if int_end == 0 && frac_end == end + 1 {
+    let int_start = k;
+    while k < n && s[k].is_ascii_digit() {
+        k += 1;
+    }
+    let has_int = k > int_start;
+    if k < n && s[k] == b'.' {
+        let frac_start = k + 1;
+        k = frac_start;
+        while k < n && s[k].is_ascii_digit() {
+            k += 1;
+        }
+        if !has_int && k == frac_start {
             return None;
         }
-        end = frac_end;
-    } else if int_end == 0 {
+    } else if !has_int {
         return None;
     }
-    if matches!(i.get(end), Some(b'E' | b'e')) && matches!(i.get(end + 1), Some(b'X' | b'x')) {
-        let sign = usize::from(matches!(i.get(end + 2), Some(b'+' | b'-')));
-        let exp_end = digits_end(i, end + 2 + sign);
-        if exp_end > end + 2 + sign {
-            end = exp_end;
+    if k + 1 < n && (s[k] | 0x20) == b'e' && (s[k + 1] | 0x20) == b'x' {
+        let mut e = k + 2;
+        if e < n && (s[e] == b'+' || s[e] == b'-') {
+            e += 1;
+        }
+        let digits = e;
+        while e < n && s[e].is_ascii_digit() {
+            e += 1;
+        }
+        if e > digits {
+            k = e;
         }
     }
-    Some(end)
-}
-
-#[inline]
-fn scan_signed_number(i: &[u8]) -> Option<usize> {
-    let sign = usize::from(matches!(i.first(), Some(b'+' | b'-')));
-    scan_unsigned_number(&i[sign..]).map(|n| n + sign)
+    Some(k)
 }
 
 fn lexeme<'a>(i: &'a [u8], len: Option<usize>, expected: &'static str) -> R<'a, &'a [u8]> {
@@ -124,27 +127,39 @@ fn lexeme<'a>(i: &'a [u8], len: Option<usize>, expected: &'static str) -> R<'a, 
 }
 
 pub(crate) fn unsigned_number(i: &[u8]) -> R<'_, &[u8]> {
-    lexeme(i, scan_unsigned_number(i), "a number")
+    lexeme(i, number_end(i, 0, false), "a number")
 }
 
 pub(crate) fn signed_number(i: &[u8]) -> R<'_, &[u8]> {
-    lexeme(i, scan_signed_number(i), "a number")
+    lexeme(i, number_end(i, 0, true), "a number")
 }
 
-/// Length of the address letter and number at the start of `i` (`G1`, `X-3.2`, `F.5`), or None when the
-/// name goes on (`X1_A`), is indexed or called (`R1[`, `L1(`, `L340 (`) or assigned (`X1=5` is an
-/// assignment to axis `X1`).
-#[inline]
-pub(crate) fn scan_word(i: &[u8]) -> Option<usize> {
-    if !i.first()?.is_ascii_alphabetic() {
+/// End of the address letter and number starting at `s[k]` (`G1`, `X-3.2`, `F.5`) and where the blanks
+/// after it end, or None when the name goes on (`X1_A`), is indexed or called (`R1[`, `L1(`, `L340 (`) or
+/// assigned (`X1=5` is an assignment to axis `X1`).
+#[inline(always)]
+pub(crate) fn word_end(s: &[u8], k: usize) -> Option<(usize, usize)> {
+    if k >= s.len() || !s[k].is_ascii_alphabetic() {
         return None;
     }
-    let end = 1 + scan_signed_number(&i[1..])?;
-    let rest = &i[end..];
-    let next = skip_blanks(rest);
-    let continues = matches!(rest.first(), Some(b'_' | b'[')) || next.first() == Some(&b'(');
-    let assigned = next.first() == Some(&b'=') && next.get(1) != Some(&b'=');
-    (!continues && !assigned).then_some(end)
+    let end = number_end(s, k + 1, true)?;
+    if matches!(s.get(end), Some(b'_' | b'[')) {
+        return None;
+    }
+    let mut next = end;
+    while next < s.len() && is_blank(s[next]) {
+        next += 1;
+    }
+    match s.get(next) {
+        Some(b'(') => None,
+        Some(b'=') if s.get(next + 1) != Some(&b'=') => None,
+        _ => Some((end, next)),
+    }
+}
+
+/// Length of the word at the start of `i`.
+pub(crate) fn scan_word(i: &[u8]) -> Option<usize> {
+    word_end(i, 0).map(|(end, _)| end)
 }
 
 /// A word as (letter, number).
@@ -153,6 +168,34 @@ pub(crate) fn word(i: &[u8]) -> R<'_, (&[u8], &[u8])> {
         Some(end) => Ok((&i[end..], (&i[..1], &i[1..end]))),
         None => fail(i, "a word"),
     }
+}
+
+/// Length of a skip level at the start of `i`: `/` or `/0` … `/9` (0 if none).
+pub(crate) fn skip_level_len(i: &[u8]) -> usize {
+    match i {
+        [b'/', d, ..] if d.is_ascii_digit() => 2,
+        [b'/', ..] => 1,
+        _ => 0,
+    }
+}
+
+/// Length of a block number at the start of `i`: `N10` (a word with digits only) or `:10`.
+pub(crate) fn block_number_len(i: &[u8]) -> Option<usize> {
+    match i.first()? {
+        b'N' | b'n' => scan_word(i).filter(|&end| i[1..end].iter().all(u8::is_ascii_digit)),
+        b':' => {
+            let end = 1 + i[1..].iter().take_while(|b| b.is_ascii_digit()).count();
+            (end > 1 && !i.get(end).is_some_and(|&b| is_ident_char(b))).then_some(end)
+        }
+        _ => None,
+    }
+}
+
+/// The block number (`N10`, `:10`) a line starts with, after blanks and a skip level.
+pub(crate) fn leading_block_number(line: &[u8]) -> Option<&[u8]> {
+    let i = skip_blanks(line);
+    let i = skip_blanks(&i[skip_level_len(i)..]);
+    block_number_len(i).map(|end| &i[..end])
 }
 
 /// `"…"`: any bytes but the quote; strings cannot span lines.
@@ -192,6 +235,25 @@ mod tests {
         assert!(word(b"CYCLE800(").is_err());
         assert!(word(b"T1_X").is_err());
         assert_eq!(word(b"X1==2").unwrap().0, b"==2");
+    }
+
+    #[test]
+    fn block_numbers_after_blanks_and_skip_levels() {
+        assert_eq!(leading_block_number(b"  /3 N100 G1"), Some(&b"N100"[..]));
+        assert_eq!(leading_block_number(b":20 X1"), Some(&b":20"[..]));
+        assert_eq!(
+            leading_block_number(b"N1.5 X1"),
+            None,
+            "block numbers are whole"
+        );
+        assert_eq!(
+            leading_block_number(b"N10=5"),
+            None,
+            "an assignment, not a block number"
+        );
+        assert_eq!(leading_block_number(b":2A"), None);
+        assert_eq!(skip_level_len(b"/"), 1);
+        assert_eq!(skip_level_len(b"/7 N1"), 2);
     }
 
     #[test]

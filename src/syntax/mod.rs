@@ -7,6 +7,7 @@ mod lexeme;
 mod program;
 mod tree;
 
+pub(crate) use lexeme::leading_block_number;
 pub use program::flag;
 pub use program::{Block, BlockKind, Program, line_syntax_errors, parse, parse_owned};
 pub use tree::{Node, NodeJson, NodeKind, escape};

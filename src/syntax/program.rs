@@ -9,7 +9,7 @@ use serde::ser::{SerializeStruct, Serializer};
 use super::tree::{Node, NodeJson, NodeKind};
 use super::{fast, grammar};
 use crate::diagnostic::{Diagnostic, Severity};
-use crate::source::{RawLine, Span, raw_lines};
+use crate::source::{RawLine, Span};
 use crate::structure;
 
 const BOM: &[u8] = b"\xEF\xBB\xBF";
@@ -87,18 +87,50 @@ pub fn parse_owned(src: Vec<u8>) -> Program {
             diagnostics,
         };
     }
-    let mut blocks = Vec::with_capacity(src.len() / 32 + 1);
+    let (blocks, diagnostics) = parse_blocks(&src, PARALLEL_CHUNK);
+    let mut program = Program {
+        src,
+        blocks,
+        diagnostics,
+    };
+    let structural = structure::analyze(&program).diagnostics;
+    program.diagnostics.extend(structural);
+    program
+        .diagnostics
+        .sort_by_key(|d| (d.span.start, d.severity, d.span.end));
+    program
+}
+
+/// Size of the pieces a large source is cut into (at line ends) to parse them on all cores.
+const PARALLEL_CHUNK: usize = 8 << 20;
+
+/// The blocks of one piece of the source, parsed as if a `…_COM` text section were (or were not) open at its
+/// start, and whether one is open at its end.
+struct Chunk {
+    blocks: Vec<BlockRec>,
+    diagnostics: Vec<Diagnostic>,
+    in_text_section: bool,
+}
+
+fn parse_chunk(src: &[u8], start: usize, end: usize, mut in_text_section: bool) -> Chunk {
+    let mut blocks = Vec::with_capacity((end - start) / 32 + 1);
     let mut diagnostics = Vec::new();
-    let mut in_text_section = false;
-    for line in raw_lines(&src) {
-        let content = line_content(&src, &line);
-        let bytes = content.slice(&src);
-        let (kind, flags) = if fast::plain_block(bytes) {
+    let mut pos = start;
+    while pos < end {
+        let rest = &src[pos..end];
+        let plain = fast::plain_prefix(rest);
+        let content_end = pos
+            + plain.unwrap_or_else(|| memchr::memchr2(b'\n', b'\r', rest).unwrap_or(rest.len()));
+        let line = RawLine::ending_at(src, pos, content_end);
+        pos = line.end;
+        let content = line_content(src, &line);
+        let bytes = content.slice(src);
+        let (kind, flags) = if plain.is_some() {
             (BlockKind::Plain, 0)
         } else if in_text_section && !bytes.starts_with(b"%") {
             (BlockKind::Plain, flag::TEXT)
         } else {
-            let parsed = grammar::parse_block(&src, content, line.terminator());
+            let parsed = grammar::parse_block(src, content, line.terminator());
             diagnostics.extend(parsed.diagnostics);
             if parsed.kind == BlockKind::Header {
                 in_text_section = is_text_section(bytes);
@@ -112,17 +144,60 @@ pub fn parse_owned(src: Vec<u8>) -> Program {
             terminator_len: (line.end - line.content_end) as u8,
         });
     }
-    let mut program = Program {
-        src,
+    Chunk {
         blocks,
         diagnostics,
+        in_text_section,
+    }
+}
+
+/// Parses every block. Sources larger than two chunks are cut after an LF near each multiple of `chunk` and
+/// the pieces parsed in parallel; the rare piece that starts inside a text section is parsed again with that
+/// state, so the result equals a sequential parse.
+fn parse_blocks(src: &[u8], chunk: usize) -> (Vec<BlockRec>, Vec<Diagnostic>) {
+    use rayon::prelude::*;
+    let mut cuts = vec![0];
+    while let Some(&last) = cuts.last() {
+        let next = last + chunk;
+        if next >= src.len() {
+            break;
+        }
+        match memchr::memchr(b'\n', &src[next..]) {
+            Some(k) if next + k + 1 < src.len() => cuts.push(next + k + 1),
+            _ => break,
+        }
+    }
+    cuts.push(src.len());
+    let ranges: Vec<(usize, usize)> = cuts.windows(2).map(|w| (w[0], w[1])).collect();
+    let mut chunks: Vec<Chunk> = if ranges.len() > 2 {
+        ranges
+            .par_iter()
+            .map(|&(start, end)| parse_chunk(src, start, end, false))
+            .collect()
+    } else {
+        ranges
+            .iter()
+            .map(|&(start, end)| parse_chunk(src, start, end, false))
+            .collect()
     };
-    let structural = structure::analyze(&program).diagnostics;
-    program.diagnostics.extend(structural);
-    program
-        .diagnostics
-        .sort_by_key(|d| (d.span.start, d.severity, d.span.end));
-    program
+    let mut open = false;
+    for (chunk, &(start, end)) in chunks.iter_mut().zip(&ranges) {
+        if open {
+            *chunk = parse_chunk(src, start, end, true);
+        }
+        open = chunk.in_text_section;
+    }
+    if chunks.len() == 1 {
+        let only = chunks.pop().expect("one chunk");
+        return (only.blocks, only.diagnostics);
+    }
+    let mut blocks = Vec::with_capacity(chunks.iter().map(|c| c.blocks.len()).sum());
+    let mut diagnostics = Vec::new();
+    for chunk in chunks {
+        blocks.extend_from_slice(&chunk.blocks);
+        diagnostics.extend(chunk.diagnostics);
+    }
+    (blocks, diagnostics)
 }
 
 /// Archive sections named `…_COM` hold alarm texts and HMI masks, not NC code.
@@ -211,7 +286,7 @@ impl Program {
             - 1
     }
 
-    /// The full syntax tree of block `i`, built from its bytes.
+    /// The full syntax tree of block `i`, built from its bytes. Panics if `i >= block_count()`.
     pub fn block(&self, i: usize) -> Block<'_> {
         let full = self.block_span(i);
         let content = self.content_span(i);
@@ -337,4 +412,27 @@ pub fn line_syntax_errors(line: &[u8]) -> Vec<Diagnostic> {
         Span::new(line.len(), line.len()),
     )
     .diagnostics
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parallel_chunks_give_the_sequential_result() {
+        let src =
+            b"N10 G0 X0\r\n%_N_T_COM\n700 0 \"t\"\n7 \"u\"\nIF R1\n%_N_A_MPF\nX=(\nENDIF\n\rM30"
+                .repeat(20);
+        let (seq_blocks, seq_diags) = parse_blocks(&src, usize::MAX / 2);
+        for chunk in [1, 7, 40, 100] {
+            let (blocks, diags) = parse_blocks(&src, chunk);
+            let key = |b: &BlockRec| (b.start, b.kind, b.flags, b.terminator_len);
+            assert_eq!(
+                blocks.iter().map(key).collect::<Vec<_>>(),
+                seq_blocks.iter().map(key).collect::<Vec<_>>()
+            );
+            assert_eq!(diags, seq_diags, "chunk {chunk}");
+        }
+        assert!(seq_blocks.iter().any(|b| b.flags & flag::TEXT != 0));
+    }
 }
