@@ -9,9 +9,11 @@ use clap::{Parser, Subcommand, ValueEnum};
 mod bench;
 mod check;
 mod demo;
+mod fit;
 mod parse;
 mod plan;
 mod positioning;
+mod predict;
 mod render;
 mod transform;
 
@@ -71,6 +73,10 @@ enum Command {
     Transform(transform::Args),
     /// Print the timeline, predicted drift and planned measurements of a program.
     Plan(plan::Args),
+    /// Fit the thermal drift model of one displacement channel from measured data.
+    Fit(fit::Args),
+    /// Predict drift for a spindle schedule or the inputs of a data file.
+    Predict(predict::Args),
 }
 
 /// Entry point of the binary.
@@ -84,6 +90,8 @@ pub fn main() -> ExitCode {
         Command::Bench(args) => bench::run(args, &cli.global),
         Command::Transform(args) => transform::run(args, &cli.global),
         Command::Plan(args) => plan::run(args, &cli.global),
+        Command::Fit(args) => fit::run(args, &cli.global),
+        Command::Predict(args) => predict::run(args, &cli.global),
     };
     match result {
         Ok(code) => code,

@@ -246,6 +246,7 @@ impl Dataset {
             out.run_starts.push(0);
         }
         out.run_labels = self.run_labels.as_ref().map(|_| labels);
+        out.sha256 = self.sha256.clone();
         out.columns = self
             .columns
             .iter()

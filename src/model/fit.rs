@@ -5,6 +5,7 @@
 use std::str::FromStr;
 
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 
 use crate::data::{Dataset, SPINDLE};
 
@@ -17,6 +18,9 @@ use super::{
 
 /// Highest order `--modes auto` tries.
 pub const MAX_AUTO_MODES: usize = 4;
+/// Starting points (best grid combinations) tried per model order.
+const STARTS: usize = 4;
+
 /// Highest order `--modes N` accepts.
 pub const MAX_MODES: usize = 6;
 
@@ -94,14 +98,14 @@ pub enum FitError {
 }
 
 /// Fits the model of `opts.channel` to `ds`.
-pub fn fit(ds: &Dataset, opts: &FitOptions) -> Result<DriftModel, FitError> {
+pub fn fit(all: &Dataset, opts: &FitOptions) -> Result<DriftModel, FitError> {
     let windowed;
     let ds = match opts.until_min {
         Some(u) => {
-            windowed = ds.until(u);
+            windowed = all.until(u);
             &windowed
         }
-        None => ds,
+        None => all,
     };
     let prep = Prepared::new(ds, opts)?;
     let p = &prep.problem;
@@ -117,10 +121,11 @@ pub fn fit(ds: &Dataset, opts: &FitOptions) -> Result<DriftModel, FitError> {
         let lay = p.layout(k);
         lay.n_linear() + lay.n_nonlinear() + 2
     };
-    if n < needed(orders.iter().copied().min().unwrap_or(0)) {
+    let fewest = needed(orders.iter().copied().min().unwrap_or(0));
+    if n < fewest {
         return Err(FitError::TooFewSamples {
             samples: n,
-            needed: needed(orders.iter().copied().min().unwrap_or(0)),
+            needed: fewest,
         });
     }
     let scan = Scan::new(p, tlo, thi);
@@ -130,24 +135,32 @@ pub fn fit(ds: &Dataset, opts: &FitOptions) -> Result<DriftModel, FitError> {
             continue;
         }
         let lay = p.layout(k);
-        let best = scan
-            .starts(k, 3)
-            .into_iter()
+        // Several starts; the best sound local minimum wins over a better but degenerate one.
+        let mut found: Vec<Trial> = scan
+            .starts(k, STARTS)
+            .into_par_iter()
             .filter_map(|t0| varpro::minimise(p, lay, &t0, tlo, thi))
-            .min_by(|a, b| a.rss.total_cmp(&b.rss));
-        let Some(best) = best else { continue };
-        let trial = Trial::new(p, lay, sort_modes(p, lay, best), (tlo, thi));
-        // Fixed: the first usable order from N down. Auto: forward selection, stopping at the first order
-        // that is degenerate or does not lower the BIC.
+            .map(|pt| Trial::new(p, &prep.inputs, lay, sort_modes(p, lay, pt), (tlo, thi)))
+            .collect();
+        found.sort_by(|a, b| {
+            (a.degenerate.is_some(), a.point.rss)
+                .partial_cmp(&(b.degenerate.is_some(), b.point.rss))
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+        let Some(trial) = found.into_iter().next() else {
+            continue;
+        };
+        // Fixed: the first sound order from N down. Auto: forward selection, stopping at the first order
+        // that is degenerate or does not lower the BIC once a sound order exists.
         let stop = match opts.modes {
             ModesChoice::Fixed(_) => trial.degenerate.is_none(),
             ModesChoice::Auto => {
-                let best_bic = trials
-                    .iter()
-                    .filter(|t| t.degenerate.is_none())
-                    .map(|t| t.bic)
-                    .fold(f64::INFINITY, f64::min);
-                trial.degenerate.is_some() || trial.bic >= best_bic
+                let sound = trials.iter().filter(|t| t.degenerate.is_none());
+                let best_bic = sound.map(|t| t.bic).fold(f64::INFINITY, f64::min);
+                match trial.degenerate {
+                    Some(_) => best_bic.is_finite(),
+                    None => trial.bic >= best_bic,
+                }
             }
         };
         trials.push(trial);
@@ -156,7 +169,7 @@ pub fn fit(ds: &Dataset, opts: &FitOptions) -> Result<DriftModel, FitError> {
         }
     }
     let chosen = choose(&trials).ok_or(FitError::Numerical)?;
-    Ok(prep.model(ds, opts, &trials, chosen))
+    Ok(prep.model(ds, all.len(), opts, &trials, chosen))
 }
 
 /// The data of one fit and what was found out about it.
@@ -264,6 +277,7 @@ impl Prepared {
     fn model(
         &self,
         ds: &Dataset,
+        rows: usize,
         opts: &FitOptions,
         trials: &[Trial],
         chosen: usize,
@@ -278,16 +292,11 @@ impl Prepared {
                 tau_min: t.point.theta[k].exp(),
                 tau_se_min: t.se_theta[k].map(|s| s * t.point.theta[k].exp()),
                 gain_um: c.as_slice()[k * m..(k + 1) * m].to_vec(),
+                // All gains' errors or none: an undetermined one is left out rather than written as NaN.
                 gain_se_um: (0..m)
-                    .map(|j| t.se_c[k * m + j].unwrap_or(f64::NAN))
-                    .collect(),
-            })
-            .map(|mut mode| {
-                // An undetermined gain error is left out rather than written as NaN.
-                if mode.gain_se_um.iter().any(|s| !s.is_finite()) {
-                    mode.gain_se_um.clear();
-                }
-                mode
+                    .map(|j| t.se_c[k * m + j])
+                    .collect::<Option<Vec<_>>>()
+                    .unwrap_or_default(),
             })
             .collect();
         let inputs = self
@@ -367,7 +376,7 @@ impl Prepared {
             data: Some(DataProvenance {
                 file: ds.source.clone(),
                 sha256: ds.sha256.clone().unwrap_or_default(),
-                rows: ds.len(),
+                rows,
                 time_unit: unit,
             }),
         }
@@ -411,7 +420,13 @@ struct Trial {
 }
 
 impl Trial {
-    fn new(p: &Problem, lay: Layout, point: Point, (tlo, thi): (f64, f64)) -> Trial {
+    fn new(
+        p: &Problem,
+        inputs: &[String],
+        lay: Layout,
+        point: Point,
+        (tlo, thi): (f64, f64),
+    ) -> Trial {
         let n = p.n() as f64;
         let q = lay.n_nonlinear();
         let np = (lay.n_linear() + q) as f64;
@@ -430,7 +445,7 @@ impl Trial {
             se_c,
             degenerate: None,
         };
-        trial.degenerate = trial.degeneracy(p, tlo, thi);
+        trial.degenerate = trial.degeneracy(p, inputs, tlo, thi);
         trial
     }
 
@@ -444,7 +459,7 @@ impl Trial {
     }
 
     /// Why this fit must not be used, if it must not.
-    fn degeneracy(&self, p: &Problem, tlo: f64, thi: f64) -> Option<String> {
+    fn degeneracy(&self, p: &Problem, inputs: &[String], tlo: f64, thi: f64) -> Option<String> {
         let lay = self.layout;
         let taus = self.taus();
         let what = |i: usize| {
@@ -452,8 +467,8 @@ impl Trial {
                 format!("mode {} (τ = {})", i + 1, fmt_tau(taus[i]))
             } else {
                 format!(
-                    "the lag of input {} (τ = {})",
-                    i - lay.k + 1,
+                    "the lag of {} (τ = {})",
+                    inputs[i - lay.k],
                     fmt_tau(taus[i])
                 )
             }

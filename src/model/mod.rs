@@ -9,6 +9,26 @@
 //!
 //! Prediction is the exact update for piecewise-constant inputs ([`lag`]); for a constant speed from cold it
 //! is Σ aₖ(1 − e^(−t/τₖ)). Fitting lives in [`fit`], the model file in [`file`], synthetic data in [`synth`].
+//!
+//! ```
+//! use driftloop::data::{Require, read_path};
+//! use driftloop::model::{DriftModel, FitOptions, ModesChoice, Schedule, fit};
+//!
+//! # fn main() -> anyhow::Result<()> {
+//! let ds = read_path("fixtures/data/characterisation.csv".as_ref(), Require::Displacement)?;
+//! let mut opts = FitOptions::new("drift_z_um"); // spindle_rpm only, order by BIC
+//! opts.modes = ModesChoice::Fixed(2);
+//! let model: DriftModel = fit(&ds, &opts)?;
+//! let on_data: Vec<f64> = model.predict(&ds)?; // one value per row, µm
+//! assert_eq!(on_data.len(), ds.len());
+//! let schedule: Schedule = "3000:60,0:30,5000:120".parse().map_err(anyhow::Error::msg)?;
+//! let on_plan = model.predict(&schedule.to_dataset(1.0))?;
+//! assert_eq!(on_plan.len(), 211);
+//! let text = model.to_toml();
+//! assert_eq!(DriftModel::from_toml(&text, "model.toml")?, model);
+//! # Ok(())
+//! # }
+//! ```
 
 pub mod file;
 pub mod fit;
@@ -170,6 +190,7 @@ pub struct DataProvenance {
     pub file: String,
     /// SHA-256 of the data file's bytes (hex); empty for generated data.
     pub sha256: String,
+    /// Rows in the file (the fit may have used fewer, see `fit.samples`).
     pub rows: usize,
     /// Time unit of the data; predictions for data in this unit are written in it.
     pub time_unit: TimeUnit,

@@ -1,0 +1,160 @@
+//! `driftloop fit DATA.csv --channel NAME`: fits the drift model of one channel and writes the model file.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+
+use super::Global;
+use crate::data::{Require, read_path};
+use crate::model::fit::fmt_tau;
+use crate::model::{DriftModel, FitOptions, ModesChoice, fit};
+
+/// Report format on stdout.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    Human,
+    Json,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Measurement CSV (time_s|time_min|time_h, spindle_rpm, *_um channels, …); `-` reads stdin.
+    pub data: PathBuf,
+    /// Displacement channel to model, e.g. ch3_um.
+    #[arg(long)]
+    pub channel: String,
+    /// Declared inputs, comma separated: spindle_rpm gives the spindle modes, any other column a lagged
+    /// linear term (e.g. spindle_rpm,ambient_c).
+    #[arg(long, value_delimiter = ',', default_value = "spindle_rpm")]
+    pub inputs: Vec<String>,
+    /// Number of modes, or `auto` (BIC).
+    #[arg(long, default_value = "auto")]
+    pub modes: ModesChoice,
+    /// Fit only the rows before this time, in the data's own time unit (e.g. 57600 for 16 h of time_s).
+    #[arg(long)]
+    pub until: Option<f64>,
+    /// Write the model file here (`-` = stdout, the report then goes to stderr).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    #[arg(long, value_enum, default_value_t = Format::Human)]
+    pub format: Format,
+}
+
+pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
+    let ds = read_path(&args.data, Require::Displacement)?;
+    let opts = FitOptions {
+        channel: args.channel.clone(),
+        inputs: args.inputs.clone(),
+        modes: args.modes,
+        until_min: args.until.map(|u| u * ds.time_unit.minutes()),
+    };
+    let model = fit(&ds, &opts)?;
+    let report = match args.format {
+        Format::Human => summary(&model),
+        Format::Json => serde_json::to_string_pretty(&model)? + "\n",
+    };
+    match &args.output {
+        Some(path) if path.as_os_str() == "-" => {
+            print!("{}", model.to_toml());
+            eprint!("{report}");
+        }
+        Some(path) => {
+            std::fs::write(path, model.to_toml())
+                .with_context(|| format!("cannot write the model file {}", path.display()))?;
+            print!("{report}");
+        }
+        None => print!("{report}"),
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The human summary: modes, τ, gains at each speed, fit statistics, and why each order was or was not
+/// chosen.
+pub fn summary(model: &DriftModel) -> String {
+    let mut s = String::new();
+    let modes = &model.spindle.modes;
+    let plural = if modes.len() == 1 { "" } else { "s" };
+    let _ = write!(s, "{}: {} spindle mode{plural}", model.channel, modes.len());
+    if let (Some(fit), Some(data)) = (&model.fit, &model.data) {
+        let _ = write!(s, ", fitted on {} samples of {}", fit.samples, data.file);
+        if let Some(u) = fit.until {
+            let _ = write!(
+                s,
+                " before {u} {}",
+                data.time_unit.column_name().trim_start_matches("time_")
+            );
+        }
+    }
+    s.push('\n');
+    for (k, m) in modes.iter().enumerate() {
+        let se = m
+            .tau_se_min
+            .map(|e| format!(" ± {}", fmt_tau(e)))
+            .unwrap_or_default();
+        let _ = writeln!(s, "  mode {}: τ = {}{se}", k + 1, fmt_tau(m.tau_min));
+    }
+    for i in &model.inputs {
+        let _ = writeln!(
+            s,
+            "  input {}: τ = {}, {:.4} µm per unit",
+            i.signal,
+            fmt_tau(i.tau_min),
+            i.gain_um_per_unit
+        );
+    }
+    if !modes.is_empty() {
+        let _ = write!(s, "  steady-state gain (µm)\n      rpm");
+        for k in 0..modes.len() {
+            let _ = write!(s, "  {:>9}", format!("mode {}", k + 1));
+        }
+        let _ = writeln!(s, "  {:>9}", "total");
+        for (j, rpm) in model.spindle.grid_rpm.iter().enumerate() {
+            let _ = write!(s, "  {rpm:>7.0}");
+            for m in modes {
+                let _ = write!(s, "  {:>9.3}", m.gain_um[j]);
+            }
+            let _ = writeln!(s, "  {:>9.3}", model.steady_state_um(*rpm));
+        }
+        let _ = writeln!(
+            s,
+            "  between speeds: piecewise linear; above {:.0} rpm: the last segment continued",
+            model.spindle.grid_rpm.last().copied().unwrap_or(0.0)
+        );
+    }
+    let _ = writeln!(s, "  offset {:.3} µm", model.offset_um);
+    if let Some(fit) = &model.fit {
+        let _ = writeln!(
+            s,
+            "  fit: RMS {:.3} µm, max {:.3} µm, R² {:.4}, τ searched in {} … {}",
+            fit.rms_um,
+            fit.max_abs_um,
+            fit.r2,
+            fmt_tau(fit.tau_bounds_min[0]),
+            fmt_tau(fit.tau_bounds_min[1])
+        );
+        if fit.per_run.len() > 1 {
+            for r in &fit.per_run {
+                let _ = writeln!(
+                    s,
+                    "    run {}: {} samples, RMS {:.3} µm, max {:.3} µm",
+                    r.run, r.samples, r.rms_um, r.max_abs_um
+                );
+            }
+        }
+        let _ = writeln!(s, "  orders tried ({}):", fit.selection);
+        for o in &fit.orders {
+            let _ = writeln!(
+                s,
+                "    {} mode{}: RMS {:.3} µm, BIC {:.1} — {}",
+                o.modes,
+                if o.modes == 1 { "" } else { "s" },
+                o.rms_um,
+                o.bic,
+                o.note
+            );
+        }
+    }
+    s
+}

@@ -1,0 +1,104 @@
+//! `driftloop predict model.toml (--schedule … | --data DATA.csv)`: predicted drift vs time as CSV.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+
+use super::Global;
+use crate::data::{Dataset, Require, SPINDLE, read_path};
+use crate::model::{DriftModel, Schedule};
+
+#[derive(Debug, clap::Args)]
+#[command(group(clap::ArgGroup::new("input").required(true).args(["schedule", "data"])))]
+pub struct Args {
+    /// Model file from `driftloop fit`.
+    pub model: PathBuf,
+    /// Spindle schedule from rest, RPM:MINUTES segments, e.g. "3000:60,0:30,5000:120".
+    #[arg(long)]
+    pub schedule: Option<Schedule>,
+    /// Predict for the times and inputs of a measurement CSV (`-` reads stdin); output in its time unit.
+    #[arg(long)]
+    pub data: Option<PathBuf>,
+    /// Output step for --schedule, in minutes (segment boundaries are always included).
+    #[arg(long, default_value_t = 1.0)]
+    pub step: f64,
+    /// Write the CSV here instead of stdout.
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+}
+
+pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
+    let model = DriftModel::read(&args.model)?;
+    let input = match (&args.schedule, &args.data) {
+        (Some(schedule), _) => {
+            anyhow::ensure!(
+                args.step.is_finite() && args.step > 0.0,
+                "--step must be a positive number of minutes"
+            );
+            schedule.to_dataset(args.step)
+        }
+        (None, Some(path)) => read_path(path, Require::InputsOnly)?,
+        (None, None) => anyhow::bail!("give --schedule or --data"),
+    };
+    warn_extrapolation(&model, &input);
+    let predicted = model.predict(&input)?;
+    let out = prediction_table(&model, &input, predicted);
+    let mut bytes = Vec::new();
+    out.write_csv(&mut bytes)?;
+    match &args.output {
+        Some(path) if path.as_os_str() != "-" => std::fs::write(path, bytes)
+            .with_context(|| format!("cannot write {}", path.display()))?,
+        _ => match std::io::stdout().write_all(&bytes) {
+            // A reader that stops early (`| head`) is not an error.
+            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+            other => other?,
+        },
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Time (and runs) of the input, its declared inputs, `predicted_um`, and — when the input measured the
+/// model's channel — that channel and `residual_um` (measured − predicted).
+fn prediction_table(model: &DriftModel, input: &Dataset, predicted: Vec<f64>) -> Dataset {
+    let mut out = Dataset::new(
+        input.source.clone(),
+        input.time_unit,
+        input.time_min.clone(),
+    );
+    out.run_starts = input.run_starts.clone();
+    out.run_labels = input.run_labels.clone();
+    for name in model.declared_inputs() {
+        if let Some(v) = input.values(&name) {
+            out.push_column(&name, v.to_vec());
+        }
+    }
+    if let Some(measured) = input.values(&model.channel) {
+        let residual = measured
+            .iter()
+            .zip(&predicted)
+            .map(|(m, p)| m - p)
+            .collect();
+        out.push_column(&model.channel, measured.to_vec());
+        out.push_column("predicted_um", predicted);
+        out.push_column("residual_um", residual);
+    } else {
+        out.push_column("predicted_um", predicted);
+    }
+    out
+}
+
+/// Says so on stderr when the input runs the spindle faster than the model was characterised.
+fn warn_extrapolation(model: &DriftModel, input: &Dataset) {
+    let top = model.spindle.grid_rpm.last().copied().unwrap_or(0.0);
+    let fastest = input
+        .values(SPINDLE)
+        .map_or(0.0, |v| v.iter().fold(0.0f64, |a, s| a.max(s.abs())));
+    if !model.spindle.modes.is_empty() && fastest > top {
+        eprintln!(
+            "warning: speeds up to {fastest:.0} rpm exceed the top characterised speed {top:.0} rpm; \
+             gains there continue the last segment linearly (an extrapolation)"
+        );
+    }
+}
