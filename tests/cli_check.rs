@@ -109,6 +109,36 @@ fn missing_path_exits_2_naming_it() {
     assert!(stderr(&output).contains("gone.mpf"), "{}", stderr(&output));
 }
 
+/// A file that exists but cannot be read: the others are still checked, the failure is named, exit 2.
+/// (`/proc/self/mem` fails to read at offset 0 even for root, who can read any file with no permissions.)
+#[cfg(target_os = "linux")]
+#[test]
+fn unreadable_file_exits_2_and_is_reported_beside_the_others() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "broken.mpf", BROKEN);
+    let output = driftloop(
+        dir.path(),
+        &["check", "--format", "json", "broken.mpf", "/proc/self/mem"],
+        b"",
+    );
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    let files = json_lines(&output.stdout);
+    assert_eq!(files.len(), 2);
+    assert_eq!(files[0]["diagnostics"].as_array().unwrap().len(), 2);
+    assert_eq!(files[1]["path"], "/proc/self/mem");
+    assert!(
+        files[1]["error"]
+            .as_str()
+            .unwrap()
+            .contains("/proc/self/mem")
+    );
+    assert!(
+        stderr(&output).contains("cannot read /proc/self/mem"),
+        "{}",
+        stderr(&output)
+    );
+}
+
 #[test]
 fn no_path_is_a_usage_error() {
     let dir = tempfile::tempdir().unwrap();

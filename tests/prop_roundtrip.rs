@@ -250,7 +250,6 @@ proptest! {
     }
 
     #[test]
-    #[ignore = "parser bug reported in /work/notes/parsertools.md: an unexpected non-ASCII character gets a 1-byte span"]
     fn line_soup_diagnostics_do_not_split_characters(src in program()) {
         spans_on_char_boundaries(&src)?;
     }

@@ -17,7 +17,7 @@ use super::Global;
 use super::check::Format;
 
 mod cam_program;
-mod memory;
+mod process;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -42,11 +42,15 @@ struct Report {
     file_bytes: usize,
     lines: usize,
     runs: u32,
+    /// driftloop parses large programs in parallel on the rayon pool; gcode uses one thread.
+    driftloop_threads: usize,
     driftloop: DriftloopNumbers,
     /// Absent when built without the `bench-gcode` feature.
     gcode: Option<GcodeNumbers>,
-    /// driftloop parse + print throughput over gcode parse throughput.
+    /// driftloop parse + print throughput over gcode parse throughput, by wall clock.
     ratio_parse_print_vs_gcode: Option<f64>,
+    /// The same per CPU-second: how much less work per byte, whatever the number of cores.
+    ratio_parse_print_vs_gcode_per_cpu_s: Option<f64>,
 }
 
 #[derive(Debug, Serialize)]
@@ -54,6 +58,7 @@ struct DriftloopNumbers {
     parse_mb_per_s: f64,
     print_mb_per_s: f64,
     parse_print_mb_per_s: f64,
+    parse_print_mb_per_cpu_s: Option<f64>,
     /// Peak resident memory of the whole process while parsing and printing (source buffer included).
     peak_rss_bytes: Option<u64>,
     peak_rss_per_file_byte: Option<f64>,
@@ -64,6 +69,7 @@ struct DriftloopNumbers {
 #[derive(Debug, Serialize)]
 struct GcodeNumbers {
     parse_mb_per_s: f64,
+    parse_mb_per_cpu_s: Option<f64>,
     peak_rss_bytes: Option<u64>,
     peak_rss_per_file_byte: Option<f64>,
     blocks: usize,
@@ -77,15 +83,18 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             .with_context(|| format!("cannot write {}", path.display()))?;
     }
     let lines = source.iter().filter(|&&b| b == b'\n').count();
-    let (driftloop, source) = measure_driftloop(source, args.runs);
-    let gcode = measure_gcode(&source, args.runs);
+    let (driftloop, gcode, file_bytes) = measure_interleaved(source, args.runs);
     let report = Report {
-        file_bytes: source.len(),
+        file_bytes,
         lines,
         runs: args.runs,
+        driftloop_threads: rayon::current_num_threads(),
         ratio_parse_print_vs_gcode: gcode
             .as_ref()
             .map(|g| driftloop.parse_print_mb_per_s / g.parse_mb_per_s),
+        ratio_parse_print_vs_gcode_per_cpu_s: gcode
+            .as_ref()
+            .and_then(|g| Some(driftloop.parse_print_mb_per_cpu_s? / g.parse_mb_per_cpu_s?)),
         driftloop,
         gcode,
     };
@@ -104,102 +113,153 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     })
 }
 
-/// Each run parses the one buffer in place (`parse_owned`), so the measured peak is what a real caller pays:
-/// the source plus the tree. The buffer is taken back out between runs, outside the measured window.
-fn measure_driftloop(mut source: Vec<u8>, runs: u32) -> (DriftloopNumbers, Vec<u8>) {
+/// Runs the two parsers alternately, so a change in machine load (a shared 2-core box) hits both alike and the
+/// ratio stays meaningful. Peak memory is reset before each parser's run, so each peak is that parser's own.
+fn measure_interleaved(
+    mut source: Vec<u8>,
+    runs: u32,
+) -> (DriftloopNumbers, Option<GcodeNumbers>, usize) {
     let len = source.len();
-    let mut parse_times = Vec::new();
-    let mut print_times = Vec::new();
-    let mut peak: Option<u64> = None;
-    let mut round_trip_identical = true;
-    let mut diagnostics = 0;
     let expected = Fingerprint::of(&source);
     let mut sink = CopySink::default();
+    let mut driftloop_runs = Vec::new();
+    let mut gcode_runs = Vec::new();
     for _ in 0..runs {
-        let peak_reset = memory::reset_peak();
-        let started = Instant::now();
-        let program = crate::parse_owned(source);
-        parse_times.push(started.elapsed());
-        let started = Instant::now();
-        let printed = program.write_to(&mut sink);
-        print_times.push(started.elapsed());
-        // Checked against the input's fingerprint, untimed: no second copy of the program in memory.
-        let mut written = Fingerprint::default();
-        round_trip_identical &=
-            printed.is_ok() && program.write_to(&mut written).is_ok() && written == expected;
-        if peak_reset {
-            peak = peak.max(memory::peak_rss());
-        }
-        diagnostics = program.diagnostics().len();
-        source = program.source().to_vec();
+        let (run, returned) = driftloop_run(source, &expected, &mut sink);
+        source = returned;
+        driftloop_runs.push(run);
+        gcode_runs.extend(gcode_run(&source));
     }
-    let (parse, print) = (median(&mut parse_times), median(&mut print_times));
-    let numbers = DriftloopNumbers {
-        parse_mb_per_s: mb_per_s(len, parse),
-        print_mb_per_s: mb_per_s(len, print),
-        parse_print_mb_per_s: mb_per_s(len, parse + print),
+
+    let mut parse: Vec<Duration> = driftloop_runs.iter().map(|r| r.parse).collect();
+    let mut print: Vec<Duration> = driftloop_runs.iter().map(|r| r.print).collect();
+    let mut both: Vec<Duration> = driftloop_runs.iter().map(|r| r.parse + r.print).collect();
+    let mut both_cpu: Option<Vec<Duration>> = driftloop_runs.iter().map(|r| r.cpu).collect();
+    let peak = driftloop_runs.iter().filter_map(|r| r.peak).max();
+    let driftloop = DriftloopNumbers {
+        parse_mb_per_s: mb_per_s(len, median(&mut parse)),
+        print_mb_per_s: mb_per_s(len, median(&mut print)),
+        parse_print_mb_per_s: mb_per_s(len, median(&mut both)),
+        parse_print_mb_per_cpu_s: both_cpu.as_deref_mut().map(|t| mb_per_s(len, median(t))),
         peak_rss_bytes: peak,
         peak_rss_per_file_byte: peak.map(|p| p as f64 / len as f64),
-        round_trip_identical,
-        diagnostics,
+        round_trip_identical: driftloop_runs.iter().all(|r| r.identical),
+        diagnostics: driftloop_runs.last().map_or(0, |r| r.diagnostics),
     };
-    (numbers, source)
+    let gcode = (!gcode_runs.is_empty()).then(|| {
+        let mut times: Vec<Duration> = gcode_runs.iter().map(|r| r.parse).collect();
+        let mut cpu: Option<Vec<Duration>> = gcode_runs.iter().map(|r| r.cpu).collect();
+        let peak = gcode_runs.iter().filter_map(|r| r.peak).max();
+        GcodeNumbers {
+            parse_mb_per_s: mb_per_s(len, median(&mut times)),
+            parse_mb_per_cpu_s: cpu.as_deref_mut().map(|t| mb_per_s(len, median(t))),
+            peak_rss_bytes: peak,
+            peak_rss_per_file_byte: peak.map(|p| p as f64 / len as f64),
+            blocks: gcode_runs.last().map_or(0, |r| r.blocks),
+        }
+    });
+    (driftloop, gcode, len)
+}
+
+struct DriftloopRun {
+    parse: Duration,
+    print: Duration,
+    /// CPU time of parse + print over all threads.
+    cpu: Option<Duration>,
+    peak: Option<u64>,
+    identical: bool,
+    diagnostics: usize,
+}
+
+/// Parses the one buffer in place (`parse_owned`), so the peak is what a real caller pays: the source plus
+/// the tree. The buffer is handed back for the next run, outside the measured window.
+fn driftloop_run(
+    source: Vec<u8>,
+    expected: &Fingerprint,
+    sink: &mut CopySink,
+) -> (DriftloopRun, Vec<u8>) {
+    let peak_reset = process::reset_peak();
+    let cpu_before = process::cpu_time();
+    let started = Instant::now();
+    let program = crate::parse_owned(source);
+    let parse = started.elapsed();
+    let started = Instant::now();
+    let printed = program.write_to(sink);
+    let print = started.elapsed();
+    let cpu = cpu_used_since(cpu_before);
+    let peak = process::peak_rss().filter(|_| peak_reset);
+    // Checked against the input's fingerprint, untimed: no second copy of the program in memory.
+    let mut written = Fingerprint::default();
+    let identical =
+        printed.is_ok() && program.write_to(&mut written).is_ok() && written == *expected;
+    let run = DriftloopRun {
+        parse,
+        print,
+        cpu,
+        peak,
+        identical,
+        diagnostics: program.diagnostics().len(),
+    };
+    (run, program.source().to_vec())
+}
+
+struct GcodeRun {
+    parse: Duration,
+    cpu: Option<Duration>,
+    peak: Option<u64>,
+    blocks: usize,
 }
 
 #[cfg(feature = "bench-gcode")]
-fn measure_gcode(source: &[u8], runs: u32) -> Option<GcodeNumbers> {
+fn gcode_run(source: &[u8]) -> Option<GcodeRun> {
     // The generated program is ASCII; the UTF-8 check gcode's `&str` API needs is not part of its timing.
     let text = std::str::from_utf8(source).expect("generated program is ASCII");
-    let mut times = Vec::new();
-    let mut blocks = 0;
-    let mut peak: Option<u64> = None;
-    for _ in 0..runs {
-        // Without a reset the peak would still hold driftloop's phase.
-        let peak_reset = memory::reset_peak();
-        let started = Instant::now();
-        let program = gcode::parse(text);
-        times.push(started.elapsed());
-        if peak_reset {
-            peak = peak.max(memory::peak_rss());
-        }
-        blocks = program.map_or(0, |p| p.blocks.len());
-    }
-    Some(GcodeNumbers {
-        parse_mb_per_s: mb_per_s(source.len(), median(&mut times)),
-        peak_rss_bytes: peak,
-        peak_rss_per_file_byte: peak.map(|p| p as f64 / source.len() as f64),
-        blocks,
+    let peak_reset = process::reset_peak();
+    let cpu_before = process::cpu_time();
+    let started = Instant::now();
+    let program = gcode::parse(text);
+    let parse = started.elapsed();
+    let cpu = cpu_used_since(cpu_before);
+    let peak = process::peak_rss().filter(|_| peak_reset);
+    Some(GcodeRun {
+        parse,
+        cpu,
+        peak,
+        blocks: program.map_or(0, |p| p.blocks.len()),
     })
 }
 
 #[cfg(not(feature = "bench-gcode"))]
-fn measure_gcode(_source: &[u8], _runs: u32) -> Option<GcodeNumbers> {
+fn gcode_run(_source: &[u8]) -> Option<GcodeRun> {
     None
 }
 
 fn write_human(out: &mut impl Write, r: &Report) -> io::Result<()> {
     let mb = r.file_bytes as f64 / 1e6;
-    let ratio = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.2}x file size"));
+    let per_file = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.2}x file size"));
     let bytes =
         |v: Option<u64>| v.map_or("n/a".to_string(), |v| format!("{:.1} MB", v as f64 / 1e6));
+    let speed = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.1} MB/s"));
+    let times = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.1}x"));
     writeln!(
         out,
-        "program: {mb:.1} MB, {} lines, median of {} runs",
-        r.lines, r.runs
+        "program: {mb:.1} MB, {} lines; median of {} alternating runs; driftloop on {} threads, gcode on 1",
+        r.lines, r.runs, r.driftloop_threads
     )?;
     let d = &r.driftloop;
     writeln!(
         out,
-        "driftloop  parse {:8.1} MB/s  print {:8.1} MB/s  parse+print {:8.1} MB/s  peak RSS {} ({})",
+        "driftloop  parse {:.1} MB/s, print {:.1} MB/s, parse+print {:.1} MB/s ({} per CPU-second)",
         d.parse_mb_per_s,
         d.print_mb_per_s,
         d.parse_print_mb_per_s,
-        bytes(d.peak_rss_bytes),
-        ratio(d.peak_rss_per_file_byte)
+        speed(d.parse_print_mb_per_cpu_s)
     )?;
     writeln!(
         out,
-        "           round trip {}, {} diagnostics",
+        "           peak RSS {} ({}), round trip {}, {} diagnostics",
+        bytes(d.peak_rss_bytes),
+        per_file(d.peak_rss_per_file_byte),
         if d.round_trip_identical {
             "byte-identical"
         } else {
@@ -207,26 +267,33 @@ fn write_human(out: &mut impl Write, r: &Report) -> io::Result<()> {
         },
         d.diagnostics
     )?;
-    match (&r.gcode, r.ratio_parse_print_vs_gcode) {
-        (Some(g), Some(ratio_vs)) => {
+    match &r.gcode {
+        Some(g) => {
             writeln!(
                 out,
-                "gcode      parse {:8.1} MB/s  peak RSS {} ({}), {} blocks",
+                "gcode      parse {:.1} MB/s ({} per CPU-second), peak RSS {} ({}), {} blocks",
                 g.parse_mb_per_s,
+                speed(g.parse_mb_per_cpu_s),
                 bytes(g.peak_rss_bytes),
-                ratio(g.peak_rss_per_file_byte),
+                per_file(g.peak_rss_per_file_byte),
                 g.blocks
             )?;
             writeln!(
                 out,
-                "ratio      driftloop parse+print / gcode parse = {ratio_vs:.1}x"
+                "ratio      driftloop parse+print / gcode parse: {} by wall clock, {} per CPU-second",
+                times(r.ratio_parse_print_vs_gcode),
+                times(r.ratio_parse_print_vs_gcode_per_cpu_s)
             )
         }
-        _ => writeln!(
+        None => writeln!(
             out,
             "gcode      not built in; run `cargo run --release --features bench-gcode -- bench`"
         ),
     }
+}
+
+fn cpu_used_since(before: Option<Duration>) -> Option<Duration> {
+    Some(process::cpu_time()?.saturating_sub(before?))
 }
 
 fn median(times: &mut [Duration]) -> Duration {

@@ -15,6 +15,7 @@
 //! characters replaced, so a snippet can never garble the terminal. Columns in the header count bytes, as
 //! everywhere in driftloop; the caret is placed by characters of the shown line, tabs kept, so it lines up.
 
+use std::cell::OnceCell;
 use std::io::{self, Write};
 
 use crate::diagnostic::{Diagnostic, Severity};
@@ -67,7 +68,8 @@ pub fn severity_name(severity: Severity) -> &'static str {
 pub struct Renderer<'a> {
     path: &'a str,
     source: &'a [u8],
-    index: LineIndex,
+    /// Built on first use: most files have no diagnostics, and the index of a big one costs memory.
+    index: OnceCell<LineIndex>,
     color: bool,
 }
 
@@ -76,14 +78,18 @@ impl<'a> Renderer<'a> {
         Renderer {
             path,
             source,
-            index: LineIndex::new(source),
+            index: OnceCell::new(),
             color,
         }
     }
 
+    fn index(&self) -> &LineIndex {
+        self.index.get_or_init(|| LineIndex::new(self.source))
+    }
+
     /// 1-based (line, byte column) of an offset, for headers and JSON.
     pub fn line_col(&self, offset: usize) -> (usize, usize) {
-        self.index.line_col(offset)
+        self.index().line_col(offset)
     }
 
     pub fn render(&self, out: &mut impl Write, diagnostic: &Diagnostic) -> io::Result<()> {
@@ -157,7 +163,7 @@ impl<'a> Renderer<'a> {
     ) -> io::Result<()> {
         let start = span.start.min(self.source.len());
         let (line, _) = self.line_col(start);
-        let line_span = self.index.line_span(line);
+        let line_span = self.index().line_span(line);
         let text =
             visible_line(&self.source[line_span.start..line_span.end.min(self.source.len())]);
         let text_end = line_span.start + text.len();
