@@ -196,3 +196,49 @@ fn plan_prints_the_table() {
     let o = driftloop(&["plan", &p, "--model", &bad], None);
     assert_eq!(code(&o), 2, "a profile is not a model");
 }
+
+#[test]
+fn output_through_a_symlink_or_device_is_not_replaced() {
+    let dir = tempfile::tempdir().unwrap();
+    let target = dir.path().join("real.mpf");
+    std::fs::write(&target, b"old\n").unwrap();
+    let link = dir.path().join("link.mpf");
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    let p = fixtures().join("handwritten.mpf").display().to_string();
+    let o = driftloop(
+        &[
+            "transform",
+            &p,
+            "--model",
+            &model(),
+            "-o",
+            &link.display().to_string(),
+        ],
+        None,
+    );
+    assert_eq!(code(&o), 0, "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
+    assert!(
+        std::fs::read(&target)
+            .unwrap()
+            .starts_with(b"; driftloop-omm")
+    );
+    // A device is written into, not renamed over.
+    let o = driftloop(
+        &["transform", &p, "--model", &model(), "-o", "/dev/null"],
+        None,
+    );
+    assert_eq!(code(&o), 0);
+    use std::os::unix::fs::FileTypeExt;
+    assert!(
+        std::fs::metadata("/dev/null")
+            .unwrap()
+            .file_type()
+            .is_char_device()
+    );
+}

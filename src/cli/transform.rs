@@ -301,8 +301,23 @@ fn mirrored(out: &Path, root: &Path, input: &Input) -> anyhow::Result<PathBuf> {
     Ok(out.join(relative))
 }
 
-/// Writes `bytes` to `path` through a temporary file in the same directory and a rename.
+/// Writes `bytes` to `path` through a temporary file in the same directory and a rename. A device or pipe
+/// (`/dev/null`, a FIFO) is written directly, never replaced; a symbolic link keeps pointing where it did,
+/// and its target is replaced.
 fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    let resolved;
+    let path = match std::fs::symlink_metadata(path) {
+        Ok(m) if m.file_type().is_symlink() => {
+            resolved = std::fs::canonicalize(path)
+                .with_context(|| format!("cannot resolve {}", path.display()))?;
+            resolved.as_path()
+        }
+        _ => path,
+    };
+    if std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
+        return std::fs::write(path, bytes)
+            .with_context(|| format!("cannot write {}", path.display()));
+    }
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
