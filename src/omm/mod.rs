@@ -22,6 +22,9 @@ pub use timeline::Timeline;
 
 use emit::{Emitter, Registers, SIGNATURE};
 
+/// Longest block the control accepts (characters).
+pub const MAX_BLOCK: usize = 512;
+
 /// The model as the transform sees it: the model and the SHA-256 (hex) of its file, named in the header.
 #[derive(Debug, Clone)]
 pub struct ModelRef<'a> {
@@ -60,6 +63,10 @@ pub enum TransformError {
     UnknownTool(usize),
     #[error("{0}")]
     Plan(String),
+    #[error(
+        "an inserted block would be longer than the control's 512 characters (shorten the profile's texts): `{0}`"
+    )]
+    LongBlock(String),
     #[error("internal error: an inserted block does not parse: {0}")]
     Emit(#[from] EditError),
 }
@@ -174,10 +181,13 @@ pub fn transform(
     let mut inserted = 0;
     let mut inserted_bytes = 0;
     let mut insert = |editor: &mut Editor, block: usize, text: String| {
+        if let Some(long) = text.lines().find(|l| l.len() > MAX_BLOCK) {
+            return Err(TransformError::LongBlock(long.to_string()));
+        }
         inserted += text.lines().count();
         // Line endings may grow to CRLF.
         inserted_bytes += text.len() + 2 * text.lines().count();
-        editor.insert_before(block, &text)
+        Ok(editor.insert_before(block, &text)?)
     };
     let pass_tool = |pass: usize| {
         timeline

@@ -216,8 +216,10 @@ fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
         .tools
         .first()
         .map(|a| Arc::from(String::from_utf8_lossy(tool_text(&block, a.span)).as_ref()));
-    for &g in &f.motion {
-        s.g.push(g);
+    for &g in &f.g_codes {
+        if !s.g.contains(g) {
+            s.g.push(g);
+        }
     }
     for w in &f.work_offsets {
         if let WorkOffset::G(g) = w {
@@ -407,9 +409,6 @@ fn word(block: &Block<'_>, node: &Node, s: &mut Scan) {
         .ok()
         .and_then(|t| t.parse::<f64>().ok());
     match (letter.as_slice(), value) {
-        (b"G", Some(g)) if g.fract() == 0.0 && !s.g.contains(g as u32) => {
-            s.g.push(g as u32);
-        }
         (b"D", Some(d)) if d >= 0.0 && d.fract() == 0.0 => s.d = Some(d as u32),
         (b"I", Some(v)) => s.centre[0] = Some(v),
         (b"J", Some(v)) => s.centre[1] = Some(v),
