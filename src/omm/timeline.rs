@@ -271,14 +271,11 @@ fn scan_words(line: &[u8], marker: &str) -> Option<Scan> {
             return None;
         }
         let start = i + 1;
-        let mut end = start;
-        while end < line.len() && matches!(line[end], b'0'..=b'9' | b'.' | b'-' | b'+') {
-            end += 1;
-        }
-        if end == start
-            || line
-                .get(end)
-                .is_some_and(|c| !matches!(c, b' ' | b'\t' | b';'))
+        let (v, len) = decimal_prefix(&line[start..])?;
+        let end = start + len;
+        if line
+            .get(end)
+            .is_some_and(|c| !matches!(c, b' ' | b'\t' | b';'))
         {
             return None;
         }
@@ -287,7 +284,6 @@ fn scan_words(line: &[u8], marker: &str) -> Option<Scan> {
             continue;
         }
         let digits = &line[start..end];
-        let v = decimal(digits)?;
         let int = (v >= 0.0 && v == (v as u32) as f64).then_some(v as u32);
         match letter {
             b'G' => {
@@ -357,32 +353,38 @@ impl Codes {
 /// `[+-]digits[.digits]` as f64, for the word scanner: exact for up to 15 significant digits, which is
 /// what CAM output carries; anything else (exponents, more digits) returns `None` and takes the tree path.
 fn decimal(text: &[u8]) -> Option<f64> {
+    decimal_prefix(text).and_then(|(v, len)| (len == text.len()).then_some(v))
+}
+
+/// The decimal at the start of `text` and its length in bytes, in one pass over the bytes.
+fn decimal_prefix(text: &[u8]) -> Option<(f64, usize)> {
     const POW10: [f64; 16] = [
         1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
     ];
-    let (negative, body) = match text.first()? {
-        b'-' => (true, &text[1..]),
-        b'+' => (false, &text[1..]),
-        _ => (false, text),
+    let (negative, mut i) = match text.first()? {
+        b'-' => (true, 1),
+        b'+' => (false, 1),
+        _ => (false, 0),
     };
     let mut mantissa: u64 = 0;
     let (mut digits, mut scale, mut point) = (0usize, 0usize, false);
-    for &b in body {
+    while let Some(&b) = text.get(i) {
         match b {
             b'0'..=b'9' => {
-                mantissa = mantissa * 10 + u64::from(b - b'0');
+                mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(b - b'0'));
                 digits += 1;
                 scale += usize::from(point);
             }
             b'.' if !point => point = true,
-            _ => return None,
+            _ => break,
         }
+        i += 1;
     }
     if digits == 0 || digits > 15 {
         return None;
     }
     let v = mantissa as f64 / POW10[scale];
-    Some(if negative { -v } else { v })
+    Some((if negative { -v } else { v }, i))
 }
 
 /// Marker and `;$PATH` facts of a comment (`text` starts at the `;`).
