@@ -205,6 +205,9 @@ fn plan_of_the_handwritten_program() {
     let t = run(&fixture("handwritten.mpf"), &profile).unwrap();
     let program = driftloop::parse(&fixture("handwritten.mpf"));
     let mut table = Vec::new();
+    let timeline = driftloop::omm::timeline::build(&program, &profile);
+    let rows = driftloop::omm::report::pass_rows(&program, &timeline);
+    driftloop::omm::report::write_passes(&mut table, &rows).unwrap();
     driftloop::omm::report::write_table(&mut table, &program, &t.plan).unwrap();
     insta::assert_snapshot!("plan_handwritten", String::from_utf8(table).unwrap());
     // An extra measuring cycle inside the long first pass, where the prediction crossed δ'.
