@@ -246,7 +246,10 @@ fn scan_words(line: &[u8], marker: &str, s: &mut Scan) -> Option<()> {
             break;
         }
         // `CR=radius` is the one assignment CAM arcs carry; it is read here so arcs stay on this path.
-        if line.len() >= i + 3 && line[i..i + 3].eq_ignore_ascii_case(b"CR=") {
+        if matches!(b, b'C' | b'c')
+            && line.len() >= i + 3
+            && line[i..i + 3].eq_ignore_ascii_case(b"CR=")
+        {
             let end = line[i + 3..]
                 .iter()
                 .position(|c| matches!(c, b' ' | b'\t' | b';'))
@@ -260,6 +263,22 @@ fn scan_words(line: &[u8], marker: &str, s: &mut Scan) -> Option<()> {
             return None;
         }
         let start = i + 1;
+        if letter == b'N' {
+            // Block numbers only need skipping.
+            let digits = line[start..]
+                .iter()
+                .take_while(|c| c.is_ascii_digit())
+                .count();
+            i = start + digits;
+            if digits == 0
+                || line
+                    .get(i)
+                    .is_some_and(|c| !matches!(c, b' ' | b'\t' | b';'))
+            {
+                return None;
+            }
+            continue;
+        }
         let (v, len) = decimal_prefix(&line[start..])?;
         let end = start + len;
         if line
@@ -269,9 +288,6 @@ fn scan_words(line: &[u8], marker: &str, s: &mut Scan) -> Option<()> {
             return None;
         }
         i = end;
-        if letter == b'N' {
-            continue;
-        }
         let digits = &line[start..end];
         let int = (v >= 0.0 && v == (v as u32) as f64).then_some(v as u32);
         match letter {
