@@ -514,10 +514,14 @@ impl Emitter<'_> {
                 r(reg.zero),
                 r(reg.corr)
             ));
+            // The error a part cut now would carry: the measured drift against the correction the program
+            // applies from its prediction (δ_pr + ε of the last measurement). Not against the correction
+            // of the previous gate: the drift of a pause without cutting is no error of a part.
             v.push(format!(
-                "IF ABS({}-{})>{}",
+                "IF ABS({}-{}-{})>{}",
                 r(reg.delta),
-                r(reg.corr),
+                r(reg.pred),
+                r(reg.eps),
                 Emitter::mm(l.tolerance_um)
             ));
             v.extend(self.abort(
