@@ -12,6 +12,8 @@ use super::timeline::Modal;
 
 /// Comment every inserted block ends with.
 pub const MARK: &str = ";DL";
+/// A value no measurement gives (mm): marks "nothing measured yet" and "the cycle returned nothing".
+const SENTINEL: u32 = 99999;
 /// Text of the header comment; a program that carries it was transformed already.
 pub const SIGNATURE: &str = "driftloop-omm";
 
@@ -306,7 +308,7 @@ impl Emitter<'_> {
         let mut v = vec![
             format!("{}=0", r(reg.attempts)),
             format!("{}=0", r(reg.agreeing)),
-            format!("{}=99999", r(reg.series_first)),
+            format!("{}={SENTINEL}", r(reg.series_first)),
         ];
         if let Some(s) = reg.saved_result {
             v.push(format!("{}={}", r(s), self.profile.probe.result));
@@ -323,6 +325,8 @@ impl Emitter<'_> {
         ));
         v.push("ENDIF".into());
         v.push(format!("{}={}+1 ; NBL", r(reg.nbl), r(reg.nbl)));
+        // A cycle that returns nothing must not leave the last value looking like a new one.
+        v.push(format!("{}={SENTINEL}", self.profile.probe.result));
         v.push(self.profile.cycle_call());
         v.push("STOPRE".into());
         v.push(format!("{}={}", r(reg.value), self.profile.probe.result));
