@@ -47,8 +47,10 @@ impl Modal {
 pub enum SiteKind {
     /// A technological pass starts at this block; `tool_change` when the block itself changes the tool.
     PassStart { tool_change: bool },
-    /// A rapid move right after a Z-only retract: the tool is clear of the part.
-    Retract,
+    /// A rapid move right after a Z-only retract: the tool is clear of the part. `first_in_loop`: the first
+    /// such move in the body of a loop of the program (the timeline counts a loop once, so the plan
+    /// cannot know how long it really runs; a gate there lets the program decide on every iteration).
+    Retract { first_in_loop: bool },
     /// The spindle speed changes at this block.
     SpeedChange,
 }
@@ -136,9 +138,9 @@ pub fn build(program: &Program, profile: &Profile) -> Timeline {
         let content = program.content_span(i);
         let line = &program.source()[content.start..content.end];
         if program.block_kind(i) == BlockKind::Plain && scan_words_into(line, &marker, &mut words) {
-            b.block(i, &words);
+            b.block(i, &words, program.block_kind(i));
         } else {
-            b.block(i, &scan_tree(program, i, &marker));
+            b.block(i, &scan_tree(program, i, &marker), program.block_kind(i));
         }
     }
     b.finish()
@@ -478,6 +480,9 @@ struct Builder<'p> {
     tool_marks: Vec<PassMark>,
     m6_seen: bool,
     rpm: f64,
+    loop_depth: usize,
+    /// A loop started and no retract site in its body yet.
+    loop_gate_pending: bool,
 }
 
 impl<'p> Builder<'p> {
@@ -503,10 +508,22 @@ impl<'p> Builder<'p> {
             tool_marks: Vec::new(),
             m6_seen: false,
             rpm: 0.0,
+            loop_depth: 0,
+            loop_gate_pending: false,
         }
     }
 
-    fn block(&mut self, i: usize, s: &Scan) {
+    fn block(&mut self, i: usize, s: &Scan, kind: BlockKind) {
+        match kind {
+            BlockKind::While | BlockKind::For | BlockKind::Loop | BlockKind::Repeat => {
+                self.loop_depth += 1;
+                self.loop_gate_pending = true;
+            }
+            BlockKind::EndWhile | BlockKind::EndFor | BlockKind::EndLoop | BlockKind::Until => {
+                self.loop_depth = self.loop_depth.saturating_sub(1);
+            }
+            _ => {}
+        }
         // The state before the block is kept only where a site or pass mark can arise: a copy per block
         // would cost more than the rest of the scan.
         let may_mark = !s.m.is_empty()
@@ -628,9 +645,11 @@ impl<'p> Builder<'p> {
             && self.state.absolute
             && s.axes[2].is_none();
         if retract_candidate {
+            let first_in_loop = self.loop_depth > 0 && self.loop_gate_pending;
+            self.loop_gate_pending &= !first_in_loop;
             self.t.sites.push(Site {
                 block: i,
-                kind: SiteKind::Retract,
+                kind: SiteKind::Retract { first_in_loop },
                 time_min: start,
                 pass: 0,
                 before: before.clone(),
