@@ -217,6 +217,17 @@ fn plan_of_the_handwritten_program() {
             .iter()
             .any(|g| g.measure && g.kind == driftloop::omm::GateKind::Extra)
     );
+    // And a gate in the body of the program's own WHILE loop (line 21), where the program decides on every
+    // iteration, although the plan, counting the loop once, expects no measurement there.
+    let in_loop = t
+        .plan
+        .gates
+        .iter()
+        .find(|g| g.block == 20)
+        .expect("gate in the loop");
+    assert!(
+        in_loop.kind == driftloop::omm::GateKind::Extra && in_loop.can_measure && !in_loop.measure
+    );
 }
 
 #[test]
