@@ -7,6 +7,7 @@ pub mod diagnose;
 pub mod diagnostic;
 pub mod edit;
 pub mod model;
+pub mod omm;
 pub mod positioning;
 pub mod report;
 pub mod source;

@@ -12,11 +12,13 @@ mod demo;
 mod diagnose;
 mod fit;
 mod parse;
+mod plan;
 mod positioning;
 mod predict;
 mod render;
 mod run;
 mod simulate;
+mod transform;
 
 /// Options every subcommand understands.
 #[derive(Debug, Clone, clap::Args)]
@@ -80,6 +82,10 @@ enum Command {
     Diagnose(diagnose::Args),
     /// Write simulated characterisation runs and a production log with a chosen undeclared effect.
     SimulateData(simulate::Args),
+    /// Insert probe measurements, nested measuring loops and drift corrections into NC programs.
+    Transform(transform::Args),
+    /// Print the timeline, predicted drift and planned measurements of a program.
+    Plan(plan::Args),
 }
 
 /// Entry point of the binary.
@@ -96,6 +102,8 @@ pub fn main() -> ExitCode {
         Command::Run(args) => run::run(args, &cli.global),
         Command::Diagnose(args) => diagnose::run(args, &cli.global),
         Command::SimulateData(args) => simulate::run(args, &cli.global),
+        Command::Transform(args) => transform::run(args, &cli.global),
+        Command::Plan(args) => plan::run(args, &cli.global),
     };
     match result {
         Ok(code) => code,
