@@ -9,6 +9,7 @@ pub mod edit;
 pub mod model;
 pub mod positioning;
 pub mod report;
+pub mod sensors;
 pub mod source;
 pub mod structure;
 pub mod syntax;
