@@ -211,3 +211,33 @@ fn real_data_end_to_end_example() {
         .sum();
     assert_eq!(members, 16, "every sensor is in exactly one cluster");
 }
+
+#[test]
+fn position_column_report_and_no_model_file_for_it() {
+    use driftloop::sensors::synth::{POSITION_TRUTH, position_dataset};
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("positions.csv");
+    position_dataset(4, 60, POSITION_TRUTH)
+        .write_csv(std::fs::File::create(&csv).unwrap())
+        .unwrap();
+    let csv = csv.to_str().unwrap();
+    let args = [
+        "sensors",
+        csv,
+        "--channel",
+        "e_um",
+        "--position-column",
+        "x_mm",
+    ];
+    insta::assert_snapshot!(stdout(&driftloop(&args)));
+    let json = stdout(&driftloop(&[&args[..], &["--format", "json"]].concat()));
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["position"], "x_mm");
+    assert_eq!(v["geometric"].as_array().unwrap().len(), 3);
+    assert_eq!(v["slope"][1]["term"], "a1_c");
+    assert_eq!(v["intercept"][2]["term"], "b1_c");
+    let model = dir.path().join("m.toml");
+    let refused = driftloop(&[&args[..], &["-o", model.to_str().unwrap()]].concat());
+    assert_eq!(refused.status.code(), Some(2));
+    assert!(!model.exists());
+}

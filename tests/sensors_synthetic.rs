@@ -86,3 +86,49 @@ fn a_missing_channel_and_data_without_sensors_are_refused() {
     bare.push_column("e_um", ds.values("e_um").unwrap().to_vec());
     assert!(analyse(&bare, &Options::new("e_um")).is_err());
 }
+
+#[test]
+fn with_a_position_column_the_slope_and_intercept_sensors_and_gains_are_recovered() {
+    use driftloop::sensors::position::analyse_position;
+    use driftloop::sensors::synth::{POSITION_TRUTH, position_dataset};
+    for seed in 1..=5 {
+        let ds = position_dataset(seed, 90, POSITION_TRUTH);
+        let a = analyse_position(&ds, "x_mm", &Options::new("e_um")).unwrap();
+        assert_eq!(a.chosen, ["a1_c", "b1_c"], "seed {seed}");
+        assert_eq!(a.clusters.len(), 4, "seed {seed}");
+        // S follows a1 only, I follows b1 only.
+        let within =
+            |c: &driftloop::sensors::Coefficient, t: f64| (c.value - t).abs() <= 3.0 * c.se;
+        let (s, i) = (&a.slope, &a.intercept);
+        assert!(within(&s[1], POSITION_TRUTH.slope_a), "seed {seed}: {s:?}");
+        assert!(within(&s[2], 0.0), "seed {seed}: {s:?}");
+        assert!(within(&i[1], 0.0), "seed {seed}: {i:?}");
+        assert!(
+            within(&i[2], POSITION_TRUTH.intercept_b),
+            "seed {seed}: {i:?}"
+        );
+        // E_G comes from the seven noisy readings of one state: compared as a curve, within a few of
+        // its pointwise standard errors (≈ 0.2 µm for σ = 0.3 µm).
+        let poly = |c: &[f64], p: f64| c[0] + c[1] * p + c[2] * p * p;
+        for p in [0.0, 100.0, 200.0, 300.0] {
+            let d = poly(&a.geometric, p) - poly(&POSITION_TRUTH.geometric, p);
+            assert!(d.abs() < 1.0, "seed {seed}: E_G {:?}", a.geometric);
+        }
+        assert!(a.fit.compensation_rate > 0.8, "seed {seed}: {:?}", a.fit);
+        assert!(
+            a.validation.compensation_rate > 0.8,
+            "seed {seed}: {:?}",
+            a.validation
+        );
+    }
+}
+
+#[test]
+fn the_position_variant_needs_two_positions_per_step() {
+    use driftloop::sensors::position::analyse_position;
+    let ds = dataset(1, 1, 100, TRUTH);
+    let mut with_x = ds.clone();
+    with_x.push_column("x_mm", vec![10.0; 100]);
+    assert!(analyse_position(&with_x, "x_mm", &Options::new("e_um")).is_err());
+    assert!(analyse_position(&ds, "x_mm", &Options::new("e_um")).is_err());
+}

@@ -8,6 +8,7 @@ use anyhow::Context;
 
 use super::Global;
 use crate::data::{Require, read_path};
+use crate::sensors::position::analyse_position;
 use crate::sensors::{Options, analyse};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -23,6 +24,10 @@ pub struct Args {
     /// Displacement channel to explain, e.g. ch3_um.
     #[arg(long)]
     pub channel: String,
+    /// Axis position column (`*_mm`): separate the error into E_G(p) + S(θ)·p + I(θ) and explain the slope S
+    /// and intercept I per time step (rows sharing a time).
+    #[arg(long, value_name = "P")]
+    pub position_column: Option<String>,
     /// Sensors with |r| at least this form one cluster; one sensor per cluster is kept.
     #[arg(long, default_value_t = 0.9)]
     pub threshold: f64,
@@ -50,6 +55,21 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     opts.threshold = args.threshold;
     opts.min_correlation = args.min_correlation;
     opts.holdout_from_min = args.holdout_from;
+    if let Some(p) = &args.position_column {
+        anyhow::ensure!(
+            args.output.is_none(),
+            "-o is not available with --position-column: a model file's position slope follows the spindle, not temperatures"
+        );
+        let analysis = analyse_position(&ds, &p.to_ascii_lowercase(), &opts)?;
+        print!(
+            "{}",
+            match args.format {
+                Format::Human => analysis.human(),
+                Format::Json => analysis.json(),
+            }
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
     let analysis = analyse(&ds, &opts)?;
     let report = match args.format {
         Format::Human => analysis.human(),

@@ -15,6 +15,7 @@
 //! [`InputLag`] with a time constant far below the sampling step, i.e. a static gain.
 
 pub mod cluster;
+pub mod position;
 pub mod stats;
 pub mod synth;
 
@@ -43,6 +44,14 @@ pub struct Options {
 }
 
 impl Options {
+    fn check(&self) -> Result<(), SensorError> {
+        if (0.0..=1.0).contains(&self.threshold) && (0.0..=1.0).contains(&self.min_correlation) {
+            Ok(())
+        } else {
+            Err(SensorError::BadThreshold)
+        }
+    }
+
     pub fn new(channel: &str) -> Options {
         Options {
             channel: channel.to_string(),
@@ -201,7 +210,7 @@ fn pick(v: &[f64], rows: &[usize]) -> Vec<f64> {
     rows.iter().map(|&i| v[i]).collect()
 }
 
-/// Main factors, correlation matrix, clusters and the kept sensors (indices) on the given rows.
+/// Main factors, correlation matrix, clusters and the kept sensors (indices).
 struct Selection {
     factors: Vec<f64>,
     correlation: Vec<Vec<f64>>,
@@ -209,15 +218,12 @@ struct Selection {
     kept: Vec<Option<usize>>,
 }
 
-fn select(inp: &Inputs, rows: &[usize], opts: &Options) -> Selection {
-    let e = pick(inp.e, rows);
-    // The sensors as measured, not the regressors: a noisy run-start reading shifts a whole run of the
-    // regressor and would split a redundant group when the data has several runs.
-    let x: Vec<Vec<f64>> = inp.raw.iter().map(|c| pick(c, rows)).collect();
-    let factors: Vec<f64> = x.iter().map(|c| stats::pearson(c, &e)).collect();
-    let correlation: Vec<Vec<f64>> = x
+/// Clusters the sensor series and keeps per cluster the one of highest `importance` (|r| with what is to
+/// be explained), unless even that is below `min_correlation`.
+fn choose(sensors: &[Vec<f64>], importance: Vec<f64>, opts: &Options) -> Selection {
+    let correlation: Vec<Vec<f64>> = sensors
         .iter()
-        .map(|a| x.iter().map(|b| stats::pearson(a, b)).collect())
+        .map(|a| sensors.iter().map(|b| stats::pearson(a, b)).collect())
         .collect();
     let clusters = cluster::clusters(&correlation, opts.threshold);
     let kept = clusters
@@ -225,17 +231,50 @@ fn select(inp: &Inputs, rows: &[usize], opts: &Options) -> Selection {
         .map(|g| {
             let best = *g
                 .iter()
-                .max_by(|&&a, &&b| factors[a].abs().total_cmp(&factors[b].abs()))
+                .max_by(|&&a, &&b| importance[a].total_cmp(&importance[b]))
                 .expect("clusters are never empty");
-            (factors[best].abs() >= opts.min_correlation).then_some(best)
+            (importance[best] >= opts.min_correlation).then_some(best)
         })
         .collect();
     Selection {
-        factors,
+        factors: importance,
         correlation,
         clusters,
         kept,
     }
+}
+
+impl Selection {
+    fn chosen(&self) -> Vec<usize> {
+        self.kept.iter().flatten().copied().collect()
+    }
+
+    fn describe(&self, names: &[String], min_correlation: f64) -> Vec<Cluster> {
+        self.clusters
+            .iter()
+            .zip(&self.kept)
+            .map(|(g, kept)| Cluster {
+                sensors: g.iter().map(|&j| names[j].clone()).collect(),
+                kept: kept.map(|j| names[j].clone()),
+                dropped: kept.is_none().then(|| {
+                    format!(
+                        "irrelevant: best |r| {:.3} < {min_correlation}",
+                        g.iter().map(|&j| self.factors[j]).fold(0.0, f64::max),
+                    )
+                }),
+            })
+            .collect()
+    }
+}
+
+fn select(inp: &Inputs, rows: &[usize], opts: &Options) -> (Vec<f64>, Selection) {
+    let e = pick(inp.e, rows);
+    // The sensors as measured, not the regressors: a noisy run-start reading shifts a whole run of the
+    // regressor and would split a redundant group when the data has several runs.
+    let x: Vec<Vec<f64>> = inp.raw.iter().map(|c| pick(c, rows)).collect();
+    let r: Vec<f64> = x.iter().map(|c| stats::pearson(c, &e)).collect();
+    let sel = choose(&x, r.iter().map(|v| v.abs()).collect(), opts);
+    (r, sel)
 }
 
 /// Regression of the error on the chosen sensors over `rows`.
@@ -267,14 +306,20 @@ fn predict_row(inp: &Inputs, chosen: &[usize], beta: &[f64], i: usize) -> f64 {
 
 fn score(inp: &Inputs, rows: &[usize], prediction: impl Fn(usize) -> f64) -> Score {
     let resid: Vec<f64> = rows.iter().map(|&i| inp.e[i] - prediction(i)).collect();
-    let drift = pick(&inp.drift, rows);
-    let (u, r) = (stats::rms(&drift), stats::rms(&resid));
-    Score {
-        samples: rows.len(),
-        uncompensated_rms_um: u,
-        residual_rms_um: r,
-        residual_max_um: resid.iter().fold(0.0, |m, v| f64::max(m, v.abs())),
-        compensation_rate: if u > 0.0 { 1.0 - r / u } else { 0.0 },
+    Score::of(&resid, &pick(&inp.drift, rows))
+}
+
+impl Score {
+    /// Scores residuals against the uncompensated error of the same rows.
+    fn of(resid: &[f64], uncompensated: &[f64]) -> Score {
+        let (u, r) = (stats::rms(uncompensated), stats::rms(resid));
+        Score {
+            samples: resid.len(),
+            uncompensated_rms_um: u,
+            residual_rms_um: r,
+            residual_max_um: resid.iter().fold(0.0, |m, v| f64::max(m, v.abs())),
+            compensation_rate: if u > 0.0 { 1.0 - r / u } else { 0.0 },
+        }
     }
 }
 
@@ -287,9 +332,7 @@ fn rows_of(ranges: impl Iterator<Item = Range<usize>>) -> Vec<usize> {
 /// with each run left out in turn. Without runs everything is computed on the rows before the holdout
 /// start and validated on the rows from it on.
 pub fn analyse(ds: &Dataset, opts: &Options) -> Result<Analysis, SensorError> {
-    if !(0.0..=1.0).contains(&opts.threshold) || !(0.0..=1.0).contains(&opts.min_correlation) {
-        return Err(SensorError::BadThreshold);
-    }
+    opts.check()?;
     let inp = Inputs::gather(ds, &opts.channel)?;
     let n = ds.len();
     let runs: Vec<Range<usize>> = ds.runs().collect();
@@ -311,8 +354,8 @@ pub fn analyse(ds: &Dataset, opts: &Options) -> Result<Analysis, SensorError> {
         }
         (train, holdout, Some(from), opts.holdout_from_min.is_none())
     };
-    let sel = select(&inp, &train, opts);
-    let chosen: Vec<usize> = sel.kept.iter().flatten().copied().collect();
+    let (r, sel) = select(&inp, &train, opts);
+    let chosen = sel.chosen();
     let fit = regress(&inp, &chosen, &train)?;
     let fit_score = score(&inp, &train, |i| predict_row(&inp, &chosen, &fit.beta, i));
     let validation = if by_run {
@@ -344,22 +387,7 @@ pub fn analyse(ds: &Dataset, opts: &Options) -> Result<Analysis, SensorError> {
         }
     };
     let names = &inp.names;
-    let clusters = sel
-        .clusters
-        .iter()
-        .zip(&sel.kept)
-        .map(|(g, kept)| Cluster {
-            sensors: g.iter().map(|&j| names[j].clone()).collect(),
-            kept: kept.map(|j| names[j].clone()),
-            dropped: kept.is_none().then(|| {
-                format!(
-                    "irrelevant: best |r| with the error {:.3} < {}",
-                    g.iter().map(|&j| sel.factors[j].abs()).fold(0.0, f64::max),
-                    opts.min_correlation
-                )
-            }),
-        })
-        .collect();
+    let clusters = sel.describe(names, opts.min_correlation);
     let coefficients = std::iter::once("offset".to_string())
         .chain(chosen.iter().map(|&j| names[j].clone()))
         .zip(fit.beta.iter().zip(&fit.se))
@@ -372,7 +400,7 @@ pub fn analyse(ds: &Dataset, opts: &Options) -> Result<Analysis, SensorError> {
         training_samples: train.len(),
         factors: names
             .iter()
-            .zip(&sel.factors)
+            .zip(&r)
             .map(|(s, &r)| Factor {
                 sensor: s.clone(),
                 r,
