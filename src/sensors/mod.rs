@@ -328,8 +328,8 @@ fn rows_of(ranges: impl Iterator<Item = Range<usize>>) -> Vec<usize> {
 }
 
 /// Runs both strategies and the regression on `ds`. With runs (a `run` column with ≥ 2 runs) the sensors
-/// are chosen and the regression fitted on all runs, and validated by refitting the chosen sensors' gains
-/// with each run left out in turn. Without runs everything is computed on the rows before the holdout
+/// are chosen and the regression fitted on all runs, and validated by repeating the selection and the
+/// regression with each run left out in turn and predicting that run. Without runs everything is computed on the rows before the holdout
 /// start and validated on the rows from it on.
 pub fn analyse(ds: &Dataset, opts: &Options) -> Result<Analysis, SensorError> {
     opts.check()?;
@@ -367,9 +367,11 @@ pub fn analyse(ds: &Dataset, opts: &Options) -> Result<Analysis, SensorError> {
                     .filter(|(j, _)| *j != k)
                     .map(|(_, r)| r.clone()),
             );
-            let part = regress(&inp, &chosen, &others)?;
+            // The left-out run must not influence which sensors are chosen, or the score is optimistic.
+            let fold = select(&inp, &others, opts).1.chosen();
+            let part = regress(&inp, &fold, &others)?;
             for i in run.clone() {
-                prediction[i] = predict_row(&inp, &chosen, &part.beta, i);
+                prediction[i] = predict_row(&inp, &fold, &part.beta, i);
             }
         }
         Validation {

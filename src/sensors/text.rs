@@ -159,7 +159,7 @@ impl Analysis {
             None => {
                 let _ = writeln!(
                     s,
-                    "  validation: leave-one-run-out (sensors chosen on all runs)"
+                    "  validation: leave-one-run-out (sensors chosen and gains fitted without the run)"
                 );
                 "left out"
             }
