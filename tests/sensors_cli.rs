@@ -157,6 +157,13 @@ fn the_model_file_reproduces_the_regression_under_predict() {
             p[i]
         );
     }
+    // diagnose reads the model too (exit 0 or 1 — findings — never 2).
+    let diagnosed = driftloop(&["diagnose", model, csv, "--channel", "e_um"]);
+    assert!(
+        matches!(diagnosed.status.code(), Some(0 | 1)),
+        "{}",
+        String::from_utf8_lossy(&diagnosed.stderr)
+    );
     // And predict's residual on the holdout is the one the report scored.
     let from = v["validation"]["holdout_from_min"].as_f64().unwrap();
     let resid: Vec<f64> = (0..t.len())
