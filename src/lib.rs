@@ -10,6 +10,7 @@ pub mod model;
 pub mod omm;
 pub mod positioning;
 pub mod report;
+pub mod sensors;
 pub mod source;
 pub mod structure;
 pub mod syntax;

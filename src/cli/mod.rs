@@ -17,6 +17,7 @@ mod positioning;
 mod predict;
 mod render;
 mod run;
+mod sensors;
 mod simulate;
 mod transform;
 
@@ -66,6 +67,8 @@ enum Command {
     Demo(demo::Args),
     /// Positioning accuracy (DSTU/GOST 27843, VDI 3441, ISO 230-2) and compensation tables.
     Positioning(positioning::Args),
+    /// Temperature-sensor selection (correlation, redundant clusters) and regression of a channel.
+    Sensors(sensors::Args),
     /// Dry run of an NC program on a virtual machine: time, passes, machined error, measurements.
     Run(run::Args),
     /// Fit the thermal drift model of one displacement channel from measured data.
@@ -94,6 +97,7 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Demo(args) => demo::run(args, &cli.global),
         Command::Positioning(args) => positioning::run(args, &cli.global),
+        Command::Sensors(args) => sensors::run(args, &cli.global),
         Command::Fit(args) => fit::run(args, &cli.global),
         Command::Predict(args) => predict::run(args, &cli.global),
         Command::Check(args) => check::run(args, &cli.global),

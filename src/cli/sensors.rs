@@ -1,0 +1,91 @@
+//! `driftloop sensors DATA.csv --channel NAME`: chooses the temperature sensors that explain a channel
+//! (correlation with the error, clusters of redundant sensors) and regresses the error on them.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+
+use super::Global;
+use crate::data::{Require, read_path};
+use crate::sensors::position::analyse_position;
+use crate::sensors::{Options, analyse};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    Human,
+    Json,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Measurement CSV with a displacement channel and `*_c` temperature columns; `-` reads stdin.
+    pub data: PathBuf,
+    /// Displacement channel to explain, e.g. ch3_um.
+    #[arg(long)]
+    pub channel: String,
+    /// Axis position column (`*_mm`): separate the error into E_G(p) + S(θ)·p + I(θ) and explain the slope S
+    /// and intercept I per time step (rows sharing a time).
+    #[arg(long, value_name = "P")]
+    pub position_column: Option<String>,
+    /// Sensors with |r| at least this form one cluster; one sensor per cluster is kept.
+    #[arg(long, default_value_t = 0.9)]
+    pub threshold: f64,
+    /// A cluster whose best sensor has |r| with the error below this is dropped as irrelevant.
+    #[arg(long, default_value_t = 0.5)]
+    pub min_correlation: f64,
+    /// Without a `run` column: validate on the rows from this time on, in minutes (default: the last
+    /// third of the time span).
+    #[arg(long, value_name = "MINUTES")]
+    pub holdout_from: Option<f64>,
+    #[arg(long, value_enum, default_value_t = Format::Human)]
+    pub format: Format,
+    /// Write the regression as a model file that `predict` and `diagnose` read (`-` = stdout, the report
+    /// then goes to stderr).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+}
+
+pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
+    if let Some(h) = args.holdout_from {
+        anyhow::ensure!(h.is_finite(), "--holdout-from must be a number of minutes");
+    }
+    let ds = read_path(&args.data, Require::Displacement)?;
+    let mut opts = Options::new(&args.channel);
+    opts.threshold = args.threshold;
+    opts.min_correlation = args.min_correlation;
+    opts.holdout_from_min = args.holdout_from;
+    if let Some(p) = &args.position_column {
+        anyhow::ensure!(
+            args.output.is_none(),
+            "-o is not available with --position-column: a model file's position slope follows the spindle, not temperatures"
+        );
+        let analysis = analyse_position(&ds, &p.to_ascii_lowercase(), &opts)?;
+        print!(
+            "{}",
+            match args.format {
+                Format::Human => analysis.human(),
+                Format::Json => analysis.json(),
+            }
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
+    let analysis = analyse(&ds, &opts)?;
+    let report = match args.format {
+        Format::Human => analysis.human(),
+        Format::Json => analysis.json(),
+    };
+    match &args.output {
+        Some(path) if path.as_os_str() == "-" => {
+            print!("{}", analysis.to_model().to_toml());
+            eprint!("{report}");
+        }
+        Some(path) => {
+            std::fs::write(path, analysis.to_model().to_toml())
+                .with_context(|| format!("cannot write the model file {}", path.display()))?;
+            print!("{report}");
+        }
+        None => print!("{report}"),
+    }
+    Ok(ExitCode::SUCCESS)
+}
