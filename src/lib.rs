@@ -6,6 +6,7 @@ pub mod data;
 pub mod diagnostic;
 pub mod edit;
 pub mod model;
+pub mod omm;
 pub mod positioning;
 pub mod report;
 pub mod source;

@@ -15,6 +15,8 @@ mod positioning;
 mod predict;
 mod render;
 mod run;
+mod plan;
+mod transform;
 
 /// Options every subcommand understands.
 #[derive(Debug, Clone, clap::Args)]
@@ -74,6 +76,10 @@ enum Command {
     Parse(parse::Args),
     /// Measure parse + print throughput and peak memory on a generated 100 MB program.
     Bench(bench::Args),
+    /// Insert probe measurements, nested measuring loops and drift corrections into NC programs.
+    Transform(transform::Args),
+    /// Print the timeline, predicted drift and planned measurements of a program.
+    Plan(plan::Args),
 }
 
 /// Entry point of the binary.
@@ -88,6 +94,8 @@ pub fn main() -> ExitCode {
         Command::Parse(args) => parse::run(args, &cli.global),
         Command::Bench(args) => bench::run(args, &cli.global),
         Command::Run(args) => run::run(args, &cli.global),
+        Command::Transform(args) => transform::run(args, &cli.global),
+        Command::Plan(args) => plan::run(args, &cli.global),
     };
     match result {
         Ok(code) => code,

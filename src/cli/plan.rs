@@ -1,0 +1,74 @@
+//! `driftloop plan PROGRAM --model model.toml [--profile machine.toml]`: the timeline of the program, the
+//! predicted drift along it and where driftloop would measure, as a table (or JSON).
+
+use std::io::{self, Write};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use serde::Serialize;
+
+use super::Global;
+use super::check::Format;
+use super::transform::Setup;
+use crate::omm::{self, Plan};
+use crate::walk::Input;
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The program (`-` reads stdin).
+    #[arg(value_name = "PROGRAM")]
+    program: PathBuf,
+    #[command(flatten)]
+    setup: Setup,
+    #[arg(long, value_enum, default_value_t = Format::Human)]
+    format: Format,
+    /// Plan programs with syntax errors too.
+    #[arg(long)]
+    force: bool,
+}
+
+#[derive(Serialize)]
+struct JsonPlan<'a> {
+    program: String,
+    profile: &'a str,
+    program_min: f64,
+    inexact_blocks: usize,
+    #[serde(flatten)]
+    plan: &'a Plan,
+}
+
+pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
+    let (model, _sha, profile) = args.setup.load()?;
+    let input = if args.program.as_os_str() == "-" {
+        Input::Stdin
+    } else {
+        Input::File(args.program.clone())
+    };
+    let program = crate::parse_owned(input.read()?);
+    let name = input.to_string();
+    let planned = omm::check(&program, args.force)
+        .and_then(|()| omm::plan_program(&program, &model, &profile));
+    let (timeline, plan) = match planned {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("error: {name}: {e}");
+            return Ok(ExitCode::from(2));
+        }
+    };
+    let mut out = io::stdout().lock();
+    match args.format {
+        Format::Json => {
+            let j = JsonPlan {
+                program: name,
+                profile: &profile.name,
+                program_min: timeline.total_min,
+                inexact_blocks: timeline.inexact_blocks,
+                plan: &plan,
+            };
+            serde_json::to_writer_pretty(&mut out, &j)?;
+            writeln!(out)?;
+        }
+        Format::Human => omm::report::write_table(&mut out, &program, &plan)?,
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,381 @@
+//! `driftloop transform PATH… --model model.toml [--profile machine.toml]`: inserts the measurement and
+//! correction blocks. Programs are transformed in parallel; nothing is written unless every program could
+//! be transformed, so a batch never ends half done.
+
+use std::io::{self, IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use anyhow::{Context, bail};
+use rayon::prelude::*;
+use serde::Serialize;
+use sha2::{Digest, Sha256};
+
+use super::Global;
+use super::check::Format;
+use crate::model::DriftModel;
+use crate::omm::{self, ModelRef, Profile, Summary};
+use crate::walk::{self, Input};
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Programs or directories (walked recursively for .mpf .spf .arc .nc .def); `-` reads stdin.
+    #[arg(required = true, value_name = "PATH")]
+    paths: Vec<PathBuf>,
+    #[command(flatten)]
+    setup: Setup,
+    /// Output file (`-`: stdout), or with several inputs / a directory, a directory mirroring the inputs.
+    #[arg(short = 'o', long = "output", value_name = "OUT")]
+    output: Option<PathBuf>,
+    /// Replace each input file (atomically: temp file in the same directory, then rename).
+    #[arg(long, conflicts_with = "output")]
+    in_place: bool,
+    /// Write nothing; exit 1 if any output would differ from the file at `-o` (or the input without `-o`).
+    #[arg(long)]
+    check: bool,
+    /// Print a unified diff of each input against its output instead of writing.
+    #[arg(long)]
+    diff: bool,
+    /// `human`: summary on stderr; `json`: one JSON object per file (on stdout unless the program goes there).
+    #[arg(long, value_enum, default_value_t = Format::Human)]
+    format: Format,
+    /// Transform programs with syntax errors too.
+    #[arg(long)]
+    force: bool,
+}
+
+/// Model and profile, shared by `transform` and `plan`.
+#[derive(Debug, clap::Args)]
+pub struct Setup {
+    /// The drift model file (`driftloop fit` writes it).
+    #[arg(long, value_name = "MODEL.toml")]
+    pub model: PathBuf,
+    /// The machine profile; the shipped Blum TC50 / G54 profile when absent.
+    #[arg(long, value_name = "MACHINE.toml")]
+    pub profile: Option<PathBuf>,
+}
+
+impl Setup {
+    /// The model, the SHA-256 of its file, and the profile.
+    pub fn load(&self) -> anyhow::Result<(DriftModel, String, Profile)> {
+        let bytes = std::fs::read(&self.model)
+            .with_context(|| format!("cannot read {}", self.model.display()))?;
+        let text = String::from_utf8(bytes.clone())
+            .with_context(|| format!("{}: not UTF-8 text", self.model.display()))?;
+        let model = DriftModel::from_toml(&text, &self.model.display().to_string())?;
+        let sha: String = Sha256::digest(&bytes)
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect();
+        let profile = match &self.profile {
+            Some(path) => Profile::read(path)?,
+            None => Profile::default_profile(),
+        };
+        Ok((model, sha, profile))
+    }
+}
+
+/// One input with where its output goes.
+struct Job {
+    input: Input,
+    target: Target,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+enum Target {
+    Stdout,
+    File(PathBuf),
+    /// `--diff`, or `--check` without `-o`: compared with the input, nothing written.
+    None,
+}
+
+struct Outcome {
+    bytes: Vec<u8>,
+    /// The input, parsed (its source is the original bytes, kept without a copy).
+    program: crate::Program,
+    summary: Summary,
+}
+
+#[derive(Serialize)]
+struct JsonFile<'a> {
+    path: String,
+    output: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    error: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    changed: Option<bool>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    summary: Option<&'a Summary>,
+}
+
+pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
+    let (model, sha, profile) = args.setup.load()?;
+    let jobs = jobs(&args)?;
+    let progress = Progress::new(jobs.len());
+    let results: Vec<Result<Outcome, String>> = jobs
+        .par_iter()
+        .map(|job| {
+            let r = transform_one(&job.input, &model, &sha, &profile, args.force);
+            progress.tick();
+            r
+        })
+        .collect();
+    progress.done();
+
+    let mut stderr = io::stderr().lock();
+    let refused = results.iter().filter(|r| r.is_err()).count();
+    let mut changed = 0;
+    let mut json = Vec::new();
+    let to_stdout = jobs.iter().any(|j| j.target == Target::Stdout);
+    for (job, result) in jobs.iter().zip(&results) {
+        let path = job.input.to_string();
+        let output = match &job.target {
+            Target::File(p) => Some(p.display().to_string()),
+            Target::Stdout => Some("-".into()),
+            Target::None => None,
+        };
+        match result {
+            Err(e) => {
+                writeln!(stderr, "error: {path}: {e}")?;
+                json.push(JsonFile {
+                    path,
+                    output,
+                    error: Some(e.clone()),
+                    changed: None,
+                    summary: None,
+                });
+            }
+            Ok(o) => {
+                let differs = if args.check {
+                    let current = match &job.target {
+                        Target::File(p) => std::fs::read(p).ok(),
+                        _ => Some(o.program.source().to_vec()),
+                    };
+                    current.as_deref() != Some(o.bytes.as_slice())
+                } else {
+                    true
+                };
+                changed += usize::from(differs);
+                if args.format == Format::Human {
+                    let s = &o.summary;
+                    writeln!(
+                        stderr,
+                        "{path}: {} passes, {} gates, {} measurements planned, {} blocks inserted, predicted drift up to {:.1} µm{}",
+                        s.passes,
+                        s.gates,
+                        s.measurements_planned,
+                        s.blocks_inserted,
+                        s.predicted_max_drift_um,
+                        if args.check && differs {
+                            " — would change"
+                        } else {
+                            ""
+                        }
+                    )?;
+                }
+                json.push(JsonFile {
+                    path,
+                    output,
+                    error: None,
+                    changed: args.check.then_some(differs),
+                    summary: Some(&o.summary),
+                });
+            }
+        }
+    }
+    let emit_json = |json: &[JsonFile]| -> anyhow::Result<()> {
+        if args.format != Format::Json {
+            return Ok(());
+        }
+        let text = serde_json::to_string_pretty(json)?;
+        if to_stdout && !args.check && !args.diff {
+            writeln!(io::stderr(), "{text}")?;
+        } else {
+            writeln!(io::stdout(), "{text}")?;
+        }
+        Ok(())
+    };
+    if refused > 0 {
+        emit_json(&json)?;
+        writeln!(
+            stderr,
+            "{refused} of {} program(s) refused; nothing written",
+            jobs.len()
+        )?;
+        return Ok(ExitCode::from(2));
+    }
+    let outcomes: Vec<&Outcome> = results.iter().filter_map(|r| r.as_ref().ok()).collect();
+    if args.diff {
+        let mut out = io::stdout().lock();
+        for (job, o) in jobs.iter().zip(&outcomes) {
+            write_diff(
+                &mut out,
+                &job.input.to_string(),
+                o.program.source(),
+                &o.bytes,
+            )?;
+        }
+    } else if !args.check {
+        for (job, o) in jobs.iter().zip(&outcomes) {
+            match &job.target {
+                Target::Stdout => io::stdout().lock().write_all(&o.bytes)?,
+                Target::File(p) => write_atomic(p, &o.bytes)?,
+                Target::None => {}
+            }
+        }
+    }
+    emit_json(&json)?;
+    Ok(if args.check && changed > 0 {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
+fn transform_one(
+    input: &Input,
+    model: &DriftModel,
+    sha: &str,
+    profile: &Profile,
+    force: bool,
+) -> Result<Outcome, String> {
+    let bytes = input.read().map_err(|e| e.to_string())?;
+    let program = crate::parse_owned(bytes);
+    let t = omm::transform(&program, ModelRef { model, sha256: sha }, profile, force)
+        .map_err(|e| e.to_string())?;
+    Ok(Outcome {
+        bytes: t.bytes,
+        program,
+        summary: t.summary,
+    })
+}
+
+/// Pairs every input with its output according to the options.
+fn jobs(args: &Args) -> anyhow::Result<Vec<Job>> {
+    let mut jobs = Vec::new();
+    let several = args.paths.len() > 1 || args.paths.iter().any(|p| p.is_dir());
+    for root in &args.paths {
+        for input in walk::expand(std::slice::from_ref(root))? {
+            let target = if args.diff {
+                Target::None
+            } else if args.in_place {
+                match &input {
+                    Input::Stdin => bail!("--in-place cannot replace stdin; use -o"),
+                    Input::File(p) => Target::File(p.clone()),
+                }
+            } else if let Some(out) = &args.output {
+                if several {
+                    Target::File(mirrored(out, root, &input)?)
+                } else if out == Path::new("-") {
+                    Target::Stdout
+                } else {
+                    Target::File(out.clone())
+                }
+            } else if args.check {
+                match &input {
+                    Input::Stdin => Target::None,
+                    Input::File(p) => Target::File(p.clone()),
+                }
+            } else if several {
+                bail!("several programs need -o DIRECTORY, --in-place, --check or --diff");
+            } else {
+                Target::Stdout
+            };
+            jobs.push(Job { input, target });
+        }
+    }
+    Ok(jobs)
+}
+
+/// `out/<path of the input below its root>`; a file named directly keeps its file name.
+fn mirrored(out: &Path, root: &Path, input: &Input) -> anyhow::Result<PathBuf> {
+    let Input::File(path) = input else {
+        bail!("stdin cannot be mirrored into a directory; transform it alone")
+    };
+    let relative = if root.is_dir() {
+        path.strip_prefix(root).unwrap_or(path).to_path_buf()
+    } else {
+        PathBuf::from(path.file_name().context("input without a file name")?)
+    };
+    Ok(out.join(relative))
+}
+
+/// Writes `bytes` to `path` through a temporary file in the same directory and a rename. A device or pipe
+/// (`/dev/null`, a FIFO) is written directly, never replaced; a symbolic link keeps pointing where it did,
+/// and its target is replaced.
+fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    let resolved;
+    let path = match std::fs::symlink_metadata(path) {
+        Ok(m) if m.file_type().is_symlink() => {
+            resolved = std::fs::canonicalize(path)
+                .with_context(|| format!("cannot resolve {}", path.display()))?;
+            resolved.as_path()
+        }
+        _ => path,
+    };
+    if std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
+        return std::fs::write(path, bytes)
+            .with_context(|| format!("cannot write {}", path.display()));
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let name = path.file_name().context("output without a file name")?;
+    let tmp = dir.join(format!(
+        ".{}.driftloop-{}.tmp",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
+    let written = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
+    if written.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    written.with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// A unified diff with the inserted lines; bytes that are not UTF-8 are shown as the replacement character.
+fn write_diff(out: &mut impl Write, name: &str, old: &[u8], new: &[u8]) -> io::Result<()> {
+    let old = String::from_utf8_lossy(old);
+    let new = String::from_utf8_lossy(new);
+    let diff = similar::TextDiff::from_lines(old.as_ref(), new.as_ref());
+    write!(
+        out,
+        "{}",
+        diff.unified_diff()
+            .context_radius(2)
+            .header(&format!("a/{name}"), &format!("b/{name}"))
+    )
+}
+
+/// `transformed k/n` on a terminal's stderr, nothing otherwise.
+struct Progress {
+    total: usize,
+    done: AtomicUsize,
+    shown: bool,
+}
+
+impl Progress {
+    fn new(total: usize) -> Progress {
+        Progress {
+            total,
+            done: AtomicUsize::new(0),
+            shown: total > 1 && io::stderr().is_terminal(),
+        }
+    }
+
+    fn tick(&self) {
+        let n = self.done.fetch_add(1, Ordering::Relaxed) + 1;
+        if self.shown {
+            eprint!("\rtransformed {n}/{}", self.total);
+        }
+    }
+
+    fn done(&self) {
+        if self.shown {
+            eprintln!();
+        }
+    }
+}

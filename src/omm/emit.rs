@@ -1,0 +1,549 @@
+//! The NC text driftloop inserts: the header comment, the initial block with the reference measurement,
+//! the gates (prediction update, Cycle_in decision, measurement module, scrap decision, correction
+//! recalculation, correction) and the restore before the program ends. Every line ends in the comment
+//! [`MARK`] so inserted blocks can be told from the program's own at a glance.
+
+use std::collections::BTreeSet;
+
+use super::nc::number;
+use super::plan::{Gate, GateKind, Predictor};
+use super::profile::{OffsetMethod, Profile, TimerUnit};
+use super::timeline::Modal;
+
+/// Comment every inserted block ends with.
+pub const MARK: &str = ";DL";
+/// Text of the header comment; a program that carries it was transformed already.
+pub const SIGNATURE: &str = "driftloop-omm";
+
+/// The R-parameters the inserted blocks use, each with its role.
+#[derive(Debug, Clone)]
+pub struct Registers {
+    t0: u32,
+    t_last: u32,
+    dt: u32,
+    x: Vec<u32>,
+    g: Vec<u32>,
+    pred: u32,
+    pred_at_measurement: u32,
+    eps: u32,
+    corr: u32,
+    applied: u32,
+    base: u32,
+    zero: u32,
+    nbl: u32,
+    write_error: u32,
+    attempts: u32,
+    agreeing: u32,
+    series_first: u32,
+    series_sum: u32,
+    value: u32,
+    mean: u32,
+    delta: u32,
+    saved_result: Option<u32>,
+}
+
+impl Registers {
+    /// Picks free R-parameters from the profile's range, skipping those the program uses.
+    pub fn allocate(
+        profile: &Profile,
+        modes: usize,
+        used: &BTreeSet<u32>,
+    ) -> Result<Registers, String> {
+        let r = &profile.registers;
+        let result_r = result_r_number(&profile.probe.result);
+        let save = result_r.is_some_and(|n| used.contains(&n));
+        let needed = 19 + 2 * modes + usize::from(save);
+        let free: Vec<u32> = (r.r_first..=r.r_last)
+            .filter(|n| !used.contains(n) && Some(*n) != result_r)
+            .take(needed)
+            .collect();
+        if free.len() < needed {
+            let taken = (r.r_first..=r.r_last).filter(|n| used.contains(n)).count();
+            return Err(format!(
+                "not enough free R-parameters: driftloop needs {needed} in R{}…R{} (registers.r_first/r_last), but the program uses {taken} of them; widen or move the range in the profile",
+                r.r_first, r.r_last
+            ));
+        }
+        let mut it = free.into_iter();
+        let mut next = || it.next().expect("counted above");
+        Ok(Registers {
+            t0: next(),
+            t_last: next(),
+            dt: next(),
+            x: (0..modes).map(|_| next()).collect(),
+            g: (0..modes).map(|_| next()).collect(),
+            pred: next(),
+            pred_at_measurement: next(),
+            eps: next(),
+            corr: next(),
+            applied: next(),
+            base: next(),
+            zero: next(),
+            nbl: next(),
+            write_error: next(),
+            attempts: next(),
+            agreeing: next(),
+            series_first: next(),
+            series_sum: next(),
+            value: next(),
+            mean: next(),
+            delta: next(),
+            saved_result: save.then(&mut next),
+        })
+    }
+
+    /// Every register, ascending.
+    pub fn all(&self) -> Vec<u32> {
+        let mut v = vec![
+            self.t0,
+            self.t_last,
+            self.dt,
+            self.pred,
+            self.pred_at_measurement,
+            self.eps,
+            self.corr,
+            self.applied,
+            self.base,
+            self.zero,
+            self.nbl,
+            self.write_error,
+            self.attempts,
+            self.agreeing,
+            self.series_first,
+            self.series_sum,
+            self.value,
+            self.mean,
+            self.delta,
+        ];
+        v.extend(&self.x);
+        v.extend(&self.g);
+        v.extend(self.saved_result);
+        v.sort_unstable();
+        v
+    }
+}
+
+/// `R2` / `R[2]` → 2.
+fn result_r_number(result: &str) -> Option<u32> {
+    let rest = result.trim().strip_prefix(['R', 'r'])?;
+    let rest = rest
+        .strip_prefix('[')
+        .and_then(|r| r.strip_suffix(']'))
+        .unwrap_or(rest);
+    rest.trim().parse().ok()
+}
+
+/// Writes the inserted blocks for one program.
+pub struct Emitter<'a> {
+    pub profile: &'a Profile,
+    pub regs: &'a Registers,
+    pub predictor: &'a Predictor,
+    pub channel: &'a str,
+    /// Label prefix no label of the program starts with.
+    pub label_prefix: String,
+}
+
+fn r(n: u32) -> String {
+    format!("R{n}")
+}
+
+impl Emitter<'_> {
+    /// Lines with the marker comment appended.
+    fn finish(lines: Vec<String>) -> String {
+        let mut out = String::new();
+        for l in lines {
+            out.push_str(&l);
+            if !l.is_empty() {
+                out.push(' ');
+            }
+            out.push_str(MARK);
+            out.push('\n');
+        }
+        out.pop();
+        out
+    }
+
+    pub fn header(&self, model_sha: &str) -> String {
+        Emitter::finish(vec![format!(
+            "; {SIGNATURE} {}: thermal drift compensation by on-machine measurement; model {} sha256 {}, profile {}",
+            env!("CARGO_PKG_VERSION"),
+            self.channel,
+            &model_sha[..model_sha.len().min(16)],
+            self.profile.name
+        )])
+    }
+
+    fn mm(um: f64) -> String {
+        number(um / 1000.0)
+    }
+
+    fn frame_target(&self) -> String {
+        format!(
+            "$P_UIFR[{},{},TR]",
+            self.profile.offset.frame,
+            self.profile.position.axis.name()
+        )
+    }
+
+    /// Blocks that put the work offset back to its value before the program.
+    fn restore_offset(&self) -> Vec<String> {
+        let axis = self.profile.position.axis.name();
+        let reg = &self.regs;
+        let mut v = vec![match self.profile.offset.method {
+            OffsetMethod::Frame => format!("{}={}", self.frame_target(), r(reg.base)),
+            OffsetMethod::Trans => "TRANS".to_string(),
+            OffsetMethod::Atrans => format!("ATRANS {axis}=-{}", r(reg.applied)),
+        }];
+        v.push(self.profile.offset.select.clone());
+        v
+    }
+
+    /// Blocks that apply the correction `corr` and re-select the work offset.
+    fn apply_correction(&self) -> Vec<String> {
+        let axis = self.profile.position.axis.name();
+        let reg = &self.regs;
+        let mut v = Vec::new();
+        match self.profile.offset.method {
+            OffsetMethod::Frame => v.push(format!(
+                "{}={}+{}",
+                self.frame_target(),
+                r(reg.base),
+                r(reg.corr)
+            )),
+            OffsetMethod::Trans => v.push(format!("TRANS {axis}={}", r(reg.corr))),
+            OffsetMethod::Atrans => {
+                v.push(format!("ATRANS {axis}={}-{}", r(reg.corr), r(reg.applied)));
+            }
+        }
+        v.push(format!("{}={}", r(reg.applied), r(reg.corr)));
+        v.push(self.profile.offset.select.clone());
+        v
+    }
+
+    /// Stops the program for good: message, user alarm, offset restored, M0, then M30 should the operator
+    /// press start again.
+    fn abort(&self, message: &str, alarm: u32) -> Vec<String> {
+        let mut v = vec![
+            format!("MSG(\"{}\")", message.replace('"', "'")),
+            format!("SETAL({alarm})"),
+        ];
+        v.extend(self.restore_offset());
+        v.push("M0".into());
+        v.push("M30".into());
+        v
+    }
+
+    /// Reads the timer into `dt` (minutes since the last update) and advances `t_last`.
+    fn read_timer(&self) -> Vec<String> {
+        let reg = &self.regs;
+        let timer = &self.profile.registers.timer;
+        let mut v = vec![
+            "STOPRE".into(),
+            format!("{}={timer}-{}", r(reg.dt), r(reg.t_last)),
+            format!("{}={}+{}", r(reg.t_last), r(reg.t_last), r(reg.dt)),
+        ];
+        if self.profile.registers.timer_unit == TimerUnit::S {
+            v.push(format!("{}={}/60", r(reg.dt), r(reg.dt)));
+        }
+        v
+    }
+
+    /// The exact state update of every mode over `dt`, then the targets for the speed from here on.
+    fn update_prediction(&self, rpm: f64) -> Vec<String> {
+        let reg = &self.regs;
+        let mut v = Vec::new();
+        for ((x, g), tau) in reg.x.iter().zip(&reg.g).zip(self.predictor.taus()) {
+            v.push(format!(
+                "{x}={g}+({x}-{g})*EXP(-{dt}/{tau})",
+                x = r(*x),
+                g = r(*g),
+                dt = r(reg.dt),
+                tau = number(*tau)
+            ));
+        }
+        v.extend(self.set_targets(rpm));
+        let sum: Vec<String> = reg.x.iter().map(|x| r(*x)).collect();
+        v.push(format!(
+            "{}={}",
+            r(reg.pred),
+            if sum.is_empty() {
+                "0".into()
+            } else {
+                sum.join("+")
+            }
+        ));
+        v
+    }
+
+    fn set_targets(&self, rpm: f64) -> Vec<String> {
+        self.regs
+            .g
+            .iter()
+            .zip(self.predictor.targets_at(rpm))
+            .map(|(g, um)| format!("{}={} ; {} rpm", r(*g), Emitter::mm(um), number(rpm)))
+            .collect()
+    }
+
+    /// Probe into the spindle and to the start point of the probing move.
+    fn probe_in(&self) -> Vec<String> {
+        let p = self.profile;
+        vec![
+            "M5".into(),
+            format!("T=\"{}\" M6", p.probe.tool),
+            format!("D{}", p.probe.tool_offset),
+            format!("G0 G90 Z{}", number(p.position.clearance_z)),
+            format!("X{} Y{}", number(p.position.x), number(p.position.y)),
+            format!("Z{}", number(p.position.z)),
+        ]
+    }
+
+    /// The measurement module: repeat the probing until N plausible values agree within the band; abort
+    /// when the attempts are used up. `expected` is the value the prediction expects (NC expression).
+    fn measure(&self, expected: &str, what: &str) -> Vec<String> {
+        let reg = &self.regs;
+        let l = &self.profile.limits;
+        let n = l.agree_count;
+        let mut v = vec![
+            format!("{}=0", r(reg.attempts)),
+            format!("{}=0", r(reg.agreeing)),
+            format!("{}=99999", r(reg.series_first)),
+        ];
+        if let Some(s) = reg.saved_result {
+            v.push(format!("{}={}", r(s), self.profile.probe.result));
+        }
+        v.push(format!("WHILE {}<{n}", r(reg.agreeing)));
+        v.push(format!("{}={}+1", r(reg.attempts), r(reg.attempts)));
+        v.push(format!("IF {}>{}", r(reg.attempts), l.max_attempts));
+        v.extend(self.abort(
+            &format!(
+                "driftloop: no {n} agreeing probe values in {} attempts at {what}: stopped",
+                l.max_attempts
+            ),
+            self.profile.registers.alarm_implausible,
+        ));
+        v.push("ENDIF".into());
+        v.push(format!("{}={}+1 ; NBL", r(reg.nbl), r(reg.nbl)));
+        v.push(self.profile.cycle_call());
+        v.push("STOPRE".into());
+        v.push(format!("{}={}", r(reg.value), self.profile.probe.result));
+        v.push(format!(
+            "IF ABS({}-({expected}))<={}",
+            r(reg.value),
+            Emitter::mm(l.plausibility_um)
+        ));
+        v.push(format!(
+            "IF ABS({}-{})<={}",
+            r(reg.value),
+            r(reg.series_first),
+            Emitter::mm(l.agree_band_um)
+        ));
+        v.push(format!("{}={}+1", r(reg.agreeing), r(reg.agreeing)));
+        v.push(format!(
+            "{}={}+{}",
+            r(reg.series_sum),
+            r(reg.series_sum),
+            r(reg.value)
+        ));
+        v.push("ELSE".into());
+        v.push(format!("{}=1", r(reg.agreeing)));
+        v.push(format!("{}={}", r(reg.series_first), r(reg.value)));
+        v.push(format!("{}={}", r(reg.series_sum), r(reg.value)));
+        v.push("ENDIF".into());
+        v.push("ENDIF".into());
+        v.push("ENDWHILE".into());
+        v.push(format!(
+            "{}={}/{}",
+            r(reg.mean),
+            r(reg.series_sum),
+            r(reg.agreeing)
+        ));
+        if let Some(s) = reg.saved_result {
+            v.push(format!("{}={}", self.profile.probe.result, r(s)));
+        }
+        v.push(format!(
+            "G0 G90 Z{}",
+            number(self.profile.position.clearance_z)
+        ));
+        v
+    }
+
+    /// One CSV line of the measurement log: time_min, spindle_rpm, drift (µm), pass, run.
+    fn log(&self, rpm: f64, pass: usize) -> String {
+        let reg = &self.regs;
+        let minutes = match self.profile.registers.timer_unit {
+            TimerUnit::Min => format!("({}-{})", r(reg.t_last), r(reg.t0)),
+            TimerUnit::S => format!("({}-{})/60", r(reg.t_last), r(reg.t0)),
+        };
+        format!(
+            "WRITE({},\"{}\",\"\"<<{minutes}<<\",{},\"<<{}*1000<<\",{pass},\"<<{})",
+            r(reg.write_error),
+            self.profile.registers.log_file,
+            number(rpm),
+            r(reg.delta),
+            r(reg.t0)
+        )
+    }
+
+    /// The cutting tool back after measuring, spindle restarted, modal state as the program left it.
+    fn tool_back(&self, gate: &Gate) -> Vec<String> {
+        let b: &Modal = &gate.before;
+        let mut v = Vec::new();
+        if gate.tool_change_follows {
+            return v;
+        }
+        if let Some(tool) = &b.tool {
+            v.push(format!("T={tool} M6"));
+        }
+        if let Some(d) = b.d {
+            v.push(format!("D{d}"));
+        }
+        if b.rpm() > 0.0 {
+            v.push(format!("S{} M{}", number(b.s), b.direction));
+        }
+        let mut back = format!(
+            "G0 G90 Z{}",
+            number(b.z.unwrap_or(self.profile.position.clearance_z))
+        );
+        if let Some(f) = b.feed {
+            back.push_str(&format!(" F{}", number(f)));
+        }
+        v.push(back);
+        if b.motion == 1 {
+            v.push("G1".into());
+        }
+        if !b.absolute {
+            v.push("G91".into());
+        }
+        v
+    }
+
+    fn describe(gate: &Gate, pass_tool: Option<&str>) -> String {
+        let tool = pass_tool
+            .map(|t| match t.strip_prefix('"') {
+                Some(name) => format!(" {}", name.trim_end_matches('"').replace('"', "")),
+                None => format!(" T{t}"),
+            })
+            .unwrap_or_default();
+        match gate.kind {
+            GateKind::Reference => {
+                format!("gate {} (reference, pass {}{tool})", gate.number, gate.pass)
+            }
+            _ => format!("gate {} (pass {}{tool})", gate.number, gate.pass),
+        }
+    }
+
+    /// The initial block: stage 1 (initial data) and stage 4 (reference measurement, the zero).
+    pub fn reference(&self, gate: &Gate, pass_tool: Option<&str>) -> String {
+        let reg = &self.regs;
+        let p = self.profile;
+        let what = Emitter::describe(gate, pass_tool);
+        let mut v = vec![
+            "; driftloop stage 1: initial data".to_string(),
+            "STOPRE".into(),
+            format!("{}={}", r(reg.t0), p.registers.timer),
+            format!("{}={}", r(reg.t_last), r(reg.t0)),
+        ];
+        for x in &reg.x {
+            v.push(format!("{}=0", r(*x)));
+        }
+        for reg_n in [
+            reg.pred,
+            reg.pred_at_measurement,
+            reg.eps,
+            reg.corr,
+            reg.applied,
+            reg.nbl,
+            reg.delta,
+        ] {
+            v.push(format!("{}=0", r(reg_n)));
+        }
+        v.push(match p.offset.method {
+            OffsetMethod::Frame => format!("{}={}", r(reg.base), self.frame_target()),
+            OffsetMethod::Trans | OffsetMethod::Atrans => format!("{}=0", r(reg.base)),
+        });
+        v.push(format!(
+            "WRITE({},\"{}\",\"time_min,{},{},pass,run\")",
+            r(reg.write_error),
+            p.registers.log_file,
+            crate::data::SPINDLE,
+            self.channel
+        ));
+        v.push(p.offset.select.clone());
+        v.extend(self.probe_in());
+        v.push("; driftloop stage 4: reference measurement of the base surface, the zero".into());
+        v.extend(self.measure(&number(p.position.nominal), &what));
+        v.push(format!("{}={}", r(reg.zero), r(reg.mean)));
+        v.push(self.log(0.0, gate.pass));
+        v.extend(self.tool_back(gate));
+        v.extend(self.set_targets(gate.rpm));
+        Emitter::finish(v)
+    }
+
+    /// A gate: prediction update; if it can measure, the Cycle_in decision and the measurement module;
+    /// then the correction.
+    pub fn gate(&self, gate: &Gate, pass_tool: Option<&str>) -> String {
+        let reg = &self.regs;
+        let l = &self.profile.limits;
+        let what = Emitter::describe(gate, pass_tool);
+        let planned = if gate.measure {
+            "measure"
+        } else {
+            "no measurement"
+        };
+        let mut v = vec![format!(
+            "; driftloop {what}: predicted {} um, planned: {planned}",
+            number((gate.predicted_um * 10.0).round() / 10.0)
+        )];
+        v.extend(self.read_timer());
+        v.extend(self.update_prediction(gate.rpm));
+        if gate.can_measure {
+            let skip = format!("{}SKIP{}", self.label_prefix, gate.number);
+            v.push(format!(
+                "IF ABS({}-{})<{} GOTOF {skip}",
+                r(reg.pred),
+                r(reg.pred_at_measurement),
+                Emitter::mm(l.working_limit_um())
+            ));
+            v.extend(self.probe_in());
+            let expected = format!("{}+{}-{}", r(reg.zero), r(reg.pred), r(reg.corr));
+            v.extend(self.measure(&expected, &what));
+            v.push(format!(
+                "{}={}-{}+{}",
+                r(reg.delta),
+                r(reg.mean),
+                r(reg.zero),
+                r(reg.corr)
+            ));
+            v.push(format!(
+                "IF ABS({}-{})>{}",
+                r(reg.delta),
+                r(reg.corr),
+                Emitter::mm(l.tolerance_um)
+            ));
+            v.extend(self.abort(
+                &format!(
+                    "driftloop: measured error beyond the tolerance {} um at {what}: part is scrap",
+                    number(l.tolerance_um)
+                ),
+                self.profile.registers.alarm_scrap,
+            ));
+            v.push("ENDIF".into());
+            v.push(format!("{}={}-{}", r(reg.eps), r(reg.delta), r(reg.pred)));
+            v.push(format!("{}={}", r(reg.pred_at_measurement), r(reg.pred)));
+            v.push(self.log(gate.before.rpm(), gate.pass));
+            v.extend(self.tool_back(gate));
+            v.push(format!("{skip}:"));
+        }
+        v.push(format!("{}={}+{}", r(reg.corr), r(reg.pred), r(reg.eps)));
+        v.extend(self.apply_correction());
+        Emitter::finish(v)
+    }
+
+    /// Before the program ends: the work offset back to its value before the program.
+    pub fn end(&self) -> String {
+        let mut v =
+            vec!["; driftloop: work offset back to its value before the program".to_string()];
+        v.extend(self.restore_offset());
+        Emitter::finish(v)
+    }
+}

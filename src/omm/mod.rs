@@ -1,0 +1,247 @@
+//! On-machine measurement: the program's timeline ([`timeline`]), the measurement plan from the drift model
+//! ([`plan`]), and the blocks that carry it out on the control ([`emit`]), configured by a machine
+//! [`profile`]. [`transform`] puts them together: every original block stays byte for byte, in order; only
+//! new blocks are inserted, each parsed again before it is accepted.
+
+pub mod emit;
+pub mod nc;
+pub mod plan;
+pub mod profile;
+pub mod report;
+pub mod timeline;
+
+use serde::Serialize;
+
+use crate::edit::{EditError, Editor};
+use crate::model::DriftModel;
+use crate::syntax::Program;
+
+pub use plan::{Gate, GateKind, Plan, Predictor};
+pub use profile::{DEFAULT_PROFILE, Profile, ProfileError};
+pub use timeline::Timeline;
+
+use emit::{Emitter, Registers, SIGNATURE};
+
+/// Longest block the control accepts (characters).
+pub const MAX_BLOCK: usize = 512;
+
+/// The model as the transform sees it: the model and the SHA-256 (hex) of its file, named in the header.
+#[derive(Debug, Clone)]
+pub struct ModelRef<'a> {
+    pub model: &'a DriftModel,
+    pub sha256: &'a str,
+}
+
+/// Why a program is refused. Nothing is written for a refused program.
+#[derive(Debug, thiserror::Error)]
+pub enum TransformError {
+    #[error("the program has {0} syntax error(s); fix them or pass --force")]
+    ParseErrors(usize),
+    #[error(
+        "the program already carries driftloop's blocks (line {0}: `{SIGNATURE}` header); transform the original program instead"
+    )]
+    AlreadyTransformed(usize),
+    #[error(
+        "this looks like a PC-format archive (binary bytes in the first line, a header with a checksum): editing it would break the checksum; transform the program in punched-tape (text) format"
+    )]
+    PcArchive,
+    #[error(
+        "line {0} indexes R-parameters by an expression (R[…]): driftloop cannot prove its R-parameters are free"
+    )]
+    ComputedR(usize),
+    #[error(
+        "the program selects {found} (line {line}) but the profile corrects {profile}; use a profile for {found}"
+    )]
+    OtherOffset {
+        found: String,
+        line: usize,
+        profile: String,
+    },
+    #[error(
+        "a measurement at gate {0} would need to re-load the cutting tool, but no tool is known there"
+    )]
+    UnknownTool(usize),
+    #[error("{0}")]
+    Plan(String),
+    #[error(
+        "an inserted block would be longer than the control's 512 characters (shorten the profile's texts): `{0}`"
+    )]
+    LongBlock(String),
+    #[error("internal error: an inserted block does not parse: {0}")]
+    Emit(#[from] EditError),
+}
+
+/// What the transform did to one program.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Summary {
+    pub blocks_inserted: usize,
+    pub passes: usize,
+    pub gates: usize,
+    pub measurements_planned: usize,
+    pub predicted_max_drift_um: f64,
+    pub program_min: f64,
+    pub r_parameters: Vec<u32>,
+    pub labels: Vec<String>,
+    /// Blocks whose time could not be estimated (expressions as coordinates, no feed).
+    pub inexact_blocks: usize,
+}
+
+/// A transformed program.
+#[derive(Debug)]
+pub struct Transformed {
+    pub bytes: Vec<u8>,
+    pub summary: Summary,
+    pub plan: Plan,
+}
+
+/// Whether a file is a PC-format archive: binary header bytes (NUL or other control characters) on its
+/// first line.
+pub fn is_pc_archive(src: &[u8]) -> bool {
+    let first = src.split(|&b| b == b'\n').next().unwrap_or(&[]);
+    first
+        .iter()
+        .any(|&b| b < 0x20 && !matches!(b, b'\t' | b'\r' | 0x0B | 0x0C))
+}
+
+/// Line (1-based) of a driftloop header comment, if the program carries one.
+pub fn transformed_line(src: &[u8]) -> Option<usize> {
+    let at = memchr::memmem::find(src, SIGNATURE.as_bytes())?;
+    Some(src[..at].iter().filter(|&&b| b == b'\n').count() + 1)
+}
+
+/// The checks every transform makes before planning; also used by `plan`.
+pub fn check(program: &Program, force: bool) -> Result<(), TransformError> {
+    let src = program.source();
+    if is_pc_archive(src) {
+        return Err(TransformError::PcArchive);
+    }
+    if let Some(line) = transformed_line(src) {
+        return Err(TransformError::AlreadyTransformed(line));
+    }
+    let errors = program
+        .diagnostics()
+        .iter()
+        .filter(|d| d.severity == crate::Severity::Error)
+        .count();
+    if errors > 0 && !force {
+        return Err(TransformError::ParseErrors(errors));
+    }
+    Ok(())
+}
+
+/// Timeline and plan of a program.
+pub fn plan_program(
+    program: &Program,
+    model: &DriftModel,
+    profile: &Profile,
+) -> Result<(Timeline, Plan), TransformError> {
+    let timeline = timeline::build(program, profile);
+    let plan = plan::plan(&timeline, model, profile).map_err(TransformError::Plan)?;
+    Ok((timeline, plan))
+}
+
+/// Inserts the measurement and correction blocks into `program`.
+pub fn transform(
+    program: &Program,
+    model: ModelRef<'_>,
+    profile: &Profile,
+    force: bool,
+) -> Result<Transformed, TransformError> {
+    check(program, force)?;
+    let (timeline, plan) = plan_program(program, model.model, profile)?;
+    if let Some(&line) = timeline.computed_r_lines.first() {
+        return Err(TransformError::ComputedR(line));
+    }
+    let wanted = profile.offset_g().expect("validated profile");
+    if let Some(&(g, line)) = timeline.offsets.iter().find(|(g, _)| *g != wanted) {
+        return Err(TransformError::OtherOffset {
+            found: format!("G{g}"),
+            line,
+            profile: profile.offset.select.clone(),
+        });
+    }
+    let predictor = Predictor::new(model.model).map_err(TransformError::Plan)?;
+    let regs = Registers::allocate(profile, predictor.taus().len(), &timeline.used_r)
+        .map_err(TransformError::Plan)?;
+    let label_prefix = ["DL", "DLOMM", "DRIFTLOOP"]
+        .into_iter()
+        .find(|p| !timeline.labels.iter().any(|l| l.starts_with(p)))
+        .map(str::to_string)
+        .ok_or_else(|| {
+            TransformError::Plan("the program's labels use every prefix driftloop knows".into())
+        })?;
+    let emitter = Emitter {
+        profile,
+        regs: &regs,
+        predictor: &predictor,
+        channel: &model.model.channel,
+        label_prefix,
+    };
+    let mut editor = Editor::new(program);
+    let mut inserted = 0;
+    let mut inserted_bytes = 0;
+    let mut insert = |editor: &mut Editor, block: usize, text: String| {
+        if let Some(long) = text.lines().find(|l| l.len() > MAX_BLOCK) {
+            return Err(TransformError::LongBlock(long.to_string()));
+        }
+        inserted += text.lines().count();
+        // Line endings may grow to CRLF.
+        inserted_bytes += text.len() + 2 * text.lines().count();
+        Ok(editor.insert_before(block, &text)?)
+    };
+    let pass_tool = |pass: usize| {
+        timeline
+            .passes
+            .get(pass.wrapping_sub(1))
+            .and_then(|p| p.tool.as_deref())
+    };
+    let header_at = timeline
+        .header_end
+        .min(program.block_count().saturating_sub(1));
+    insert(&mut editor, header_at, emitter.header(model.sha256))?;
+    let mut labels = Vec::new();
+    for gate in &plan.gates {
+        let needs_tool = gate.can_measure && !gate.tool_change_follows;
+        if needs_tool && gate.before.tool.is_none() {
+            return Err(TransformError::UnknownTool(gate.number));
+        }
+        let text = if gate.kind == GateKind::Reference {
+            emitter.reference(gate, pass_tool(gate.pass))
+        } else {
+            if gate.can_measure {
+                labels.push(format!("{}SKIP{}", emitter.label_prefix, gate.number));
+            }
+            emitter.gate(gate, pass_tool(gate.pass))
+        };
+        insert(&mut editor, gate.block, text)?;
+    }
+    for &end in &timeline.ends {
+        insert(&mut editor, end, emitter.end())?;
+    }
+    if timeline.ends.is_empty() && program.block_count() > 0 {
+        let end = emitter.end();
+        inserted += end.lines().count();
+        inserted_bytes += end.len() + 2 * end.lines().count() + 2;
+        editor.insert_after(program.block_count() - 1, &end)?;
+    }
+    // Sized once: growing a 100 MB buffer would copy it again.
+    let mut bytes = Vec::with_capacity(program.source().len() + inserted_bytes);
+    editor
+        .write_to(&mut bytes)
+        .expect("writing to a Vec cannot fail");
+    Ok(Transformed {
+        bytes,
+        summary: Summary {
+            blocks_inserted: inserted,
+            passes: timeline.passes.len(),
+            gates: plan.gates.len(),
+            measurements_planned: plan.measurements,
+            predicted_max_drift_um: plan.max_predicted_um,
+            program_min: plan.total_min,
+            r_parameters: regs.all(),
+            labels,
+            inexact_blocks: timeline.inexact_blocks,
+        },
+        plan,
+    })
+}

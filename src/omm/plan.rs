@@ -1,0 +1,249 @@
+//! The measurement plan: the model's predicted drift along the timeline and the gates where the program
+//! updates its own prediction, corrects, and — where the predicted change since the last measurement reached
+//! δ' = r·Δ — measures. The reference measurement (the "zero") is taken before the first pass; the machine
+//! is taken to start from rest there, as the model's runs do.
+
+use serde::Serialize;
+
+use crate::model::DriftModel;
+use crate::model::lag::step;
+use crate::model::speed_grid::SpeedGrid;
+
+use super::profile::Profile;
+use super::timeline::{Modal, SiteKind, Timeline};
+
+/// What a gate does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum GateKind {
+    /// Stage 1 and 4: probe loaded, offset selected, the base surface measured: the zero.
+    Reference,
+    /// A pass starts: update, measure if the predicted change reached δ', correct.
+    PassStart,
+    /// An extra measuring cycle inside a long pass, at a retract.
+    Extra,
+    /// The spindle speed changes: update the prediction and the correction only.
+    Update,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Gate {
+    pub number: usize,
+    pub kind: GateKind,
+    /// Block the gate is inserted before.
+    pub block: usize,
+    pub pass: usize,
+    /// Planned time at the gate, measurements before it included (min from program start).
+    pub time_min: f64,
+    /// Spindle speed from the gate on (rpm).
+    pub rpm: f64,
+    /// Predicted drift relative to the zero (µm).
+    pub predicted_um: f64,
+    /// Whether the plan expects a measurement here (the program decides again with the real time).
+    pub measure: bool,
+    /// Whether the gate can measure at all (tool clear of the part, modal state restorable).
+    pub can_measure: bool,
+    /// Whether the block after the gate changes the tool itself (no re-load needed).
+    pub tool_change_follows: bool,
+    #[serde(skip)]
+    pub before: Modal,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Plan {
+    pub working_limit_um: f64,
+    pub gates: Vec<Gate>,
+    pub measurements: usize,
+    pub max_predicted_um: f64,
+    /// Program time plus the planned measurements (min).
+    pub total_min: f64,
+}
+
+/// The model's spindle modes at work: state, targets and the exact update.
+#[derive(Debug, Clone)]
+pub struct Predictor {
+    grid: SpeedGrid,
+    taus: Vec<f64>,
+    gains: Vec<Vec<f64>>,
+    x: Vec<f64>,
+    target: Vec<f64>,
+}
+
+impl Predictor {
+    pub fn new(model: &DriftModel) -> Result<Predictor, String> {
+        if let Some(e) = model.effects.first() {
+            return Err(format!(
+                "the model carries a `{}` effect, which the NC program cannot predict; refusing rather than predicting without it",
+                e.kind
+            ));
+        }
+        if !model.inputs.is_empty() {
+            let names: Vec<&str> = model.inputs.iter().map(|i| i.signal.as_str()).collect();
+            return Err(format!(
+                "the model takes inputs the NC program cannot read ({}); transform needs a spindle-only model",
+                names.join(", ")
+            ));
+        }
+        model.validate()?;
+        let grid = model
+            .speed_grid()
+            .ok_or_else(|| "the model has no spindle speed grid".to_string())?;
+        let modes = &model.spindle.modes;
+        Ok(Predictor {
+            grid,
+            taus: modes.iter().map(|m| m.tau_min).collect(),
+            gains: modes.iter().map(|m| m.gain_um.clone()).collect(),
+            x: vec![0.0; modes.len()],
+            target: vec![0.0; modes.len()],
+        })
+    }
+
+    pub fn taus(&self) -> &[f64] {
+        &self.taus
+    }
+
+    /// Steady-state drift of each mode at `rpm` (µm).
+    pub fn targets_at(&self, rpm: f64) -> Vec<f64> {
+        let w = self.grid.weights(rpm);
+        self.gains.iter().map(|g| w.apply(g)).collect()
+    }
+
+    pub fn set_rpm(&mut self, rpm: f64) {
+        self.target = self.targets_at(rpm);
+    }
+
+    pub fn advance(&mut self, minutes: f64) {
+        for ((x, g), tau) in self.x.iter_mut().zip(&self.target).zip(&self.taus) {
+            *x = step(*x, *g, (-minutes / tau).exp());
+        }
+    }
+
+    /// Predicted drift relative to rest (µm).
+    pub fn drift(&self) -> f64 {
+        self.x.iter().sum()
+    }
+}
+
+/// Minutes one measurement takes on the machine: N probings, probe in and tool back.
+pub fn measurement_min(profile: &Profile) -> f64 {
+    (f64::from(profile.limits.agree_count) * profile.probe.measure_s
+        + 2.0 * profile.timeline.tool_change_s)
+        / 60.0
+}
+
+pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Result<Plan, String> {
+    let mut p = Predictor::new(model)?;
+    let limit = profile.limits.working_limit_um();
+    let Some(first) = timeline
+        .sites
+        .iter()
+        .position(|s| matches!(s.kind, SiteKind::PassStart { .. }))
+    else {
+        return Err(
+            "no pass found: the program has no tool change (M6 or T) and no pass marker or line from the profile, so there is no place for the reference measurement before machining"
+                .into(),
+        );
+    };
+    let per_measurement = measurement_min(profile);
+    let mut gates = Vec::new();
+    let mut shift = 0.0;
+    let mut pending = 0.0;
+    let mut last_time = timeline.sites[first].time_min;
+    let mut rpm = 0.0;
+    let mut at_last_measurement = 0.0;
+    let mut max: f64 = 0.0;
+    for (k, site) in timeline.sites[first..].iter().enumerate() {
+        // The program's own update uses the real time, measurements included, at the speed set last.
+        p.set_rpm(rpm);
+        p.advance(site.time_min - last_time + pending);
+        last_time = site.time_min;
+        pending = 0.0;
+        let predicted = p.drift();
+        max = max.max(predicted.abs());
+        let tool_change_follows = matches!(site.kind, SiteKind::PassStart { tool_change: true });
+        // Declarations must stay first: a pass marked inside them is measured after them.
+        let block = if k == 0 {
+            site.block.max(timeline.preamble_end)
+        } else {
+            site.block
+        };
+        let restorable =
+            site.before.motion < 2 && (tool_change_follows || site.before.tool.is_some());
+        let (kind, can_measure) = match site.kind {
+            _ if k == 0 => (GateKind::Reference, true),
+            SiteKind::PassStart { .. } => (GateKind::PassStart, restorable),
+            SiteKind::Retract => (GateKind::Extra, restorable),
+            SiteKind::SpeedChange => (GateKind::Update, false),
+        };
+        let measure = kind == GateKind::Reference
+            || (can_measure && (predicted - at_last_measurement).abs() >= limit);
+        if kind == GateKind::Extra && !(measure && profile.passes.extra_gates) {
+            rpm = site.rpm_after;
+            continue;
+        }
+        if measure {
+            at_last_measurement = predicted;
+            pending = per_measurement;
+        }
+        rpm = site.rpm_after;
+        let time_min = site.time_min + shift;
+        shift += pending;
+        gates.push(Gate {
+            number: gates.len() + 1,
+            kind,
+            block,
+            pass: site.pass,
+            time_min,
+            rpm,
+            predicted_um: predicted,
+            measure,
+            can_measure,
+            tool_change_follows,
+            before: site.before.clone(),
+        });
+    }
+    p.set_rpm(rpm);
+    p.advance(timeline.total_min - last_time + pending);
+    max = max.max(p.drift().abs());
+    Ok(Plan {
+        working_limit_um: limit,
+        measurements: gates.iter().filter(|g| g.measure).count(),
+        gates,
+        max_predicted_um: max,
+        total_min: timeline.total_min + shift,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Schedule;
+
+    #[test]
+    fn predictor_steps_agree_with_the_model() {
+        // The update the NC program runs at its gates, over an uneven schedule, equals the model's own
+        // prediction: the exact update does not depend on where the steps fall.
+        let model = DriftModel::from_modes(
+            "drift_z_um",
+            vec![1000.0, 3000.0, 5000.0],
+            &[(12.0, vec![2.0, 7.0, 12.0]), (90.0, vec![5.0, 16.0, 28.0])],
+            0.0,
+        );
+        let schedule: Schedule = "4000:37,0:11,2500:52".parse().unwrap();
+        let ds = schedule.to_dataset(1.0);
+        let truth = model.predict(&ds).unwrap();
+        let mut p = Predictor::new(&model).unwrap();
+        let mut t = 0.0;
+        for seg in &schedule.segments {
+            p.set_rpm(seg.rpm);
+            // Two uneven steps per segment, like gates at arbitrary blocks.
+            p.advance(seg.minutes * 0.3);
+            p.advance(seg.minutes * 0.7);
+            t += seg.minutes;
+        }
+        let last = *truth.last().unwrap();
+        assert!((ds.time_min.last().unwrap() - t).abs() < 1e-9);
+        assert!((p.drift() - last).abs() < 1e-9, "{} vs {last}", p.drift());
+        assert!(last > 1.0);
+    }
+}

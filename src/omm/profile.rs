@@ -1,0 +1,329 @@
+//! The machine profile: how this machine probes, where it measures, which offset it corrects, the limits of
+//! the method and what the timeline assumes. TOML; every key is required except where a default is given,
+//! and unknown keys are refused so a misspelt setting cannot silently fall back to a default.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+/// The profile shipped inside the binary (fixtures/omm/blum-tc50.toml), used when `--profile` is absent.
+pub const DEFAULT_PROFILE: &str = include_str!("../../fixtures/omm/blum-tc50.toml");
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Profile {
+    pub name: String,
+    pub probe: Probe,
+    pub position: Position,
+    pub offset: Offset,
+    pub limits: Limits,
+    pub registers: Registers,
+    pub passes: Passes,
+    pub timeline: TimelineSettings,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Probe {
+    pub tool: String,
+    pub tool_offset: u32,
+    /// Call template; `{axis}` → 1/2/3, `{nominal}` → the base-surface nominal.
+    pub cycle: String,
+    /// Variable the cycle leaves the measured coordinate in (mm).
+    pub result: String,
+    pub measure_s: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Position {
+    pub x: f64,
+    pub y: f64,
+    pub z: f64,
+    pub clearance_z: f64,
+    pub axis: Axis,
+    pub nominal: f64,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Axis {
+    X,
+    Y,
+    Z,
+}
+
+impl Axis {
+    pub fn name(self) -> &'static str {
+        match self {
+            Axis::X => "X",
+            Axis::Y => "Y",
+            Axis::Z => "Z",
+        }
+    }
+
+    /// 1, 2, 3: the axis number measuring cycles take.
+    pub fn number(self) -> u32 {
+        self as u32 + 1
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Offset {
+    /// `G54` … `G57`, `G505` … `G599`.
+    pub select: String,
+    pub method: OffsetMethod,
+    /// Index of the settable frame `$P_UIFR[frame, …]` (G54 = 1); used by the `frame` method.
+    pub frame: u32,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum OffsetMethod {
+    /// `$P_UIFR[frame,axis,TR]` = value at the start + correction.
+    Frame,
+    /// `TRANS axis=correction` (replaces the programmable frame).
+    Trans,
+    /// `ATRANS axis=change of the correction` (adds to the programmable frame).
+    Atrans,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Limits {
+    pub tolerance_um: f64,
+    pub safety_factor: f64,
+    pub plausibility_um: f64,
+    pub agree_count: u32,
+    pub agree_band_um: f64,
+    pub max_attempts: u32,
+}
+
+impl Limits {
+    /// δ' = r·Δ (µm).
+    pub fn working_limit_um(&self) -> f64 {
+        self.safety_factor * self.tolerance_um
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Registers {
+    pub r_first: u32,
+    pub r_last: u32,
+    pub alarm_implausible: u32,
+    pub alarm_scrap: u32,
+    pub timer: String,
+    pub timer_unit: TimerUnit,
+    pub log_file: String,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TimerUnit {
+    Min,
+    S,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Passes {
+    pub tool_change: bool,
+    pub marker: String,
+    pub lines: Vec<usize>,
+    pub extra_gates: bool,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TimelineSettings {
+    pub rapid_mm_per_min: f64,
+    pub tool_change_s: f64,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ProfileError {
+    #[error("{file}: cannot read: {source}")]
+    Io {
+        file: String,
+        source: std::io::Error,
+    },
+    #[error("{file}: not a valid machine profile: {message}")]
+    Syntax { file: String, message: String },
+    #[error("{file}: {message}")]
+    Invalid { file: String, message: String },
+}
+
+impl Profile {
+    /// The shipped default profile.
+    pub fn default_profile() -> Profile {
+        Profile::from_toml(DEFAULT_PROFILE, "<default profile>")
+            .expect("the shipped profile is valid (a test checks it)")
+    }
+
+    pub fn from_toml(text: &str, file: &str) -> Result<Profile, ProfileError> {
+        let profile: Profile = toml::from_str(text).map_err(|e| ProfileError::Syntax {
+            file: file.to_string(),
+            message: e.to_string().trim_end().to_string(),
+        })?;
+        profile
+            .validate()
+            .map_err(|message| ProfileError::Invalid {
+                file: file.to_string(),
+                message,
+            })?;
+        Ok(profile)
+    }
+
+    pub fn read(path: &Path) -> Result<Profile, ProfileError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| ProfileError::Io {
+            file: file.clone(),
+            source,
+        })?;
+        Profile::from_toml(&text, &file)
+    }
+
+    /// The work-offset G number `select` names.
+    pub fn offset_g(&self) -> Option<u32> {
+        let s = self.offset.select.trim();
+        let n: u32 = s.strip_prefix(['G', 'g'])?.parse().ok()?;
+        matches!(n, 54..=57 | 505..=599).then_some(n)
+    }
+
+    /// The probe cycle call with its placeholders filled in.
+    pub fn cycle_call(&self) -> String {
+        self.probe
+            .cycle
+            .replace("{axis}", &self.position.axis.number().to_string())
+            .replace("{nominal}", &super::nc::number(self.position.nominal))
+    }
+
+    /// What serde cannot check.
+    pub fn validate(&self) -> Result<(), String> {
+        let l = &self.limits;
+        let positive = [
+            ("limits.tolerance_um", l.tolerance_um),
+            ("limits.plausibility_um", l.plausibility_um),
+            ("limits.agree_band_um", l.agree_band_um),
+            ("probe.measure_s", self.probe.measure_s),
+            ("timeline.rapid_mm_per_min", self.timeline.rapid_mm_per_min),
+        ];
+        for (name, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("{name} must be a positive number, not {v}"));
+            }
+        }
+        if !(self.timeline.tool_change_s.is_finite() && self.timeline.tool_change_s >= 0.0) {
+            return Err("timeline.tool_change_s must be zero or positive".into());
+        }
+        if !(l.safety_factor > 0.0 && l.safety_factor <= 1.0) {
+            return Err(format!(
+                "limits.safety_factor r must be in (0, 1], not {}",
+                l.safety_factor
+            ));
+        }
+        if l.agree_count < 3 {
+            return Err(format!(
+                "limits.agree_count must be at least 3 (N > 2 agreeing measurements), not {}",
+                l.agree_count
+            ));
+        }
+        if l.max_attempts < l.agree_count {
+            return Err(format!(
+                "limits.max_attempts ({}) must be at least limits.agree_count ({})",
+                l.max_attempts, l.agree_count
+            ));
+        }
+        let r = &self.registers;
+        if r.r_first > r.r_last {
+            return Err(format!(
+                "registers.r_first ({}) is above registers.r_last ({})",
+                r.r_first, r.r_last
+            ));
+        }
+        for (name, n) in [
+            ("registers.alarm_implausible", r.alarm_implausible),
+            ("registers.alarm_scrap", r.alarm_scrap),
+        ] {
+            if !(60000..=69999).contains(&n) {
+                return Err(format!(
+                    "{name} {n} is not a user (cycle) alarm number 60000…69999"
+                ));
+            }
+        }
+        if !r.timer.starts_with('$') {
+            return Err(format!(
+                "registers.timer `{}` must be a system variable such as $AN_SETUP_TIME",
+                r.timer
+            ));
+        }
+        if r.log_file.is_empty() || r.log_file.contains('"') {
+            return Err("registers.log_file must be a file name without quotes".into());
+        }
+        if self.offset_g().is_none() {
+            return Err(format!(
+                "offset.select `{}` is not a settable work offset (G54…G57, G505…G599)",
+                self.offset.select
+            ));
+        }
+        if self.probe.tool.is_empty() || self.probe.tool.contains('"') {
+            return Err("probe.tool must be a tool name without quotes".into());
+        }
+        if self.probe.result.trim().is_empty() {
+            return Err("probe.result must name the variable the cycle writes".into());
+        }
+        // The result is read in an assignment, so it is checked as one.
+        for text in [self.cycle_call(), format!("R1={}", self.probe.result)] {
+            if let Some(d) = crate::syntax::line_syntax_errors(text.as_bytes()).first() {
+                return Err(format!("`{text}` is not a valid NC block: {}", d.message));
+            }
+        }
+        for p in &self.passes.lines {
+            if *p == 0 {
+                return Err("passes.lines are 1-based line numbers; 0 is not a line".into());
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shipped_profiles_are_valid() {
+        let p = Profile::default_profile();
+        assert_eq!(p.probe.result, "R2");
+        assert_eq!(p.offset_g(), Some(54));
+        assert_eq!(
+            p.cycle_call(),
+            "BL9700(1,3,0,10,0.5,300,0,0,0,0,0,0,0,0,0,0)"
+        );
+        let text = include_str!("../../fixtures/omm/siemens-cycle978.toml");
+        let s = Profile::from_toml(text, "cycle978").unwrap();
+        assert!(s.cycle_call().starts_with("CYCLE978("));
+        assert_eq!(s.probe.result, "_OVR[4]");
+    }
+
+    #[test]
+    fn unknown_keys_and_bad_values_are_refused() {
+        let unknown = DEFAULT_PROFILE.replace("[limits]", "[limits]\ntolerance = 5");
+        let err = Profile::from_toml(&unknown, "p.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("unknown field `tolerance`"), "{err}");
+        let two = DEFAULT_PROFILE.replace("agree_count = 3", "agree_count = 2");
+        let err = Profile::from_toml(&two, "p.toml").unwrap_err().to_string();
+        assert!(err.contains("N > 2"), "{err}");
+        let g = DEFAULT_PROFILE.replace("select = \"G54\"", "select = \"G53\"");
+        let err = Profile::from_toml(&g, "p.toml").unwrap_err().to_string();
+        assert!(err.contains("not a settable work offset"), "{err}");
+        let cycle = DEFAULT_PROFILE.replace("BL9700(1,", "BL9700((1,");
+        let err = Profile::from_toml(&cycle, "p.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("not a valid NC block"), "{err}");
+    }
+}

@@ -1,0 +1,244 @@
+//! `driftloop transform` and `plan` through the built binary: output modes, refusals, exit codes.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+fn fixtures() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("fixtures/omm")
+}
+
+fn model() -> String {
+    fixtures().join("model.toml").display().to_string()
+}
+
+fn driftloop(args: &[&str], stdin: Option<&[u8]>) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_driftloop"))
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("binary runs");
+    let mut pipe = child.stdin.take().unwrap();
+    if let Some(bytes) = stdin {
+        // A command that exits before reading stdin is not a test failure here.
+        let _ = pipe.write_all(bytes);
+    }
+    drop(pipe);
+    child.wait_with_output().unwrap()
+}
+
+/// Copies fixture `from` to `dir/to`.
+fn copy_fixture(dir: &Path, from: &str, to: &str) -> PathBuf {
+    let to = dir.join(to);
+    std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+    std::fs::copy(fixtures().join(from), &to).unwrap();
+    to
+}
+
+fn code(o: &Output) -> i32 {
+    o.status.code().unwrap()
+}
+
+#[test]
+fn stdin_to_stdout() {
+    let input = std::fs::read(fixtures().join("handwritten.mpf")).unwrap();
+    let o = driftloop(&["transform", "-", "--model", &model()], Some(&input));
+    assert_eq!(code(&o), 0, "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(o.stdout.starts_with(b"; driftloop-omm"));
+    assert!(o.stdout.len() > input.len());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("-: 3 passes"), "{stderr}");
+}
+
+#[test]
+fn check_then_write_then_check_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = copy_fixture(dir.path(), "handwritten.mpf", "handwritten.mpf");
+    let out = dir.path().join("out.mpf");
+    let (src, out_s, model) = (
+        src.display().to_string(),
+        out.display().to_string(),
+        model(),
+    );
+    let args = |extra: &[&'static str]| {
+        let mut v = vec!["transform", &src, "--model", &model, "-o", &out_s];
+        v.extend_from_slice(extra);
+        v.into_iter().map(String::from).collect::<Vec<_>>()
+    };
+    let run = |a: Vec<String>| driftloop(&a.iter().map(String::as_str).collect::<Vec<_>>(), None);
+    let o = run(args(&["--check"]));
+    assert_eq!(code(&o), 1, "missing output differs");
+    assert!(!out.exists(), "--check writes nothing");
+    assert_eq!(code(&run(args(&[]))), 0);
+    let written = std::fs::read(&out).unwrap();
+    let o = run(args(&["--check"]));
+    assert_eq!(code(&o), 0, "{}", String::from_utf8_lossy(&o.stderr));
+    std::fs::write(&out, b"stale\n").unwrap();
+    assert_eq!(code(&run(args(&["--check"]))), 1);
+    std::fs::write(&out, &written).unwrap();
+    let o = run(args(&["--check", "--format", "json"]));
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(json[0]["changed"], false);
+    assert_eq!(json[0]["summary"]["passes"], 3);
+    assert!(json[0]["summary"]["measurements_planned"].as_u64().unwrap() >= 2);
+    assert!(json[0]["summary"]["r_parameters"].as_array().unwrap().len() >= 20);
+    assert_eq!(json[0]["summary"]["labels"][0], "DLSKIP3");
+}
+
+#[test]
+fn diff_shows_insertions_only() {
+    let path = fixtures().join("handwritten.mpf").display().to_string();
+    let o = driftloop(&["transform", &path, "--model", &model(), "--diff"], None);
+    assert_eq!(code(&o), 0);
+    let diff = String::from_utf8(o.stdout).unwrap();
+    assert!(diff.contains("+; driftloop-omm"), "{diff}");
+    assert!(diff.contains("+IF ABS(R907-R908)<0.01 GOTOF DLSKIP3 ;DL"));
+    for line in diff.lines() {
+        assert!(
+            !line.starts_with('-') || line.starts_with("---"),
+            "removal: {line}"
+        );
+    }
+}
+
+#[test]
+fn in_place_is_atomic_and_not_repeated() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = copy_fixture(dir.path(), "crlf.mpf", "crlf.mpf");
+    let p = src.display().to_string();
+    let o = driftloop(&["transform", &p, "--model", &model(), "--in-place"], None);
+    assert_eq!(code(&o), 0, "{}", String::from_utf8_lossy(&o.stderr));
+    let once = std::fs::read(&src).unwrap();
+    assert!(once.windows(13).any(|w| w == b"driftloop-omm"));
+    let leftovers: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+    assert_eq!(leftovers.len(), 1, "no temporary file left");
+    let o = driftloop(&["transform", &p, "--model", &model(), "--in-place"], None);
+    assert_eq!(code(&o), 2);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("already carries driftloop's blocks"));
+    assert_eq!(std::fs::read(&src).unwrap(), once, "refused file untouched");
+}
+
+#[test]
+fn directories_mirror_into_the_output_directory() {
+    let dir = tempfile::tempdir().unwrap();
+    let tree = dir.path().join("in");
+    copy_fixture(&tree, "handwritten.mpf", "a/handwritten.mpf");
+    copy_fixture(&tree, "latin1.mpf", "b/c/latin1.MPF");
+    std::fs::write(tree.join("notes.txt"), b"not a program").unwrap();
+    let out = dir.path().join("out");
+    let o = driftloop(
+        &[
+            "transform",
+            &tree.display().to_string(),
+            "--model",
+            &model(),
+            "-o",
+            &out.display().to_string(),
+        ],
+        None,
+    );
+    assert_eq!(code(&o), 0, "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.join("a/handwritten.mpf").exists());
+    assert!(out.join("b/c/latin1.MPF").exists());
+    assert!(!out.join("notes.txt").exists());
+}
+
+#[test]
+fn a_refused_program_stops_the_whole_batch() {
+    let dir = tempfile::tempdir().unwrap();
+    let tree = dir.path().join("in");
+    copy_fixture(&tree, "handwritten.mpf", "handwritten.mpf");
+    std::fs::write(tree.join("broken.mpf"), b"T1 M6\nIF R1>\nM30\n").unwrap();
+    let out = dir.path().join("out");
+    let o = driftloop(
+        &[
+            "transform",
+            &tree.display().to_string(),
+            "--model",
+            &model(),
+            "-o",
+            &out.display().to_string(),
+        ],
+        None,
+    );
+    assert_eq!(code(&o), 2);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("broken.mpf: the program has 1 syntax error"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("nothing written"), "{stderr}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn several_inputs_need_a_destination() {
+    let p = fixtures().join("handwritten.mpf").display().to_string();
+    let o = driftloop(&["transform", &p, &p, "--model", &model()], None);
+    assert_eq!(code(&o), 2);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("several programs need -o DIRECTORY"));
+}
+
+#[test]
+fn plan_prints_the_table() {
+    let p = fixtures().join("handwritten.mpf").display().to_string();
+    let o = driftloop(&["plan", &p, "--model", &model()], None);
+    assert_eq!(code(&o), 0);
+    let table = String::from_utf8(o.stdout).unwrap();
+    assert!(table.starts_with("gate  pass    line  kind"), "{table}");
+    assert!(table.contains("extra"));
+    let o = driftloop(&["plan", &p, "--model", &model(), "--format", "json"], None);
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(json["gates"][0]["kind"], "reference");
+    let bad = fixtures().join("blum-tc50.toml").display().to_string();
+    let o = driftloop(&["plan", &p, "--model", &bad], None);
+    assert_eq!(code(&o), 2, "a profile is not a model");
+}
+
+#[test]
+fn output_through_a_symlink_or_device_is_not_replaced() {
+    let dir = tempfile::tempdir().unwrap();
+    let target = dir.path().join("real.mpf");
+    std::fs::write(&target, b"old\n").unwrap();
+    let link = dir.path().join("link.mpf");
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    let p = fixtures().join("handwritten.mpf").display().to_string();
+    let o = driftloop(
+        &[
+            "transform",
+            &p,
+            "--model",
+            &model(),
+            "-o",
+            &link.display().to_string(),
+        ],
+        None,
+    );
+    assert_eq!(code(&o), 0, "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
+    assert!(
+        std::fs::read(&target)
+            .unwrap()
+            .starts_with(b"; driftloop-omm")
+    );
+    // A device is written into, not renamed over.
+    let o = driftloop(
+        &["transform", &p, "--model", &model(), "-o", "/dev/null"],
+        None,
+    );
+    assert_eq!(code(&o), 0);
+    use std::os::unix::fs::FileTypeExt;
+    assert!(
+        std::fs::metadata("/dev/null")
+            .unwrap()
+            .file_type()
+            .is_char_device()
+    );
+}

@@ -1,0 +1,88 @@
+//! Property: for any program put together from CAM-like and hand-written lines, in LF or CRLF, `transform`
+//! either refuses it with a reason or produces a program that parses without errors and gives the input
+//! back byte for byte once the inserted blocks are removed.
+
+use driftloop::model::DriftModel;
+use driftloop::omm::emit::MARK;
+use driftloop::omm::{ModelRef, Profile, transform};
+use proptest::prelude::*;
+
+const LINES: &[&str] = &[
+    "T=\"MILL\" M6",
+    "T2 M6 ; PASS roughing",
+    "S3000 M3",
+    "S5000 M4",
+    "M5",
+    "G0 Z50",
+    "G0 X10 Y10",
+    "G1 X200 Y40 F150",
+    "G1 Z-3 F100",
+    "G2 X0 Y50 I-10 J25",
+    "G3 X40 Y40 CR=-20",
+    "G4 F5",
+    "G91 G1 X10",
+    "G90",
+    "R1=R1+1",
+    "R905=2 ; inside the default free range",
+    "LBL1:",
+    "IF R1>3 GOTOF LBL1",
+    "WHILE R2<2",
+    "R2=R2+1",
+    "ENDWHILE",
+    "; plain comment",
+    "",
+    "N10 G1 X=R1 Y=IC(5)",
+    "MSG(\"Schlichten\")",
+];
+
+fn model() -> DriftModel {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/fixtures/omm/model.toml");
+    DriftModel::read(path.as_ref()).unwrap()
+}
+
+fn program(picks: &[usize], crlf: bool) -> Vec<u8> {
+    let eol = if crlf { "\r\n" } else { "\n" };
+    let mut text = format!("T1 M6{eol}S2000 M3{eol}");
+    for &p in picks {
+        text.push_str(LINES[p]);
+        text.push_str(eol);
+    }
+    text.push_str("M30");
+    text.push_str(eol);
+    text.into_bytes()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(128))]
+
+    #[test]
+    fn transform_inserts_only(picks in prop::collection::vec(0..LINES.len(), 0..60), crlf: bool) {
+        let input = program(&picks, crlf);
+        let parsed = driftloop::parse(&input);
+        let model = model();
+        let profile = Profile::default_profile();
+        let reference = ModelRef { model: &model, sha256: "prop" };
+        match transform(&parsed, reference, &profile, false) {
+            Err(e) => {
+                // Only the refusals a valid input can meet: unbalanced loops from the random picks.
+                prop_assert!(e.to_string().contains("syntax error"), "{e}");
+                prop_assert!(parsed.has_errors());
+            }
+            Ok(t) => {
+                let again = driftloop::parse(&t.bytes);
+                prop_assert!(!again.has_errors(), "{:?}", again.diagnostics().first());
+                let mut kept = Vec::new();
+                for line in t.bytes.split_inclusive(|&b| b == b'\n') {
+                    let content = line.strip_suffix(b"\n").unwrap_or(line);
+                    let content = content.strip_suffix(b"\r").unwrap_or(content);
+                    if !content.ends_with(MARK.as_bytes()) {
+                        kept.extend_from_slice(line);
+                    }
+                }
+                prop_assert_eq!(kept, input);
+                let own = driftloop::views::used_r_parameters(&parsed);
+                prop_assert!(t.summary.r_parameters.iter().all(|r| !own.contains(r)));
+            }
+        }
+    }
+}
