@@ -3,6 +3,7 @@
 
 pub mod cli;
 pub mod data;
+pub mod diagnose;
 pub mod diagnostic;
 pub mod edit;
 pub mod model;

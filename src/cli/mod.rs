@@ -9,6 +9,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 mod bench;
 mod check;
 mod demo;
+mod diagnose;
 mod fit;
 mod parse;
 mod positioning;
@@ -17,6 +18,7 @@ mod render;
 mod run;
 mod plan;
 mod transform;
+mod simulate;
 
 /// Options every subcommand understands.
 #[derive(Debug, Clone, clap::Args)]
@@ -80,6 +82,10 @@ enum Command {
     Transform(transform::Args),
     /// Print the timeline, predicted drift and planned measurements of a program.
     Plan(plan::Args),
+    /// Trace a model's residual on new data to the effects it lacks, add them, report before and after.
+    Diagnose(diagnose::Args),
+    /// Write simulated characterisation runs and a production log with a chosen undeclared effect.
+    SimulateData(simulate::Args),
 }
 
 /// Entry point of the binary.
@@ -96,6 +102,8 @@ pub fn main() -> ExitCode {
         Command::Run(args) => run::run(args, &cli.global),
         Command::Transform(args) => transform::run(args, &cli.global),
         Command::Plan(args) => plan::run(args, &cli.global),
+        Command::Diagnose(args) => diagnose::run(args, &cli.global),
+        Command::SimulateData(args) => simulate::run(args, &cli.global),
     };
     match result {
         Ok(code) => code,

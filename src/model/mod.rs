@@ -30,6 +30,7 @@
 //! # }
 //! ```
 
+pub mod effects;
 pub mod file;
 pub mod fit;
 pub mod lag;
@@ -37,7 +38,7 @@ mod predict;
 pub mod schedule;
 pub mod speed_grid;
 pub mod synth;
-mod varpro;
+pub(crate) mod varpro;
 
 use serde::{Deserialize, Serialize};
 
@@ -63,8 +64,8 @@ pub struct DriftModel {
     /// Declared inputs other than spindle speed, each a lagged linear term.
     #[serde(default)]
     pub inputs: Vec<InputLag>,
-    /// Effects added by `diagnose` (none are produced by `fit`); a model carrying an effect kind this
-    /// version does not know is refused by `predict` rather than predicted without it.
+    /// Effects added by `diagnose` ([`effects`]; none are produced by `fit`); a model carrying an effect
+    /// kind this version does not know is refused by `predict` rather than predicted without it.
     #[serde(default)]
     pub effects: Vec<EffectSpec>,
     /// Present in fitted models; absent in hand-made (e.g. synthetic truth) models.

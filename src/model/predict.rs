@@ -4,6 +4,8 @@
 use crate::data::{Dataset, SPINDLE};
 
 use super::DriftModel;
+use super::effects::cooling_asymmetry::Phase;
+use super::effects::{Effect, EffectError, Kind, Series};
 use super::lag::{Decay, step};
 use super::speed_grid::{SpeedGrid, Weights};
 
@@ -16,10 +18,8 @@ pub enum PredictError {
         column: String,
         channel: String,
     },
-    #[error(
-        "the model carries a `{kind}` effect, which this version of driftloop cannot predict; refusing rather than predicting without it"
-    )]
-    UnknownEffect { kind: String },
+    #[error(transparent)]
+    Effect(#[from] EffectError),
     #[error("the model's speed grid {0:?} is not ascending positive speeds")]
     BadGrid(Vec<f64>),
     #[error("mode {mode}: {found} gains for {expected} grid speeds")]
@@ -48,12 +48,12 @@ impl DriftModel {
                 expected: ds.len(),
             });
         }
-        if let Some(effect) = self.effects.first() {
-            return Err(PredictError::UnknownEffect {
-                kind: effect.kind.clone(),
-            });
-        }
-        let mut sim = Simulator::new(self)?;
+        let effects = self
+            .effects
+            .iter()
+            .map(Effect::from_spec)
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut sim = Simulator::new(self, &effects)?;
         let column = |name: &str| {
             ds.values(name).ok_or_else(|| PredictError::MissingInput {
                 source_name: ds.source.clone(),
@@ -81,6 +81,19 @@ impl DriftModel {
                 &mut out[r],
             );
         }
+        let runs: Vec<_> = ds.runs().collect();
+        for e in effects.iter().filter(|e| !e.amplitudes.is_empty()) {
+            let signal = e.signal.as_deref().map(column).transpose()?;
+            let series = Series {
+                t: &ds.time_min,
+                runs: &runs,
+                rpm: ds.values(SPINDLE),
+                signal,
+            };
+            for (o, c) in out.iter_mut().zip(e.contribution(&series)) {
+                *o += c;
+            }
+        }
         Ok(())
     }
 }
@@ -90,13 +103,15 @@ struct Simulator<'m> {
     offset: f64,
     grid: SpeedGrid,
     modes: Vec<(Decay, &'m [f64])>,
+    /// Decays of the modes while cooling, when cooling is slower or faster than heating.
+    cooling: Option<Vec<Decay>>,
     mode_x: Vec<f64>,
     inputs: Vec<(Decay, f64)>,
     input_x: Vec<f64>,
 }
 
 impl<'m> Simulator<'m> {
-    fn new(model: &'m DriftModel) -> Result<Simulator<'m>, PredictError> {
+    fn new(model: &'m DriftModel, effects: &[Effect]) -> Result<Simulator<'m>, PredictError> {
         let nodes = &model.spindle.grid_rpm;
         let grid = if model.spindle.modes.is_empty() && nodes.is_empty() {
             SpeedGrid::from_speeds(&[])
@@ -121,6 +136,17 @@ impl<'m> Simulator<'m> {
                 .iter()
                 .map(|m| (Decay::new(m.tau_min), m.gain_um.as_slice()))
                 .collect(),
+            cooling: effects
+                .iter()
+                .find(|e| e.kind == Kind::CoolingAsymmetry)
+                .map(|e| {
+                    model
+                        .spindle
+                        .modes
+                        .iter()
+                        .map(|m| Decay::new(m.tau_min * e.theta[0]))
+                        .collect()
+                }),
             mode_x: vec![0.0; model.spindle.modes.len()],
             inputs: model
                 .inputs
@@ -142,6 +168,7 @@ impl<'m> Simulator<'m> {
         let speed = |i: usize| rpm.map_or(0.0, |r| r[i]);
         let mut last_rpm = speed(0);
         let mut w: Weights = self.grid.weights(last_rpm);
+        let mut phase = Phase::new(last_rpm);
         for i in 1..t.len() {
             let dt = t[i] - t[i - 1];
             let s = speed(i - 1);
@@ -149,9 +176,19 @@ impl<'m> Simulator<'m> {
                 last_rpm = s;
                 w = self.grid.weights(s);
             }
+            let cooling = phase.cooling(s);
             let mut sum = self.offset;
-            for ((decay, gains), x) in self.modes.iter_mut().zip(self.mode_x.iter_mut()) {
-                *x = step(*x, w.apply(gains), decay.at(dt));
+            for (k, ((decay, gains), x)) in self
+                .modes
+                .iter_mut()
+                .zip(self.mode_x.iter_mut())
+                .enumerate()
+            {
+                let e = match &mut self.cooling {
+                    Some(c) if cooling => c[k].at(dt),
+                    _ => decay.at(dt),
+                };
+                *x = step(*x, w.apply(gains), e);
                 sum += *x;
             }
             for (((decay, gain), x), u) in self

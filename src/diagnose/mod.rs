@@ -1,0 +1,369 @@
+//! Closing the loop (design.md §1, issue 4): given a drift model and newly measured data, score the model,
+//! recalibrate its own parameters, trace the residual to effects the model lacks, add them, refit
+//! everything jointly and score again.
+//!
+//! 0. "before": the model as given, on every row.
+//! 1. Recalibration on the fit window (rows before `holdout_from_min`): mode scales and time constants,
+//!    declared inputs, offset ([`joint`]).
+//! 2. While the fit-window residual is not white (Ljung–Box, 10 lags): screen every candidate of the
+//!    library ([`candidates`]) on the residual, then, best score first, refit the model with the candidate
+//!    jointly and accept it only if (a) the BIC on the effective sample size falls and (b) time-blocked
+//!    cross-validation on the fit window improves. Dense logs are autocorrelated; the effective sample
+//!    size tempers the BIC and the blocked CV is what keeps an effect that fits noise out.
+//! 3. "after": the refined model on every row. Holdout rows are never used for fitting or selecting.
+//!
+//! ```no_run
+//! use driftloop::data::{Require, read_path};
+//! use driftloop::diagnose::{Options, diagnose};
+//! use driftloop::model::DriftModel;
+//! # fn main() -> anyhow::Result<()> {
+//! let model = DriftModel::read("model.toml".as_ref())?;
+//! let data = read_path("log.csv".as_ref(), Require::Displacement)?;
+//! let d = diagnose(&model, &data, &Options::new("ch3_um").holdout_from(960.0))?;
+//! println!("{}", d.human());
+//! std::fs::write("refined.toml", d.refined.to_toml())?;
+//! # Ok(())
+//! # }
+//! ```
+
+pub mod candidates;
+pub mod joint;
+pub mod report;
+pub mod scenario;
+pub mod stats;
+mod text;
+
+use serde::Serialize;
+
+use crate::data::{ColumnKind, Dataset};
+use crate::model::DriftModel;
+use crate::model::effects::{Effect, Kind};
+use candidates::{Projector, blocked_cv_rms, screen};
+use joint::{Ctx, Fitted, Joint};
+use stats::{ErrorStats, effective_n, ljung_box_white};
+
+/// Lags of the Ljung–Box whiteness test.
+const WHITENESS_LAGS: usize = 10;
+/// Least share of the fit-window residual variance an effect must explain to be worth adding. The declared
+/// model never fits a new log exactly (its gain shape is an estimate), and on a dense log a wandering
+/// temperature can "significantly" soak up a few hundredths of a micrometre of that misfit; an effect
+/// that removes less than a tenth of what is left is not a finding a process engineer could act on.
+const MIN_SHARE: f64 = 0.1;
+/// Cross-validation blocks.
+const CV_BLOCKS: usize = 5;
+/// Best-screened candidates given a full joint refit per round. Screening holds the rest of the model
+/// fixed, so a candidate that overlaps a declared term (a slow mode next to a recalibrated one) screens
+/// low but refits well; the joint BIC decides among these.
+const REFITS_PER_ROUND: usize = 5;
+
+/// What to diagnose.
+#[derive(Debug, Clone)]
+pub struct Options {
+    pub channel: String,
+    /// Rows from this time (minutes of the data's time axis) on are only scored.
+    pub holdout_from_min: Option<f64>,
+    /// At most this many effects are added.
+    pub max_effects: usize,
+}
+
+impl Options {
+    pub fn new(channel: &str) -> Options {
+        Options {
+            channel: channel.to_ascii_lowercase(),
+            holdout_from_min: None,
+            max_effects: 3,
+        }
+    }
+
+    pub fn holdout_from(mut self, minutes: f64) -> Options {
+        self.holdout_from_min = Some(minutes);
+        self
+    }
+}
+
+/// Why diagnosis could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum DiagnoseError {
+    #[error("{source_name}: no displacement channel `{channel}` (found: {available})")]
+    NoChannel {
+        source_name: String,
+        channel: String,
+        available: String,
+    },
+    #[error("the model is of channel `{model}`, not `{asked}`")]
+    WrongChannel { model: String, asked: String },
+    #[error("{0}")]
+    Predict(#[from] crate::model::PredictError),
+    #[error("only {0} rows before the holdout; too few to fit the model")]
+    TooFewRows(usize),
+    #[error("the recalibration failed numerically (singular least-squares problem)")]
+    Numerical,
+}
+
+/// Error statistics on the fit and holdout windows.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Windows {
+    pub fit: ErrorStats,
+    pub holdout: Option<ErrorStats>,
+}
+
+/// One effect diagnosis added.
+#[derive(Debug, Clone)]
+pub struct Added {
+    pub effect: Effect,
+    /// RMS of the fit-window residual the effect explains: √(RMS² before − RMS² after adding it).
+    pub explained_rms_um: f64,
+    /// Fit-window residual RMS just before the effect was added.
+    pub residual_rms_um: f64,
+    pub delta_bic: f64,
+    pub cv_rms_before_um: f64,
+    pub cv_rms_after_um: f64,
+}
+
+/// The outcome of a diagnosis.
+#[derive(Debug, Clone)]
+pub struct Diagnosis {
+    pub channel: String,
+    pub source: String,
+    pub holdout_from_min: Option<f64>,
+    pub rows_fit: usize,
+    pub rows_holdout: usize,
+    /// The measured drift against the first reading (what an uncompensated machine shows).
+    pub uncompensated: Windows,
+    pub before: Windows,
+    /// After recalibrating the declared parameters only.
+    pub recalibrated: Windows,
+    pub after: Windows,
+    pub effects_added: Vec<Added>,
+    /// Candidates that were refitted but rejected, with why (for the human report).
+    pub rejected: Vec<String>,
+    pub residual_white: bool,
+    pub refined: DriftModel,
+    /// Per row: time (min), measured, model before, refined model after.
+    pub time_min: Vec<f64>,
+    pub measured: Vec<f64>,
+    pub predicted_before: Vec<f64>,
+    pub predicted_after: Vec<f64>,
+    /// Each added effect's own contribution per row (µm), in the order added.
+    pub contributions: Vec<Vec<f64>>,
+}
+
+/// Runs the diagnosis of `model` on `ds`.
+pub fn diagnose(
+    model: &DriftModel,
+    ds: &Dataset,
+    opts: &Options,
+) -> Result<Diagnosis, DiagnoseError> {
+    let channel = opts.channel.to_ascii_lowercase();
+    if model.channel != channel {
+        return Err(DiagnoseError::WrongChannel {
+            model: model.channel.clone(),
+            asked: channel,
+        });
+    }
+    let ctx = ds
+        .column(&channel)
+        .filter(|c| c.kind == ColumnKind::Displacement)
+        .and_then(|_| Ctx::new(ds, &channel, opts.holdout_from_min))
+        .ok_or_else(|| DiagnoseError::NoChannel {
+            source_name: ds.source.clone(),
+            channel: channel.clone(),
+            available: ds
+                .channels()
+                .map(|c| c.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+        })?;
+    let start = Joint {
+        base: model.clone(),
+        effects: model
+            .effects
+            .iter()
+            .map(Effect::from_spec)
+            .collect::<Result<_, _>>()
+            .map_err(crate::model::PredictError::from)?,
+    };
+    if ctx.n_fit < start.n_linear() + start.n_nonlinear() + 3 {
+        return Err(DiagnoseError::TooFewRows(ctx.n_fit));
+    }
+    let before_pred = model.predict(ds)?;
+    let recal = start.refit(&ctx).ok_or(DiagnoseError::Numerical)?;
+    let recalibrated = windows(&ctx, &recal.prediction);
+    let mut current = recal;
+    let mut added = Vec::new();
+    let mut rejected = Vec::new();
+    let mut white = white_residual(&ctx, &current);
+    while !white && added.len() < opts.max_effects {
+        match next_effect(&ctx, &current, &mut rejected) {
+            Some((fitted, a)) => {
+                current = fitted;
+                added.push(a);
+                white = white_residual(&ctx, &current);
+            }
+            None => break,
+        }
+    }
+    let after_pred = current.model.predict(ds)?;
+    let series = |s: Option<&str>| ctx.series(s);
+    let contributions = current
+        .joint
+        .effects
+        .iter()
+        .skip(start.effects.len())
+        .map(|e| match e.kind {
+            Kind::CoolingAsymmetry => {
+                let mut plain = current.model.clone();
+                plain.effects.retain(|s| s.kind != e.kind.name());
+                let without = plain.predict(ds).unwrap_or_else(|_| after_pred.clone());
+                after_pred
+                    .iter()
+                    .zip(&without)
+                    .map(|(a, b)| a - b)
+                    .collect()
+            }
+            _ => e.contribution(&series(e.signal.as_deref())),
+        })
+        .collect();
+    let first = ctx.y.first().copied().unwrap_or(0.0);
+    let uncomp: Vec<f64> = ctx.y.iter().map(|v| v - first).collect();
+    let zero = vec![0.0; ctx.n()];
+    Ok(Diagnosis {
+        channel,
+        source: ds.source.clone(),
+        holdout_from_min: opts.holdout_from_min,
+        rows_fit: ctx.n_fit,
+        rows_holdout: ctx.n() - ctx.n_fit,
+        uncompensated: windows_of(&ctx, &uncomp, &zero),
+        before: windows(&ctx, &before_pred),
+        recalibrated,
+        after: windows(&ctx, &after_pred),
+        effects_added: added,
+        rejected,
+        residual_white: white,
+        refined: current.model,
+        time_min: ds.time_min.clone(),
+        measured: ctx.y.clone(),
+        predicted_before: before_pred,
+        predicted_after: after_pred,
+        contributions,
+    })
+}
+
+/// Screens every candidate, refits the best few jointly and returns, of those passing both tests, the one
+/// that predicts best forward in time (rolling-origin CV). Choosing by the forward CV rather than by the
+/// BIC matters when a cause-less effect and a measured one fit the window alike: a warming hall looks like
+/// a trend there, but the trend extrapolates blindly while the temperature keeps measuring the cause.
+fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Option<(Fitted, Added)> {
+    let resid = ctx.fit_rows(&residual(ctx, &current.prediction));
+    let proj = Projector::new(ctx, current);
+    let mut screened: Vec<_> = candidates::candidates(ctx, current)
+        .iter()
+        .filter_map(|c| screen(ctx, current, &proj, &resid, c))
+        .filter(|s| s.delta_bic < 0.0)
+        .collect();
+    screened.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
+    let cv_without = blocked_cv_rms(ctx, current, CV_BLOCKS)?;
+    let rss0 = current.rss;
+    let mut best: Option<(Fitted, Added)> = None;
+    for s in screened.into_iter().take(REFITS_PER_ROUND) {
+        let mut joint = current.joint.clone();
+        joint.effects.push(s.effect.clone());
+        let Some(fitted) = joint.refit(ctx) else {
+            continue;
+        };
+        let r1 = ctx.fit_rows(&residual(ctx, &fitted.prediction));
+        let n_eff = effective_n(&r1);
+        let dof = (s.effect.amplitudes.len() + s.effect.theta.len()) as f64;
+        let delta_bic = n_eff * (fitted.rss.max(f64::MIN_POSITIVE) / rss0).ln() + dof * n_eff.ln();
+        let cv_with = blocked_cv_rms(ctx, &fitted, CV_BLOCKS).unwrap_or(f64::INFINITY);
+        let name = text::effect_name(&s.effect);
+        let added = fitted.joint.effects.last();
+        if let Some(tau) = added.and_then(|e| at_upper_tau_bound(ctx, e)) {
+            rejected.push(format!(
+                "{name}: its time constant ran to the bound of the search ({}): a lag as long as the window is a trend in disguise, not identified by these data",
+                text::duration(tau)
+            ));
+            continue;
+        }
+        let share = 1.0 - fitted.rss / rss0;
+        if share < MIN_SHARE {
+            rejected.push(format!(
+                "{name}: explains only {:.0} % of the residual variance (less than {:.0} %)",
+                100.0 * share,
+                100.0 * MIN_SHARE
+            ));
+            continue;
+        }
+        if delta_bic >= 0.0 {
+            rejected.push(format!(
+                "{name}: the BIC on the effective sample size does not fall ({delta_bic:+.1})"
+            ));
+            continue;
+        }
+        if cv_with >= cv_without {
+            rejected.push(format!(
+                "{name}: blocked cross-validation does not improve ({cv_without:.3} → {cv_with:.3} µm)"
+            ));
+            continue;
+        }
+        let n = ctx.n_fit as f64;
+        let rms0 = (rss0 / n).sqrt();
+        let rms1 = (fitted.rss / n).sqrt();
+        let effect = fitted.joint.effects.last().cloned().unwrap_or(s.effect);
+        let a = Added {
+            effect,
+            explained_rms_um: (rms0 * rms0 - rms1 * rms1).max(0.0).sqrt(),
+            residual_rms_um: rms0,
+            delta_bic,
+            cv_rms_before_um: cv_without,
+            cv_rms_after_um: cv_with,
+        };
+        if best
+            .as_ref()
+            .is_none_or(|(_, b)| a.cv_rms_after_um < b.cv_rms_after_um)
+        {
+            best = Some((fitted, a));
+        }
+    }
+    best
+}
+
+/// The effect's time constant when the refit left it at the upper bound of its search.
+fn at_upper_tau_bound(ctx: &Ctx, e: &Effect) -> Option<f64> {
+    let lagged = matches!(
+        e.kind,
+        Kind::InputLag | Kind::ExtraMode | Kind::PositionSlope
+    );
+    let (_, hi) = ctx.effect_tau_bounds(e.kind);
+    (lagged && e.theta[0] >= 0.99 * hi).then(|| e.theta[0])
+}
+
+fn residual(ctx: &Ctx, prediction: &[f64]) -> Vec<f64> {
+    ctx.y.iter().zip(prediction).map(|(y, p)| y - p).collect()
+}
+
+fn white_residual(ctx: &Ctx, f: &Fitted) -> bool {
+    ljung_box_white(&ctx.fit_rows(&residual(ctx, &f.prediction)), WHITENESS_LAGS)
+}
+
+fn windows(ctx: &Ctx, prediction: &[f64]) -> Windows {
+    windows_of(ctx, &ctx.y, prediction)
+}
+
+fn windows_of(ctx: &Ctx, y: &[f64], prediction: &[f64]) -> Windows {
+    let e: Vec<f64> = y.iter().zip(prediction).map(|(a, b)| a - b).collect();
+    let hold: Vec<f64> = e
+        .iter()
+        .zip(&ctx.fit)
+        .filter(|(_, f)| !**f)
+        .map(|(v, _)| *v)
+        .collect();
+    Windows {
+        fit: ErrorStats::of(&ctx.fit_rows(&e)).unwrap_or(ErrorStats {
+            rms_um: 0.0,
+            max_um: 0.0,
+            p95_um: 0.0,
+        }),
+        holdout: ErrorStats::of(&hold),
+    }
+}

@@ -1,0 +1,181 @@
+//! `driftloop simulate-data` → `fit` → `diagnose` through the binary: the JSON object's shape, the exit
+//! codes, the refined model that `predict` reproduces the "after" prediction with, the HTML report.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use driftloop::data::{Require, read_path};
+use driftloop::diagnose::{Options, diagnose};
+use driftloop::model::DriftModel;
+
+fn driftloop(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_driftloop"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+/// Simulated data with `effect` in `dir`, and the declared model fitted on the characterisation.
+fn prepare(dir: &Path, effect: &str, seed: &str) {
+    let d = dir.to_str().unwrap();
+    let out = driftloop(&["simulate-data", d, "--effect", effect, "--seed", seed]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    for f in [
+        "characterisation.csv",
+        "production.csv",
+        "truth.toml",
+        "scenario.json",
+    ] {
+        assert!(dir.join(f).exists(), "{f}");
+    }
+    let model = dir.join("model.toml");
+    let out = driftloop(&[
+        "fit",
+        dir.join("characterisation.csv").to_str().unwrap(),
+        "--channel",
+        "z_um",
+        "-o",
+        model.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+}
+
+#[test]
+fn json_refined_model_and_report() {
+    let dir = tempfile::tempdir().unwrap();
+    prepare(dir.path(), "step", "3");
+    let p = |f: &str| dir.path().join(f).to_str().unwrap().to_string();
+    let out = driftloop(&[
+        "diagnose",
+        &p("model.toml"),
+        &p("production.csv"),
+        "--channel",
+        "z_um",
+        "--holdout-from",
+        "1080",
+        "--format",
+        "json",
+        "-o",
+        &p("refined.toml"),
+        "--report",
+        &p("report.html"),
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "effects found → exit 1; {}",
+        text(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let keys: Vec<&str> = v.as_object().unwrap().keys().map(String::as_str).collect();
+    assert_eq!(
+        keys,
+        [
+            "after",
+            "before",
+            "channel",
+            "effects_added",
+            "residual_white",
+            "uncompensated"
+        ]
+    );
+    assert_eq!(v["channel"], "z_um");
+    for w in ["uncompensated", "before", "after"] {
+        for k in ["rms_um", "max_um", "p95_um"] {
+            assert!(
+                v[w]["fit"][k].is_f64() && v[w]["holdout"][k].is_f64(),
+                "{w} {k}"
+            );
+        }
+    }
+    let e = &v["effects_added"][0];
+    assert_eq!(e["kind"], "step");
+    assert!(e["signal"].is_null());
+    assert!(e["params"]["at_min"].is_f64() && e["explained_rms_um"].as_f64().unwrap() > 0.0);
+
+    // The refined model predicts, through the library and through `predict`, the "after" numbers.
+    let refined = DriftModel::read(Path::new(&p("refined.toml"))).unwrap();
+    assert_eq!(refined.effects[0].kind, "step");
+    let ds = read_path(Path::new(&p("production.csv")), Require::Displacement).unwrap();
+    let again = diagnose(&refined, &ds, &Options::new("z_um").holdout_from(1080.0)).unwrap();
+    let after_rms = v["after"]["holdout"]["rms_um"].as_f64().unwrap();
+    assert!((again.before.holdout.unwrap().rms_um - after_rms).abs() < 1e-3);
+    let out = driftloop(&[
+        "predict",
+        &p("refined.toml"),
+        "--data",
+        &p("production.csv"),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    let csv = text(&out.stdout);
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = header.iter().position(|h| *h == "residual_um").unwrap();
+    let hold: Vec<f64> = csv
+        .lines()
+        .skip(1)
+        .filter(|l| l.split(',').next().unwrap().parse::<f64>().unwrap() >= 1080.0)
+        .map(|l| l.split(',').nth(col).unwrap().parse().unwrap())
+        .collect();
+    let rms = (hold.iter().map(|r| r * r).sum::<f64>() / hold.len() as f64).sqrt();
+    assert!((rms - after_rms).abs() < 1e-3, "{rms} vs {after_rms}");
+
+    let html = std::fs::read_to_string(p("report.html")).unwrap();
+    assert!(html.contains("<svg") && html.contains("How to read") && html.contains("step"));
+    // Self-contained: no scripts, nothing loaded from anywhere.
+    assert!(
+        !html.contains("<script") && !html.contains("src=\"http") && !html.contains("href=\"http")
+    );
+}
+
+#[test]
+fn human_output_says_in_sample_without_holdout_and_bad_input_exits_2() {
+    let dir = tempfile::tempdir().unwrap();
+    prepare(dir.path(), "none", "2");
+    let p = |f: &str| dir.path().join(f).to_str().unwrap().to_string();
+    let out = driftloop(&[
+        "diagnose",
+        &p("model.toml"),
+        &p("production.csv"),
+        "--channel",
+        "z_um",
+    ]);
+    let s = text(&out.stdout);
+    assert!(s.contains("in-sample only"), "{s}");
+    assert!(matches!(out.status.code(), Some(0 | 1)));
+    let out = driftloop(&[
+        "diagnose",
+        &p("model.toml"),
+        &p("production.csv"),
+        "--channel",
+        "q_um",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        text(&out.stderr).contains("not `q_um`"),
+        "{}",
+        text(&out.stderr)
+    );
+    let out = driftloop(&["simulate-data", &p("x"), "--effect", "gremlin"]);
+    assert_eq!(out.status.code(), Some(2));
+}
+
+#[test]
+fn golden_human_and_json_output() {
+    use driftloop::diagnose::scenario::{CHANNEL, Scenario, simulate};
+    use driftloop::model::effects::Kind;
+    use driftloop::model::{FitOptions, fit};
+    let sc = Scenario::new(5, Some(Kind::InputLag));
+    let sim = simulate(&sc).unwrap();
+    let declared = fit(&sim.characterisation, &FitOptions::new(CHANNEL)).unwrap();
+    let opts = Options::new(CHANNEL).holdout_from(sc.holdout_from_min);
+    let d = diagnose(&declared, &sim.production, &opts).unwrap();
+    insta::assert_snapshot!("diagnose_human", d.human());
+    insta::assert_snapshot!(
+        "diagnose_json",
+        serde_json::to_string_pretty(&d.json()).unwrap()
+    );
+}
