@@ -19,7 +19,7 @@ pub struct Args {
     /// Probe repeatability σ in µm.
     #[arg(long, value_name = "UM", default_value_t = Settings::default().probe_noise_um)]
     pub probe_noise: f64,
-    /// Drawing tolerance Δ in µm (default: the default profile's).
+    /// Drawing tolerance Δ of the part in µm (the transform's default profile has 20).
     #[arg(long, value_name = "UM")]
     pub tolerance: Option<f64>,
 }
@@ -28,7 +28,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     let settings = Settings {
         seed: args.seed,
         probe_noise_um: args.probe_noise,
-        tolerance_um: args.tolerance,
+        tolerance_um: args.tolerance.or(Settings::default().tolerance_um),
         ..Settings::default()
     };
     let dir = match &args.out {
