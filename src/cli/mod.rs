@@ -12,13 +12,13 @@ mod demo;
 mod diagnose;
 mod fit;
 mod parse;
+mod plan;
 mod positioning;
 mod predict;
 mod render;
 mod run;
-mod plan;
-mod transform;
 mod simulate;
+mod transform;
 
 /// Options every subcommand understands.
 #[derive(Debug, Clone, clap::Args)]
