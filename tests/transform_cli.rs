@@ -187,11 +187,15 @@ fn plan_prints_the_table() {
     let o = driftloop(&["plan", &p, "--model", &model()], None);
     assert_eq!(code(&o), 0);
     let table = String::from_utf8(o.stdout).unwrap();
-    assert!(table.starts_with("gate  pass    line  kind"), "{table}");
+    assert!(table.starts_with("pass    line  tool"), "{table}");
+    assert!(table.contains("\ngate  pass    line  kind"), "{table}");
+    assert!(table.contains("\"ROUGH_D12\""), "{table}");
     assert!(table.contains("extra"));
     let o = driftloop(&["plan", &p, "--model", &model(), "--format", "json"], None);
     let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(json["gates"][0]["kind"], "reference");
+    assert_eq!(json["passes"][1]["tool"], "\"ROUGH_D12\"");
+    assert_eq!(json["passes"][1]["line"], 38);
     let bad = fixtures().join("blum-tc50.toml").display().to_string();
     let o = driftloop(&["plan", &p, "--model", &bad], None);
     assert_eq!(code(&o), 2, "a profile is not a model");

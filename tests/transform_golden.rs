@@ -205,6 +205,9 @@ fn plan_of_the_handwritten_program() {
     let t = run(&fixture("handwritten.mpf"), &profile).unwrap();
     let program = driftloop::parse(&fixture("handwritten.mpf"));
     let mut table = Vec::new();
+    let timeline = driftloop::omm::timeline::build(&program, &profile);
+    let rows = driftloop::omm::report::pass_rows(&program, &timeline);
+    driftloop::omm::report::write_passes(&mut table, &rows).unwrap();
     driftloop::omm::report::write_table(&mut table, &program, &t.plan).unwrap();
     insta::assert_snapshot!("plan_handwritten", String::from_utf8(table).unwrap());
     // An extra measuring cycle inside the long first pass, where the prediction crossed δ'.
@@ -213,6 +216,17 @@ fn plan_of_the_handwritten_program() {
             .gates
             .iter()
             .any(|g| g.measure && g.kind == driftloop::omm::GateKind::Extra)
+    );
+    // And a gate in the body of the program's own WHILE loop (line 21), where the program decides on every
+    // iteration, although the plan, counting the loop once, expects no measurement there.
+    let in_loop = t
+        .plan
+        .gates
+        .iter()
+        .find(|g| g.block == 20)
+        .expect("gate in the loop");
+    assert!(
+        in_loop.kind == driftloop::omm::GateKind::Extra && in_loop.can_measure && !in_loop.measure
     );
 }
 

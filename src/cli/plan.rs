@@ -32,6 +32,7 @@ struct JsonPlan<'a> {
     program: String,
     profile: &'a str,
     program_min: f64,
+    passes: Vec<omm::report::PassRow>,
     inexact_blocks: usize,
     #[serde(flatten)]
     plan: &'a Plan,
@@ -62,13 +63,18 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 program: name,
                 profile: &profile.name,
                 program_min: timeline.total_min,
+                passes: omm::report::pass_rows(&program, &timeline),
                 inexact_blocks: timeline.inexact_blocks,
                 plan: &plan,
             };
             serde_json::to_writer_pretty(&mut out, &j)?;
             writeln!(out)?;
         }
-        Format::Human => omm::report::write_table(&mut out, &program, &plan)?,
+        Format::Human => {
+            omm::report::write_passes(&mut out, &omm::report::pass_rows(&program, &timeline))?;
+            writeln!(out)?;
+            omm::report::write_table(&mut out, &program, &plan)?;
+        }
     }
     Ok(ExitCode::SUCCESS)
 }

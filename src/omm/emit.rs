@@ -12,6 +12,8 @@ use super::timeline::Modal;
 
 /// Comment every inserted block ends with.
 pub const MARK: &str = ";DL";
+/// A value no measurement gives (mm): marks "nothing measured yet" and "the cycle returned nothing".
+const SENTINEL: u32 = 99999;
 /// Text of the header comment; a program that carries it was transformed already.
 pub const SIGNATURE: &str = "driftloop-omm";
 
@@ -306,7 +308,7 @@ impl Emitter<'_> {
         let mut v = vec![
             format!("{}=0", r(reg.attempts)),
             format!("{}=0", r(reg.agreeing)),
-            format!("{}=99999", r(reg.series_first)),
+            format!("{}={SENTINEL}", r(reg.series_first)),
         ];
         if let Some(s) = reg.saved_result {
             v.push(format!("{}={}", r(s), self.profile.probe.result));
@@ -323,6 +325,8 @@ impl Emitter<'_> {
         ));
         v.push("ENDIF".into());
         v.push(format!("{}={}+1 ; NBL", r(reg.nbl), r(reg.nbl)));
+        // A cycle that returns nothing must not leave the last value looking like a new one.
+        v.push(format!("{}={SENTINEL}", self.profile.probe.result));
         v.push(self.profile.cycle_call());
         v.push("STOPRE".into());
         v.push(format!("{}={}", r(reg.value), self.profile.probe.result));
@@ -514,10 +518,14 @@ impl Emitter<'_> {
                 r(reg.zero),
                 r(reg.corr)
             ));
+            // The error a part cut now would carry: the measured drift against the correction the program
+            // applies from its prediction (δ_pr + ε of the last measurement). Not against the correction
+            // of the previous gate: the drift of a pause without cutting is no error of a part.
             v.push(format!(
-                "IF ABS({}-{})>{}",
+                "IF ABS({}-{}-{})>{}",
                 r(reg.delta),
-                r(reg.corr),
+                r(reg.pred),
+                r(reg.eps),
                 Emitter::mm(l.tolerance_um)
             ));
             v.extend(self.abort(

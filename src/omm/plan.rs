@@ -172,12 +172,18 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
         let (kind, can_measure) = match site.kind {
             _ if k == 0 => (GateKind::Reference, true),
             SiteKind::PassStart { .. } => (GateKind::PassStart, restorable),
-            SiteKind::Retract => (GateKind::Extra, restorable),
+            SiteKind::Retract { .. } => (GateKind::Extra, restorable),
             SiteKind::SpeedChange => (GateKind::Update, false),
         };
         let measure = kind == GateKind::Reference
             || (can_measure && (predicted - at_last_measurement).abs() >= limit);
-        if kind == GateKind::Extra && !(measure && profile.passes.extra_gates) {
+        let in_loop = matches!(
+            site.kind,
+            SiteKind::Retract {
+                first_in_loop: true
+            }
+        );
+        if kind == GateKind::Extra && !((measure || in_loop) && profile.passes.extra_gates) {
             rpm = site.rpm_after;
             continue;
         }

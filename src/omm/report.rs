@@ -1,11 +1,64 @@
-//! The plan as a table for people: one row per gate.
+//! The plan for people and programs: the passes of the timeline and one row per gate.
 
 use std::io::{self, Write};
+
+use serde::Serialize;
 
 use crate::source::LineIndex;
 use crate::syntax::Program;
 
 use super::plan::{GateKind, Plan};
+use super::timeline::Timeline;
+
+/// One pass as reported: where it starts, its tool, when it runs and its top speed.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PassRow {
+    pub pass: usize,
+    pub line: usize,
+    pub tool: Option<String>,
+    pub start_min: f64,
+    pub end_min: f64,
+    pub max_rpm: f64,
+}
+
+/// The passes of a timeline with their input lines.
+pub fn pass_rows(program: &Program, timeline: &Timeline) -> Vec<PassRow> {
+    let lines = LineIndex::new(program.source());
+    timeline
+        .passes
+        .iter()
+        .map(|p| PassRow {
+            pass: p.number,
+            line: lines.line_col(program.block_span(p.first_block).start).0,
+            tool: p.tool.as_deref().map(str::to_string),
+            start_min: p.start_min,
+            end_min: p.end_min,
+            max_rpm: p.max_rpm,
+        })
+        .collect()
+}
+
+/// The passes (program time, without measurements): pass, line, tool, start, end, top speed.
+pub fn write_passes(out: &mut impl Write, rows: &[PassRow]) -> io::Result<()> {
+    writeln!(
+        out,
+        "{:>4}  {:>6}  {:<20}  {:>9}  {:>9}  {:>7}",
+        "pass", "line", "tool", "start min", "end min", "max rpm"
+    )?;
+    for r in rows {
+        writeln!(
+            out,
+            "{:>4}  {:>6}  {:<20}  {:>9.2}  {:>9.2}  {:>7.0}",
+            r.pass,
+            r.line,
+            r.tool.as_deref().unwrap_or("-"),
+            r.start_min,
+            r.end_min,
+            r.max_rpm
+        )?;
+    }
+    Ok(())
+}
 
 /// One row per gate: where, when, at what speed, the drift predicted there, and whether it measures.
 pub fn write_table(out: &mut impl Write, program: &Program, plan: &Plan) -> io::Result<()> {

@@ -10,8 +10,6 @@
 use std::collections::BTreeSet;
 use std::sync::Arc;
 
-use rayon::prelude::*;
-
 use crate::syntax::{Block, BlockKind, Node, NodeKind, Program};
 use crate::views::{AxisMode, Value, VarName, WorkOffset, facts};
 
@@ -49,8 +47,10 @@ impl Modal {
 pub enum SiteKind {
     /// A technological pass starts at this block; `tool_change` when the block itself changes the tool.
     PassStart { tool_change: bool },
-    /// A rapid move right after a Z-only retract: the tool is clear of the part.
-    Retract,
+    /// A rapid move right after a Z-only retract: the tool is clear of the part. `first_in_loop`: the first
+    /// such move in the body of a loop of the program (the timeline counts a loop once, so the plan
+    /// cannot know how long it really runs; a gate there lets the program decide on every iteration).
+    Retract { first_in_loop: bool },
     /// The spindle speed changes at this block.
     SpeedChange,
 }
@@ -108,7 +108,7 @@ pub struct Timeline {
 }
 
 /// What one block says, reduced to what the timeline needs (built in parallel).
-#[derive(Debug, Default, PartialEq)]
+#[derive(Debug, Default, Clone, PartialEq)]
 struct Scan {
     g: Codes,
     axes: [Option<(f64, bool)>; 3],
@@ -129,41 +129,21 @@ struct Scan {
     offsets: Vec<u32>,
 }
 
-const CHUNK: usize = 1 << 15;
-
 pub fn build(program: &Program, profile: &Profile) -> Timeline {
     let marker = profile.passes.marker.to_ascii_uppercase();
     let mut b = Builder::new(profile);
-    let n = program.block_count();
-    let mut start = 0;
-    while start < n {
-        let end = (start + CHUNK).min(n);
-        // Small programs are scanned in line: a batch of them is already spread over the cores.
-        let scans: Vec<Scan> = if n <= CHUNK {
-            (start..end).map(|i| scan(program, i, &marker)).collect()
+    // One buffer for the word scanner, filled in place line after line: no per-line copies.
+    let mut words = Scan::default();
+    for i in 0..program.block_count() {
+        let content = program.content_span(i);
+        let line = &program.source()[content.start..content.end];
+        if program.block_kind(i) == BlockKind::Plain && scan_words_into(line, &marker, &mut words) {
+            b.block(i, &words, program.block_kind(i));
         } else {
-            (start..end)
-                .into_par_iter()
-                .map(|i| scan(program, i, &marker))
-                .collect()
-        };
-        for (k, s) in scans.iter().enumerate() {
-            b.block(start + k, s);
+            b.block(i, &scan_tree(program, i, &marker), program.block_kind(i));
         }
-        start = end;
     }
     b.finish()
-}
-
-fn scan(program: &Program, i: usize, marker: &str) -> Scan {
-    let content = program.content_span(i);
-    let line = &program.source()[content.start..content.end];
-    if program.block_kind(i) == BlockKind::Plain
-        && let Some(s) = scan_words(line, marker)
-    {
-        return s;
-    }
-    scan_tree(program, i, marker)
 }
 
 fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
@@ -243,8 +223,19 @@ fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
 /// The same facts without a syntax tree, for the lines CAM output is made of: one-letter address words with
 /// plain numbers and an optional comment (`N120 G1 X10.5 Y-3 F800 ; finish`). Anything else — `=`, names,
 /// strings, labels, R-parameters — returns `None` and takes the tree path.
-fn scan_words(line: &[u8], marker: &str) -> Option<Scan> {
-    let mut s = Scan::default();
+fn scan_words_into(line: &[u8], marker: &str, s: &mut Scan) -> bool {
+    s.g.len = 0;
+    s.m.len = 0;
+    s.axes = [None; 3];
+    s.centre = [None; 3];
+    (s.radius, s.f, s.s, s.tool, s.d) = (None, None, None, None, None);
+    (s.marker, s.path_comment) = (false, false);
+    s.offsets.clear();
+    scan_words(line, marker, s).is_some()
+}
+
+/// The word scanner proper; `None` hands the line to the tree path (the buffer is then left half filled).
+fn scan_words(line: &[u8], marker: &str, s: &mut Scan) -> Option<()> {
     let mut i = 0;
     while i < line.len() {
         let b = line[i];
@@ -253,11 +244,14 @@ fn scan_words(line: &[u8], marker: &str) -> Option<Scan> {
             continue;
         }
         if b == b';' {
-            comment(&line[i..], marker, &mut s);
+            comment(&line[i..], marker, s);
             break;
         }
         // `CR=radius` is the one assignment CAM arcs carry; it is read here so arcs stay on this path.
-        if line.len() >= i + 3 && line[i..i + 3].eq_ignore_ascii_case(b"CR=") {
+        if matches!(b, b'C' | b'c')
+            && line.len() >= i + 3
+            && line[i..i + 3].eq_ignore_ascii_case(b"CR=")
+        {
             let end = line[i + 3..]
                 .iter()
                 .position(|c| matches!(c, b' ' | b'\t' | b';'))
@@ -271,6 +265,22 @@ fn scan_words(line: &[u8], marker: &str) -> Option<Scan> {
             return None;
         }
         let start = i + 1;
+        if letter == b'N' {
+            // Block numbers only need skipping.
+            let digits = line[start..]
+                .iter()
+                .take_while(|c| c.is_ascii_digit())
+                .count();
+            i = start + digits;
+            if digits == 0
+                || line
+                    .get(i)
+                    .is_some_and(|c| !matches!(c, b' ' | b'\t' | b';'))
+            {
+                return None;
+            }
+            continue;
+        }
         let (v, len) = decimal_prefix(&line[start..])?;
         let end = start + len;
         if line
@@ -280,9 +290,6 @@ fn scan_words(line: &[u8], marker: &str) -> Option<Scan> {
             return None;
         }
         i = end;
-        if letter == b'N' {
-            continue;
-        }
         let digits = &line[start..end];
         let int = (v >= 0.0 && v == (v as u32) as f64).then_some(v as u32);
         match letter {
@@ -310,16 +317,23 @@ fn scan_words(line: &[u8], marker: &str) -> Option<Scan> {
             _ => {}
         }
     }
-    Some(s)
+    Some(())
 }
 
 /// The G or M codes of one block, without a heap allocation per block. A block holds far fewer than
 /// [`Codes::CAP`]; should one hold more, the word scanner hands it to the tree path, which keeps the first
 /// ones (the timeline only needs motion, G4, G90/G91, G94/G95, work offsets, M3/M4/M5/M6/M2/M30).
-#[derive(Debug, Default, Clone, Copy, PartialEq)]
+#[derive(Debug, Default, Clone, Copy)]
 struct Codes {
     len: u8,
     v: [u16; Codes::CAP],
+}
+
+/// Equal when the codes held are, whatever the unused slots keep from an earlier line.
+impl PartialEq for Codes {
+    fn eq(&self, other: &Codes) -> bool {
+        self.iter().eq(other.iter())
+    }
 }
 
 impl Codes {
@@ -466,6 +480,9 @@ struct Builder<'p> {
     tool_marks: Vec<PassMark>,
     m6_seen: bool,
     rpm: f64,
+    loop_depth: usize,
+    /// A loop started and no retract site in its body yet.
+    loop_gate_pending: bool,
 }
 
 impl<'p> Builder<'p> {
@@ -491,10 +508,22 @@ impl<'p> Builder<'p> {
             tool_marks: Vec::new(),
             m6_seen: false,
             rpm: 0.0,
+            loop_depth: 0,
+            loop_gate_pending: false,
         }
     }
 
-    fn block(&mut self, i: usize, s: &Scan) {
+    fn block(&mut self, i: usize, s: &Scan, kind: BlockKind) {
+        match kind {
+            BlockKind::While | BlockKind::For | BlockKind::Loop | BlockKind::Repeat => {
+                self.loop_depth += 1;
+                self.loop_gate_pending = true;
+            }
+            BlockKind::EndWhile | BlockKind::EndFor | BlockKind::EndLoop | BlockKind::Until => {
+                self.loop_depth = self.loop_depth.saturating_sub(1);
+            }
+            _ => {}
+        }
         // The state before the block is kept only where a site or pass mark can arise: a copy per block
         // would cost more than the rest of the scan.
         let may_mark = !s.m.is_empty()
@@ -616,9 +645,11 @@ impl<'p> Builder<'p> {
             && self.state.absolute
             && s.axes[2].is_none();
         if retract_candidate {
+            let first_in_loop = self.loop_depth > 0 && self.loop_gate_pending;
+            self.loop_gate_pending &= !first_in_loop;
             self.t.sites.push(Site {
                 block: i,
-                kind: SiteKind::Retract,
+                kind: SiteKind::Retract { first_in_loop },
                 time_min: start,
                 pass: 0,
                 before: before.clone(),
@@ -818,16 +849,18 @@ mod tests {
         let mut fast = 0;
         for src in sources {
             let program = crate::parse(&src);
+            // One buffer for all lines, as `build` uses it: a field left over from a line shows here.
+            let mut quick = Scan::default();
             for i in 0..program.block_count() {
                 let span = program.content_span(i);
-                if let Some(mut quick) = scan_words(&program.source()[span.start..span.end], "PASS")
-                {
+                if scan_words_into(&program.source()[span.start..span.end], "PASS", &mut quick) {
                     let mut tree = scan_tree(&program, i, "PASS");
-                    let len = usize::from(quick.g.len);
-                    quick.g.v[..len].sort_unstable();
+                    let mut copy = quick.clone();
+                    let len = usize::from(copy.g.len);
+                    copy.g.v[..len].sort_unstable();
                     let len = usize::from(tree.g.len);
                     tree.g.v[..len].sort_unstable();
-                    assert_eq!(quick, tree, "line {}", i + 1);
+                    assert_eq!(copy, tree, "line {}", i + 1);
                     fast += 1;
                 }
             }
