@@ -44,26 +44,39 @@ fn prepare(dir: &Path, effect: &str, seed: &str) {
     assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
 }
 
+/// `driftloop diagnose DIR/model.toml DIR/production.csv --channel z_um EXTRA…`.
+fn diagnose_in(dir: &Path, extra: &[&str]) -> Output {
+    let model = dir.join("model.toml");
+    let data = dir.join("production.csv");
+    let mut args = vec![
+        "diagnose",
+        model.to_str().unwrap(),
+        data.to_str().unwrap(),
+        "--channel",
+        "z_um",
+    ];
+    args.extend_from_slice(extra);
+    driftloop(&args)
+}
+
 #[test]
 fn json_refined_model_and_report() {
     let dir = tempfile::tempdir().unwrap();
     prepare(dir.path(), "step", "3");
     let p = |f: &str| dir.path().join(f).to_str().unwrap().to_string();
-    let out = driftloop(&[
-        "diagnose",
-        &p("model.toml"),
-        &p("production.csv"),
-        "--channel",
-        "z_um",
-        "--holdout-from",
-        "1080",
-        "--format",
-        "json",
-        "-o",
-        &p("refined.toml"),
-        "--report",
-        &p("report.html"),
-    ]);
+    let out = diagnose_in(
+        dir.path(),
+        &[
+            "--holdout-from",
+            "1080",
+            "--format",
+            "json",
+            "-o",
+            &p("refined.toml"),
+            "--report",
+            &p("report.html"),
+        ],
+    );
     assert_eq!(
         out.status.code(),
         Some(1),
@@ -136,13 +149,7 @@ fn human_output_says_in_sample_without_holdout_and_bad_input_exits_2() {
     let dir = tempfile::tempdir().unwrap();
     prepare(dir.path(), "none", "2");
     let p = |f: &str| dir.path().join(f).to_str().unwrap().to_string();
-    let out = driftloop(&[
-        "diagnose",
-        &p("model.toml"),
-        &p("production.csv"),
-        "--channel",
-        "z_um",
-    ]);
+    let out = diagnose_in(dir.path(), &[]);
     let s = text(&out.stdout);
     assert!(s.contains("in-sample only"), "{s}");
     assert!(matches!(out.status.code(), Some(0 | 1)));
@@ -174,6 +181,9 @@ fn golden_human_and_json_output() {
     let opts = Options::new(CHANNEL).holdout_from(sc.holdout_from_min);
     let d = diagnose(&declared, &sim.production, &opts).unwrap();
     insta::assert_snapshot!("diagnose_human", d.human());
+    // The report shows the column the effect reads beside its contribution.
+    let html = d.html();
+    assert!(html.contains("The column coolant_c") && html.matches("<svg").count() == 4);
     insta::assert_snapshot!(
         "diagnose_json",
         serde_json::to_string_pretty(&d.json()).unwrap()

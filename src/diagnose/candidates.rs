@@ -240,7 +240,10 @@ fn best_of(
         let n_eff = effective_n(&r1);
         let delta_bic = n_eff * (rss1.max(f64::MIN_POSITIVE) / rss0).ln() + dof * n_eff.ln();
         if best.as_ref().is_none_or(|b| delta_bic < b.delta_bic) {
-            e.amplitudes = beta.iter().copied().collect();
+            // Cooling asymmetry screens through a derived column but has no amplitude of its own.
+            if e.kind != Kind::CoolingAsymmetry {
+                e.amplitudes = beta.iter().copied().collect();
+            }
             best = Some(Screened {
                 effect: e,
                 delta_bic,
@@ -250,31 +253,69 @@ fn best_of(
     best
 }
 
-/// Root-mean-square error of rolling-origin (forward) cross-validation in time blocks on the fit window:
-/// the fit rows are cut into `blocks` consecutive stretches; from the third on, each is predicted from
-/// amplitudes fitted on the stretches before it only (θ held). A model is used to predict forward in
-/// time, so it is validated forward: a term that fits the past but extrapolates badly (a trend bending a
-/// lag) loses here, where leaving out an interior block would only test interpolation.
-pub fn blocked_cv_rms(ctx: &Ctx, fitted: &Fitted, blocks: usize) -> Option<f64> {
+/// One fold of the rolling-origin cross-validation: squared error summed over its test rows, their number,
+/// and whether the columns under test could be estimated from its training rows.
+#[derive(Debug, Clone, Copy)]
+pub struct Fold {
+    pub sse: f64,
+    pub rows: usize,
+    pub identifiable: bool,
+}
+
+/// Rolling-origin (forward) cross-validation in time blocks on the fit window: the fit rows are cut into
+/// `blocks` consecutive stretches; from the third on, each is predicted from amplitudes fitted on the
+/// stretches before it only (θ held). A model is used to predict forward in time, so it is validated
+/// forward: a term that fits the past but extrapolates badly loses here, where leaving out an interior
+/// block would only test interpolation. A fold is marked not identifiable for the columns `tested` when
+/// one of them does not vary over its training rows (a step after the training stretch): such a fold
+/// says nothing about that term.
+pub fn forward_cv(
+    ctx: &Ctx,
+    fitted: &Fitted,
+    blocks: usize,
+    tested: std::ops::Range<usize>,
+) -> Option<Vec<Fold>> {
     let phi = fitted.joint.basis(ctx);
-    let fit_idx: Vec<usize> = (0..ctx.n()).filter(|&i| ctx.fit[i]).collect();
+    let n = ctx.n();
+    let fit_idx: Vec<usize> = (0..n).filter(|&i| ctx.fit[i]).collect();
     let per = fit_idx.len().div_ceil(blocks.max(1)).max(1);
     let chunks: Vec<&[usize]> = fit_idx.chunks(per).collect();
-    let mut sse = 0.0;
-    let mut count = 0usize;
-    let mut train = vec![false; ctx.n()];
+    let mut folds = Vec::new();
+    let mut train = vec![false; n];
+    let mut trained: Vec<usize> = Vec::new();
     for (k, chunk) in chunks.iter().enumerate() {
         if k >= 2 {
             let c = fitted.joint.amplitudes(&phi, &ctx.y, &train)?;
+            let mut sse = 0.0;
             for &i in chunk.iter() {
                 let pred: f64 = (0..phi.ncols()).map(|j| phi[(i, j)] * c[j]).sum();
                 sse += (ctx.y[i] - pred).powi(2);
             }
-            count += chunk.len();
+            let identifiable = tested.clone().all(|j| {
+                let col = phi.column(j);
+                let first = col[trained[0]];
+                trained.iter().any(|&i| (col[i] - first).abs() > 1e-12)
+            });
+            folds.push(Fold {
+                sse,
+                rows: chunk.len(),
+                identifiable,
+            });
         }
         for &i in chunk.iter() {
             train[i] = true;
+            trained.push(i);
         }
     }
-    Some((sse / count.max(1) as f64).sqrt())
+    Some(folds)
+}
+
+/// RMS over the folds `use_fold` keeps.
+pub fn cv_rms(folds: &[Fold], use_fold: &[bool]) -> f64 {
+    let (sse, rows) = folds
+        .iter()
+        .zip(use_fold)
+        .filter(|(_, u)| **u)
+        .fold((0.0, 0usize), |(s, r), (f, _)| (s + f.sse, r + f.rows));
+    (sse / rows.max(1) as f64).sqrt()
 }

@@ -38,7 +38,7 @@ use serde::Serialize;
 use crate::data::{ColumnKind, Dataset};
 use crate::model::DriftModel;
 use crate::model::effects::{Effect, Kind};
-use candidates::{Projector, blocked_cv_rms, screen};
+use candidates::{Projector, cv_rms, forward_cv, screen};
 use joint::{Ctx, Fitted, Joint};
 use stats::{ErrorStats, effective_n, ljung_box_white};
 
@@ -146,6 +146,8 @@ pub struct Diagnosis {
     pub predicted_after: Vec<f64>,
     /// Each added effect's own contribution per row (µm), in the order added.
     pub contributions: Vec<Vec<f64>>,
+    /// The column each added effect reads (`None` for effects of time or speed only).
+    pub signals: Vec<Option<Vec<f64>>>,
 }
 
 /// Runs the diagnosis of `model` on `ds`.
@@ -224,6 +226,16 @@ pub fn diagnose(
             _ => e.contribution(&series(e.signal.as_deref())),
         })
         .collect();
+    let signals = added
+        .iter()
+        .map(|a| {
+            a.effect
+                .signal
+                .as_deref()
+                .and_then(|name| ds.values(name))
+                .map(<[f64]>::to_vec)
+        })
+        .collect();
     let first = ctx.y.first().copied().unwrap_or(0.0);
     let uncomp: Vec<f64> = ctx.y.iter().map(|v| v - first).collect();
     let zero = vec![0.0; ctx.n()];
@@ -246,11 +258,13 @@ pub fn diagnose(
         predicted_before: before_pred,
         predicted_after: after_pred,
         contributions,
+        signals,
     })
 }
 
-/// Screens every candidate, refits the best few jointly and returns, of those passing both tests, the one
-/// that predicts best forward in time (rolling-origin CV). Choosing by the forward CV rather than by the
+/// Screens every candidate, refits the best few jointly and returns, of those passing every test, the one
+/// that improves the forward prediction most (rolling-origin CV, relative to the model without it on the
+/// same folds). Choosing by the forward CV rather than by the
 /// BIC matters when a cause-less effect and a measured one fit the window alike: a warming hall looks like
 /// a trend there, but the trend extrapolates blindly while the temperature keeps measuring the cause.
 fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Option<(Fitted, Added)> {
@@ -262,7 +276,7 @@ fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Optio
         .filter(|s| s.delta_bic < 0.0)
         .collect();
     screened.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
-    let cv_without = blocked_cv_rms(ctx, current, CV_BLOCKS)?;
+    let folds_without = forward_cv(ctx, current, CV_BLOCKS, 0..0)?;
     let rss0 = current.rss;
     let mut best: Option<(Fitted, Added)> = None;
     for s in screened.into_iter().take(REFITS_PER_ROUND) {
@@ -275,7 +289,16 @@ fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Optio
         let n_eff = effective_n(&r1);
         let dof = (s.effect.amplitudes.len() + s.effect.theta.len()) as f64;
         let delta_bic = n_eff * (fitted.rss.max(f64::MIN_POSITIVE) / rss0).ln() + dof * n_eff.ln();
-        let cv_with = blocked_cv_rms(ctx, &fitted, CV_BLOCKS).unwrap_or(f64::INFINITY);
+        // The new effect's columns sit just before the offset column.
+        let p = fitted.joint.n_linear();
+        let tested = p - 1 - s.effect.amplitudes.len()..p - 1;
+        let Some(folds_with) = forward_cv(ctx, &fitted, CV_BLOCKS, tested) else {
+            continue;
+        };
+        // Compared on the folds where the effect can be estimated from the training stretch.
+        let usable: Vec<bool> = folds_with.iter().map(|f| f.identifiable).collect();
+        let cv_without = cv_rms(&folds_without, &usable);
+        let cv_with = cv_rms(&folds_with, &usable);
         let name = text::effect_name(&s.effect);
         let added = fitted.joint.effects.last();
         if let Some(tau) = added.and_then(|e| at_upper_tau_bound(ctx, e)) {
@@ -300,7 +323,7 @@ fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Optio
             ));
             continue;
         }
-        if cv_with >= cv_without {
+        if !usable.contains(&true) || cv_with >= cv_without {
             rejected.push(format!(
                 "{name}: blocked cross-validation does not improve ({cv_without:.3} → {cv_with:.3} µm)"
             ));
@@ -318,10 +341,8 @@ fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Optio
             cv_rms_before_um: cv_without,
             cv_rms_after_um: cv_with,
         };
-        if best
-            .as_ref()
-            .is_none_or(|(_, b)| a.cv_rms_after_um < b.cv_rms_after_um)
-        {
+        let gain = |x: &Added| x.cv_rms_after_um / x.cv_rms_before_um;
+        if best.as_ref().is_none_or(|(_, b)| gain(&a) < gain(b)) {
             best = Some((fitted, a));
         }
     }

@@ -157,6 +157,23 @@ impl Diagnosis {
                 .series(Series::new("effect", Mark::Line, points(t, c)));
             doc.figure(&chart, sentence(a));
         }
+        for (a, sig) in self.effects_added.iter().zip(&self.signals) {
+            if let (Some(name), Some(values)) = (&a.effect.signal, sig) {
+                let chart = marked(Chart::new(
+                    format!("The column {name}"),
+                    "time in min",
+                    name.as_str(),
+                ))
+                .series(Series::new(name.as_str(), Mark::Line, points(t, values)));
+                doc.figure(
+                    &chart,
+                    format!(
+                        "{name} as logged: the signal the {} effect reads.",
+                        a.effect.kind.name()
+                    ),
+                );
+            }
+        }
         doc.render()
     }
 }

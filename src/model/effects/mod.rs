@@ -325,6 +325,53 @@ mod tests {
     }
 
     #[test]
+    fn a_model_with_every_kind_survives_its_file_and_predicts() {
+        use crate::model::{DriftModel, Schedule};
+        let mut ds = "2000:120,0:60,3000:120"
+            .parse::<Schedule>()
+            .unwrap()
+            .to_dataset(5.0);
+        let amb: Vec<f64> = ds.time_min.iter().map(|t| 20.0 + t / 100.0).collect();
+        let x: Vec<f64> = ds.time_min.iter().map(|t| (t % 50.0) * 4.0).collect();
+        ds.push_column("ambient_c", amb);
+        ds.push_column("x_mm", x);
+        let plain =
+            DriftModel::from_modes("z_um", vec![2000.0, 3000.0], &[(30.0, vec![4.0, 7.0])], 0.0);
+        let mut model = plain.clone();
+        for kind in Kind::ALL {
+            let signal = match kind {
+                Kind::InputLag => Some("ambient_c".to_string()),
+                Kind::PositionSlope => Some("x_mm".to_string()),
+                _ => None,
+            };
+            let e = Effect {
+                kind,
+                signal,
+                theta: vec![
+                    if kind == Kind::CoolingAsymmetry {
+                        2.0
+                    } else {
+                        40.0
+                    };
+                    kind.theta_names().len()
+                ],
+                amplitudes: vec![0.5; kind.amplitude_names().len()],
+            };
+            model.effects.push(e.to_spec());
+        }
+        let text = model.to_toml();
+        let back = DriftModel::from_toml(&text, "refined.toml").unwrap();
+        assert_eq!(back.to_toml(), text);
+        let with = back.predict(&ds).unwrap();
+        let without = plain.predict(&ds).unwrap();
+        assert!(with.iter().zip(&without).any(|(a, b)| (a - b).abs() > 0.1));
+        // Without the signal an effect reads, prediction is refused rather than done without it.
+        let mut bare = ds.clone();
+        bare.columns.retain(|c| c.name != "x_mm");
+        assert!(back.predict(&bare).is_err());
+    }
+
+    #[test]
     fn lag_restarts_at_every_run() {
         let t = [0.0, 1.0, 2.0, 0.0, 1.0];
         let runs = [0..3, 3..5];
