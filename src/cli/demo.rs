@@ -28,7 +28,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     let settings = Settings {
         seed: args.seed,
         probe_noise_um: args.probe_noise,
-        tolerance_um: args.tolerance.or(Settings::default().tolerance_um),
+        tolerance_um: args.tolerance,
         ..Settings::default()
     };
     let dir = match &args.out {

@@ -51,9 +51,7 @@ impl Default for Settings {
             seed: 6,
             probe_noise_um: 0.5,
             sensor_noise_um: 0.3,
-            // 50 µm until the transform stops scrapping good parts at Δ = 20 µm after a heating dwell
-            // (notes/transform.md, "From demo").
-            tolerance_um: Some(50.0),
+            tolerance_um: None,
         }
     }
 }
