@@ -65,30 +65,30 @@ struct Cli {
 enum Command {
     /// Run the whole job on the bundled example and print what happened.
     Demo(demo::Args),
-    /// Positioning accuracy (DSTU/GOST 27843, VDI 3441, ISO 230-2) and compensation tables.
-    Positioning(positioning::Args),
-    /// Temperature-sensor selection (correlation, redundant clusters) and regression of a channel.
-    Sensors(sensors::Args),
-    /// Dry run of an NC program on a virtual machine: time, passes, machined error, measurements.
-    Run(run::Args),
-    /// Fit the thermal drift model of one displacement channel from measured data.
-    Fit(fit::Args),
-    /// Predict drift for a spindle schedule or the inputs of a data file.
-    Predict(predict::Args),
     /// Report the diagnostics of programs and directories of programs.
     Check(check::Args),
     /// Dump the syntax tree of a program as JSON, or print the program back from it.
     Parse(parse::Args),
-    /// Measure parse + print throughput and peak memory on a generated 100 MB program.
-    Bench(bench::Args),
-    /// Trace a model's residual on new data to the effects it lacks, add them, report before and after.
-    Diagnose(diagnose::Args),
-    /// Write simulated characterisation runs and a production log with a chosen undeclared effect.
-    SimulateData(simulate::Args),
+    /// Fit the thermal drift model of one displacement channel from measured data.
+    Fit(fit::Args),
+    /// Predict drift for a spindle schedule or the inputs of a data file.
+    Predict(predict::Args),
     /// Insert probe measurements, nested measuring loops and drift corrections into NC programs.
     Transform(transform::Args),
     /// Print the timeline, predicted drift and planned measurements of a program.
     Plan(plan::Args),
+    /// Dry run of an NC program on a virtual machine: time, passes, machined error, measurements.
+    Run(run::Args),
+    /// Trace a model's residual on new data to the effects it lacks, add them, report before and after.
+    Diagnose(diagnose::Args),
+    /// Write simulated characterisation runs and a production log with a chosen undeclared effect.
+    SimulateData(simulate::Args),
+    /// Temperature-sensor selection (correlation, redundant clusters) and regression of a channel.
+    Sensors(sensors::Args),
+    /// Positioning accuracy (DSTU/GOST 27843, VDI 3441, ISO 230-2) and compensation tables.
+    Positioning(positioning::Args),
+    /// Measure parse + print throughput and peak memory on a generated 100 MB program.
+    Bench(bench::Args),
 }
 
 /// Entry point of the binary.
