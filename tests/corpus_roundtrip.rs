@@ -2,6 +2,8 @@
 //! for any bytes) prints back byte for byte and never panics the parser. Prints how many NC programs parse
 //! without error diagnostics; run with `--nocapture` to see the list.
 
+mod shared_data;
+
 use std::fs;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
@@ -33,11 +35,9 @@ fn first_difference(a: &[u8], b: &[u8]) -> usize {
 
 #[test]
 fn every_corpus_file_round_trips_byte_exact() {
-    let corpus = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus");
-    if !corpus.is_dir() {
-        eprintln!("skipping: {} not found", corpus.display());
+    let Some(corpus) = shared_data::path("corpus") else {
         return;
-    }
+    };
     let mut files = Vec::new();
     all_files(&corpus, &mut files);
     assert!(!files.is_empty(), "corpus folder is empty");

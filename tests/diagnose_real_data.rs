@@ -4,7 +4,7 @@
 //! each step can only lower the error (recalibration starts from the declared model; an effect is only
 //! added when it lowers the error). The numbers go to the README table.
 
-use std::path::PathBuf;
+mod shared_data;
 
 use driftloop::data::{Require, read_path};
 use driftloop::diagnose::{Options, diagnose};
@@ -14,12 +14,9 @@ const HOLDOUT_MIN: f64 = 960.0;
 
 #[test]
 fn every_channel_of_the_first_24_hours() {
-    let path =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data/fl_thermal_first24h.csv");
-    if !path.exists() {
-        eprintln!("skipping: {} is absent", path.display());
+    let Some(path) = shared_data::path("data/fl_thermal_first24h.csv") else {
         return;
-    }
+    };
     let ds = read_path(&path, Require::Displacement).unwrap();
     let channels: Vec<String> = ds.channels().map(|c| c.name.clone()).collect();
     assert_eq!(channels.len(), 5);

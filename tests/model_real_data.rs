@@ -3,6 +3,8 @@
 //! statistics); accuracy is printed, not asserted — a spindle-only model is expected to miss the ambient
 //! effect on some channels.
 
+mod shared_data;
+
 use std::path::PathBuf;
 
 use driftloop::data::{Require, read_path};
@@ -11,9 +13,7 @@ use driftloop::model::{FitOptions, fit};
 const FIT_UNTIL_MIN: f64 = 960.0;
 
 fn data_path() -> Option<PathBuf> {
-    let p =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data/fl_thermal_first24h.csv");
-    p.exists().then_some(p)
+    shared_data::path("data/fl_thermal_first24h.csv")
 }
 
 /// RMS and max |e|.
@@ -25,7 +25,6 @@ fn stats(e: &[f64]) -> (f64, f64) {
 #[test]
 fn spindle_only_fits_on_16_h_do_not_degenerate() {
     let Some(path) = data_path() else {
-        eprintln!("skipped: ../shared/data/fl_thermal_first24h.csv is absent");
         return;
     };
     let ds = read_path(&path, Require::Displacement).unwrap();

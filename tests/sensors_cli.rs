@@ -1,6 +1,8 @@
 //! `driftloop sensors` through the binary: report, JSON shape, exit codes, and the model file it writes
 //! reproducing the regression under `driftloop predict`.
 
+mod shared_data;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -179,11 +181,9 @@ fn the_model_file_reproduces_the_regression_under_predict() {
 
 #[test]
 fn real_data_end_to_end_example() {
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/fl_thermal_first24h.csv");
-    if !data.exists() {
-        eprintln!("skipped: {} is absent", data.display());
+    let Some(data) = shared_data::path("data/fl_thermal_first24h.csv") else {
         return;
-    }
+    };
     let data = data.to_str().unwrap();
     let human = stdout(&driftloop(&[
         "sensors",

@@ -2,6 +2,8 @@
 //! (The sublime-s840d syntax-highlighting tests are left out on purpose: they exist to hold invalid lines and
 //! snippets with undefined labels. Their round trip is checked with the rest of the corpus elsewhere.)
 
+mod shared_data;
+
 mod syntax_support;
 
 use std::path::{Path, PathBuf};
@@ -25,11 +27,9 @@ fn nc_files(dir: &Path, out: &mut Vec<PathBuf>) {
 
 #[test]
 fn real_programs_have_no_error_diagnostics() {
-    let corpus = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus");
-    if !corpus.is_dir() {
-        eprintln!("skipped: {} not found", corpus.display());
+    let Some(corpus) = shared_data::path("corpus") else {
         return;
-    }
+    };
     let mut files = Vec::new();
     for project in [
         "nc-gcode-interpreter-examples",

@@ -7,6 +7,8 @@
 //! emit rows for different sets of non-moving blocks), then the sequences must be equal to 0.0005 mm (the
 //! reference prints three decimals).
 
+mod shared_data;
+
 use std::path::{Path, PathBuf};
 
 use driftloop::vm::{Config, SimpleMachine, run_file};
@@ -146,12 +148,9 @@ fn expectation(name: &str) -> Result<(), &'static str> {
 
 #[test]
 fn corpus_positions_agree_with_the_reference_interpreter() {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/corpus/nc-gcode-interpreter-examples/examples");
-    if !dir.is_dir() {
-        eprintln!("skipping: {} is absent", dir.display());
+    let Some(dir) = shared_data::path("corpus/nc-gcode-interpreter-examples/examples") else {
         return;
-    }
+    };
     let mut files: Vec<PathBuf> = [dir.clone(), dir.join("flattening")]
         .iter()
         .flat_map(|d| std::fs::read_dir(d).unwrap())
@@ -196,11 +195,9 @@ fn corpus_positions_agree_with_the_reference_interpreter() {
 /// folder, whose spindle schedule is what the thermal model needs.
 #[test]
 fn real_corpus_programs_run_to_their_end() {
-    let corpus = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus");
-    if !corpus.is_dir() {
-        eprintln!("skipping: {} is absent", corpus.display());
+    let Some(corpus) = shared_data::path("corpus") else {
         return;
-    }
+    };
     let cam = corpus.join("sinumerik-840d-sl-cas-package/Approach A/CAM TEST.MPF");
     let run = run_file(&cam, &Config::default(), &mut SimpleMachine::cold()).unwrap();
     assert_eq!(
