@@ -13,8 +13,7 @@ use std::time::{Duration, Instant};
 use anyhow::Context;
 use serde::Serialize;
 
-use super::Global;
-use super::check::Format;
+use super::{Format, Global};
 
 mod cam_program;
 mod process;

@@ -10,17 +10,10 @@ use std::process::ExitCode;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::Global;
 use super::render::{Renderer, severity_name};
+use super::{Format, Global};
 use crate::diagnostic::Severity;
 use crate::walk::{self, Input};
-
-/// Output format of commands that report to humans or machines.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Format {
-    Human,
-    Json,
-}
 
 #[derive(Debug, clap::Args)]
 pub struct Args {

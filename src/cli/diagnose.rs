@@ -7,8 +7,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 
-use super::Global;
-use super::fit::Format;
+use super::{Format, Global};
 use crate::data::{Require, read_path};
 use crate::diagnose::{Options, diagnose};
 use crate::model::DriftModel;

@@ -6,17 +6,10 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 
-use super::Global;
+use super::{Format, Global};
 use crate::data::{Require, read_path};
 use crate::model::fit::fmt_tau;
 use crate::model::{DriftModel, FitOptions, ModesChoice, fit};
-
-/// Report format on stdout.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Format {
-    Human,
-    Json,
-}
 
 #[derive(Debug, clap::Args)]
 pub struct Args {

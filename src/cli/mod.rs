@@ -51,6 +51,13 @@ impl Global {
     }
 }
 
+/// Output format of commands that report to humans or machines (`--format human|json`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Format {
+    Human,
+    Json,
+}
+
 /// Thermal drift compensation for Sinumerik NC programs.
 #[derive(Debug, Parser)]
 #[command(name = "driftloop", version, about, long_about = None)]

@@ -7,9 +7,8 @@ use std::process::ExitCode;
 
 use serde::Serialize;
 
-use super::Global;
-use super::check::Format;
 use super::transform::Setup;
+use super::{Format, Global};
 use crate::omm::{self, Plan};
 use crate::walk::Input;
 

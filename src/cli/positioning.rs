@@ -7,17 +7,11 @@ use std::process::ExitCode;
 
 use anyhow::{Context, bail};
 
-use super::Global;
+use super::{Format, Global};
 use crate::positioning::{
     self, Grid, GridChoice, MIN_APPROACHES, Standard, correction_csv, html_report, read_samples,
     sinumerik_text,
 };
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Format {
-    Human,
-    Json,
-}
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum TableFormat {

@@ -6,8 +6,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 
-use super::Global;
-use super::positioning::Format;
+use super::{Format, Global};
 use crate::vm::{self, Config, End, MachineSpec};
 
 #[derive(Debug, clap::Args)]

@@ -6,16 +6,10 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 
-use super::Global;
+use super::{Format, Global};
 use crate::data::{Require, read_path};
 use crate::sensors::position::analyse_position;
 use crate::sensors::{Options, analyse};
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Format {
-    Human,
-    Json,
-}
 
 #[derive(Debug, clap::Args)]
 pub struct Args {

@@ -12,8 +12,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use sha2::{Digest, Sha256};
 
-use super::Global;
-use super::check::Format;
+use super::{Format, Global};
 use crate::model::DriftModel;
 use crate::omm::{self, ModelRef, Profile, Summary};
 use crate::walk::{self, Input};
