@@ -437,7 +437,9 @@ impl Emitter<'_> {
     }
 
     /// The initial block: stage 1 (initial data) and stage 4 (reference measurement, the zero).
-    pub fn reference(&self, gate: &Gate, pass_tool: Option<&str>) -> String {
+    /// `cut_rpm` is the speed the first pass cuts at: a log row's inputs hold until the next row, and the
+    /// spindle is only stopped for the zero itself.
+    pub fn reference(&self, gate: &Gate, pass_tool: Option<&str>, cut_rpm: f64) -> String {
         let reg = &self.regs;
         let p = self.profile;
         let what = Emitter::describe(gate, pass_tool);
@@ -477,7 +479,7 @@ impl Emitter<'_> {
         v.push("; driftloop stage 4: reference measurement of the base surface, the zero".into());
         v.extend(self.measure(&number(p.position.nominal), &what));
         v.push(format!("{}={}", r(reg.zero), r(reg.mean)));
-        v.push(self.log(0.0, gate.pass));
+        v.push(self.log(cut_rpm, gate.pass));
         v.extend(self.tool_back(gate));
         v.extend(self.set_targets(gate.rpm));
         Emitter::finish(v)
