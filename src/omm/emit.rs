@@ -378,8 +378,15 @@ impl Emitter<'_> {
             TimerUnit::Min => format!("({}-{})", r(reg.t_last), r(reg.t0)),
             TimerUnit::S => format!("({}-{})/60", r(reg.t_last), r(reg.t0)),
         };
+        let inputs: String = self
+            .profile
+            .log
+            .inputs
+            .values()
+            .map(|n| format!("<<\",\"<<$A_INA[{n}]"))
+            .collect();
         format!(
-            "WRITE({},\"{}\",\"\"<<{minutes}<<\",{},\"<<{}*1000<<\",{pass},\"<<{})",
+            "WRITE({},\"{}\",\"\"<<{minutes}<<\",{},\"<<{}*1000<<\",{pass},\"<<{}{inputs})",
             r(reg.write_error),
             self.profile.registers.log_file,
             number(rpm),
@@ -468,11 +475,16 @@ impl Emitter<'_> {
             OffsetMethod::Trans | OffsetMethod::Atrans => format!("{}=0", r(reg.base)),
         });
         v.push(format!(
-            "WRITE({},\"{}\",\"time_min,{},{},pass,run\")",
+            "WRITE({},\"{}\",\"time_min,{},{},pass,run{}\")",
             r(reg.write_error),
             p.registers.log_file,
             crate::data::SPINDLE,
-            self.channel
+            self.channel,
+            p.log
+                .inputs
+                .keys()
+                .map(|k| format!(",{k}"))
+                .collect::<String>()
         ));
         v.push(p.offset.select.clone());
         v.extend(self.probe_in());
@@ -504,12 +516,14 @@ impl Emitter<'_> {
         v.extend(self.update_prediction(gate.rpm));
         if gate.can_measure {
             let skip = format!("{}SKIP{}", self.label_prefix, gate.number);
-            v.push(format!(
-                "IF ABS({}-{})<{} GOTOF {skip}",
-                r(reg.pred),
-                r(reg.pred_at_measurement),
-                Emitter::mm(l.working_limit_um())
-            ));
+            if !self.profile.log.measure_every_gate {
+                v.push(format!(
+                    "IF ABS({}-{})<{} GOTOF {skip}",
+                    r(reg.pred),
+                    r(reg.pred_at_measurement),
+                    Emitter::mm(l.working_limit_um())
+                ));
+            }
             v.extend(self.probe_in());
             let expected = format!("{}+{}-{}", r(reg.zero), r(reg.pred), r(reg.corr));
             v.extend(self.measure(&expected, &what));

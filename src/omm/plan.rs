@@ -176,7 +176,9 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
             SiteKind::SpeedChange => (GateKind::Update, false),
         };
         let measure = kind == GateKind::Reference
-            || (can_measure && (predicted - at_last_measurement).abs() >= limit);
+            || (can_measure
+                && (profile.log.measure_every_gate
+                    || (predicted - at_last_measurement).abs() >= limit));
         let in_loop = matches!(
             site.kind,
             SiteKind::Retract {
