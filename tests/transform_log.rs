@@ -102,3 +102,49 @@ fn log_inputs_are_checked() {
     let err = Profile::from_toml(&text, "p.toml").unwrap_err().to_string();
     assert!(err.contains("unknown field `every`"), "{err}");
 }
+
+/// −1.5 µm/°C of ambient change through a 30 min lag, the ambient rising by 1 °C per 10 min (as in
+/// `run_log`): k·r·(t − τ(1 − e^(−t/τ))).
+fn truth_with_ambient(axis: &str, t: f64, spindle: &SpindleHistory) -> f64 {
+    let amb = -1.5 * 0.1 * (t - 30.0 * (1.0 - (-t / 30.0).exp()));
+    truth(axis, t, spindle) + if axis == "Z" { amb } else { 0.0 }
+}
+
+fn max_error_with(model_text: &str, profile: &Profile) -> f64 {
+    let model = DriftModel::from_toml(model_text, "model.toml").unwrap();
+    let bytes = transform_program(&model, profile).unwrap();
+    let reparsed = driftloop::parse(&bytes);
+    assert!(
+        reparsed.diagnostics().is_empty(),
+        "{:?}",
+        reparsed.diagnostics()
+    );
+    let points = vec![(0.0, 20.0), (600.0, 80.0)];
+    let mut machine = SimpleMachine::with_drift(truth_with_ambient).analog(1, points);
+    let run = run_source("stepped.mpf", &bytes, None, &config(), &mut machine).unwrap();
+    assert_eq!(run.end, End::ProgramEnd { code: "M30".into() });
+    run.totals.max_abs_error_um
+}
+
+#[test]
+fn an_ambient_input_lag_is_predicted_in_nc() {
+    let text = format!("{DEFAULT_PROFILE}\n[log]\ninputs = {{ ambient_c = 1 }}\n");
+    let profile = Profile::from_toml(&text, "ambient.toml").unwrap();
+    let with_input = format!(
+        "{MODEL}[[inputs]]\nsignal = \"ambient_c\"\ntau_min = 30.0\ngain_um_per_unit = -1.5\n"
+    );
+    let spindle_only = max_error_with(MODEL, &profile);
+    let full = max_error_with(&with_input, &profile);
+    // Sampling the input at the gates only costs a little; a tenth of the 20 µm tolerance is the bound.
+    assert!(full < 2.0, "with the input lag: {full} µm");
+    assert!(
+        spindle_only > 5.0 * full,
+        "without it: {spindle_only} µm, with it {full} µm"
+    );
+    // The signal must be mapped: without `[log] inputs` the model is refused.
+    let model = DriftModel::from_toml(&with_input, "model.toml").unwrap();
+    let err = transform_program(&model, &Profile::default_profile())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("ambient_c"), "{err}");
+}

@@ -25,6 +25,10 @@ pub struct Registers {
     dt: u32,
     x: Vec<u32>,
     g: Vec<u32>,
+    /// Per analog input of the model: lag state, target, value at the zero.
+    input_x: Vec<u32>,
+    input_g: Vec<u32>,
+    input_zero: Vec<u32>,
     pred: u32,
     pred_at_measurement: u32,
     eps: u32,
@@ -49,12 +53,13 @@ impl Registers {
     pub fn allocate(
         profile: &Profile,
         modes: usize,
+        inputs: usize,
         used: &BTreeSet<u32>,
     ) -> Result<Registers, String> {
         let r = &profile.registers;
         let result_r = result_r_number(&profile.probe.result);
         let save = result_r.is_some_and(|n| used.contains(&n));
-        let needed = 19 + 2 * modes + usize::from(save);
+        let needed = 19 + 2 * modes + 3 * inputs + usize::from(save);
         let free: Vec<u32> = (r.r_first..=r.r_last)
             .filter(|n| !used.contains(n) && Some(*n) != result_r)
             .take(needed)
@@ -74,6 +79,9 @@ impl Registers {
             dt: next(),
             x: (0..modes).map(|_| next()).collect(),
             g: (0..modes).map(|_| next()).collect(),
+            input_x: (0..inputs).map(|_| next()).collect(),
+            input_g: (0..inputs).map(|_| next()).collect(),
+            input_zero: (0..inputs).map(|_| next()).collect(),
             pred: next(),
             pred_at_measurement: next(),
             eps: next(),
@@ -119,6 +127,9 @@ impl Registers {
         ];
         v.extend(&self.x);
         v.extend(&self.g);
+        v.extend(&self.input_x);
+        v.extend(&self.input_g);
+        v.extend(&self.input_zero);
         v.extend(self.saved_result);
         v.sort_unstable();
         v
@@ -264,7 +275,31 @@ impl Emitter<'_> {
             ));
         }
         v.extend(self.set_targets(rpm));
-        let sum: Vec<String> = reg.x.iter().map(|x| r(*x)).collect();
+        for (((x, g), zero), term) in reg
+            .input_x
+            .iter()
+            .zip(&reg.input_g)
+            .zip(&reg.input_zero)
+            .zip(self.predictor.inputs())
+        {
+            v.push(format!(
+                "{x}={g}+({x}-{g})*EXP(-{dt}/{tau})",
+                x = r(*x),
+                g = r(*g),
+                dt = r(reg.dt),
+                tau = number(term.tau_min)
+            ));
+            // The input holds from here to the next gate, as a log row's inputs do.
+            v.push(format!(
+                "{g}={}*($A_INA[{n}]-{zero}) ; {}",
+                Emitter::mm(term.gain_per_unit),
+                term.signal,
+                g = r(*g),
+                n = term.input,
+                zero = r(*zero)
+            ));
+        }
+        let sum: Vec<String> = reg.x.iter().chain(&reg.input_x).map(|x| r(*x)).collect();
         v.push(format!(
             "{}={}",
             r(reg.pred),
@@ -456,8 +491,16 @@ impl Emitter<'_> {
             format!("{}={}", r(reg.t0), p.registers.timer),
             format!("{}={}", r(reg.t_last), r(reg.t0)),
         ];
-        for x in &reg.x {
+        for x in reg.x.iter().chain(&reg.input_x).chain(&reg.input_g) {
             v.push(format!("{}=0", r(*x)));
+        }
+        for (zero, term) in reg.input_zero.iter().zip(self.predictor.inputs()) {
+            v.push(format!(
+                "{}=$A_INA[{}] ; {}",
+                r(*zero),
+                term.input,
+                term.signal
+            ));
         }
         for reg_n in [
             reg.pred,
