@@ -52,7 +52,7 @@ fn compensation_cuts_the_error_the_truth_causes() {
 }
 
 #[test]
-#[ignore = "not met yet: measured at every gate the program logs 7 rows per job (zero + one per pass), still too \
+#[ignore = "not met yet: measured at every gate the program logs 12 rows per job (zero, passes, dwells), still too \
             sparse for diagnose to find the ambient lag (notes/demo.md)"]
 fn diagnose_finds_the_ambient_effect_and_does_not_make_things_worse() {
     let o = demo();

@@ -440,8 +440,8 @@ measured, ambient sensor logged by the program):",
             if self.effects.is_empty() {
                 let _ = writeln!(
                     s,
-                    "  why: measured at every gate the program still logs only {rows_per_job:.0} rows per job (the zero and \
-one per pass), too few for diagnose to separate the ambient lag from the spindle modes"
+                    "  why: measured at every gate the program still logs only {rows_per_job:.0} rows per job (gates sit at \
+the zero, the passes and before the dwells), too few for diagnose to separate the ambient lag from the spindle modes"
                 );
             }
         }
