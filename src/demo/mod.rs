@@ -10,13 +10,13 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, anyhow};
 use sha2::{Digest, Sha256};
 
-use crate::data::{Dataset, Require, SPINDLE, read_bytes};
+use crate::data::{Dataset, Require, read_bytes};
 use crate::diagnose::{Diagnosis, Options, diagnose};
 use crate::model::DriftModel;
 use crate::model::fit::{FitOptions, fit};
 use crate::model::synth::{Rng, Sampling, characterisation, measure};
 use crate::omm::{ModelRef, Profile, transform};
-use crate::vm::{Config, Machine, MachineSpec, Run, parse_machine_file, run_file};
+use crate::vm::{Config, MachineSpec, Run, parse_machine_file, run_file};
 
 /// The part program: six surfaces 0.5 mm apart, 48 min heating dwells, one `; PASS` marker per surface.
 pub const PROGRAM: &str = include_str!("../../fixtures/vm/stepped_surface_flat.mpf");
@@ -26,6 +26,9 @@ pub const MACHINE: &str = include_str!("../../fixtures/vm/machines/ambient_machi
 pub const TRUTH: &str = include_str!("../../fixtures/vm/machines/ambient_truth.toml");
 
 const CHANNEL: &str = "drift_z_um";
+/// The ambient sensor's column and the analog input the machine reads it on (`$A_INA[1]`).
+const AMBIENT: &str = "ambient_c";
+const AMBIENT_INPUT: u32 = 1;
 /// Name of the truth model file as the machine file refers to it.
 const TRUTH_FILE: &str = "ambient_truth.toml";
 /// Speeds of the shop's characterisation runs (rpm).
@@ -144,23 +147,35 @@ pub fn run_demo(settings: &Settings, dir: &Path) -> anyhow::Result<Outcome> {
     if let Some(t) = settings.tolerance_um {
         profile.limits.tolerance_um = t;
     }
+    // The ambient sensor is logged and, once a model reads it, predicted in NC.
+    profile
+        .log
+        .inputs
+        .insert(AMBIENT.to_string(), AMBIENT_INPUT);
     let first_program = transformed(&fitted, &profile, "model", dir)?;
     let first = run(&first_program, &today, settings.seed)?;
     write("run_model.txt", first.human().as_bytes())?;
+    // A diagnosis period: the same model, measured and logged at every gate.
+    let mut dense = profile.clone();
+    dense.log.measure_every_gate = true;
+    let dense_program = transformed(&fitted, &dense, "model_dense", dir)?;
+    let dense_today = run(&dense_program, &today, settings.seed)?;
+    write("run_model_dense.txt", dense_today.human().as_bytes())?;
 
-    // The transformed program ran on earlier days too; their probe logs and today's are what diagnose reads.
+    // The diagnosis-period program ran on earlier days too; their probe logs and today's are what diagnose
+    // reads.
     let mut logs = Vec::new();
     for (day, points) in EARLIER_DAYS.iter().enumerate() {
         let m = machine(&with_ambient(MACHINE, points)?, dir, settings)?;
-        let r = run(&first_program, &m, settings.seed + 1 + day as u64)?;
-        logs.push((format!("day{}", day + 1), probe_log(&r, &profile, &m)?));
+        let r = run(&dense_program, &m, settings.seed + 1 + day as u64)?;
+        logs.push((format!("day{}", day + 1), probe_log(&r, &dense)?));
     }
-    logs.push(("today".to_string(), probe_log(&first, &profile, &today)?));
+    logs.push(("today".to_string(), probe_log(&dense_today, &dense)?));
     let log_rows = logs.iter().map(|(_, l)| l.len()).sum();
     // Recalibrating on a dozen probe readings alone would forget the characterisation; diagnose reads both.
     let mut shop = data.clone();
     let hall = vec![CHARACTERISATION_AMBIENT_C; shop.len()];
-    shop.push_column("ambient_c", hall);
+    shop.push_column(AMBIENT, hall);
     let mut all = vec![];
     for (i, r) in shop.runs().enumerate() {
         all.push((shop.run_label(i), slice(&shop, r)));
@@ -175,21 +190,28 @@ pub fn run_demo(settings: &Settings, dir: &Path) -> anyhow::Result<Outcome> {
     write("diagnose.html", diagnosis.html().as_bytes())?;
     write("model_refined.toml", diagnosis.refined.to_toml().as_bytes())?;
 
-    // The NC program can only predict the spindle modes; what it cannot evaluate is left to the measurements.
+    // The NC program predicts the spindle modes and lags on the ambient sensor it reads; any other effect
+    // is left to the measurements.
     let mut nc_model = diagnosis.refined.clone();
+    let readable =
+        |kind: &str, signal: Option<&str>| kind == "input_lag" && signal == Some(AMBIENT);
     let dropped: Vec<String> = nc_model
         .effects
         .iter()
+        .filter(|e| !readable(&e.kind, e.signal.as_deref()))
         .map(|e| e.kind.clone())
         .chain(
             nc_model
                 .inputs
                 .iter()
+                .filter(|i| i.signal != AMBIENT)
                 .map(|i| format!("input {}", i.signal)),
         )
         .collect();
-    nc_model.effects.clear();
-    nc_model.inputs.clear();
+    nc_model
+        .effects
+        .retain(|e| readable(&e.kind, e.signal.as_deref()));
+    nc_model.inputs.retain(|i| i.signal == AMBIENT);
     write("model_refined_nc.toml", nc_model.to_toml().as_bytes())?;
     let second_program = transformed(&nc_model, &profile, "model_refined", dir)?;
     let second = run(&second_program, &today, settings.seed)?;
@@ -201,6 +223,7 @@ pub fn run_demo(settings: &Settings, dir: &Path) -> anyhow::Result<Outcome> {
         stages: vec![
             Stage::of("uncompensated", &uncompensated),
             Stage::of("compensated (fitted model)", &first),
+            Stage::of("  same, every gate measured", &dense_today),
             Stage::of("compensated after diagnose", &second),
         ],
         effects,
@@ -330,50 +353,15 @@ fn transformed(
     Ok(path)
 }
 
-/// The measurement log the transformed program wrote, joined with what the control records beside it: the
-/// spindle speed (the log's row holds the speed at the moment of measuring, with the spindle stopped for the
-/// probe, while a row's inputs are read as holding until the next row) and the ambient sensor on analog
-/// input 1 (the transform's WRITE line does not carry `$A_INA` yet).
-fn probe_log(
-    run: &Run,
-    profile: &Profile,
-    machine: &(Config, MachineSpec),
-) -> anyhow::Result<Dataset> {
+/// The measurement log the transformed program wrote: a row per gate with the spindle speed and the
+/// ambient sensor the program read itself.
+fn probe_log(run: &Run, profile: &Profile) -> anyhow::Result<Dataset> {
     let name = &profile.registers.log_file;
     let text = run
         .files
         .get(name)
         .ok_or_else(|| anyhow!("the transformed program wrote no {name} log"))?;
-    let mut ds = read_bytes(name, text.as_bytes(), Require::Displacement)?;
-    let end = run.passes.last().map_or(0.0, |p| p.end_min);
-    let t = &ds.time_min;
-    let rpm = (0..t.len())
-        .map(|i| mean_speed(run, t[i], t.get(i + 1).copied().unwrap_or(end)))
-        .collect();
-    ds.push_column(SPINDLE, rpm);
-    let sensor = machine.1.build(0);
-    let ambient: Option<Vec<f64>> = ds
-        .time_min
-        .iter()
-        .map(|&t| sensor.analog_input(1, t))
-        .collect();
-    if let Some(values) = ambient {
-        ds.push_column("ambient_c", values);
-    }
-    Ok(ds)
-}
-
-/// Time-weighted spindle speed of the run between `from` and `to` (minutes).
-fn mean_speed(run: &Run, from: f64, to: f64) -> f64 {
-    if to <= from {
-        return run.spindle.speed_at(from);
-    }
-    let turned: f64 = run
-        .spindle
-        .intervals(to)
-        .map(|(a, b, rpm)| (b.min(to) - a.max(from)).max(0.0) * rpm)
-        .sum();
-    turned / (to - from)
+    Ok(read_bytes(name, text.as_bytes(), Require::Displacement)?)
 }
 
 /// `kind: sentence` per added effect, as diagnose words them.
@@ -417,8 +405,8 @@ impl Outcome {
         }
         let _ = writeln!(
             s,
-            "\ndiagnose on the characterisation ({} rows) and the probe logs of {} jobs ({} rows, joined with the \
-ambient sensor):",
+            "\ndiagnose on the characterisation ({} rows) and the probe logs of {} jobs ({} rows, every gate \
+measured, ambient sensor logged by the program):",
             self.characterisation_rows, self.log_runs, self.log_rows
         );
         if self.effects.is_empty() {
@@ -433,7 +421,7 @@ ambient sensor):",
         if !self.dropped.is_empty() {
             let _ = writeln!(
                 s,
-                "  the NC program cannot evaluate {}: transformed with the refined spindle modes only",
+                "  the NC program cannot evaluate {}: transformed without it",
                 self.dropped.join(", ")
             );
         }
@@ -452,8 +440,8 @@ ambient sensor):",
             if self.effects.is_empty() {
                 let _ = writeln!(
                     s,
-                    "  why: the transformed program logs only its measurements ({rows_per_job:.0} rows per job), too few \
-for diagnose to separate the ambient lag from the spindle modes"
+                    "  why: measured at every gate the program still logs only {rows_per_job:.0} rows per job (gates sit at \
+the zero, the passes and before the dwells), too few for diagnose to separate the ambient lag from the spindle modes"
                 );
             }
         }

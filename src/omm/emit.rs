@@ -25,6 +25,10 @@ pub struct Registers {
     dt: u32,
     x: Vec<u32>,
     g: Vec<u32>,
+    /// Per analog input of the model: lag state, target, value at the zero.
+    input_x: Vec<u32>,
+    input_g: Vec<u32>,
+    input_zero: Vec<u32>,
     pred: u32,
     pred_at_measurement: u32,
     eps: u32,
@@ -49,12 +53,13 @@ impl Registers {
     pub fn allocate(
         profile: &Profile,
         modes: usize,
+        inputs: usize,
         used: &BTreeSet<u32>,
     ) -> Result<Registers, String> {
         let r = &profile.registers;
         let result_r = result_r_number(&profile.probe.result);
         let save = result_r.is_some_and(|n| used.contains(&n));
-        let needed = 19 + 2 * modes + usize::from(save);
+        let needed = 19 + 2 * modes + 3 * inputs + usize::from(save);
         let free: Vec<u32> = (r.r_first..=r.r_last)
             .filter(|n| !used.contains(n) && Some(*n) != result_r)
             .take(needed)
@@ -74,6 +79,9 @@ impl Registers {
             dt: next(),
             x: (0..modes).map(|_| next()).collect(),
             g: (0..modes).map(|_| next()).collect(),
+            input_x: (0..inputs).map(|_| next()).collect(),
+            input_g: (0..inputs).map(|_| next()).collect(),
+            input_zero: (0..inputs).map(|_| next()).collect(),
             pred: next(),
             pred_at_measurement: next(),
             eps: next(),
@@ -119,6 +127,9 @@ impl Registers {
         ];
         v.extend(&self.x);
         v.extend(&self.g);
+        v.extend(&self.input_x);
+        v.extend(&self.input_g);
+        v.extend(&self.input_zero);
         v.extend(self.saved_result);
         v.sort_unstable();
         v
@@ -264,7 +275,31 @@ impl Emitter<'_> {
             ));
         }
         v.extend(self.set_targets(rpm));
-        let sum: Vec<String> = reg.x.iter().map(|x| r(*x)).collect();
+        for (((x, g), zero), term) in reg
+            .input_x
+            .iter()
+            .zip(&reg.input_g)
+            .zip(&reg.input_zero)
+            .zip(self.predictor.inputs())
+        {
+            v.push(format!(
+                "{x}={g}+({x}-{g})*EXP(-{dt}/{tau})",
+                x = r(*x),
+                g = r(*g),
+                dt = r(reg.dt),
+                tau = number(term.tau_min)
+            ));
+            // The input holds from here to the next gate, as a log row's inputs do.
+            v.push(format!(
+                "{g}={}*($A_INA[{n}]-{zero}) ; {}",
+                Emitter::mm(term.gain_per_unit),
+                term.signal,
+                g = r(*g),
+                n = term.input,
+                zero = r(*zero)
+            ));
+        }
+        let sum: Vec<String> = reg.x.iter().chain(&reg.input_x).map(|x| r(*x)).collect();
         v.push(format!(
             "{}={}",
             r(reg.pred),
@@ -378,8 +413,15 @@ impl Emitter<'_> {
             TimerUnit::Min => format!("({}-{})", r(reg.t_last), r(reg.t0)),
             TimerUnit::S => format!("({}-{})/60", r(reg.t_last), r(reg.t0)),
         };
+        let inputs: String = self
+            .profile
+            .log
+            .inputs
+            .values()
+            .map(|n| format!("<<\",\"<<$A_INA[{n}]"))
+            .collect();
         format!(
-            "WRITE({},\"{}\",\"\"<<{minutes}<<\",{},\"<<{}*1000<<\",{pass},\"<<{})",
+            "WRITE({},\"{}\",\"\"<<{minutes}<<\",{},\"<<{}*1000<<\",{pass},\"<<{}{inputs})",
             r(reg.write_error),
             self.profile.registers.log_file,
             number(rpm),
@@ -437,7 +479,9 @@ impl Emitter<'_> {
     }
 
     /// The initial block: stage 1 (initial data) and stage 4 (reference measurement, the zero).
-    pub fn reference(&self, gate: &Gate, pass_tool: Option<&str>) -> String {
+    /// `cut_rpm` is the speed the first pass cuts at: a log row's inputs hold until the next row, and the
+    /// spindle is only stopped for the zero itself.
+    pub fn reference(&self, gate: &Gate, pass_tool: Option<&str>, cut_rpm: f64) -> String {
         let reg = &self.regs;
         let p = self.profile;
         let what = Emitter::describe(gate, pass_tool);
@@ -447,8 +491,16 @@ impl Emitter<'_> {
             format!("{}={}", r(reg.t0), p.registers.timer),
             format!("{}={}", r(reg.t_last), r(reg.t0)),
         ];
-        for x in &reg.x {
+        for x in reg.x.iter().chain(&reg.input_x).chain(&reg.input_g) {
             v.push(format!("{}=0", r(*x)));
+        }
+        for (zero, term) in reg.input_zero.iter().zip(self.predictor.inputs()) {
+            v.push(format!(
+                "{}=$A_INA[{}] ; {}",
+                r(*zero),
+                term.input,
+                term.signal
+            ));
         }
         for reg_n in [
             reg.pred,
@@ -466,18 +518,23 @@ impl Emitter<'_> {
             OffsetMethod::Trans | OffsetMethod::Atrans => format!("{}=0", r(reg.base)),
         });
         v.push(format!(
-            "WRITE({},\"{}\",\"time_min,{},{},pass,run\")",
+            "WRITE({},\"{}\",\"time_min,{},{},pass,run{}\")",
             r(reg.write_error),
             p.registers.log_file,
             crate::data::SPINDLE,
-            self.channel
+            self.channel,
+            p.log
+                .inputs
+                .keys()
+                .map(|k| format!(",{k}"))
+                .collect::<String>()
         ));
         v.push(p.offset.select.clone());
         v.extend(self.probe_in());
         v.push("; driftloop stage 4: reference measurement of the base surface, the zero".into());
         v.extend(self.measure(&number(p.position.nominal), &what));
         v.push(format!("{}={}", r(reg.zero), r(reg.mean)));
-        v.push(self.log(0.0, gate.pass));
+        v.push(self.log(cut_rpm, gate.pass));
         v.extend(self.tool_back(gate));
         v.extend(self.set_targets(gate.rpm));
         Emitter::finish(v)
@@ -502,12 +559,14 @@ impl Emitter<'_> {
         v.extend(self.update_prediction(gate.rpm));
         if gate.can_measure {
             let skip = format!("{}SKIP{}", self.label_prefix, gate.number);
-            v.push(format!(
-                "IF ABS({}-{})<{} GOTOF {skip}",
-                r(reg.pred),
-                r(reg.pred_at_measurement),
-                Emitter::mm(l.working_limit_um())
-            ));
+            if !self.profile.log.measure_every_gate {
+                v.push(format!(
+                    "IF ABS({}-{})<{} GOTOF {skip}",
+                    r(reg.pred),
+                    r(reg.pred_at_measurement),
+                    Emitter::mm(l.working_limit_um())
+                ));
+            }
             v.extend(self.probe_in());
             let expected = format!("{}+{}-{}", r(reg.zero), r(reg.pred), r(reg.corr));
             v.extend(self.measure(&expected, &what));

@@ -160,9 +160,15 @@ pub fn transform(
             profile: profile.offset.select.clone(),
         });
     }
-    let predictor = Predictor::new(model.model).map_err(TransformError::Plan)?;
-    let regs = Registers::allocate(profile, predictor.taus().len(), &timeline.used_r)
-        .map_err(TransformError::Plan)?;
+    let predictor =
+        Predictor::new(model.model, &profile.log.inputs).map_err(TransformError::Plan)?;
+    let regs = Registers::allocate(
+        profile,
+        predictor.taus().len(),
+        predictor.inputs().len(),
+        &timeline.used_r,
+    )
+    .map_err(TransformError::Plan)?;
     let label_prefix = ["DL", "DLOMM", "DRIFTLOOP"]
         .into_iter()
         .find(|p| !timeline.labels.iter().any(|l| l.starts_with(p)))
@@ -200,13 +206,19 @@ pub fn transform(
         .min(program.block_count().saturating_sub(1));
     insert(&mut editor, header_at, emitter.header(model.sha256))?;
     let mut labels = Vec::new();
+    let cut_rpm = plan
+        .gates
+        .iter()
+        .map(|g| g.rpm)
+        .find(|rpm| *rpm > 0.0)
+        .unwrap_or(0.0);
     for gate in &plan.gates {
         let needs_tool = gate.can_measure && !gate.tool_change_follows;
         if needs_tool && gate.before.tool.is_none() {
             return Err(TransformError::UnknownTool(gate.number));
         }
         let text = if gate.kind == GateKind::Reference {
-            emitter.reference(gate, pass_tool(gate.pass))
+            emitter.reference(gate, pass_tool(gate.pass), cut_rpm)
         } else {
             if gate.can_measure {
                 labels.push(format!("{}SKIP{}", emitter.label_prefix, gate.number));

@@ -3,9 +3,12 @@
 //! δ' = r·Δ — measures. The reference measurement (the "zero") is taken before the first pass; the machine
 //! is taken to start from rest there, as the model's runs do.
 
+use std::collections::BTreeMap;
+
 use serde::Serialize;
 
 use crate::model::DriftModel;
+use crate::model::effects::{Effect, Kind};
 use crate::model::lag::step;
 use crate::model::speed_grid::SpeedGrid;
 
@@ -59,7 +62,18 @@ pub struct Plan {
     pub total_min: f64,
 }
 
-/// The model's spindle modes at work: state, targets and the exact update.
+/// A lagged response to an analog input the control reads (`$A_INA[n]`): the model's `inputs` and its
+/// `input_lag` effects, x ← g + (x − g)·e^(−Δt/τ) with g = gain·(u − u₀), u₀ the input at the zero.
+#[derive(Debug, Clone, PartialEq)]
+pub struct InputTerm {
+    pub signal: String,
+    /// Analog input number the profile maps the signal to.
+    pub input: u32,
+    pub tau_min: f64,
+    pub gain_per_unit: f64,
+}
+
+/// The model's spindle modes and input lags at work: state, targets and the exact update.
 #[derive(Debug, Clone)]
 pub struct Predictor {
     grid: SpeedGrid,
@@ -67,22 +81,47 @@ pub struct Predictor {
     gains: Vec<Vec<f64>>,
     x: Vec<f64>,
     target: Vec<f64>,
+    inputs: Vec<InputTerm>,
+    input_x: Vec<f64>,
+    input_target: Vec<f64>,
 }
 
 impl Predictor {
-    pub fn new(model: &DriftModel) -> Result<Predictor, String> {
-        if let Some(e) = model.effects.first() {
-            return Err(format!(
-                "the model carries a `{}` effect, which the NC program cannot predict; refusing rather than predicting without it",
-                e.kind
-            ));
+    /// `analog`: signal name → analog input number (the profile's `[log] inputs`).
+    pub fn new(model: &DriftModel, analog: &BTreeMap<String, u32>) -> Result<Predictor, String> {
+        let input_of = |signal: &str| {
+            analog.get(signal).copied().ok_or_else(|| {
+                format!(
+                    "the model reads `{signal}`, which the NC program cannot read: map it to an analog input in the profile (`[log] inputs = {{ {signal} = n }}` for $A_INA[n])"
+                )
+            })
+        };
+        let mut inputs = Vec::new();
+        for i in &model.inputs {
+            inputs.push(InputTerm {
+                signal: i.signal.clone(),
+                input: input_of(&i.signal)?,
+                tau_min: i.tau_min,
+                gain_per_unit: i.gain_um_per_unit,
+            });
         }
-        if !model.inputs.is_empty() {
-            let names: Vec<&str> = model.inputs.iter().map(|i| i.signal.as_str()).collect();
-            return Err(format!(
-                "the model takes inputs the NC program cannot read ({}); transform needs a spindle-only model",
-                names.join(", ")
-            ));
+        for spec in &model.effects {
+            let e = Effect::from_spec(spec).map_err(|e| e.to_string())?;
+            let signal = match (e.kind, &e.signal) {
+                (Kind::InputLag, Some(signal)) => signal,
+                _ => {
+                    return Err(format!(
+                        "the model carries a `{}` effect, which the NC program cannot predict; refusing rather than predicting without it",
+                        spec.kind
+                    ));
+                }
+            };
+            inputs.push(InputTerm {
+                signal: signal.clone(),
+                input: input_of(signal)?,
+                tau_min: e.theta[0],
+                gain_per_unit: e.amplitudes[0],
+            });
         }
         model.validate()?;
         let grid = model
@@ -95,7 +134,14 @@ impl Predictor {
             gains: modes.iter().map(|m| m.gain_um.clone()).collect(),
             x: vec![0.0; modes.len()],
             target: vec![0.0; modes.len()],
+            input_x: vec![0.0; inputs.len()],
+            input_target: vec![0.0; inputs.len()],
+            inputs,
         })
+    }
+
+    pub fn inputs(&self) -> &[InputTerm] {
+        &self.inputs
     }
 
     pub fn taus(&self) -> &[f64] {
@@ -112,15 +158,28 @@ impl Predictor {
         self.target = self.targets_at(rpm);
     }
 
+    /// The inputs' changes since the zero (one per [`Predictor::inputs`]), holding from now on.
+    pub fn set_input_changes(&mut self, du: &[f64]) {
+        for ((g, term), du) in self.input_target.iter_mut().zip(&self.inputs).zip(du) {
+            *g = term.gain_per_unit * du;
+        }
+    }
+
     pub fn advance(&mut self, minutes: f64) {
-        for ((x, g), tau) in self.x.iter_mut().zip(&self.target).zip(&self.taus) {
+        let taus = self
+            .taus
+            .iter()
+            .chain(self.inputs.iter().map(|i| &i.tau_min));
+        let states = self.x.iter_mut().chain(self.input_x.iter_mut());
+        let targets = self.target.iter().chain(&self.input_target);
+        for ((x, g), tau) in states.zip(targets).zip(taus) {
             *x = step(*x, *g, (-minutes / tau).exp());
         }
     }
 
     /// Predicted drift relative to rest (µm).
     pub fn drift(&self) -> f64 {
-        self.x.iter().sum()
+        self.x.iter().chain(&self.input_x).sum()
     }
 }
 
@@ -132,7 +191,8 @@ pub fn measurement_min(profile: &Profile) -> f64 {
 }
 
 pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Result<Plan, String> {
-    let mut p = Predictor::new(model)?;
+    // The plan cannot know the inputs ahead: they are taken to stay at their value at the zero.
+    let mut p = Predictor::new(model, &profile.log.inputs)?;
     let limit = profile.limits.working_limit_um();
     let Some(first) = timeline
         .sites
@@ -176,7 +236,9 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
             SiteKind::SpeedChange => (GateKind::Update, false),
         };
         let measure = kind == GateKind::Reference
-            || (can_measure && (predicted - at_last_measurement).abs() >= limit);
+            || (can_measure
+                && (profile.log.measure_every_gate
+                    || (predicted - at_last_measurement).abs() >= limit));
         let in_loop = matches!(
             site.kind,
             SiteKind::Retract {
@@ -238,7 +300,7 @@ mod tests {
         let schedule: Schedule = "4000:37,0:11,2500:52".parse().unwrap();
         let ds = schedule.to_dataset(1.0);
         let truth = model.predict(&ds).unwrap();
-        let mut p = Predictor::new(&model).unwrap();
+        let mut p = Predictor::new(&model, &BTreeMap::new()).unwrap();
         let mut t = 0.0;
         for seg in &schedule.segments {
             p.set_rpm(seg.rpm);
@@ -251,5 +313,100 @@ mod tests {
         assert!((ds.time_min.last().unwrap() - t).abs() < 1e-9);
         assert!((p.drift() - last).abs() < 1e-9, "{} vs {last}", p.drift());
         assert!(last > 1.0);
+    }
+
+    #[test]
+    fn input_lags_agree_with_the_model() {
+        // `inputs` and an `input_lag` effect, each on an analog input the profile maps, over a
+        // piecewise-constant signal that changes with the schedule: the gates' update equals the model.
+        let mut model =
+            DriftModel::from_modes("drift_z_um", vec![4000.0], &[(30.0, vec![20.0])], 0.0);
+        model.inputs.push(crate::model::InputLag {
+            signal: "ambient_c".into(),
+            tau_min: 60.0,
+            tau_se_min: None,
+            gain_um_per_unit: -1.5,
+            gain_se_um_per_unit: None,
+        });
+        model.effects.push(crate::model::EffectSpec {
+            kind: "input_lag".into(),
+            signal: Some("coolant_c".into()),
+            params: [
+                ("tau_min".to_string(), 20.0),
+                ("gain_um_per_unit".to_string(), 2.5),
+            ]
+            .into(),
+        });
+        let schedule: Schedule = "4000:37,0:11,2500:52".parse().unwrap();
+        let ambient = [20.0, 23.5, 18.0];
+        let coolant = [22.0, 22.0, 25.0];
+        let mut ds = schedule.to_dataset(1.0);
+        let ends: Vec<f64> = schedule
+            .segments
+            .iter()
+            .scan(0.0, |t, s| {
+                *t += s.minutes;
+                Some(*t)
+            })
+            .collect();
+        let segment = |t: f64| {
+            ends.iter()
+                .position(|e| t < *e - 1e-9)
+                .unwrap_or(ends.len() - 1)
+        };
+        let column = |v: &[f64]| {
+            ds.time_min
+                .iter()
+                .map(|&t| v[segment(t)])
+                .collect::<Vec<_>>()
+        };
+        let (a, c) = (column(&ambient), column(&coolant));
+        ds.push_column("ambient_c", a);
+        ds.push_column("coolant_c", c);
+        let truth = model.predict(&ds).unwrap();
+
+        let analog = BTreeMap::from([("ambient_c".to_string(), 1), ("coolant_c".to_string(), 2)]);
+        let mut p = Predictor::new(&model, &analog).unwrap();
+        assert_eq!(p.inputs().len(), 2);
+        for (k, seg) in schedule.segments.iter().enumerate() {
+            p.set_rpm(seg.rpm);
+            p.set_input_changes(&[ambient[k] - ambient[0], coolant[k] - coolant[0]]);
+            p.advance(seg.minutes * 0.3);
+            p.advance(seg.minutes * 0.7);
+        }
+        let last = *truth.last().unwrap();
+        let spindle_only =
+            DriftModel::from_modes("drift_z_um", vec![4000.0], &[(30.0, vec![20.0])], 0.0)
+                .predict(&ds)
+                .unwrap();
+        assert!(
+            (last - spindle_only.last().unwrap()).abs() > 1.0,
+            "the inputs matter"
+        );
+        assert!((p.drift() - last).abs() < 1e-9, "{} vs {last}", p.drift());
+    }
+
+    #[test]
+    fn unmapped_inputs_and_other_effects_are_refused() {
+        let mut model =
+            DriftModel::from_modes("drift_z_um", vec![4000.0], &[(30.0, vec![20.0])], 0.0);
+        model.effects.push(crate::model::EffectSpec {
+            kind: "input_lag".into(),
+            signal: Some("ambient_c".into()),
+            params: [
+                ("tau_min".to_string(), 20.0),
+                ("gain_um_per_unit".to_string(), 2.5),
+            ]
+            .into(),
+        });
+        let err = Predictor::new(&model, &BTreeMap::new()).unwrap_err();
+        assert!(err.contains("ambient_c = n"), "{err}");
+        model.effects[0] = crate::model::EffectSpec {
+            kind: "time_trend".into(),
+            signal: None,
+            params: [("um_per_h".to_string(), 1.0)].into(),
+        };
+        let err = Predictor::new(&model, &BTreeMap::new()).unwrap_err();
+        assert!(err.contains("`time_trend` effect"), "{err}");
     }
 }

@@ -20,6 +20,22 @@ pub struct Profile {
     pub registers: Registers,
     pub passes: Passes,
     pub timeline: TimelineSettings,
+    /// Optional: without the section the log holds the measured gates only.
+    #[serde(default)]
+    pub log: LogSettings,
+}
+
+/// How dense DRIFTLOG is and which analog inputs it carries, for `diagnose` to work with.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LogSettings {
+    /// Measure (and log) at every gate that can measure, not only where the predicted change reached δ'.
+    /// Costs one measurement per gate; meant for a diagnosis period, not for production.
+    #[serde(default)]
+    pub measure_every_gate: bool,
+    /// Signal name → analog input number: `ambient_c = 1` logs `$A_INA[1]` as the column `ambient_c`.
+    #[serde(default)]
+    pub inputs: std::collections::BTreeMap<String, u32>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -277,6 +293,14 @@ impl Profile {
         for text in [self.cycle_call(), format!("R1={}", self.probe.result)] {
             if let Some(d) = crate::syntax::line_syntax_errors(text.as_bytes()).first() {
                 return Err(format!("`{text}` is not a valid NC block: {}", d.message));
+            }
+        }
+        for (name, n) in &self.log.inputs {
+            let plain = name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+            if name.is_empty() || !plain || *n == 0 {
+                return Err(format!(
+                    "log.inputs: `{name} = {n}` must name a column (letters, digits, _) and an analog input number from 1"
+                ));
             }
         }
         for p in &self.passes.lines {

@@ -47,7 +47,7 @@ impl Modal {
 pub enum SiteKind {
     /// A technological pass starts at this block; `tool_change` when the block itself changes the tool.
     PassStart { tool_change: bool },
-    /// A rapid move right after a Z-only retract: the tool is clear of the part. `first_in_loop`: the first
+    /// A rapid move or a dwell right after a Z-only retract: the tool is clear of the part. `first_in_loop`: the first
     /// such move in the body of a loop of the program (the timeline counts a loop once, so the plan
     /// cannot know how long it really runs; a gate there lets the program decide on every iteration).
     Retract { first_in_loop: bool },
@@ -639,11 +639,13 @@ impl<'p> Builder<'p> {
         }
         // The move.
         let moved = s.axes.iter().any(Option::is_some);
+        // A dwell right after the retract is as clear of the part as the next rapid, and a gate before it is
+        // the only one a long dwell can have.
+        let dwell = s.g.contains(4) && !moved;
         let retract_candidate = self.last_was_z_retract
-            && moved
             && self.state.motion == 0
             && self.state.absolute
-            && s.axes[2].is_none();
+            && (dwell || (moved && s.axes[2].is_none()));
         if retract_candidate {
             let first_in_loop = self.loop_depth > 0 && self.loop_gate_pending;
             self.loop_gate_pending &= !first_in_loop;
@@ -889,5 +891,20 @@ mod tests {
         for t in ["", "-", "1.2.3", "1e5", "1234567890123456", "12a"] {
             assert_eq!(decimal(t.as_bytes()), None, "{t}");
         }
+    }
+
+    #[test]
+    fn a_dwell_after_a_retract_is_a_site() {
+        let text = "T1 M6\nS4000 M3\nG0 X0 Y0 Z2\nG1 Z-1 F300\nG1 X50 F1200\nG0 Z5\nG4 F600\nG1 X0\nG4 F60\nM30\n";
+        let program = crate::parse(text.as_bytes());
+        let t = build(&program, &Profile::default_profile());
+        let retracts: Vec<usize> = t
+            .sites
+            .iter()
+            .filter(|s| matches!(s.kind, SiteKind::Retract { .. }))
+            .map(|s| s.block)
+            .collect();
+        // The dwell after `G0 Z5` (block 6), not the one after a feed move (block 8).
+        assert_eq!(retracts, [6]);
     }
 }
