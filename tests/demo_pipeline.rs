@@ -51,22 +51,33 @@ fn compensation_cuts_the_error_the_truth_causes() {
     insta::assert_snapshot!(o.table());
 }
 
+/// The issue's claim, over several seeds (probe noise, characterisation noise and ambient courses all
+/// change): one diagnose round on the probe logs finds the undeclared ambient effect, and the program
+/// transformed with the refined model keeps the machined error within 3 µm at 0.5 µm probe noise.
 #[test]
-#[ignore = "not met yet: measured at every gate the program logs 12 rows per job (zero, passes, dwells), still too \
-            sparse for diagnose to find the ambient lag (notes/demo.md)"]
-fn diagnose_finds_the_ambient_effect_and_does_not_make_things_worse() {
-    let o = demo();
-    assert!(
-        o.diagnosis
-            .effects_added
-            .iter()
-            .any(|a| a.effect.signal.as_deref() == Some("ambient_c")),
-        "{:?}",
-        o.effects
-    );
-    assert!(
-        o.stages[3].max_error_um <= o.stages[1].max_error_um,
-        "{:?}",
-        o.stages
-    );
+fn diagnose_finds_the_ambient_effect_and_meets_the_target() {
+    for seed in [1, 6, 11] {
+        let dir = tempfile::tempdir().unwrap();
+        let settings = Settings {
+            seed,
+            ..Settings::default()
+        };
+        let o = run_demo(&settings, dir.path()).unwrap();
+        assert!(
+            o.diagnosis
+                .effects_added
+                .iter()
+                .any(|a| a.effect.signal.as_deref() == Some("ambient_c")),
+            "seed {seed}: {:?}",
+            o.effects
+        );
+        let [_, compensated, _, after] = &o.stages[..] else {
+            panic!("four stages: {:?}", o.stages);
+        };
+        assert!(
+            after.max_error_um <= compensated.max_error_um,
+            "seed {seed}: {after:?}"
+        );
+        assert!(after.max_error_um <= 3.0, "seed {seed}: {after:?}");
+    }
 }

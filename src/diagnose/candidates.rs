@@ -262,52 +262,92 @@ pub struct Fold {
     pub identifiable: bool,
 }
 
-/// Rolling-origin (forward) cross-validation in time blocks on the fit window: the fit rows are cut into
-/// `blocks` consecutive stretches; from the third on, each is predicted from amplitudes fitted on the
-/// stretches before it only (θ held). A model is used to predict forward in time, so it is validated
-/// forward: a term that fits the past but extrapolates badly loses here, where leaving out an interior
-/// block would only test interpolation. A fold is marked not identifiable for the columns `tested` when
-/// one of them does not vary over its training rows (a step after the training stretch): such a fold
+/// Cross-validation on the fit window. A model is used to predict forward in time, so a single record is
+/// validated forward (rolling origin): the fit rows are cut into `blocks` consecutive stretches and, from the
+/// third on, each is predicted from amplitudes fitted on the stretches before it only (θ held); a term that
+/// fits the past but extrapolates badly loses here, where leaving out an interior block would only test
+/// interpolation. Data of several runs (independent experiments, each from rest: characterisation runs,
+/// production jobs) are validated by leaving one run out instead: their order in the file is not time, and an
+/// input that varies only in the later runs (a hall temperature logged by production jobs, constant during the
+/// characterisation) could never be estimated from the stretches before them. A fold is marked not
+/// identifiable for the columns `tested` when one of them does not vary over its training rows: such a fold
 /// says nothing about that term.
-pub fn forward_cv(
+pub fn cross_validate(
     ctx: &Ctx,
     fitted: &Fitted,
     blocks: usize,
     tested: std::ops::Range<usize>,
 ) -> Option<Vec<Fold>> {
     let phi = fitted.joint.basis(ctx);
+    let splits = if ctx.runs.len() >= MIN_RUNS_FOR_RUN_CV {
+        leave_one_run_out(ctx)
+    } else {
+        rolling_origin(ctx, blocks)
+    };
+    splits
+        .into_iter()
+        .map(|(train, test)| {
+            let c = fitted.joint.amplitudes(&phi, &ctx.y, &train)?;
+            let sse: f64 = test
+                .iter()
+                .map(|&i| {
+                    let pred: f64 = (0..phi.ncols()).map(|j| phi[(i, j)] * c[j]).sum();
+                    (ctx.y[i] - pred).powi(2)
+                })
+                .sum();
+            let trained: Vec<usize> = (0..train.len()).filter(|&i| train[i]).collect();
+            let identifiable = tested.clone().all(|j| {
+                let col = phi.column(j);
+                trained
+                    .first()
+                    .is_some_and(|&f| trained.iter().any(|&i| (col[i] - col[f]).abs() > 1e-12))
+            });
+            Some(Fold {
+                sse,
+                rows: test.len(),
+                identifiable,
+            })
+        })
+        .collect()
+}
+
+/// Runs needed before cross-validation leaves one run out rather than rolling forward in time.
+const MIN_RUNS_FOR_RUN_CV: usize = 3;
+
+/// (training mask, test rows) of the rolling-origin folds: block k ≥ 2 predicted from blocks 0..k.
+fn rolling_origin(ctx: &Ctx, blocks: usize) -> Vec<(Vec<bool>, Vec<usize>)> {
     let n = ctx.n();
     let fit_idx: Vec<usize> = (0..n).filter(|&i| ctx.fit[i]).collect();
     let per = fit_idx.len().div_ceil(blocks.max(1)).max(1);
     let chunks: Vec<&[usize]> = fit_idx.chunks(per).collect();
-    let mut folds = Vec::new();
     let mut train = vec![false; n];
-    let mut trained: Vec<usize> = Vec::new();
+    let mut splits = Vec::new();
     for (k, chunk) in chunks.iter().enumerate() {
         if k >= 2 {
-            let c = fitted.joint.amplitudes(&phi, &ctx.y, &train)?;
-            let mut sse = 0.0;
-            for &i in chunk.iter() {
-                let pred: f64 = (0..phi.ncols()).map(|j| phi[(i, j)] * c[j]).sum();
-                sse += (ctx.y[i] - pred).powi(2);
-            }
-            let identifiable = tested.clone().all(|j| {
-                let col = phi.column(j);
-                let first = col[trained[0]];
-                trained.iter().any(|&i| (col[i] - first).abs() > 1e-12)
-            });
-            folds.push(Fold {
-                sse,
-                rows: chunk.len(),
-                identifiable,
-            });
+            splits.push((train.clone(), chunk.to_vec()));
         }
         for &i in chunk.iter() {
             train[i] = true;
-            trained.push(i);
         }
     }
-    Some(folds)
+    splits
+}
+
+/// (training mask, test rows) with each run's fit rows predicted from the fit rows of all other runs.
+fn leave_one_run_out(ctx: &Ctx) -> Vec<(Vec<bool>, Vec<usize>)> {
+    ctx.runs
+        .iter()
+        .filter_map(|run| {
+            let test: Vec<usize> = run.clone().filter(|&i| ctx.fit[i]).collect();
+            if test.is_empty() {
+                return None;
+            }
+            let train: Vec<bool> = (0..ctx.n())
+                .map(|i| ctx.fit[i] && !run.contains(&i))
+                .collect();
+            Some((train, test))
+        })
+        .collect()
 }
 
 /// RMS over the folds `use_fold` keeps.

@@ -38,7 +38,7 @@ use serde::Serialize;
 use crate::data::{ColumnKind, Dataset};
 use crate::model::DriftModel;
 use crate::model::effects::{Effect, Kind};
-use candidates::{Projector, cv_rms, forward_cv, screen};
+use candidates::{Projector, cross_validate, cv_rms, screen};
 use joint::{Ctx, Fitted, Joint};
 use stats::{ErrorStats, effective_n, ljung_box_white};
 
@@ -276,7 +276,7 @@ fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Optio
         .filter(|s| s.delta_bic < 0.0)
         .collect();
     screened.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
-    let folds_without = forward_cv(ctx, current, CV_BLOCKS, 0..0)?;
+    let folds_without = cross_validate(ctx, current, CV_BLOCKS, 0..0)?;
     let rss0 = current.rss;
     let mut best: Option<(Fitted, Added)> = None;
     for s in screened.into_iter().take(REFITS_PER_ROUND) {
@@ -292,7 +292,7 @@ fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Optio
         // The new effect's columns sit just before the offset column.
         let p = fitted.joint.n_linear();
         let tested = p - 1 - s.effect.amplitudes.len()..p - 1;
-        let Some(folds_with) = forward_cv(ctx, &fitted, CV_BLOCKS, tested) else {
+        let Some(folds_with) = cross_validate(ctx, &fitted, CV_BLOCKS, tested) else {
             continue;
         };
         // Compared on the folds where the effect can be estimated from the training stretch.
