@@ -2,7 +2,9 @@
 //! the properties every output must have: it parses without errors, and removing the inserted blocks gives
 //! the input byte for byte.
 
-use std::path::{Path, PathBuf};
+mod shared_data;
+
+use std::path::PathBuf;
 
 use driftloop::model::DriftModel;
 use driftloop::omm::emit::MARK;
@@ -232,12 +234,11 @@ fn plan_of_the_handwritten_program() {
 
 #[test]
 fn cam_program_from_the_corpus() {
-    let path =
-        root().join("../shared/corpus/sinumerik-840d-sl-cas-package/Approach A/CAM TEST.MPF");
-    if !Path::new(&path).exists() {
-        eprintln!("skipped: {} is absent", path.display());
+    let Some(path) =
+        shared_data::path("corpus/sinumerik-840d-sl-cas-package/Approach A/CAM TEST.MPF")
+    else {
         return;
-    }
+    };
     let input = std::fs::read(&path).unwrap();
     let t = run(&input, &Profile::default_profile()).unwrap();
     check_properties("CAM TEST.MPF", &input, &t);
