@@ -7,18 +7,7 @@ use driftloop::omm::Profile;
 use driftloop::vm::{Config, End, ProbeFault, Run, SimpleMachine, SpindleHistory, run_source};
 
 /// 30 µm at 4000 rpm through a 40 min lag (the demo truth's spindle part).
-const MODEL: &str = r#"
-schema = 1
-channel = "drift_z_um"
-offset_um = 0.0
-[spindle]
-grid_rpm = [4000.0]
-interpolation = "piecewise-linear"
-extrapolation = "linear-last-segment"
-[[spindle.modes]]
-tau_min = 40.0
-gain_um = [30.0]
-"#;
+const MODEL: &str = include_str!("../fixtures/omm/spindle_40min.toml");
 
 fn profile() -> Profile {
     Profile::default_profile()

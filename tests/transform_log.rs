@@ -6,19 +6,8 @@ use driftloop::model::DriftModel;
 use driftloop::omm::{DEFAULT_PROFILE, Profile};
 use driftloop::vm::{Config, End, Run, SimpleMachine, SpindleHistory, run_source};
 
-/// 30 µm at 4000 rpm through a 40 min lag.
-const MODEL: &str = r#"
-schema = 1
-channel = "drift_z_um"
-offset_um = 0.0
-[spindle]
-grid_rpm = [4000.0]
-interpolation = "piecewise-linear"
-extrapolation = "linear-last-segment"
-[[spindle.modes]]
-tau_min = 40.0
-gain_um = [30.0]
-"#;
+/// 30 µm at 4000 rpm through a 40 min lag (the demo truth's spindle part).
+const MODEL: &str = include_str!("../fixtures/omm/spindle_40min.toml");
 
 fn config() -> Config {
     Config {
