@@ -118,9 +118,37 @@ pub fn main() -> ExitCode {
     };
     match result {
         Ok(code) => code,
+        // A reader that stops early (`driftloop transform … --diff | head`) is not a failure of ours.
+        Err(err) if is_broken_pipe(&err) => ExitCode::SUCCESS,
         Err(err) => {
             eprintln!("error: {err:#}");
             ExitCode::from(2)
         }
+    }
+}
+
+fn is_broken_pipe(err: &anyhow::Error) -> bool {
+    err.chain().any(|cause| {
+        cause
+            .downcast_ref::<std::io::Error>()
+            .is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::is_broken_pipe;
+    use anyhow::Context;
+    use std::io;
+
+    #[test]
+    fn a_broken_pipe_under_context_is_recognised_and_nothing_else() {
+        let pipe: anyhow::Result<()> = Err(io::Error::from(io::ErrorKind::BrokenPipe).into());
+        assert!(is_broken_pipe(&pipe.context("cannot write -").unwrap_err()));
+        let missing: anyhow::Result<()> = Err(io::Error::from(io::ErrorKind::NotFound).into());
+        assert!(!is_broken_pipe(
+            &missing.context("cannot read x.mpf").unwrap_err()
+        ));
+        assert!(!is_broken_pipe(&anyhow::anyhow!("broken pipe")));
     }
 }
