@@ -51,11 +51,13 @@ mod tests {
 
     #[test]
     fn cpu_time_advances_with_busy_work() {
-        // Busy until the counter shows 20 ms; a counter that does not move runs into the wall-clock limit.
+        // Busy until the counter shows 20 ms more; a counter that does not move runs into the wall-clock
+        // limit. The sum covers live threads only, and other tests' threads end meanwhile, so it may first
+        // fall below `before`: that only lengthens the wait.
         let before = cpu_time().unwrap();
         let started = std::time::Instant::now();
         let mut x = 0u64;
-        while cpu_time().unwrap() - before < Duration::from_millis(20) {
+        while cpu_time().unwrap().saturating_sub(before) < Duration::from_millis(20) {
             assert!(
                 started.elapsed() < Duration::from_secs(10),
                 "CPU time did not advance"
