@@ -1,19 +1,14 @@
 //! `driftloop simulate-data` → `fit` → `diagnose` through the binary: the JSON object's shape, the exit
 //! codes, the refined model that `predict` reproduces the "after" prediction with, the HTML report.
 
+mod common;
+
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use driftloop::data::{Require, read_path};
 use driftloop::diagnose::{Options, diagnose};
 use driftloop::model::DriftModel;
-
-fn driftloop(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_driftloop"))
-        .args(args)
-        .output()
-        .unwrap()
-}
 
 fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()
@@ -22,7 +17,7 @@ fn text(b: &[u8]) -> String {
 /// Simulated data with `effect` in `dir`, and the declared model fitted on the characterisation.
 fn prepare(dir: &Path, effect: &str, seed: &str) {
     let d = dir.to_str().unwrap();
-    let out = driftloop(&["simulate-data", d, "--effect", effect, "--seed", seed]);
+    let out = common::run(&["simulate-data", d, "--effect", effect, "--seed", seed]);
     assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
     for f in [
         "characterisation.csv",
@@ -33,7 +28,7 @@ fn prepare(dir: &Path, effect: &str, seed: &str) {
         assert!(dir.join(f).exists(), "{f}");
     }
     let model = dir.join("model.toml");
-    let out = driftloop(&[
+    let out = common::run(&[
         "fit",
         dir.join("characterisation.csv").to_str().unwrap(),
         "--channel",
@@ -56,7 +51,7 @@ fn diagnose_in(dir: &Path, extra: &[&str]) -> Output {
         "z_um",
     ];
     args.extend_from_slice(extra);
-    driftloop(&args)
+    common::run(&args)
 }
 
 #[test]
@@ -117,7 +112,7 @@ fn json_refined_model_and_report() {
     let again = diagnose(&refined, &ds, &Options::new("z_um").holdout_from(1080.0)).unwrap();
     let after_rms = v["after"]["holdout"]["rms_um"].as_f64().unwrap();
     assert!((again.before.holdout.unwrap().rms_um - after_rms).abs() < 1e-3);
-    let out = driftloop(&[
+    let out = common::run(&[
         "predict",
         &p("refined.toml"),
         "--data",
@@ -153,7 +148,7 @@ fn human_output_says_in_sample_without_holdout_and_bad_input_exits_2() {
     let s = text(&out.stdout);
     assert!(s.contains("in-sample only"), "{s}");
     assert!(matches!(out.status.code(), Some(0 | 1)));
-    let out = driftloop(&[
+    let out = common::run(&[
         "diagnose",
         &p("model.toml"),
         &p("production.csv"),
@@ -166,7 +161,7 @@ fn human_output_says_in_sample_without_holdout_and_bad_input_exits_2() {
         "{}",
         text(&out.stderr)
     );
-    let out = driftloop(&["simulate-data", &p("x"), "--effect", "gremlin"]);
+    let out = common::run(&["simulate-data", &p("x"), "--effect", "gremlin"]);
     assert_eq!(out.status.code(), Some(2));
 }
 

@@ -1,15 +1,8 @@
 //! `driftloop fit` and `driftloop predict` through the binary: outputs, and exit code 2 on bad input.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn driftloop(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_driftloop"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .unwrap()
-}
+use std::path::{Path, PathBuf};
 
 const FIXTURE: &str = "fixtures/data/characterisation.csv";
 
@@ -28,14 +21,14 @@ fn fit_json(extra: &[&str]) -> serde_json::Value {
         "json",
     ];
     args.extend_from_slice(extra);
-    let out = driftloop(&args);
+    let out = common::run(&args);
     assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
     serde_json::from_slice(&out.stdout).unwrap()
 }
 
 fn fit_to(dir: &Path) -> PathBuf {
     let model = dir.join("model.toml");
-    let out = driftloop(&[
+    let out = common::run(&[
         "fit",
         FIXTURE,
         "--channel",
@@ -51,7 +44,7 @@ fn fit_to(dir: &Path) -> PathBuf {
 fn fit_prints_a_summary_and_writes_the_model() {
     let dir = tempfile::tempdir().unwrap();
     let model = dir.path().join("model.toml");
-    let out = driftloop(&[
+    let out = common::run(&[
         "fit",
         FIXTURE,
         "--channel",
@@ -85,7 +78,7 @@ fn predict_a_schedule_and_a_data_file() {
     let dir = tempfile::tempdir().unwrap();
     let model = fit_to(dir.path());
     let m = model.to_str().unwrap();
-    let out = driftloop(&[
+    let out = common::run(&[
         "predict",
         m,
         "--schedule",
@@ -105,7 +98,7 @@ fn predict_a_schedule_and_a_data_file() {
     assert!(text(&out.stderr).contains("exceed the top characterised speed 5000 rpm"));
 
     let pred = dir.path().join("pred.csv");
-    let out = driftloop(&[
+    let out = common::run(&[
         "predict",
         m,
         "--data",
@@ -124,7 +117,7 @@ fn bad_input_exits_2_with_the_location() {
     let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("bad.csv");
     std::fs::write(&bad, "time_s,spindle_rpm,z_um\n0,0,0\n15,3000,x\n").unwrap();
-    let out = driftloop(&["fit", bad.to_str().unwrap(), "--channel", "z_um"]);
+    let out = common::run(&["fit", bad.to_str().unwrap(), "--channel", "z_um"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(
         text(&out.stderr).contains("bad.csv:3:3: column `z_um`: `x` is not a number"),
@@ -132,9 +125,9 @@ fn bad_input_exits_2_with_the_location() {
         text(&out.stderr)
     );
 
-    let out = driftloop(&["fit", "no/such/file.csv", "--channel", "z_um"]);
+    let out = common::run(&["fit", "no/such/file.csv", "--channel", "z_um"]);
     assert_eq!(out.status.code(), Some(2));
-    let out = driftloop(&["fit", FIXTURE, "--channel", "ch9_um"]);
+    let out = common::run(&["fit", FIXTURE, "--channel", "ch9_um"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(text(&out.stderr).contains("no channel `ch9_um`; displacement channels: drift_z_um"));
 
@@ -144,10 +137,10 @@ fn bad_input_exits_2_with_the_location() {
         .unwrap()
         .replacen("schema = 1", "schema = 7", 1);
     std::fs::write(&newer, t).unwrap();
-    let out = driftloop(&["predict", newer.to_str().unwrap(), "--schedule", "1000:10"]);
+    let out = common::run(&["predict", newer.to_str().unwrap(), "--schedule", "1000:10"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(text(&out.stderr).contains("schema 7 is not supported"));
-    let out = driftloop(&["predict", model.to_str().unwrap(), "--schedule", "1000"]);
+    let out = common::run(&["predict", model.to_str().unwrap(), "--schedule", "1000"]);
     assert_eq!(out.status.code(), Some(2));
 }
 
@@ -170,10 +163,10 @@ fn a_degenerate_fixed_order_falls_back_and_says_why() {
 
 #[test]
 fn fit_reads_stdin_and_writes_the_model_to_stdout() {
-    use std::io::Write;
-    use std::process::Stdio;
-    let mut child = Command::new(env!("CARGO_BIN_EXE_driftloop"))
-        .args([
+    let data = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join(FIXTURE)).unwrap();
+    let out = common::driftloop(
+        Path::new(env!("CARGO_MANIFEST_DIR")),
+        &[
             "fit",
             "-",
             "--channel",
@@ -182,16 +175,9 @@ fn fit_reads_stdin_and_writes_the_model_to_stdout() {
             "2",
             "-o",
             "-",
-        ])
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let data = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join(FIXTURE)).unwrap();
-    child.stdin.take().unwrap().write_all(&data).unwrap();
-    let out = child.wait_with_output().unwrap();
+        ],
+        &data,
+    );
     assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
     let model = driftloop::model::DriftModel::from_toml(&text(&out.stdout), "stdout").unwrap();
     assert_eq!(model.data.unwrap().file, "<stdin>");

@@ -1,30 +1,13 @@
 //! `driftloop positioning` through the binary, on the generated fixtures.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("fixtures/positioning")
         .join(name)
-}
-
-/// Runs the binary from the crate root so paths in the output are the relative ones given here.
-fn driftloop(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_driftloop"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(args)
-        .output()
-        .expect("the driftloop binary runs")
-}
-
-fn stdout(output: &Output) -> String {
-    assert!(
-        output.status.success(),
-        "failed: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    String::from_utf8(output.stdout.clone()).unwrap()
 }
 
 /// Deterministic pseudo-random normal numbers (64-bit LCG + Box–Muller), so the fixture is reproducible.
@@ -106,7 +89,7 @@ fn fixture_is_what_the_generator_writes() {
 
 #[test]
 fn worked_row_through_the_binary() {
-    let out = stdout(&driftloop(&[
+    let out = common::stdout(&common::run(&[
         "positioning",
         "fixtures/positioning/paper_row.csv",
     ]));
@@ -126,7 +109,7 @@ fn worked_row_through_the_binary() {
 
 #[test]
 fn human_output_iso() {
-    let out = stdout(&driftloop(&[
+    let out = common::stdout(&common::run(&[
         "positioning",
         "fixtures/positioning/two_axes.csv",
         "--standard",
@@ -137,7 +120,7 @@ fn human_output_iso() {
 
 #[test]
 fn json_output_dstu() {
-    let out = stdout(&driftloop(&[
+    let out = common::stdout(&common::run(&[
         "positioning",
         "fixtures/positioning/two_axes.csv",
         "--format",
@@ -158,7 +141,7 @@ fn json_output_dstu() {
 #[test]
 fn iso_and_dstu_differ_only_by_k_in_the_limits() {
     let json = |standard: &str| -> serde_json::Value {
-        let out = stdout(&driftloop(&[
+        let out = common::stdout(&common::run(&[
             "positioning",
             "fixtures/positioning/paper_row.csv",
             "--format",
@@ -187,7 +170,7 @@ fn iso_and_dstu_differ_only_by_k_in_the_limits() {
 fn sinumerik_table_text() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("comp.ini");
-    let out = driftloop(&[
+    let out = common::run(&[
         "positioning",
         "fixtures/positioning/two_axes.csv",
         "--standard",
@@ -199,7 +182,7 @@ fn sinumerik_table_text() {
         "--table",
         path.to_str().unwrap(),
     ]);
-    stdout(&out);
+    common::stdout(&out);
     let text = std::fs::read_to_string(&path).unwrap();
     assert_eq!(
         text.matches("%_N_AX_EEC_INI").count(),
@@ -213,7 +196,7 @@ fn sinumerik_table_text() {
 
 #[test]
 fn csv_table_to_stdout_replaces_the_report() {
-    let out = stdout(&driftloop(&[
+    let out = common::stdout(&common::run(&[
         "positioning",
         "fixtures/positioning/paper_row.csv",
         "--grid",
@@ -242,7 +225,7 @@ fn csv_table_to_stdout_replaces_the_report() {
 fn html_report_is_written_and_self_contained() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("r.html");
-    stdout(&driftloop(&[
+    common::stdout(&common::run(&[
         "positioning",
         "fixtures/positioning/two_axes.csv",
         "--report",
@@ -269,7 +252,7 @@ fn bad_input_exits_2_naming_file_line_and_column() {
     let path = dir.path().join("bad.csv");
     let good = std::fs::read_to_string(fixture("paper_row.csv")).unwrap();
     std::fs::write(&path, good.replacen("X,50,-,3,-11", "X,50,-,3,-1l", 1)).unwrap();
-    let out = driftloop(&["positioning", path.to_str().unwrap()]);
+    let out = common::run(&["positioning", path.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -290,7 +273,7 @@ fn too_few_approaches_exit_2() {
         .map(|l| format!("{l}\n"))
         .collect();
     std::fs::write(&path, short).unwrap();
-    let out = driftloop(&["positioning", path.to_str().unwrap()]);
+    let out = common::run(&["positioning", path.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -301,7 +284,7 @@ fn too_few_approaches_exit_2() {
 
 #[test]
 fn bad_grid_and_missing_file_exit_2() {
-    let out = driftloop(&[
+    let out = common::run(&[
         "positioning",
         "fixtures/positioning/paper_row.csv",
         "--grid",
@@ -309,7 +292,7 @@ fn bad_grid_and_missing_file_exit_2() {
     ]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("not a whole number of STEP"));
-    let out = driftloop(&[
+    let out = common::run(&[
         "positioning",
         "fixtures/positioning/paper_row.csv",
         "--grid",
@@ -317,7 +300,7 @@ fn bad_grid_and_missing_file_exit_2() {
     ]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("axis Z, which is not in"));
-    let out = driftloop(&["positioning", "fixtures/positioning/no_such_file.csv"]);
+    let out = common::run(&["positioning", "fixtures/positioning/no_such_file.csv"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(
         String::from_utf8_lossy(&out.stderr)
@@ -327,21 +310,12 @@ fn bad_grid_and_missing_file_exit_2() {
 
 #[test]
 fn reads_stdin() {
-    use std::io::Write;
-    let mut child = Command::new(env!("CARGO_BIN_EXE_driftloop"))
-        .args(["positioning", "-", "--format", "json"])
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    child
-        .stdin
-        .take()
-        .unwrap()
-        .write_all(&std::fs::read(fixture("paper_row.csv")).unwrap())
-        .unwrap();
-    let out = child.wait_with_output().unwrap();
-    let value: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
+    let out = common::driftloop(
+        Path::new(env!("CARGO_MANIFEST_DIR")),
+        &["positioning", "-", "--format", "json"],
+        &std::fs::read(fixture("paper_row.csv")).unwrap(),
+    );
+    let value: serde_json::Value = serde_json::from_str(&common::stdout(&out)).unwrap();
     assert_eq!(value["axes"][0]["targets"].as_array().unwrap().len(), 3);
 }
 
@@ -355,7 +329,7 @@ fn readme_worked_example_is_the_real_output() {
         .expect("README shows the worked example")
         + marker.len();
     let end = start + readme[start..].find("```").unwrap();
-    let out = stdout(&driftloop(&[
+    let out = common::stdout(&common::run(&[
         "positioning",
         "fixtures/positioning/paper_row.csv",
     ]));

@@ -1,28 +1,13 @@
 //! `driftloop sensors` through the binary: report, JSON shape, exit codes, and the model file it writes
 //! reproducing the regression under `driftloop predict`.
 
+mod common;
+
 mod shared_data;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use driftloop::sensors::synth::{TRUTH, dataset};
-
-fn driftloop(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_driftloop"))
-        .args(args)
-        .output()
-        .expect("the driftloop binary runs")
-}
-
-fn stdout(output: &Output) -> String {
-    assert!(
-        output.status.success(),
-        "failed: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    String::from_utf8(output.stdout.clone()).unwrap()
-}
 
 /// The synthetic data set (one run, 900 min, seed 7) written as CSV into `dir`.
 fn synthetic_csv(dir: &Path) -> PathBuf {
@@ -36,7 +21,7 @@ fn synthetic_csv(dir: &Path) -> PathBuf {
 fn human_report_on_synthetic_data() {
     let dir = tempfile::tempdir().unwrap();
     let csv = synthetic_csv(dir.path());
-    let out = stdout(&driftloop(&[
+    let out = common::stdout(&common::run(&[
         "sensors",
         csv.to_str().unwrap(),
         "--channel",
@@ -49,7 +34,7 @@ fn human_report_on_synthetic_data() {
 fn json_has_the_factors_clusters_coefficients_and_both_scores() {
     let dir = tempfile::tempdir().unwrap();
     let csv = synthetic_csv(dir.path());
-    let out = stdout(&driftloop(&[
+    let out = common::stdout(&common::run(&[
         "sensors",
         csv.to_str().unwrap(),
         "--channel",
@@ -99,7 +84,7 @@ fn usage_and_input_errors_exit_2() {
         &["sensors", no_sensors.to_str().unwrap(), "--channel", "e_um"],
     ];
     for args in cases {
-        let out = driftloop(args);
+        let out = common::run(args);
         assert_eq!(out.status.code(), Some(2), "{args:?}");
         assert!(!out.stderr.is_empty(), "{args:?}");
     }
@@ -125,7 +110,7 @@ fn the_model_file_reproduces_the_regression_under_predict() {
     let csv = synthetic_csv(dir.path());
     let model = dir.path().join("model.toml");
     let (csv, model) = (csv.to_str().unwrap(), model.to_str().unwrap());
-    let report = stdout(&driftloop(&[
+    let report = common::stdout(&common::run(&[
         "sensors",
         csv,
         "--channel",
@@ -136,7 +121,7 @@ fn the_model_file_reproduces_the_regression_under_predict() {
         model,
     ]));
     let v: serde_json::Value = serde_json::from_str(&report).unwrap();
-    let predicted = stdout(&driftloop(&["predict", model, "--data", csv]));
+    let predicted = common::stdout(&common::run(&["predict", model, "--data", csv]));
     let (t, p, e) = (
         csv_column(&predicted, "time_min"),
         csv_column(&predicted, "predicted_um"),
@@ -160,7 +145,7 @@ fn the_model_file_reproduces_the_regression_under_predict() {
         );
     }
     // diagnose reads the model too (exit 0 or 1 — findings — never 2).
-    let diagnosed = driftloop(&["diagnose", model, csv, "--channel", "e_um"]);
+    let diagnosed = common::run(&["diagnose", model, csv, "--channel", "e_um"]);
     assert!(
         matches!(diagnosed.status.code(), Some(0 | 1)),
         "{}",
@@ -185,7 +170,7 @@ fn real_data_end_to_end_example() {
         return;
     };
     let data = data.to_str().unwrap();
-    let human = stdout(&driftloop(&[
+    let human = common::stdout(&common::run(&[
         "sensors",
         data,
         "--channel",
@@ -194,7 +179,7 @@ fn real_data_end_to_end_example() {
         "960",
     ]));
     eprintln!("{human}");
-    let json = stdout(&driftloop(&[
+    let json = common::stdout(&common::run(&[
         "sensors",
         data,
         "--channel",
@@ -236,15 +221,15 @@ fn position_column_report_and_no_model_file_for_it() {
         "--position-column",
         "x_mm",
     ];
-    insta::assert_snapshot!(stdout(&driftloop(&args)));
-    let json = stdout(&driftloop(&[&args[..], &["--format", "json"]].concat()));
+    insta::assert_snapshot!(common::stdout(&common::run(&args)));
+    let json = common::stdout(&common::run(&[&args[..], &["--format", "json"]].concat()));
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert_eq!(v["position"], "x_mm");
     assert_eq!(v["geometric"].as_array().unwrap().len(), 3);
     assert_eq!(v["slope"][1]["term"], "a1_c");
     assert_eq!(v["intercept"][2]["term"], "b1_c");
     let model = dir.path().join("m.toml");
-    let refused = driftloop(&[&args[..], &["-o", model.to_str().unwrap()]].concat());
+    let refused = common::run(&[&args[..], &["-o", model.to_str().unwrap()]].concat());
     assert_eq!(refused.status.code(), Some(2));
     assert!(!model.exists());
 }

@@ -1,13 +1,6 @@
 //! `driftloop run` through the binary: exit codes, JSON, machine file, trace CSV.
 
-use std::process::Command;
-
-fn driftloop(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_driftloop"))
-        .args(args)
-        .output()
-        .expect("binary runs")
-}
+mod common;
 
 const MACHINE: &str = r#"
 [probe]
@@ -23,7 +16,7 @@ fn alarm_stop_exits_1_and_json_carries_the_run() {
     let dir = tempfile::tempdir().unwrap();
     let machine = dir.path().join("hot.toml");
     std::fs::write(&machine, MACHINE).unwrap();
-    let out = driftloop(&[
+    let out = common::run(&[
         "run",
         "fixtures/vm/omm/omm_main.mpf",
         "--machine",
@@ -50,7 +43,7 @@ fn alarm_stop_exits_1_and_json_carries_the_run() {
 fn clean_run_exits_0_and_writes_the_trace() {
     let dir = tempfile::tempdir().unwrap();
     let trace = dir.path().join("trace.csv");
-    let out = driftloop(&[
+    let out = common::run(&[
         "run",
         "fixtures/vm/timing.mpf",
         "--trace",
@@ -69,7 +62,7 @@ fn unsupported_construct_exits_2_naming_the_line() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("bad.mpf");
     std::fs::write(&p, "G1 X1 F100\nAROT Z45\n").unwrap();
-    let out = driftloop(&["run", p.to_str().unwrap()]);
+    let out = common::run(&["run", p.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8(out.stderr).unwrap();
     assert!(err.contains("bad.mpf:2: AROT"), "{err}");
@@ -77,7 +70,7 @@ fn unsupported_construct_exits_2_naming_the_line() {
 
 #[test]
 fn machine_file_with_a_model_drives_the_truth() {
-    let out = driftloop(&[
+    let out = common::run(&[
         "run",
         "fixtures/vm/omm/omm_main.mpf",
         "--machine",
@@ -121,20 +114,11 @@ fn machine_file_with_a_model_drives_the_truth() {
 
 #[test]
 fn program_from_stdin() {
-    use std::io::Write;
-    let mut child = Command::new(env!("CARGO_BIN_EXE_driftloop"))
-        .args(["run", "-", "--format", "json"])
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    child
-        .stdin
-        .take()
-        .unwrap()
-        .write_all(b"G1 X100 F1000\nM30\n")
-        .unwrap();
-    let out = child.wait_with_output().unwrap();
+    let out = common::driftloop(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")),
+        &["run", "-", "--format", "json"],
+        b"G1 X100 F1000\nM30\n",
+    );
     assert_eq!(out.status.code(), Some(0));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["program"], "<stdin>");

@@ -1,4 +1,6 @@
 //! Runs the built `driftloop` binary for the CLI tests.
+// Every test file compiles this module on its own and uses only some of it.
+#![allow(dead_code)]
 
 use std::io::Write;
 use std::path::Path;
@@ -24,4 +26,15 @@ pub fn driftloop(dir: &Path, args: &[&str], stdin: &[u8]) -> Output {
 
 pub fn stderr(output: &Output) -> String {
     String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+/// Runs `driftloop ARGS` from the crate root with empty stdin, so relative fixture paths work.
+pub fn run(args: &[&str]) -> Output {
+    driftloop(Path::new(env!("CARGO_MANIFEST_DIR")), args, b"")
+}
+
+/// The stdout of a run that must have succeeded (its stderr in the failure message).
+pub fn stdout(output: &Output) -> String {
+    assert!(output.status.success(), "failed: {}", stderr(output));
+    String::from_utf8(output.stdout.clone()).unwrap()
 }
