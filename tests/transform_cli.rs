@@ -1,8 +1,9 @@
 //! `driftloop transform` and `plan` through the built binary: output modes, refusals, exit codes.
 
-use std::io::Write;
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::Output;
 
 fn fixtures() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("fixtures/omm")
@@ -10,23 +11,6 @@ fn fixtures() -> PathBuf {
 
 fn model() -> String {
     fixtures().join("model.toml").display().to_string()
-}
-
-fn driftloop(args: &[&str], stdin: Option<&[u8]>) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_driftloop"))
-        .args(args)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("binary runs");
-    let mut pipe = child.stdin.take().unwrap();
-    if let Some(bytes) = stdin {
-        // A command that exits before reading stdin is not a test failure here.
-        let _ = pipe.write_all(bytes);
-    }
-    drop(pipe);
-    child.wait_with_output().unwrap()
 }
 
 /// Copies fixture `from` to `dir/to`.
@@ -44,7 +28,11 @@ fn code(o: &Output) -> i32 {
 #[test]
 fn stdin_to_stdout() {
     let input = std::fs::read(fixtures().join("handwritten.mpf")).unwrap();
-    let o = driftloop(&["transform", "-", "--model", &model()], Some(&input));
+    let o = common::driftloop(
+        Path::new(env!("CARGO_MANIFEST_DIR")),
+        &["transform", "-", "--model", &model()],
+        &input,
+    );
     assert_eq!(code(&o), 0, "{}", String::from_utf8_lossy(&o.stderr));
     assert!(o.stdout.starts_with(b"; driftloop-omm"));
     assert!(o.stdout.len() > input.len());
@@ -67,7 +55,7 @@ fn check_then_write_then_check_again() {
         v.extend_from_slice(extra);
         v.into_iter().map(String::from).collect::<Vec<_>>()
     };
-    let run = |a: Vec<String>| driftloop(&a.iter().map(String::as_str).collect::<Vec<_>>(), None);
+    let run = |a: Vec<String>| common::run(&a.iter().map(String::as_str).collect::<Vec<_>>());
     let o = run(args(&["--check"]));
     assert_eq!(code(&o), 1, "missing output differs");
     assert!(!out.exists(), "--check writes nothing");
@@ -90,7 +78,7 @@ fn check_then_write_then_check_again() {
 #[test]
 fn diff_shows_insertions_only() {
     let path = fixtures().join("handwritten.mpf").display().to_string();
-    let o = driftloop(&["transform", &path, "--model", &model(), "--diff"], None);
+    let o = common::run(&["transform", &path, "--model", &model(), "--diff"]);
     assert_eq!(code(&o), 0);
     let diff = String::from_utf8(o.stdout).unwrap();
     assert!(diff.contains("+; driftloop-omm"), "{diff}");
@@ -108,13 +96,13 @@ fn in_place_is_atomic_and_not_repeated() {
     let dir = tempfile::tempdir().unwrap();
     let src = copy_fixture(dir.path(), "crlf.mpf", "crlf.mpf");
     let p = src.display().to_string();
-    let o = driftloop(&["transform", &p, "--model", &model(), "--in-place"], None);
+    let o = common::run(&["transform", &p, "--model", &model(), "--in-place"]);
     assert_eq!(code(&o), 0, "{}", String::from_utf8_lossy(&o.stderr));
     let once = std::fs::read(&src).unwrap();
     assert!(once.windows(13).any(|w| w == b"driftloop-omm"));
     let leftovers: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
     assert_eq!(leftovers.len(), 1, "no temporary file left");
-    let o = driftloop(&["transform", &p, "--model", &model(), "--in-place"], None);
+    let o = common::run(&["transform", &p, "--model", &model(), "--in-place"]);
     assert_eq!(code(&o), 2);
     assert!(String::from_utf8_lossy(&o.stderr).contains("already carries driftloop's blocks"));
     assert_eq!(std::fs::read(&src).unwrap(), once, "refused file untouched");
@@ -128,17 +116,14 @@ fn directories_mirror_into_the_output_directory() {
     copy_fixture(&tree, "latin1.mpf", "b/c/latin1.MPF");
     std::fs::write(tree.join("notes.txt"), b"not a program").unwrap();
     let out = dir.path().join("out");
-    let o = driftloop(
-        &[
-            "transform",
-            &tree.display().to_string(),
-            "--model",
-            &model(),
-            "-o",
-            &out.display().to_string(),
-        ],
-        None,
-    );
+    let o = common::run(&[
+        "transform",
+        &tree.display().to_string(),
+        "--model",
+        &model(),
+        "-o",
+        &out.display().to_string(),
+    ]);
     assert_eq!(code(&o), 0, "{}", String::from_utf8_lossy(&o.stderr));
     assert!(out.join("a/handwritten.mpf").exists());
     assert!(out.join("b/c/latin1.MPF").exists());
@@ -152,17 +137,14 @@ fn a_refused_program_stops_the_whole_batch() {
     copy_fixture(&tree, "handwritten.mpf", "handwritten.mpf");
     std::fs::write(tree.join("broken.mpf"), b"T1 M6\nIF R1>\nM30\n").unwrap();
     let out = dir.path().join("out");
-    let o = driftloop(
-        &[
-            "transform",
-            &tree.display().to_string(),
-            "--model",
-            &model(),
-            "-o",
-            &out.display().to_string(),
-        ],
-        None,
-    );
+    let o = common::run(&[
+        "transform",
+        &tree.display().to_string(),
+        "--model",
+        &model(),
+        "-o",
+        &out.display().to_string(),
+    ]);
     assert_eq!(code(&o), 2);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(
@@ -176,7 +158,7 @@ fn a_refused_program_stops_the_whole_batch() {
 #[test]
 fn several_inputs_need_a_destination() {
     let p = fixtures().join("handwritten.mpf").display().to_string();
-    let o = driftloop(&["transform", &p, &p, "--model", &model()], None);
+    let o = common::run(&["transform", &p, &p, "--model", &model()]);
     assert_eq!(code(&o), 2);
     assert!(String::from_utf8_lossy(&o.stderr).contains("several programs need -o DIRECTORY"));
 }
@@ -184,20 +166,20 @@ fn several_inputs_need_a_destination() {
 #[test]
 fn plan_prints_the_table() {
     let p = fixtures().join("handwritten.mpf").display().to_string();
-    let o = driftloop(&["plan", &p, "--model", &model()], None);
+    let o = common::run(&["plan", &p, "--model", &model()]);
     assert_eq!(code(&o), 0);
     let table = String::from_utf8(o.stdout).unwrap();
     assert!(table.starts_with("pass    line  tool"), "{table}");
     assert!(table.contains("\ngate  pass    line  kind"), "{table}");
     assert!(table.contains("\"ROUGH_D12\""), "{table}");
     assert!(table.contains("extra"));
-    let o = driftloop(&["plan", &p, "--model", &model(), "--format", "json"], None);
+    let o = common::run(&["plan", &p, "--model", &model(), "--format", "json"]);
     let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(json["gates"][0]["kind"], "reference");
     assert_eq!(json["passes"][1]["tool"], "\"ROUGH_D12\"");
     assert_eq!(json["passes"][1]["line"], 38);
     let bad = fixtures().join("blum-tc50.toml").display().to_string();
-    let o = driftloop(&["plan", &p, "--model", &bad], None);
+    let o = common::run(&["plan", &p, "--model", &bad]);
     assert_eq!(code(&o), 2, "a profile is not a model");
 }
 
@@ -209,17 +191,14 @@ fn output_through_a_symlink_or_device_is_not_replaced() {
     let link = dir.path().join("link.mpf");
     std::os::unix::fs::symlink(&target, &link).unwrap();
     let p = fixtures().join("handwritten.mpf").display().to_string();
-    let o = driftloop(
-        &[
-            "transform",
-            &p,
-            "--model",
-            &model(),
-            "-o",
-            &link.display().to_string(),
-        ],
-        None,
-    );
+    let o = common::run(&[
+        "transform",
+        &p,
+        "--model",
+        &model(),
+        "-o",
+        &link.display().to_string(),
+    ]);
     assert_eq!(code(&o), 0, "{}", String::from_utf8_lossy(&o.stderr));
     assert!(
         std::fs::symlink_metadata(&link)
@@ -233,10 +212,7 @@ fn output_through_a_symlink_or_device_is_not_replaced() {
             .starts_with(b"; driftloop-omm")
     );
     // A device is written into, not renamed over.
-    let o = driftloop(
-        &["transform", &p, "--model", &model(), "-o", "/dev/null"],
-        None,
-    );
+    let o = common::run(&["transform", &p, "--model", &model(), "-o", "/dev/null"]);
     assert_eq!(code(&o), 0);
     use std::os::unix::fs::FileTypeExt;
     assert!(
