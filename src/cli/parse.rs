@@ -5,6 +5,8 @@ use std::io::{self, BufWriter, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use anyhow::Context;
+
 use super::Global;
 use crate::walk::Input;
 
@@ -40,10 +42,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         Format::Source => program.write_to(&mut out),
     }
     .and_then(|()| out.flush());
-    match written {
-        // A reader that stops early (`| head`) is not an error of ours.
-        Err(err) if err.kind() == io::ErrorKind::BrokenPipe => Ok(ExitCode::SUCCESS),
-        Err(err) => Err(anyhow::Error::new(err).context("cannot write to stdout")),
-        Ok(()) => Ok(ExitCode::SUCCESS),
-    }
+    // A reader that stops early (`| head`) is quiet: `cli::main` recognises the broken pipe.
+    written.context("cannot write to stdout")?;
+    Ok(ExitCode::SUCCESS)
 }

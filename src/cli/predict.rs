@@ -50,11 +50,8 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     match &args.output {
         Some(path) if path.as_os_str() != "-" => std::fs::write(path, bytes)
             .with_context(|| format!("cannot write {}", path.display()))?,
-        _ => match std::io::stdout().write_all(&bytes) {
-            // A reader that stops early (`| head`) is not an error.
-            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
-            other => other?,
-        },
+        // A reader that stops early (`| head`) is quiet: `cli::main` recognises the broken pipe.
+        _ => std::io::stdout().write_all(&bytes)?,
     }
     Ok(ExitCode::SUCCESS)
 }
