@@ -150,3 +150,33 @@ fn fit_window_keeps_whole_runs_before_the_cut() {
     assert_eq!(w.values("z_um").unwrap(), &[0.0, 1.0, 0.0]);
     assert_eq!(w.sha256, ds.sha256);
 }
+
+#[test]
+fn a_repeated_header_is_skipped_and_starts_a_run_when_there_is_no_run_column() {
+    // The log a transformed program appends to: its header again at every program start.
+    let ds = read("time_min,spindle_rpm,z_um\n0,0,0\n50,3000,4\nTIME_MIN, spindle_rpm ,z_um\n0,0,1\n20,3000,3\n")
+        .unwrap();
+    assert_eq!(ds.time_min, [0.0, 50.0, 0.0, 20.0]);
+    assert_eq!(ds.runs().collect::<Vec<_>>(), [0..2, 2..4]);
+    assert_eq!(
+        error("time_min,z_um\n0,0\n10,1\ntime_min,z_um\n5,2\n4,2\n"),
+        "log.csv:6:1: time goes backwards within run 2: 4 after 5"
+    );
+    // With a run column the labels decide; the repeated header is only skipped.
+    let ds =
+        read("time_min,z_um,pass,run\n0,0,0,17\n9,1,1,17\ntime_min,z_um,pass,run\n0,0,0,431\n")
+            .unwrap();
+    assert_eq!(ds.runs().collect::<Vec<_>>(), [0..2, 2..3]);
+    assert_eq!(
+        ds.run_labels.as_deref(),
+        Some(&["17".to_string(), "431".to_string()][..])
+    );
+    // A header line at the very start of the data (an empty first run) starts nothing.
+    assert_eq!(
+        read("time_min,z_um\ntime_min,z_um\n0,0\n")
+            .unwrap()
+            .runs()
+            .count(),
+        1
+    );
+}

@@ -254,7 +254,7 @@ fn cycle978_profile_reads_its_result_variable() {
     let t = run(&fixture("handwritten.mpf"), &profile).unwrap();
     let out = String::from_utf8(t.bytes.clone()).unwrap();
     assert!(out.contains("=_OVR[4] ;DL"));
-    assert!(out.contains("CYCLE978(100,10001,,1,0,1,3,"));
+    assert!(out.contains("CYCLE978(0,0,,1,0,10,1,3,2,1,"));
     check_properties(
         "handwritten.mpf (CYCLE978)",
         &fixture("handwritten.mpf"),

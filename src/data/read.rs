@@ -161,6 +161,19 @@ pub fn read_bytes(file: &str, bytes: &[u8], require: Require) -> Result<Dataset,
         if record.len() == 1 && record[0].is_empty() {
             continue; // a blank line
         }
+        // A log the control appends to repeats the header at every program start (the NC program
+        // cannot test whether the file exists): without a run column, the header starts the next run.
+        if record.len() == header.len()
+            && record
+                .iter()
+                .zip(&header)
+                .all(|(a, b)| a.eq_ignore_ascii_case(b))
+        {
+            if layout.run.is_none() && ds.time_min.len() > *ds.run_starts.last().unwrap_or(&0) {
+                ds.run_starts.push(ds.time_min.len());
+            }
+            continue;
+        }
         if record.len() != header.len() {
             return Err(DataError::FieldCount {
                 file: file_s,
@@ -203,7 +216,10 @@ pub fn read_bytes(file: &str, bytes: &[u8], require: Require) -> Result<Dataset,
                 file: file_s,
                 line,
                 column: layout.time + 1,
-                run: labels.last().cloned().unwrap_or_else(|| "1".into()),
+                run: labels
+                    .last()
+                    .cloned()
+                    .unwrap_or_else(|| ds.run_starts.len().to_string()),
                 time: time / unit,
                 previous: previous / unit,
             });
