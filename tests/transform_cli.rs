@@ -153,6 +153,29 @@ fn a_refused_program_stops_the_whole_batch() {
     );
     assert!(stderr.contains("nothing written"), "{stderr}");
     assert!(!out.exists());
+
+    // --keep-going writes the good one and still fails the batch.
+    let o = common::run(&[
+        "transform",
+        &tree.display().to_string(),
+        "--model",
+        &model(),
+        "-o",
+        &out.display().to_string(),
+        "--keep-going",
+    ]);
+    assert_eq!(code(&o), 2);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("1 of 2 program(s) refused; the other 1 written"),
+        "{stderr}"
+    );
+    assert!(
+        std::fs::read(out.join("handwritten.mpf"))
+            .unwrap()
+            .starts_with(b"; driftloop-omm")
+    );
+    assert!(!out.join("broken.mpf").exists());
 }
 
 #[test]

@@ -42,6 +42,10 @@ pub struct Args {
     /// Transform programs with syntax errors too.
     #[arg(long)]
     force: bool,
+    /// In a batch, write the programs that transform even when others are refused (exit 2 all the same);
+    /// without it one refusal writes nothing at all.
+    #[arg(long)]
+    keep_going: bool,
 }
 
 /// Model and profile, shared by `transform` and `plan`.
@@ -195,19 +199,23 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         }
         Ok(())
     };
-    if refused > 0 {
+    if refused > 0 && !args.keep_going {
         emit_json(&json)?;
         writeln!(
             stderr,
-            "{refused} of {} program(s) refused; nothing written",
+            "{refused} of {} program(s) refused; nothing written (--keep-going writes the others)",
             jobs.len()
         )?;
         return Ok(ExitCode::from(2));
     }
-    let outcomes: Vec<&Outcome> = results.iter().filter_map(|r| r.as_ref().ok()).collect();
+    let outcomes: Vec<(&Job, &Outcome)> = jobs
+        .iter()
+        .zip(&results)
+        .filter_map(|(job, r)| Some((job, r.as_ref().ok()?)))
+        .collect();
     if args.diff {
         let mut out = io::stdout().lock();
-        for (job, o) in jobs.iter().zip(&outcomes) {
+        for &(job, o) in &outcomes {
             write_diff(
                 &mut out,
                 &job.input.to_string(),
@@ -216,7 +224,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             )?;
         }
     } else if !args.check {
-        for (job, o) in jobs.iter().zip(&outcomes) {
+        for &(job, o) in &outcomes {
             match &job.target {
                 Target::Stdout => io::stdout().lock().write_all(&o.bytes)?,
                 Target::File(p) => write_atomic(p, &o.bytes)?,
@@ -225,6 +233,15 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         }
     }
     emit_json(&json)?;
+    if refused > 0 {
+        writeln!(
+            io::stderr(),
+            "{refused} of {} program(s) refused; the other {} written",
+            jobs.len(),
+            outcomes.len()
+        )?;
+        return Ok(ExitCode::from(2));
+    }
     Ok(if args.check && changed > 0 {
         ExitCode::from(1)
     } else {
