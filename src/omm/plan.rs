@@ -331,6 +331,7 @@ mod tests {
         model.effects.push(crate::model::EffectSpec {
             kind: "input_lag".into(),
             signal: Some("coolant_c".into()),
+            position: None,
             params: [
                 ("tau_min".to_string(), 20.0),
                 ("gain_um_per_unit".to_string(), 2.5),
@@ -393,6 +394,7 @@ mod tests {
         model.effects.push(crate::model::EffectSpec {
             kind: "input_lag".into(),
             signal: Some("ambient_c".into()),
+            position: None,
             params: [
                 ("tau_min".to_string(), 20.0),
                 ("gain_um_per_unit".to_string(), 2.5),
@@ -404,6 +406,7 @@ mod tests {
         model.effects[0] = crate::model::EffectSpec {
             kind: "time_trend".into(),
             signal: None,
+            position: None,
             params: [("um_per_h".to_string(), 1.0)].into(),
         };
         let err = Predictor::new(&model, &BTreeMap::new()).unwrap_err();
