@@ -1,7 +1,7 @@
 //! A temperature-sensor model through the whole chain with the binary: synthetic sensor data →
 //! `driftloop sensors … -o m.toml` → `driftloop transform` with a profile that maps the sensors to analog
 //! inputs → an NC program that reads `$A_INA[n]` at the zero and at every gate, parses without errors and is
-//! kept as a golden file.
+//! kept as a golden file; and a dry run of such a term against a machine whose drift follows the sensor.
 
 mod common;
 
@@ -128,4 +128,75 @@ fn a_position_model_is_evaluated_at_the_measuring_position() {
     );
     assert_eq!(refused.status.code(), Some(2));
     assert!(common::stderr(&refused).contains("x_mm, y_mm or z_mm"));
+}
+
+/// Ambient on `$A_INA[1]`: 20 °C rising by 1 °C per 10 min.
+fn ambient(t_min: f64) -> f64 {
+    20.0 + t_min / 10.0
+}
+
+/// The machine's Z drift follows the ambient without lag, −1.2 µm/°C: what a `static_input` term models.
+fn static_truth(axis: &str, t: f64, _: &driftloop::vm::SpindleHistory) -> f64 {
+    if axis == "Z" {
+        -1.2 * (ambient(t) - ambient(0.0))
+    } else {
+        0.0
+    }
+}
+
+/// The demo program transformed with `model`, dry-run against [`static_truth`]: the largest machined error.
+fn dry_run_max_error(model: &driftloop::model::DriftModel) -> f64 {
+    use driftloop::omm::Profile;
+    use driftloop::vm::{Config, End, SimpleMachine, run_source};
+    let text = format!("{DEFAULT_PROFILE}\n[log]\ninputs = {{ ambient_c = 1 }}\n");
+    let profile = Profile::from_toml(&text, "ambient.toml").unwrap();
+    let bytes = driftloop::demo::transform_program(model, &profile).unwrap();
+    assert_parses(std::str::from_utf8(&bytes).unwrap());
+    let points = (0..=60)
+        .map(|k| (10.0 * k as f64, ambient(10.0 * k as f64)))
+        .collect();
+    let mut machine = SimpleMachine::with_drift(static_truth).analog(1, points);
+    let config = Config {
+        offsets: vec![(1, "Z".into(), -100.0)],
+        probe_surface_mm: -100.0,
+        ..Config::default()
+    };
+    let run = run_source("demo.mpf", &bytes, None, &config, &mut machine).unwrap();
+    assert_eq!(run.end, End::ProgramEnd { code: "M30".into() });
+    eprintln!(
+        "max error {:.3} µm, max drift {:.3} µm, {} measurements",
+        run.totals.max_abs_error_um,
+        run.passes
+            .iter()
+            .map(|p| p.drift_um.abs())
+            .fold(0.0, f64::max),
+        run.measurements.len()
+    );
+    run.totals.max_abs_error_um
+}
+
+#[test]
+fn dry_run_a_static_sensor_term_predicts_the_drift_between_measurements() {
+    use driftloop::model::DriftModel;
+    use driftloop::model::effects::{Effect, Kind};
+    let blind = DriftModel::from_modes("drift_z_um", vec![], &[], 0.0);
+    let mut sensor = blind.clone();
+    sensor.effects.push(
+        Effect {
+            kind: Kind::StaticInput,
+            signal: Some("ambient_c".into()),
+            position: None,
+            theta: vec![],
+            amplitudes: vec![-1.2],
+        }
+        .to_spec(),
+    );
+    let with = dry_run_max_error(&sensor);
+    let without = dry_run_max_error(&blind);
+    eprintln!("with the sensor term {with:.3} µm, without {without:.3} µm");
+    // Without the term nothing predicts the drift, so no measurement is triggered and the whole drift
+    // reaches the part; with it the prediction follows the sensor read at every gate. A tenth of the
+    // profile's 20 µm tolerance is the bound (as for the lagged inputs in transform_log).
+    assert!(with < 2.0, "with the sensor term: {with} µm");
+    assert!(without > 5.0 * with, "with {with}, without {without}");
 }
