@@ -108,3 +108,25 @@ fn diagnose_refits_the_regression_terms() {
     assert_eq!(kinds(&d.refined)[..5], kinds(&a.to_model())[..]);
     assert!(d.after.fit.rms_um <= d.before.fit.rms_um + 1e-9);
 }
+
+#[test]
+fn model_files_of_the_earlier_static_form_still_predict_one_row_late() {
+    // What `sensors -o` wrote before the static terms existed: an input with τ far below the step.
+    let text = "schema = 1\nchannel = \"e_um\"\noffset_um = 1.5\n\n[spindle]\ngrid_rpm = []\n\
+        interpolation = \"piecewise-linear\"\nextrapolation = \"linear-last-segment\"\nmodes = []\n\n\
+        [[inputs]]\nsignal = \"a1_c\"\ntau_min = 1e-9\ngain_um_per_unit = 4.0\n";
+    let model = DriftModel::from_toml(text, "old.toml").unwrap();
+    let ds = dataset(2, 2, 50, TRUTH);
+    let a1 = ds.values("a1_c").unwrap();
+    let expected: Vec<f64> = (0..ds.len())
+        .map(|i| {
+            let start = i - i % 50;
+            1.5 + if i == start {
+                0.0
+            } else {
+                4.0 * (a1[i - 1] - a1[start])
+            }
+        })
+        .collect();
+    assert_same(&model.predict(&ds).unwrap(), &expected);
+}
