@@ -125,6 +125,7 @@ fn effects_added_later_survive_the_file() {
     model.effects.push(driftloop::model::EffectSpec {
         kind: "input_lag".into(),
         signal: Some("ambient_c".into()),
+        position: None,
         params,
     });
     let text = model.to_toml();

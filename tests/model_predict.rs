@@ -81,6 +81,7 @@ fn refuses_missing_inputs_and_unknown_effects() {
     m.effects.push(EffectSpec {
         kind: "periodic".into(),
         signal: None,
+        position: None,
         params: Default::default(),
     });
     let err = m.predict(&dataset(&[0.0], &[0.0])).unwrap_err();

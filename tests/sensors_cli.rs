@@ -134,9 +134,7 @@ fn the_model_file_reproduces_the_regression_under_predict() {
         let mut expected = coef[0]["value"].as_f64().unwrap();
         for c in &coef[1..] {
             let s = ds.values(c["term"].as_str().unwrap()).unwrap();
-            if i > 0 {
-                expected += c["value"].as_f64().unwrap() * (s[i - 1] - s[0]);
-            }
+            expected += c["value"].as_f64().unwrap() * (s[i] - s[0]);
         }
         assert!(
             (p[i] - expected).abs() < 1e-9,
@@ -205,7 +203,7 @@ fn real_data_end_to_end_example() {
 }
 
 #[test]
-fn position_column_report_and_no_model_file_for_it() {
+fn position_column_report_and_its_model_file() {
     use driftloop::sensors::synth::{POSITION_TRUTH, position_dataset};
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("positions.csv");
@@ -229,7 +227,21 @@ fn position_column_report_and_no_model_file_for_it() {
     assert_eq!(v["slope"][1]["term"], "a1_c");
     assert_eq!(v["intercept"][2]["term"], "b1_c");
     let model = dir.path().join("m.toml");
-    let refused = common::run(&[&args[..], &["-o", model.to_str().unwrap()]].concat());
-    assert_eq!(refused.status.code(), Some(2));
-    assert!(!model.exists());
+    let written = common::run(&[&args[..], &["-o", model.to_str().unwrap()]].concat());
+    assert_eq!(written.status.code(), Some(0));
+    let model = driftloop::model::DriftModel::read(&model).unwrap();
+    let kinds: Vec<&str> = model.effects.iter().map(|e| e.kind.as_str()).collect();
+    assert_eq!(
+        kinds,
+        [
+            "geometric",
+            "input_slope",
+            "input_slope",
+            "static_input",
+            "static_input"
+        ]
+    );
+    // The geometric constant and I's intercept are the model's offset.
+    let offset = v["geometric"][0].as_f64().unwrap() + v["intercept"][0]["value"].as_f64().unwrap();
+    assert!((model.offset_um - offset).abs() < 1e-12);
 }

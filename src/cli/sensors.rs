@@ -34,8 +34,9 @@ pub struct Args {
     pub holdout_from: Option<f64>,
     #[arg(long, value_enum, default_value_t = Format::Human)]
     pub format: Format,
-    /// Write the regression as a model file that `predict` and `diagnose` read (`-` = stdout, the report
-    /// then goes to stderr).
+    /// Write the regression as a model file that `predict`, `diagnose` and `transform` read (`-` = stdout,
+    /// the report then goes to stderr). Terms: `static_input` per sensor; with --position-column also
+    /// `input_slope` per sensor and `geometric`.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
 }
@@ -49,33 +50,31 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     opts.threshold = args.threshold;
     opts.min_correlation = args.min_correlation;
     opts.holdout_from_min = args.holdout_from;
-    if let Some(p) = &args.position_column {
-        anyhow::ensure!(
-            args.output.is_none(),
-            "-o is not available with --position-column: a model file's position slope follows the spindle, not temperatures"
-        );
-        let analysis = analyse_position(&ds, &p.to_ascii_lowercase(), &opts)?;
-        print!(
-            "{}",
-            match args.format {
+    let (report, model) = match &args.position_column {
+        Some(p) => {
+            let analysis = analyse_position(&ds, &p.to_ascii_lowercase(), &opts)?;
+            let report = match args.format {
                 Format::Human => analysis.human(),
                 Format::Json => analysis.json(),
-            }
-        );
-        return Ok(ExitCode::SUCCESS);
-    }
-    let analysis = analyse(&ds, &opts)?;
-    let report = match args.format {
-        Format::Human => analysis.human(),
-        Format::Json => analysis.json(),
+            };
+            (report, analysis.to_model())
+        }
+        None => {
+            let analysis = analyse(&ds, &opts)?;
+            let report = match args.format {
+                Format::Human => analysis.human(),
+                Format::Json => analysis.json(),
+            };
+            (report, analysis.to_model())
+        }
     };
     match &args.output {
         Some(path) if path.as_os_str() == "-" => {
-            print!("{}", analysis.to_model().to_toml());
+            print!("{}", model.to_toml());
             eprint!("{report}");
         }
         Some(path) => {
-            std::fs::write(path, analysis.to_model().to_toml())
+            std::fs::write(path, model.to_toml())
                 .with_context(|| format!("cannot write the model file {}", path.display()))?;
             print!("{report}");
         }

@@ -45,6 +45,7 @@ pub fn candidates(ctx: &Ctx, current: &Fitted) -> Vec<Effect> {
     let blank = |kind: Kind, signal: Option<&str>| Effect {
         kind,
         signal: signal.map(str::to_string),
+        position: None,
         theta: vec![0.0; kind.theta_names().len()],
         amplitudes: vec![0.0; kind.amplitude_names().len()],
     };
@@ -107,7 +108,11 @@ fn theta_grid(ctx: &Ctx, kind: Kind) -> Vec<Vec<f64>> {
                 .map(|i| vec![t0 + span * (0.04 + 0.92 * i as f64 / STEP_POINTS as f64)])
                 .collect()
         }
-        Kind::TimeTrend | Kind::Periodic => vec![vec![]],
+        Kind::TimeTrend
+        | Kind::Periodic
+        | Kind::StaticInput
+        | Kind::InputSlope
+        | Kind::Geometric => vec![vec![]],
     }
 }
 
@@ -128,11 +133,7 @@ fn candidate_columns(ctx: &Ctx, current: &Fitted, effect: &Effect) -> Option<Vec
     }
     let mut store = vec![vec![0.0; n]; effect.amplitudes.len()];
     let mut cols: Vec<&mut [f64]> = store.iter_mut().map(|c| c.as_mut_slice()).collect();
-    effect.columns(
-        &ctx.series(effect.signal.as_deref()),
-        &effect.theta,
-        &mut cols,
-    );
+    effect.columns(&ctx.effect_series(effect), &effect.theta, &mut cols);
     Some(store)
 }
 

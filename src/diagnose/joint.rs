@@ -71,7 +71,15 @@ impl<'a> Ctx<'a> {
             runs: &self.runs,
             rpm: self.rpm,
             signal: signal.and_then(|s| self.ds.values(s)),
+            position: None,
         }
+    }
+
+    /// The columns `e` reads (its signal and, for the kinds that have one, its position).
+    pub fn effect_series(&self, e: &Effect) -> Series<'_> {
+        e.series(&self.ds.time_min, &self.runs, self.rpm, |n| {
+            self.ds.values(n)
+        })
     }
 
     pub fn n(&self) -> usize {
@@ -220,11 +228,7 @@ impl Joint {
         }
         for e in &self.effects {
             let k = e.amplitudes.len();
-            e.columns(
-                &ctx.series(e.signal.as_deref()),
-                &e.theta,
-                &mut cols[at..at + k],
-            );
+            e.columns(&ctx.effect_series(e), &e.theta, &mut cols[at..at + k]);
             at += k;
         }
         cols[at].fill(1.0);
@@ -485,6 +489,7 @@ mod tests {
         let lag = Effect {
             kind: Kind::InputLag,
             signal: Some("ambient_c".into()),
+            position: None,
             theta: vec![90.0],
             amplitudes: vec![-2.0],
         };

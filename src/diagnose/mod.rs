@@ -206,7 +206,6 @@ pub fn diagnose(
         }
     }
     let after_pred = current.model.predict(ds)?;
-    let series = |s: Option<&str>| ctx.series(s);
     let contributions = current
         .joint
         .effects
@@ -223,7 +222,7 @@ pub fn diagnose(
                     .map(|(a, b)| a - b)
                     .collect()
             }
-            _ => e.contribution(&series(e.signal.as_deref())),
+            _ => e.contribution(&ctx.effect_series(e)),
         })
         .collect();
     let signals = added

@@ -11,7 +11,7 @@
 use serde::Serialize;
 
 use crate::data::{Dataset, SPINDLE, TimeUnit};
-use crate::model::effects::{Effect, Kind, Series};
+use crate::model::effects::{Effect, Kind};
 use crate::model::synth::{Rng, Sampling, characterisation, measure};
 use crate::model::{DriftModel, EffectSpec, PredictError};
 
@@ -75,7 +75,8 @@ pub enum ScenarioError {
 pub fn simulate(sc: &Scenario) -> Result<Simulated, ScenarioError> {
     let kind = match &sc.effect {
         Some(name) => {
-            Some(Kind::parse(name).ok_or_else(|| ScenarioError::UnknownEffect(name.clone()))?)
+            let kind = Kind::parse(name).filter(|k| Kind::DIAGNOSED.contains(k));
+            Some(kind.ok_or_else(|| ScenarioError::UnknownEffect(name.clone()))?)
         }
         None => None,
     };
@@ -210,21 +211,20 @@ fn injected(kind: Kind, sc: &Scenario, ds: &Dataset, rng: &mut Rng) -> EffectSpe
                 vec![1.0],
             )
         }
+        Kind::StaticInput | Kind::InputSlope | Kind::Geometric => {
+            unreachable!("simulate refuses the regression kinds diagnosis does not search for")
+        }
     };
     let mut effect = Effect {
         kind,
         signal: signal.map(str::to_string),
+        position: None,
         theta,
         amplitudes,
     };
     if kind != Kind::CoolingAsymmetry {
         let runs: Vec<_> = ds.runs().collect();
-        let series = Series {
-            t: &ds.time_min,
-            runs: &runs,
-            rpm: ds.values(SPINDLE),
-            signal: signal.and_then(|s| ds.values(s)),
-        };
+        let series = effect.series(&ds.time_min, &runs, ds.values(SPINDLE), |n| ds.values(n));
         let c = effect.contribution(&series);
         let sd = std_dev(&c);
         let sign = if rng.uniform() < 0.5 { -1.0 } else { 1.0 };
@@ -252,12 +252,8 @@ mod tests {
         assert_eq!(spec.kind, "input_lag");
         let e = Effect::from_spec(spec).unwrap();
         let runs: Vec<_> = sim.production.runs().collect();
-        let series = Series {
-            t: &sim.production.time_min,
-            runs: &runs,
-            rpm: sim.production.values(SPINDLE),
-            signal: sim.production.values(e.signal.as_deref().unwrap()),
-        };
+        let p = &sim.production;
+        let series = e.series(&p.time_min, &runs, p.values(SPINDLE), |n| p.values(n));
         let sd = std_dev(&e.contribution(&series));
         assert!((sd - 1.5).abs() < 1e-9, "{sd}");
         let pred = sim.truth.predict(&sim.production).unwrap();

@@ -30,11 +30,11 @@ pub(crate) fn describe(e: &Effect) -> String {
     let sig = e.signal.as_deref().unwrap_or("");
     match e.kind {
         Kind::InputLag => {
-            let unit = if sig.ends_with("_c") { "°C" } else { "unit" };
             format!(
-                "{sig}, lagged {}, {:+.2} µm/{unit}",
+                "{sig}, lagged {}, {:+.2} µm/{}",
                 duration(e.theta[0]),
-                e.amplitudes[0]
+                e.amplitudes[0],
+                unit(sig)
             )
         }
         Kind::ExtraMode => format!(
@@ -67,6 +67,31 @@ pub(crate) fn describe(e: &Effect) -> String {
             "a sudden offset of {:+.2} µm from minute {:.0} on",
             e.amplitudes[0], e.theta[0]
         ),
+        Kind::StaticInput => format!(
+            "{sig}, without lag, {:+.2} µm/{}",
+            e.amplitudes[0],
+            unit(sig)
+        ),
+        Kind::InputSlope => format!(
+            "drift grows with {} as {sig} changes: {:+.2} µm per 100 mm per {}",
+            e.position.as_deref().unwrap_or(""),
+            100.0 * e.amplitudes[0],
+            unit(sig)
+        ),
+        Kind::Geometric => format!(
+            "geometric error along {}: {:+.2} µm per 100 mm, {:+.2} µm per (100 mm)²",
+            e.position.as_deref().unwrap_or(""),
+            100.0 * e.amplitudes[0],
+            1e4 * e.amplitudes[1]
+        ),
+    }
+}
+
+fn unit(signal: &str) -> &'static str {
+    if signal.ends_with("_c") {
+        "°C"
+    } else {
+        "unit"
     }
 }
 

@@ -130,12 +130,18 @@ pub struct InputLag {
     pub gain_se_um_per_unit: Option<f64>,
 }
 
-/// An effect added by diagnosis: its kind, the signal it reads (if any) and named parameters.
+/// An effect added by diagnosis or written by `sensors`: its kind, the signal and the axis position column
+/// it reads (if any) and named parameters. A field this version does not know fails the file: a newer
+/// driftloop's term must not be predicted without it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct EffectSpec {
     pub kind: String,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub signal: Option<String>,
+    /// Axis position column (`*_mm`) of the kinds that read one besides their signal.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position: Option<String>,
     #[serde(default)]
     pub params: std::collections::BTreeMap<String, f64>,
 }
@@ -235,13 +241,28 @@ impl DriftModel {
         SpeedGrid::new(self.spindle.grid_rpm.clone())
     }
 
-    /// Names of the declared inputs: `spindle_rpm` (when the model has spindle modes) and the lagged ones.
+    /// Names of the declared inputs: `spindle_rpm` (when the model has spindle modes), the lagged ones and
+    /// the columns of the regression terms `sensors` writes (`static_input`, `input_slope`, `geometric`).
     pub fn declared_inputs(&self) -> Vec<String> {
         let spindle = (!self.spindle.modes.is_empty()).then(|| crate::data::SPINDLE.to_string());
-        spindle
+        let regression = self
+            .effects
+            .iter()
+            .filter(|e| {
+                effects::Kind::parse(&e.kind)
+                    .is_some_and(|k| !effects::Kind::DIAGNOSED.contains(&k))
+            })
+            .flat_map(|e| e.signal.iter().chain(&e.position).cloned());
+        let mut out: Vec<String> = spindle
             .into_iter()
             .chain(self.inputs.iter().map(|i| i.signal.clone()))
-            .collect()
+            .collect();
+        for name in regression {
+            if !out.contains(&name) {
+                out.push(name);
+            }
+        }
+        out
     }
 
     /// Steady-state drift at a constant speed, all spindle modes together (µm, without offset).

@@ -5,7 +5,7 @@ use crate::data::{Dataset, SPINDLE};
 
 use super::DriftModel;
 use super::effects::cooling_asymmetry::Phase;
-use super::effects::{Effect, EffectError, Kind, Series};
+use super::effects::{Effect, EffectError, Kind};
 use super::lag::{Decay, step};
 use super::speed_grid::{SpeedGrid, Weights};
 
@@ -83,13 +83,10 @@ impl DriftModel {
         }
         let runs: Vec<_> = ds.runs().collect();
         for e in effects.iter().filter(|e| !e.amplitudes.is_empty()) {
-            let signal = e.signal.as_deref().map(column).transpose()?;
-            let series = Series {
-                t: &ds.time_min,
-                runs: &runs,
-                rpm: ds.values(SPINDLE),
-                signal,
-            };
+            for name in e.signal.iter().chain(&e.position) {
+                column(name)?;
+            }
+            let series = e.series(&ds.time_min, &runs, ds.values(SPINDLE), |n| ds.values(n));
             for (o, c) in out.iter_mut().zip(e.contribution(&series)) {
                 *o += c;
             }

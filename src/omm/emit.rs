@@ -29,6 +29,9 @@ pub struct Registers {
     input_x: Vec<u32>,
     input_g: Vec<u32>,
     input_zero: Vec<u32>,
+    /// Per static (unlagged) analog input: its term now, value at the zero.
+    static_v: Vec<u32>,
+    static_zero: Vec<u32>,
     pred: u32,
     pred_at_measurement: u32,
     eps: u32,
@@ -52,14 +55,15 @@ impl Registers {
     /// Picks free R-parameters from the profile's range, skipping those the program uses.
     pub fn allocate(
         profile: &Profile,
-        modes: usize,
-        inputs: usize,
+        predictor: &Predictor,
         used: &BTreeSet<u32>,
     ) -> Result<Registers, String> {
         let r = &profile.registers;
         let result_r = result_r_number(&profile.probe.result);
         let save = result_r.is_some_and(|n| used.contains(&n));
-        let needed = 19 + 2 * modes + 3 * inputs + usize::from(save);
+        let (modes, inputs) = (predictor.taus().len(), predictor.inputs().len());
+        let statics = predictor.statics().len();
+        let needed = 19 + 2 * modes + 3 * inputs + 2 * statics + usize::from(save);
         let free: Vec<u32> = (r.r_first..=r.r_last)
             .filter(|n| !used.contains(n) && Some(*n) != result_r)
             .take(needed)
@@ -82,6 +86,8 @@ impl Registers {
             input_x: (0..inputs).map(|_| next()).collect(),
             input_g: (0..inputs).map(|_| next()).collect(),
             input_zero: (0..inputs).map(|_| next()).collect(),
+            static_v: (0..statics).map(|_| next()).collect(),
+            static_zero: (0..statics).map(|_| next()).collect(),
             pred: next(),
             pred_at_measurement: next(),
             eps: next(),
@@ -130,6 +136,8 @@ impl Registers {
         v.extend(&self.input_x);
         v.extend(&self.input_g);
         v.extend(&self.input_zero);
+        v.extend(&self.static_v);
+        v.extend(&self.static_zero);
         v.extend(self.saved_result);
         v.sort_unstable();
         v
@@ -299,7 +307,29 @@ impl Emitter<'_> {
                 zero = r(*zero)
             ));
         }
-        let sum: Vec<String> = reg.x.iter().chain(&reg.input_x).map(|x| r(*x)).collect();
+        // Static inputs act at once: read now, not held from the last gate.
+        for ((value, zero), term) in reg
+            .static_v
+            .iter()
+            .zip(&reg.static_zero)
+            .zip(self.predictor.statics())
+        {
+            v.push(format!(
+                "{}={}*($A_INA[{n}]-{zero}) ; {}",
+                r(*value),
+                Emitter::mm(term.gain_per_unit),
+                term.signal,
+                n = term.input,
+                zero = r(*zero)
+            ));
+        }
+        let sum: Vec<String> = reg
+            .x
+            .iter()
+            .chain(&reg.input_x)
+            .chain(&reg.static_v)
+            .map(|x| r(*x))
+            .collect();
         v.push(format!(
             "{}={}",
             r(reg.pred),
@@ -494,13 +524,19 @@ impl Emitter<'_> {
         for x in reg.x.iter().chain(&reg.input_x).chain(&reg.input_g) {
             v.push(format!("{}=0", r(*x)));
         }
-        for (zero, term) in reg.input_zero.iter().zip(self.predictor.inputs()) {
-            v.push(format!(
-                "{}=$A_INA[{}] ; {}",
-                r(*zero),
-                term.input,
-                term.signal
-            ));
+        let lagged = self.predictor.inputs().iter().map(|t| (t.input, &t.signal));
+        let statics = self
+            .predictor
+            .statics()
+            .iter()
+            .map(|t| (t.input, &t.signal));
+        for (zero, (input, signal)) in reg
+            .input_zero
+            .iter()
+            .chain(&reg.static_zero)
+            .zip(lagged.chain(statics))
+        {
+            v.push(format!("{}=$A_INA[{input}] ; {signal}", r(*zero)));
         }
         for reg_n in [
             reg.pred,

@@ -160,15 +160,10 @@ pub fn transform(
             profile: profile.offset.select.clone(),
         });
     }
-    let predictor =
-        Predictor::new(model.model, &profile.log.inputs).map_err(TransformError::Plan)?;
-    let regs = Registers::allocate(
-        profile,
-        predictor.taus().len(),
-        predictor.inputs().len(),
-        &timeline.used_r,
-    )
-    .map_err(TransformError::Plan)?;
+    let predictor = Predictor::new(model.model, &profile.log.inputs, &profile.position)
+        .map_err(TransformError::Plan)?;
+    let regs =
+        Registers::allocate(profile, &predictor, &timeline.used_r).map_err(TransformError::Plan)?;
     let label_prefix = ["DL", "DLOMM", "DRIFTLOOP"]
         .into_iter()
         .find(|p| !timeline.labels.iter().any(|l| l.starts_with(p)))

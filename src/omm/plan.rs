@@ -12,7 +12,7 @@ use crate::model::effects::{Effect, Kind};
 use crate::model::lag::step;
 use crate::model::speed_grid::SpeedGrid;
 
-use super::profile::Profile;
+use super::profile::{Axis, Position, Profile};
 use super::timeline::{Modal, SiteKind, Timeline};
 
 /// What a gate does.
@@ -73,6 +73,17 @@ pub struct InputTerm {
     pub gain_per_unit: f64,
 }
 
+/// An analog input acting without lag: gain·(u − u₀), u₀ the input at the zero. The model's `static_input`
+/// terms and its `input_slope` terms at the measuring position (gain·p), summed per signal.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StaticTerm {
+    pub signal: String,
+    /// Analog input number the profile maps the signal to.
+    pub input: u32,
+    /// µm per unit of the input at the measuring position.
+    pub gain_per_unit: f64,
+}
+
 /// The model's spindle modes and input lags at work: state, targets and the exact update.
 #[derive(Debug, Clone)]
 pub struct Predictor {
@@ -84,11 +95,44 @@ pub struct Predictor {
     inputs: Vec<InputTerm>,
     input_x: Vec<f64>,
     input_target: Vec<f64>,
+    statics: Vec<StaticTerm>,
+    static_du: Vec<f64>,
+}
+
+/// The coordinate of the measuring position on the axis a position column names: `x_mm`, `y_mm`, `z_mm`
+/// (X, Y, Z). On the measured axis that is the base surface's nominal, on the others the probing start
+/// point ([position] of the profile, work-offset coordinates).
+fn measuring_coordinate(column: &str, at: &Position) -> Result<f64, String> {
+    let axis = match column.strip_suffix("_mm") {
+        Some("x") => Axis::X,
+        Some("y") => Axis::Y,
+        Some("z") => Axis::Z,
+        _ => {
+            return Err(format!(
+                "the model's slope runs along the position column `{column}`, which names no axis: the NC program evaluates it at the measuring position, so the column must be x_mm, y_mm or z_mm"
+            ));
+        }
+    };
+    Ok(if axis == at.axis {
+        at.nominal
+    } else {
+        match axis {
+            Axis::X => at.x,
+            Axis::Y => at.y,
+            Axis::Z => at.z,
+        }
+    })
 }
 
 impl Predictor {
-    /// `analog`: signal name → analog input number (the profile's `[log] inputs`).
-    pub fn new(model: &DriftModel, analog: &BTreeMap<String, u32>) -> Result<Predictor, String> {
+    /// `analog`: signal name → analog input number (the profile's `[log] inputs`); `at`: the measuring
+    /// position the position-dependent terms are evaluated at. A `geometric` term is constant there: it is
+    /// part of the zero, like the model's offset.
+    pub fn new(
+        model: &DriftModel,
+        analog: &BTreeMap<String, u32>,
+        at: &Position,
+    ) -> Result<Predictor, String> {
         let input_of = |signal: &str| {
             analog.get(signal).copied().ok_or_else(|| {
                 format!(
@@ -105,10 +149,25 @@ impl Predictor {
                 gain_per_unit: i.gain_um_per_unit,
             });
         }
+        let mut statics: Vec<StaticTerm> = Vec::new();
         for spec in &model.effects {
             let e = Effect::from_spec(spec).map_err(|e| e.to_string())?;
-            let signal = match (e.kind, &e.signal) {
-                (Kind::InputLag, Some(signal)) => signal,
+            let (signal, gain) = match (e.kind, &e.signal, &e.position) {
+                (Kind::InputLag, Some(signal), _) => {
+                    inputs.push(InputTerm {
+                        signal: signal.clone(),
+                        input: input_of(signal)?,
+                        tau_min: e.theta[0],
+                        gain_per_unit: e.amplitudes[0],
+                    });
+                    continue;
+                }
+                (Kind::Geometric, _, _) => continue,
+                (Kind::StaticInput, Some(signal), _) => (signal, e.amplitudes[0]),
+                (Kind::InputSlope, Some(signal), Some(position)) => (
+                    signal,
+                    e.amplitudes[0] * measuring_coordinate(position, at)?,
+                ),
                 _ => {
                     return Err(format!(
                         "the model carries a `{}` effect, which the NC program cannot predict; refusing rather than predicting without it",
@@ -116,12 +175,14 @@ impl Predictor {
                     ));
                 }
             };
-            inputs.push(InputTerm {
-                signal: signal.clone(),
-                input: input_of(signal)?,
-                tau_min: e.theta[0],
-                gain_per_unit: e.amplitudes[0],
-            });
+            match statics.iter_mut().find(|t| &t.signal == signal) {
+                Some(t) => t.gain_per_unit += gain,
+                None => statics.push(StaticTerm {
+                    signal: signal.clone(),
+                    input: input_of(signal)?,
+                    gain_per_unit: gain,
+                }),
+            }
         }
         model.validate()?;
         let grid = model
@@ -137,11 +198,17 @@ impl Predictor {
             input_x: vec![0.0; inputs.len()],
             input_target: vec![0.0; inputs.len()],
             inputs,
+            static_du: vec![0.0; statics.len()],
+            statics,
         })
     }
 
     pub fn inputs(&self) -> &[InputTerm] {
         &self.inputs
+    }
+
+    pub fn statics(&self) -> &[StaticTerm] {
+        &self.statics
     }
 
     pub fn taus(&self) -> &[f64] {
@@ -165,6 +232,11 @@ impl Predictor {
         }
     }
 
+    /// The static inputs' changes since the zero (one per [`Predictor::statics`]), as read now.
+    pub fn set_static_changes(&mut self, du: &[f64]) {
+        self.static_du.copy_from_slice(du);
+    }
+
     pub fn advance(&mut self, minutes: f64) {
         let taus = self
             .taus
@@ -179,7 +251,13 @@ impl Predictor {
 
     /// Predicted drift relative to rest (µm).
     pub fn drift(&self) -> f64 {
-        self.x.iter().chain(&self.input_x).sum()
+        let statics: f64 = self
+            .statics
+            .iter()
+            .zip(&self.static_du)
+            .map(|(t, du)| t.gain_per_unit * du)
+            .sum();
+        self.x.iter().chain(&self.input_x).sum::<f64>() + statics
     }
 }
 
@@ -192,7 +270,7 @@ pub fn measurement_min(profile: &Profile) -> f64 {
 
 pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Result<Plan, String> {
     // The plan cannot know the inputs ahead: they are taken to stay at their value at the zero.
-    let mut p = Predictor::new(model, &profile.log.inputs)?;
+    let mut p = Predictor::new(model, &profile.log.inputs, &profile.position)?;
     let limit = profile.limits.working_limit_um();
     let Some(first) = timeline
         .sites
@@ -287,6 +365,18 @@ mod tests {
     use super::*;
     use crate::model::Schedule;
 
+    /// Probing at X 150, Y 40, the base surface at Z −5.
+    fn at() -> Position {
+        Position {
+            x: 150.0,
+            y: 40.0,
+            z: 10.0,
+            clearance_z: 100.0,
+            axis: Axis::Z,
+            nominal: -5.0,
+        }
+    }
+
     #[test]
     fn predictor_steps_agree_with_the_model() {
         // The update the NC program runs at its gates, over an uneven schedule, equals the model's own
@@ -300,7 +390,7 @@ mod tests {
         let schedule: Schedule = "4000:37,0:11,2500:52".parse().unwrap();
         let ds = schedule.to_dataset(1.0);
         let truth = model.predict(&ds).unwrap();
-        let mut p = Predictor::new(&model, &BTreeMap::new()).unwrap();
+        let mut p = Predictor::new(&model, &BTreeMap::new(), &at()).unwrap();
         let mut t = 0.0;
         for seg in &schedule.segments {
             p.set_rpm(seg.rpm);
@@ -331,6 +421,7 @@ mod tests {
         model.effects.push(crate::model::EffectSpec {
             kind: "input_lag".into(),
             signal: Some("coolant_c".into()),
+            position: None,
             params: [
                 ("tau_min".to_string(), 20.0),
                 ("gain_um_per_unit".to_string(), 2.5),
@@ -366,7 +457,7 @@ mod tests {
         let truth = model.predict(&ds).unwrap();
 
         let analog = BTreeMap::from([("ambient_c".to_string(), 1), ("coolant_c".to_string(), 2)]);
-        let mut p = Predictor::new(&model, &analog).unwrap();
+        let mut p = Predictor::new(&model, &analog, &at()).unwrap();
         assert_eq!(p.inputs().len(), 2);
         for (k, seg) in schedule.segments.iter().enumerate() {
             p.set_rpm(seg.rpm);
@@ -387,26 +478,147 @@ mod tests {
     }
 
     #[test]
+    fn static_inputs_and_slopes_agree_with_the_model() {
+        // A sensor regression (`sensors --position-column -o`) on top of a spindle mode and an input lag:
+        // static terms act at their own row, the slope at the measuring position (x_mm = X 150, z_mm =
+        // the nominal −5 on the measured axis), the geometric term is part of the zero.
+        let mut model =
+            DriftModel::from_modes("drift_z_um", vec![4000.0], &[(30.0, vec![20.0])], 3.0);
+        let term = |kind: Kind, signal: Option<&str>, position: Option<&str>, a: Vec<f64>| {
+            Effect {
+                kind,
+                signal: signal.map(str::to_string),
+                position: position.map(str::to_string),
+                theta: if kind == Kind::InputLag {
+                    vec![20.0]
+                } else {
+                    vec![]
+                },
+                amplitudes: a,
+            }
+            .to_spec()
+        };
+        model.effects = vec![
+            term(Kind::Geometric, None, Some("x_mm"), vec![0.01, -2e-5]),
+            term(Kind::InputLag, Some("coolant_c"), None, vec![2.5]),
+            term(Kind::StaticInput, Some("a1_c"), None, vec![4.0]),
+            term(Kind::InputSlope, Some("a1_c"), Some("x_mm"), vec![0.02]),
+            term(Kind::InputSlope, Some("b1_c"), Some("z_mm"), vec![0.3]),
+            term(Kind::StaticInput, Some("b1_c"), None, vec![-2.5]),
+        ];
+        let schedule: Schedule = "4000:37,0:11,2500:52".parse().unwrap();
+        let (a1, b1, coolant) = ([20.0, 23.5, 22.0], [22.0, 21.0, 24.0], [22.0, 22.0, 25.0]);
+        let mut ds = schedule.to_dataset(1.0);
+        let ends: Vec<f64> = schedule
+            .segments
+            .iter()
+            .scan(0.0, |t, s| {
+                *t += s.minutes;
+                Some(*t)
+            })
+            .collect();
+        let column = |v: &[f64]| -> Vec<f64> {
+            ds.time_min
+                .iter()
+                .map(|&t| {
+                    let k = ends.iter().position(|e| t < *e - 1e-9);
+                    v[k.unwrap_or(ends.len() - 1)]
+                })
+                .collect()
+        };
+        let columns = [
+            ("a1_c", column(&a1)),
+            ("b1_c", column(&b1)),
+            ("coolant_c", column(&coolant)),
+            ("x_mm", vec![150.0; ds.len()]),
+            ("z_mm", vec![-5.0; ds.len()]),
+        ];
+        for (name, values) in columns {
+            ds.push_column(name, values);
+        }
+        let truth = model.predict(&ds).unwrap();
+
+        let analog = BTreeMap::from([
+            ("a1_c".to_string(), 3),
+            ("b1_c".to_string(), 4),
+            ("coolant_c".to_string(), 2),
+        ]);
+        let mut p = Predictor::new(&model, &analog, &at()).unwrap();
+        assert_eq!(p.inputs().len(), 1);
+        let statics: Vec<(&str, u32, f64)> = p
+            .statics()
+            .iter()
+            .map(|t| (t.signal.as_str(), t.input, t.gain_per_unit))
+            .collect();
+        assert_eq!(
+            statics,
+            [
+                ("a1_c", 3, 4.0 + 0.02 * 150.0),
+                ("b1_c", 4, -2.5 + 0.3 * -5.0)
+            ]
+        );
+        for (k, seg) in schedule.segments.iter().enumerate() {
+            p.set_rpm(seg.rpm);
+            p.set_input_changes(&[coolant[k] - coolant[0]]);
+            p.set_static_changes(&[a1[k] - a1[0], b1[k] - b1[0]]);
+            p.advance(seg.minutes * 0.3);
+            p.advance(seg.minutes * 0.7);
+        }
+        // The last row reads the last segment's sensors, as the predictor does. Relative to the zero (the
+        // first row): the offset and the geometric term drop out.
+        let last = truth.last().unwrap() - truth[0];
+        assert!((p.drift() - last).abs() < 1e-9, "{} vs {last}", p.drift());
+        let statics_part = (4.0 + 3.0) * (a1[2] - a1[0]) + (-4.0) * (b1[2] - b1[0]);
+        assert!(statics_part.abs() > 1.0, "the static terms matter");
+    }
+
+    #[test]
+    fn a_slope_along_a_column_that_names_no_axis_is_refused() {
+        let mut model = DriftModel::from_modes("drift_z_um", vec![], &[], 0.0);
+        model.effects.push(
+            Effect {
+                kind: Kind::InputSlope,
+                signal: Some("a1_c".into()),
+                position: Some("pos_mm".into()),
+                theta: vec![],
+                amplitudes: vec![0.02],
+            }
+            .to_spec(),
+        );
+        let analog = BTreeMap::from([("a1_c".to_string(), 3)]);
+        let err = Predictor::new(&model, &analog, &at()).unwrap_err();
+        assert!(
+            err.contains("`pos_mm`") && err.contains("x_mm, y_mm or z_mm"),
+            "{err}"
+        );
+        model.effects[0].position = Some("y_mm".into());
+        let p = Predictor::new(&model, &analog, &at()).unwrap();
+        assert!((p.statics()[0].gain_per_unit - 0.02 * 40.0).abs() < 1e-12);
+    }
+
+    #[test]
     fn unmapped_inputs_and_other_effects_are_refused() {
         let mut model =
             DriftModel::from_modes("drift_z_um", vec![4000.0], &[(30.0, vec![20.0])], 0.0);
         model.effects.push(crate::model::EffectSpec {
             kind: "input_lag".into(),
             signal: Some("ambient_c".into()),
+            position: None,
             params: [
                 ("tau_min".to_string(), 20.0),
                 ("gain_um_per_unit".to_string(), 2.5),
             ]
             .into(),
         });
-        let err = Predictor::new(&model, &BTreeMap::new()).unwrap_err();
+        let err = Predictor::new(&model, &BTreeMap::new(), &at()).unwrap_err();
         assert!(err.contains("ambient_c = n"), "{err}");
         model.effects[0] = crate::model::EffectSpec {
             kind: "time_trend".into(),
             signal: None,
+            position: None,
             params: [("um_per_h".to_string(), 1.0)].into(),
         };
-        let err = Predictor::new(&model, &BTreeMap::new()).unwrap_err();
+        let err = Predictor::new(&model, &BTreeMap::new(), &at()).unwrap_err();
         assert!(err.contains("`time_trend` effect"), "{err}");
     }
 }

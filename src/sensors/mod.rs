@@ -9,10 +9,14 @@
 //!    when the data has runs, else on a time holdout.
 //!
 //! The regression is written in the form a driftloop model file evaluates exactly, so `predict` reproduces
-//! it: E(i) = b₀ + Σⱼ bⱼ·(θⱼ(i−1) − θⱼ(run start)). Each sensor enters relative to its value at the start
-//! of the run (a model's inputs start from rest) and one row late (a row's inputs hold until the next row);
-//! temperatures move slowly, so the one-sample delay costs little. In the model file each sensor is an
-//! [`InputLag`] with a time constant far below the sampling step, i.e. a static gain.
+//! it: E(i) = b₀ + Σⱼ bⱼ·(θⱼ(i) − θⱼ(run start)). Each sensor enters at its own row, relative to its value
+//! at the start of the run (a model's runs start from rest; on the machine, the zero measurement). In the
+//! model file b₀ is `offset_um` and each sensor a `static_input` effect
+//! ([`crate::model::effects::static_input`]); the position variant ([`position`]) adds `input_slope` and
+//! `geometric` terms.
+//!
+//! Model files of earlier versions stored each sensor as an `inputs` entry with τ = 1e-9 min (a static gain
+//! one row late); they are still read and predict what they predicted then.
 
 pub mod cluster;
 pub mod position;
@@ -25,12 +29,10 @@ use nalgebra::DMatrix;
 use serde::Serialize;
 
 use crate::data::{ColumnKind, Dataset};
+use crate::model::effects::{Effect, Kind};
 use crate::model::{
-    DataProvenance, DriftModel, Extrapolation, InputLag, Interpolation, SCHEMA, SpindleModes,
+    DataProvenance, DriftModel, Extrapolation, Interpolation, SCHEMA, SpindleModes,
 };
-
-/// Time constant written for a static sensor gain: the lag reaches its target within any sampling step.
-pub const STATIC_TAU_MIN: f64 = 1e-9;
 
 #[derive(Debug, Clone)]
 pub struct Options {
@@ -143,15 +145,17 @@ pub struct Analysis {
     pub fit: Score,
     pub validation: Validation,
     #[serde(skip)]
+    prediction: Vec<f64>,
+    #[serde(skip)]
     provenance: DataProvenance,
 }
 
-/// The regressors: each sensor relative to its run-start value, one row late (see the module comment).
+/// The regressors: each sensor relative to its run-start value (see the module comment).
 fn regressors(ds: &Dataset, values: &[f64]) -> Vec<f64> {
     let mut out = vec![0.0; values.len()];
     for run in ds.runs() {
-        for i in run.start + 1..run.end {
-            out[i] = values[i - 1] - values[run.start];
+        for i in run.clone() {
+            out[i] = values[i] - values[run.start];
         }
     }
     out
@@ -414,42 +418,76 @@ pub fn analyse(ds: &Dataset, opts: &Options) -> Result<Analysis, SensorError> {
         coefficients,
         fit: fit_score,
         validation,
-        provenance: DataProvenance {
-            file: ds.source.clone(),
-            sha256: ds.sha256.clone().unwrap_or_default(),
-            rows: n,
-            time_unit: ds.time_unit,
-        },
+        prediction: (0..n)
+            .map(|i| predict_row(&inp, &chosen, &fit.beta, i))
+            .collect(),
+        provenance: provenance(ds),
     })
 }
 
+/// A regression as a driftloop model: no spindle modes, the offset and the regression's terms.
+fn regression_model(
+    channel: &str,
+    offset_um: f64,
+    terms: impl Iterator<Item = Effect>,
+    provenance: &DataProvenance,
+) -> DriftModel {
+    DriftModel {
+        schema: SCHEMA,
+        channel: channel.to_string(),
+        offset_um,
+        spindle: SpindleModes {
+            grid_rpm: Vec::new(),
+            interpolation: Interpolation::PiecewiseLinear,
+            extrapolation: Extrapolation::LinearLastSegment,
+            modes: Vec::new(),
+        },
+        inputs: Vec::new(),
+        effects: terms.map(|e| e.to_spec()).collect(),
+        fit: None,
+        data: Some(provenance.clone()),
+    }
+}
+
+/// One regression term per sensor coefficient (`offset` skipped): `kind` with the sensor as its signal.
+fn sensor_terms<'a>(
+    coefficients: &'a [Coefficient],
+    kind: Kind,
+    position: Option<&'a str>,
+) -> impl Iterator<Item = Effect> + 'a {
+    coefficients[1..].iter().map(move |c| Effect {
+        kind,
+        signal: Some(c.term.clone()),
+        position: position.map(str::to_string),
+        theta: Vec::new(),
+        amplitudes: vec![c.value],
+    })
+}
+
+fn provenance(ds: &Dataset) -> DataProvenance {
+    DataProvenance {
+        file: ds.source.clone(),
+        sha256: ds.sha256.clone().unwrap_or_default(),
+        rows: ds.len(),
+        time_unit: ds.time_unit,
+    }
+}
+
 impl Analysis {
-    /// The regression as a driftloop model: no spindle modes, one static [`InputLag`] per chosen sensor.
+    /// The regression fitted on the training rows, predicting every row of the data (µm).
+    pub fn prediction(&self) -> &[f64] {
+        &self.prediction
+    }
+
+    /// The regression as a driftloop model: no spindle modes, the intercept as `offset_um`, one
+    /// `static_input` term per chosen sensor.
     pub fn to_model(&self) -> DriftModel {
-        DriftModel {
-            schema: SCHEMA,
-            channel: self.channel.clone(),
-            offset_um: self.coefficients[0].value,
-            spindle: SpindleModes {
-                grid_rpm: Vec::new(),
-                interpolation: Interpolation::PiecewiseLinear,
-                extrapolation: Extrapolation::LinearLastSegment,
-                modes: Vec::new(),
-            },
-            inputs: self.coefficients[1..]
-                .iter()
-                .map(|c| InputLag {
-                    signal: c.term.clone(),
-                    tau_min: STATIC_TAU_MIN,
-                    tau_se_min: None,
-                    gain_um_per_unit: c.value,
-                    gain_se_um_per_unit: Some(c.se),
-                })
-                .collect(),
-            effects: Vec::new(),
-            fit: None,
-            data: Some(self.provenance.clone()),
-        }
+        regression_model(
+            &self.channel,
+            self.coefficients[0].value,
+            sensor_terms(&self.coefficients, Kind::StaticInput, None),
+            &self.provenance,
+        )
     }
 
     pub fn json(&self) -> String {

@@ -5,15 +5,26 @@
 //! degree ≤ 2 (fewer with fewer distinct positions) fitted to its errors, so E_G carries the geometric error
 //! plus the reference state's thermal part and S, I are relative to the reference. Every other step's
 //! E − E_G(p) is fitted by a line in p, giving S and I per step (a step needs two distinct positions). The
-//! sensors per step are their means over the step. Sensors are ranked by max(|r(θ, S)|, |r(θ, I)|),
-//! clustered like the positionless variant, and S and I are each regressed on the kept sensors (relative to
-//! their reference-step means). Validation is a time holdout on whole steps.
+//! sensors per step are their means over the step, each relative to its value at the first row of the run.
+//! Sensors are ranked by max(|r(θ, S)|, |r(θ, I)|), clustered like the positionless variant, and S and I
+//! are each regressed on the kept sensors. Validation is a time holdout on whole steps.
+//!
+//! Prediction, in the scores and in the model file alike, is row by row: E(i) = E_G(p(i)) + S(i)·p(i) + I(i)
+//! with S and I evaluated on the sensors of row i relative to the run's first row (identical to the step
+//! means when the sensors are logged once per state). In the model file ([`PositionAnalysis::to_model`]):
+//! `offset_um` = E_G's constant + I's intercept, a `geometric` term with E_G's linear (plus S's intercept)
+//! and quadratic coefficients, an `input_slope` per kept sensor (S) and a `static_input` per kept sensor (I).
 
 use nalgebra::DMatrix;
 use serde::Serialize;
 
-use super::{Cluster, Coefficient, Options, Score, SensorError, choose, stats};
+use super::{
+    Cluster, Coefficient, Options, Score, SensorError, choose, provenance, regression_model,
+    regressors, sensor_terms, stats,
+};
 use crate::data::{ColumnKind, Dataset};
+use crate::model::effects::{Effect, Kind};
+use crate::model::{DataProvenance, DriftModel};
 
 /// A sensor's correlation with the slope and with the intercept across time steps.
 #[derive(Debug, Clone, Serialize)]
@@ -46,9 +57,13 @@ pub struct PositionAnalysis {
     pub holdout_from_min: f64,
     pub default_holdout: bool,
     pub validation: Score,
+    #[serde(skip)]
+    prediction: Vec<f64>,
+    #[serde(skip)]
+    provenance: DataProvenance,
 }
 
-/// One thermal state: its rows, time, and per-step sensor means.
+/// One thermal state: its rows, time, and per-step means of the sensors' changes since the run start.
 struct Step {
     rows: std::ops::Range<usize>,
     t: f64,
@@ -128,7 +143,8 @@ pub fn analyse_position(
     if names.is_empty() {
         return Err(SensorError::NoSensors);
     }
-    let steps = steps(ds, &sensors);
+    let change: Vec<Vec<f64>> = sensors.iter().map(|v| regressors(ds, v)).collect();
+    let steps = steps(ds, &change.iter().map(Vec::as_slice).collect::<Vec<_>>());
     let reference = &steps[0];
     let ref_p = &p[reference.rows.clone()];
     let degree = distinct(ref_p).saturating_sub(1).min(2);
@@ -188,26 +204,27 @@ pub fn analyse_position(
         if c == 0 {
             1.0
         } else {
-            let j = chosen[c - 1];
-            steps[train[r]].theta[j] - reference.theta[j]
+            steps[train[r]].theta[chosen[c - 1]]
         }
     });
     let singular = || SensorError::Singular(chosen_names.clone());
     let slope = stats::least_squares(&x, &s_train).ok_or_else(singular)?;
     let intercept = stats::least_squares(&x, &i_train).ok_or_else(singular)?;
-    let predict = |k: usize, b: &[f64]| {
+    let linear = |row: usize, b: &[f64]| {
         b[0] + chosen
             .iter()
             .zip(&b[1..])
-            .map(|(&j, c)| c * (steps[k].theta[j] - reference.theta[j]))
+            .map(|(&j, c)| c * change[j][row])
             .sum::<f64>()
     };
+    let thermal_prediction: Vec<f64> = (0..e.len())
+        .map(|row| linear(row, &slope.beta) * p[row] + linear(row, &intercept.beta))
+        .collect();
     let score = |part: &[usize]| {
         let (mut resid, mut unc) = (Vec::new(), Vec::new());
         for &k in part {
-            let (s, i) = (predict(k, &slope.beta), predict(k, &intercept.beta));
             for row in steps[k].rows.clone() {
-                resid.push(thermal[row] - s * p[row] - i);
+                resid.push(thermal[row] - thermal_prediction[row]);
                 unc.push(thermal[row]);
             }
         }
@@ -219,7 +236,7 @@ pub fn analyse_position(
         threshold: opts.threshold,
         min_correlation: opts.min_correlation,
         training_steps: train.len(),
-        geometric,
+        geometric: geometric.clone(),
         factors: names
             .iter()
             .zip(r_s.iter().zip(&r_i))
@@ -238,10 +255,45 @@ pub fn analyse_position(
         holdout_from_min: from,
         default_holdout: opts.holdout_from_min.is_none(),
         validation: score(&holdout),
+        prediction: (0..e.len())
+            .map(|row| poly(&geometric, p[row]) + thermal_prediction[row])
+            .collect(),
+        provenance: provenance(ds),
     })
 }
 
 impl PositionAnalysis {
+    /// The regression's prediction E_G(p) + S·p + I at every row of the data (µm).
+    pub fn prediction(&self) -> &[f64] {
+        &self.prediction
+    }
+
+    /// The separated regression as a driftloop model (see the module comment for its terms); `predict`
+    /// reproduces [`PositionAnalysis::prediction`].
+    pub fn to_model(&self) -> DriftModel {
+        let coefficient = |k: usize| self.geometric.get(k).copied().unwrap_or(0.0);
+        let geometric = Effect {
+            kind: Kind::Geometric,
+            signal: None,
+            position: Some(self.position.clone()),
+            theta: Vec::new(),
+            amplitudes: vec![coefficient(1) + self.slope[0].value, coefficient(2)],
+        };
+        let terms = std::iter::once(geometric)
+            .chain(sensor_terms(
+                &self.slope,
+                Kind::InputSlope,
+                Some(&self.position),
+            ))
+            .chain(sensor_terms(&self.intercept, Kind::StaticInput, None));
+        regression_model(
+            &self.channel,
+            coefficient(0) + self.intercept[0].value,
+            terms,
+            &self.provenance,
+        )
+    }
+
     pub fn json(&self) -> String {
         serde_json::to_string_pretty(self).expect("the analysis serialises") + "\n"
     }

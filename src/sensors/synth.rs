@@ -4,7 +4,7 @@
 use crate::data::{Dataset, TimeUnit};
 use crate::model::synth::Rng;
 
-/// The truth behind [`dataset`]: E(i) = offset + gain_a·(a₁(i−1) − a₁(s)) + gain_b·(b₁(i−1) − b₁(s)) + noise,
+/// The truth behind [`dataset`]: E(i) = offset + gain_a·(a₁(i) − a₁(s)) + gain_b·(b₁(i) − b₁(s)) + noise,
 /// s the first row of i's run.
 #[derive(Debug, Clone, Copy)]
 pub struct Truth {
@@ -65,10 +65,10 @@ pub fn dataset(seed: u64, runs: usize, n: usize, truth: Truth) -> Dataset {
     let e: Vec<f64> = (0..runs * n)
         .map(|i| {
             let start = i - i % n;
-            let lagged = |s: &[f64]| if i == start { 0.0 } else { s[i - 1] - s[start] };
+            let change = |s: &[f64]| s[i] - s[start];
             truth.offset_um
-                + truth.gain_a * lagged(a1)
-                + truth.gain_b * lagged(b1)
+                + truth.gain_a * change(a1)
+                + truth.gain_b * change(b1)
                 + truth.noise_um * rng.normal()
         })
         .collect();

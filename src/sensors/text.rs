@@ -139,10 +139,7 @@ impl Analysis {
             &self.correlation,
         );
         clusters(&mut s, &self.clusters, self.threshold);
-        let _ = writeln!(
-            s,
-            "\nregression E = b0 + Σ b·(θ − θ at run start), θ one row late:"
-        );
+        let _ = writeln!(s, "\nregression E = b0 + Σ b·(θ − θ at run start):");
         coefficients(&mut s, &self.coefficients, "µm");
         score_line(&mut s, "fit", &self.fit);
         let v = &self.validation;

@@ -59,6 +59,7 @@ mod tests {
         let effect = Effect {
             kind: Kind::CoolingAsymmetry,
             signal: None,
+            position: None,
             theta: vec![3.0],
             amplitudes: vec![],
         };

@@ -28,6 +28,7 @@ mod tests {
         let e = Effect {
             kind: Kind::ExtraMode,
             signal: None,
+            position: None,
             theta: vec![100.0],
             amplitudes: vec![2.0],
         };

@@ -33,6 +33,7 @@ mod tests {
         let e = Effect {
             kind: Kind::InputLag,
             signal: Some("ambient_c".into()),
+            position: None,
             theta: vec![30.0],
             amplitudes: vec![-1.5],
         };

@@ -3,20 +3,35 @@
 //! generator serves prediction ([`Effect::contribution`]) and the joint refit in `diagnose` (which solves the
 //! amplitudes by least squares and iterates θ).
 //!
-//! In the model file an effect is an [`EffectSpec`] `{kind, signal, params}`; [`Effect::from_spec`] and
-//! [`Effect::to_spec`] convert losslessly. The kinds:
+//! In the model file an effect is an [`EffectSpec`] `{kind, signal, position, params}`; [`Effect::from_spec`]
+//! and [`Effect::to_spec`] convert losslessly. `signal` names the measured input a kind reads (a temperature,
+//! ambient, …; for `position_slope` the position itself, as before `position` existed), `position` the axis
+//! position column (`*_mm`) of the kinds that also need one. A spec with a field, parameter or kind this
+//! version does not know is refused, never predicted without it. The kinds diagnosis searches for
+//! ([`Kind::DIAGNOSED`]):
 //! - [`input_lag`]: an undeclared numeric column through a first-order lag;
 //! - [`extra_mode`]: another spindle-driven mode with its own time constant;
 //! - [`cooling_asymmetry`]: the spindle modes cool with a different time constant than they heat
 //!   (it changes the modes' dynamics, so it has no column of its own);
 //! - [`position_slope`]: the thermal drift grows with an axis position, E = S(θ)·p + I(θ);
 //! - [`time_trend`]: slow linear creep; [`periodic`]: a daily cycle; [`step`]: a sudden offset.
+//!
+//! And the terms of a temperature-sensor regression (`driftloop sensors -o`, the third paper's
+//! E = E_G(p) + S(θ)·p + I(θ)), written by the regression and refitted (amplitudes only, they have no θ)
+//! but never proposed by diagnosis:
+//! - [`static_input`]: gain·(u(i) − u at the run's first row), at its own row, no lag;
+//! - [`input_slope`]: gain·(u(i) − u₀)·p(i), a slope S that follows an input, not the spindle;
+//! - [`geometric`]: the geometric error E_G(p) = a·p + b·p² of the axis position (its constant part is the
+//!   model's offset).
 
 pub mod cooling_asymmetry;
 pub mod extra_mode;
+pub mod geometric;
 pub mod input_lag;
+pub mod input_slope;
 pub mod periodic;
 pub mod position_slope;
+pub mod static_input;
 pub mod step;
 pub mod time_trend;
 
@@ -36,10 +51,28 @@ pub enum Kind {
     TimeTrend,
     Periodic,
     Step,
+    StaticInput,
+    InputSlope,
+    Geometric,
 }
 
 impl Kind {
-    pub const ALL: [Kind; 7] = [
+    /// Every kind a model file may carry.
+    pub const ALL: [Kind; 10] = [
+        Kind::InputLag,
+        Kind::ExtraMode,
+        Kind::CoolingAsymmetry,
+        Kind::PositionSlope,
+        Kind::TimeTrend,
+        Kind::Periodic,
+        Kind::Step,
+        Kind::StaticInput,
+        Kind::InputSlope,
+        Kind::Geometric,
+    ];
+
+    /// The kinds diagnosis proposes and `simulate-data` injects; the others are written by `sensors`.
+    pub const DIAGNOSED: [Kind; 7] = [
         Kind::InputLag,
         Kind::ExtraMode,
         Kind::CoolingAsymmetry,
@@ -58,6 +91,9 @@ impl Kind {
             Kind::TimeTrend => "time_trend",
             Kind::Periodic => "periodic",
             Kind::Step => "step",
+            Kind::StaticInput => "static_input",
+            Kind::InputSlope => "input_slope",
+            Kind::Geometric => "geometric",
         }
     }
 
@@ -67,7 +103,15 @@ impl Kind {
 
     /// Whether the effect reads a data column (named in `signal`).
     pub fn reads_signal(self) -> bool {
-        matches!(self, Kind::InputLag | Kind::PositionSlope)
+        matches!(
+            self,
+            Kind::InputLag | Kind::PositionSlope | Kind::StaticInput | Kind::InputSlope
+        )
+    }
+
+    /// Whether the effect reads an axis position column (named in `position`).
+    pub fn reads_position(self) -> bool {
+        matches!(self, Kind::InputSlope | Kind::Geometric)
     }
 
     /// Names of θ in the model file, in θ order.
@@ -76,7 +120,11 @@ impl Kind {
             Kind::InputLag | Kind::ExtraMode | Kind::PositionSlope => &["tau_min"],
             Kind::CoolingAsymmetry => &["cooling_tau_ratio"],
             Kind::Step => &["at_min"],
-            Kind::TimeTrend | Kind::Periodic => &[],
+            Kind::TimeTrend
+            | Kind::Periodic
+            | Kind::StaticInput
+            | Kind::InputSlope
+            | Kind::Geometric => &[],
         }
     }
 
@@ -90,7 +138,23 @@ impl Kind {
             Kind::TimeTrend => &["um_per_h"],
             Kind::Periodic => &["sin_um", "cos_um"],
             Kind::Step => &["offset_um"],
+            Kind::StaticInput => &["gain_um_per_unit"],
+            Kind::InputSlope => &["um_per_mm_per_unit"],
+            Kind::Geometric => &["um_per_mm", "um_per_mm2"],
         }
+    }
+
+    /// Names of the parameters in the model file: θ, then the amplitudes as written.
+    fn param_names(self) -> Vec<&'static str> {
+        let amplitudes = match self {
+            Kind::Periodic => periodic::PARAM_NAMES.as_slice(),
+            _ => self.amplitude_names(),
+        };
+        self.theta_names()
+            .iter()
+            .chain(amplitudes)
+            .copied()
+            .collect()
     }
 
     /// Whether θ enters smoothly (iterated in the joint refit) rather than found by a scan only.
@@ -110,6 +174,12 @@ pub enum EffectError {
     BadParam { kind: String, param: String },
     #[error("`{0}` effect: it needs a `signal` column name")]
     NoSignal(String),
+    #[error("`{0}` effect: it needs a `position` column name (the axis position, `*_mm`)")]
+    NoPosition(String),
+    #[error(
+        "`{kind}` effect: `{field}` is not a field this version of driftloop knows for it; refusing rather than predicting without it"
+    )]
+    UnknownField { kind: String, field: String },
 }
 
 /// One effect with its parameters in natural units (θ: τ in minutes, step time in minutes, ratio).
@@ -117,6 +187,8 @@ pub enum EffectError {
 pub struct Effect {
     pub kind: Kind,
     pub signal: Option<String>,
+    /// The axis position column, for the kinds that read one ([`Kind::reads_position`]).
+    pub position: Option<String>,
     pub theta: Vec<f64>,
     pub amplitudes: Vec<f64>,
 }
@@ -129,6 +201,8 @@ pub struct Series<'a> {
     pub rpm: Option<&'a [f64]>,
     /// The effect's `signal` column, when it reads one.
     pub signal: Option<&'a [f64]>,
+    /// The effect's `position` column, when it reads one.
+    pub position: Option<&'a [f64]>,
 }
 
 impl Series<'_> {
@@ -147,6 +221,20 @@ impl Effect {
         if kind.reads_signal() && spec.signal.is_none() {
             return Err(EffectError::NoSignal(spec.kind.clone()));
         }
+        if kind.reads_position() && spec.position.is_none() {
+            return Err(EffectError::NoPosition(spec.kind.clone()));
+        }
+        let unknown = |field: &str| EffectError::UnknownField {
+            kind: spec.kind.clone(),
+            field: field.to_string(),
+        };
+        if spec.position.is_some() && !kind.reads_position() {
+            return Err(unknown("position"));
+        }
+        let names = kind.param_names();
+        if let Some(extra) = spec.params.keys().find(|k| !names.contains(&k.as_str())) {
+            return Err(unknown(extra));
+        }
         let get = |name: &&str| {
             spec.params
                 .get(*name)
@@ -160,6 +248,7 @@ impl Effect {
         let effect = Effect {
             kind,
             signal: spec.signal.clone().filter(|_| kind.reads_signal()),
+            position: spec.position.clone(),
             theta: kind
                 .theta_names()
                 .iter()
@@ -199,7 +288,25 @@ impl Effect {
         EffectSpec {
             kind: self.kind.name().to_string(),
             signal: self.signal.clone(),
+            position: self.position.clone(),
             params,
+        }
+    }
+
+    /// The data the effect's columns are computed from: `column` finds a data column by name.
+    pub fn series<'a>(
+        &self,
+        t: &'a [f64],
+        runs: &'a [Range<usize>],
+        rpm: Option<&'a [f64]>,
+        column: impl Fn(&str) -> Option<&'a [f64]>,
+    ) -> Series<'a> {
+        Series {
+            t,
+            runs,
+            rpm,
+            signal: self.signal.as_deref().and_then(&column),
+            position: self.position.as_deref().and_then(&column),
         }
     }
 
@@ -213,6 +320,9 @@ impl Effect {
             Kind::TimeTrend => time_trend::columns(s, cols[0]),
             Kind::Periodic => periodic::columns(s, cols),
             Kind::Step => step::columns(s, theta[0], cols[0]),
+            Kind::StaticInput => static_input::columns(s, cols[0]),
+            Kind::InputSlope => input_slope::columns(s, cols[0]),
+            Kind::Geometric => geometric::columns(s, cols),
         }
     }
 
@@ -267,6 +377,7 @@ pub(crate) mod test_support {
             runs,
             rpm,
             signal,
+            position: None,
         }
     }
 
@@ -280,6 +391,7 @@ pub(crate) mod test_support {
         let back = Effect::from_spec(&e.to_spec()).unwrap();
         assert_eq!(back.kind, e.kind);
         assert_eq!(back.signal, e.signal);
+        assert_eq!(back.position, e.position);
         for (a, b) in back.theta.iter().zip(&e.theta) {
             assert!((a - b).abs() < 1e-9 * (1.0 + b.abs()));
         }
@@ -298,6 +410,7 @@ mod tests {
         let spec = EffectSpec {
             kind: "ghost".into(),
             signal: None,
+            position: None,
             params: BTreeMap::new(),
         };
         assert_eq!(
@@ -307,6 +420,7 @@ mod tests {
         let spec = EffectSpec {
             kind: "time_trend".into(),
             signal: None,
+            position: None,
             params: BTreeMap::new(),
         };
         assert!(matches!(
@@ -316,12 +430,55 @@ mod tests {
         let spec = EffectSpec {
             kind: "input_lag".into(),
             signal: None,
+            position: None,
             params: BTreeMap::new(),
         };
         assert!(matches!(
             Effect::from_spec(&spec),
             Err(EffectError::NoSignal(_))
         ));
+    }
+
+    #[test]
+    fn fields_and_params_a_kind_does_not_know_are_refused() {
+        let e = Effect {
+            kind: Kind::InputSlope,
+            signal: Some("t3_c".into()),
+            position: Some("x_mm".into()),
+            theta: vec![],
+            amplitudes: vec![0.01],
+        };
+        assert!(Effect::from_spec(&e.to_spec()).is_ok());
+        let mut no_position = e.to_spec();
+        no_position.position = None;
+        assert_eq!(
+            Effect::from_spec(&no_position),
+            Err(EffectError::NoPosition("input_slope".into()))
+        );
+        // A position on a kind that does not read one would be ignored by this version: refused.
+        let mut stray = Effect {
+            kind: Kind::StaticInput,
+            signal: Some("t3_c".into()),
+            position: None,
+            theta: vec![],
+            amplitudes: vec![2.0],
+        }
+        .to_spec();
+        stray.position = Some("x_mm".into());
+        assert!(matches!(
+            Effect::from_spec(&stray),
+            Err(EffectError::UnknownField { field, .. }) if field == "position"
+        ));
+        // So is a parameter it does not know (a newer version's term, or a typo).
+        let mut extra = e.to_spec();
+        extra.params.insert("um_per_mm2_per_unit".into(), 1e-4);
+        assert!(matches!(
+            Effect::from_spec(&extra),
+            Err(EffectError::UnknownField { field, .. }) if field == "um_per_mm2_per_unit"
+        ));
+        // A field of the spec itself this version does not know fails the file, not the term.
+        let text = "kind = \"static_input\"\nsignal = \"t3_c\"\nlag_rows = 1\n[params]\ngain_um_per_unit = 2.0\n";
+        assert!(toml::from_str::<EffectSpec>(text).is_err());
     }
 
     #[test]
@@ -340,13 +497,16 @@ mod tests {
         let mut model = plain.clone();
         for kind in Kind::ALL {
             let signal = match kind {
-                Kind::InputLag => Some("ambient_c".to_string()),
+                Kind::InputLag | Kind::StaticInput | Kind::InputSlope => {
+                    Some("ambient_c".to_string())
+                }
                 Kind::PositionSlope => Some("x_mm".to_string()),
                 _ => None,
             };
             let e = Effect {
                 kind,
                 signal,
+                position: kind.reads_position().then(|| "x_mm".to_string()),
                 theta: vec![
                     if kind == Kind::CoolingAsymmetry {
                         2.0

@@ -10,6 +10,9 @@ use super::Series;
 /// Minutes in the period.
 pub const PERIOD_MIN: f64 = 1440.0;
 
+/// The parameters as written in the model file.
+pub const PARAM_NAMES: [&str; 2] = ["amplitude_um", "peak_min"];
+
 /// sin and cos of the time axis' phase.
 pub fn columns(s: &Series, cols: &mut [&mut [f64]]) {
     for (i, &t) in s.t.iter().enumerate() {
@@ -24,15 +27,15 @@ pub fn params_from_amplitudes(ab: &[f64]) -> BTreeMap<String, f64> {
     let (a, b) = (ab[0], ab[1]);
     let phase = a.atan2(b).rem_euclid(TAU);
     BTreeMap::from([
-        ("amplitude_um".to_string(), a.hypot(b)),
-        ("peak_min".to_string(), phase / TAU * PERIOD_MIN),
+        (PARAM_NAMES[0].to_string(), a.hypot(b)),
+        (PARAM_NAMES[1].to_string(), phase / TAU * PERIOD_MIN),
     ])
 }
 
 /// [a, b] from `amplitude_um`, `peak_min`.
 pub fn amplitudes_from_params(p: &BTreeMap<String, f64>) -> Option<[f64; 2]> {
-    let amp = p.get("amplitude_um").copied().filter(|v| v.is_finite())?;
-    let peak = p.get("peak_min").copied().filter(|v| v.is_finite())?;
+    let amp = p.get(PARAM_NAMES[0]).copied().filter(|v| v.is_finite())?;
+    let peak = p.get(PARAM_NAMES[1]).copied().filter(|v| v.is_finite())?;
     let phase = TAU * peak / PERIOD_MIN;
     Some([amp * phase.sin(), amp * phase.cos()])
 }
@@ -55,6 +58,7 @@ mod tests {
         let e = Effect {
             kind: Kind::Periodic,
             signal: None,
+            position: None,
             theta: vec![],
             amplitudes: ab.to_vec(),
         };

@@ -45,6 +45,7 @@ mod tests {
         let e = Effect {
             kind: Kind::PositionSlope,
             signal: Some("x_mm".into()),
+            position: None,
             theta: vec![60.0],
             amplitudes: vec![0.01, 0.0],
         };

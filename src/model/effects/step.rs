@@ -23,6 +23,7 @@ mod tests {
         let e = Effect {
             kind: Kind::Step,
             signal: None,
+            position: None,
             theta: vec![20.0],
             amplitudes: vec![-4.0],
         };

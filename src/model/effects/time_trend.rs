@@ -24,6 +24,7 @@ mod tests {
         let e = Effect {
             kind: Kind::TimeTrend,
             signal: None,
+            position: None,
             theta: vec![],
             amplitudes: vec![0.5],
         };
