@@ -31,14 +31,22 @@ impl ModelDrift {
         signals: &BTreeMap<String, Vec<(f64, f64)>>,
     ) -> Result<Self, String> {
         let mut used = BTreeMap::new();
-        for input in &model.inputs {
-            let points = signals.get(&input.signal).ok_or_else(|| {
+        // Every column the model reads besides the spindle: lagged inputs, and the signals and positions of
+        // its effects (a diagnosed `input_lag`, a sensor regression's `static_input`/`input_slope`).
+        let columns = model.inputs.iter().map(|i| &i.signal).chain(
+            model
+                .effects
+                .iter()
+                .flat_map(|e| e.signal.iter().chain(&e.position)),
+        );
+        for name in columns.filter(|n| n.as_str() != SPINDLE) {
+            let points = signals.get(name).ok_or_else(|| {
                 format!(
-                    "the model of {} takes the input `{}`: give its signal ([signals.{}])",
-                    model.channel, input.signal, input.signal
+                    "the model of {} takes the input `{name}`: give its signal ([signals.{name}])",
+                    model.channel
                 )
             })?;
-            used.insert(input.signal.clone(), points.clone());
+            used.insert(name.clone(), points.clone());
         }
         let truth = ModelDrift {
             model,
@@ -137,6 +145,26 @@ gain_um = [20.0]
             (truth.at(60.0, &h) - expected).abs() < 1e-9,
             "{} vs {expected}",
             truth.at(60.0, &h)
+        );
+    }
+
+    #[test]
+    fn a_sensor_regression_term_follows_its_signal_without_lag() {
+        // What `sensors -o` writes: a static gain on a temperature, read at its own time.
+        let text = format!(
+            "{MODEL}[[effects]]\nkind = \"static_input\"\nsignal = \"t3_c\"\n[effects.params]\ngain_um_per_unit = 1.5\n"
+        );
+        let model = DriftModel::from_toml(&text, "m.toml").unwrap();
+        let refused = ModelDrift::new(model.clone(), 1.0, &BTreeMap::new()).unwrap_err();
+        assert!(refused.contains("[signals.t3_c]"), "{refused}");
+        let signals = BTreeMap::from([("t3_c".to_string(), vec![(0.0, 25.0), (100.0, 27.0)])]);
+        let truth = ModelDrift::new(model, 1.0, &signals).unwrap();
+        let h = SpindleHistory::default();
+        // 50 min in, the sensor reads 26 °C: 1 °C above the start × 1.5 µm/°C.
+        assert!(
+            (truth.at(50.0, &h) - 1.5).abs() < 1e-9,
+            "{}",
+            truth.at(50.0, &h)
         );
     }
 }
