@@ -245,3 +245,29 @@ fn output_through_a_symlink_or_device_is_not_replaced() {
             .is_char_device()
     );
 }
+
+#[test]
+fn plan_says_which_signals_it_cannot_foresee() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut model_text = std::fs::read_to_string(fixtures().join("model.toml")).unwrap();
+    model_text
+        .push_str("\n[[inputs]]\nsignal = \"ambient_c\"\ntau_min = 30.0\ngain_um_per_unit = 2.0\n");
+    let ambient = dir.path().join("ambient.toml");
+    std::fs::write(&ambient, model_text).unwrap();
+    let profile_text = std::fs::read_to_string(fixtures().join("blum-tc50.toml")).unwrap()
+        + "[log]\ninputs = { ambient_c = 1 }\n";
+    let profile = dir.path().join("p.toml");
+    std::fs::write(&profile, profile_text).unwrap();
+    let p = fixtures().join("handwritten.mpf").display().to_string();
+    let (m, pr) = (ambient.display().to_string(), profile.display().to_string());
+    let o = common::run(&["plan", &p, "--model", &m, "--profile", &pr]);
+    assert_eq!(code(&o), 0, "{}", String::from_utf8_lossy(&o.stderr));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("note: the model also reads ambient_c; the plan cannot foresee"),
+        "{stderr}"
+    );
+    // A spindle-only model plans without the note.
+    let o = common::run(&["plan", &p, "--model", &model()]);
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("note:"));
+}

@@ -55,6 +55,13 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             return Ok(ExitCode::from(2));
         }
     };
+    let unforeseen = model.signals();
+    if !unforeseen.is_empty() {
+        eprintln!(
+            "note: the model also reads {}; the plan cannot foresee them and holds them at their values at the zero, so its predicted drift is the spindle part only; the transformed program reads them (`$A_INA`) and corrects with them at every gate",
+            unforeseen.join(", ")
+        );
+    }
     let mut out = io::stdout().lock();
     match args.format {
         Format::Json => {

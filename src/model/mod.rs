@@ -265,6 +265,24 @@ impl DriftModel {
         out
     }
 
+    /// The signals the model reads besides the spindle speed: its lagged inputs and its effects' signals
+    /// (a diagnosed `input_lag`, a sensor regression's terms), each once, in model order. Position columns are
+    /// not signals: see the effects' `position`.
+    pub fn signals(&self) -> Vec<&str> {
+        let mut out: Vec<&str> = Vec::new();
+        let names = self
+            .inputs
+            .iter()
+            .map(|i| i.signal.as_str())
+            .chain(self.effects.iter().filter_map(|e| e.signal.as_deref()));
+        for name in names.filter(|&n| n != crate::data::SPINDLE) {
+            if !out.contains(&name) {
+                out.push(name);
+            }
+        }
+        out
+    }
+
     /// Steady-state drift at a constant speed, all spindle modes together (µm, without offset).
     pub fn steady_state_um(&self, rpm: f64) -> f64 {
         let Some(grid) = self.speed_grid() else {

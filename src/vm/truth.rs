@@ -31,22 +31,17 @@ impl ModelDrift {
         signals: &BTreeMap<String, Vec<(f64, f64)>>,
     ) -> Result<Self, String> {
         let mut used = BTreeMap::new();
-        // Every column the model reads besides the spindle: lagged inputs, and the signals and positions of
-        // its effects (a diagnosed `input_lag`, a sensor regression's `static_input`/`input_slope`).
-        let columns = model.inputs.iter().map(|i| &i.signal).chain(
-            model
-                .effects
-                .iter()
-                .flat_map(|e| e.signal.iter().chain(&e.position)),
-        );
-        for name in columns.filter(|n| n.as_str() != SPINDLE) {
+        // Every column the model reads besides the spindle, positions included (the machine has no
+        // position column of its own: a position term's column is given as a signal over time).
+        let positions = model.effects.iter().filter_map(|e| e.position.as_deref());
+        for name in model.signals().into_iter().chain(positions) {
             let points = signals.get(name).ok_or_else(|| {
                 format!(
                     "the model of {} takes the input `{name}`: give its signal ([signals.{name}])",
                     model.channel
                 )
             })?;
-            used.insert(name.clone(), points.clone());
+            used.insert(name.to_string(), points.clone());
         }
         let truth = ModelDrift {
             model,
