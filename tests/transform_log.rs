@@ -38,8 +38,16 @@ fn run_log(profile: &Profile) -> (Run, Vec<String>, Vec<Vec<f64>>) {
     let text = run.files.get(&profile.registers.log_file).expect("a log");
     let mut lines = text.lines();
     let header = lines.next().unwrap().split(',').map(String::from).collect();
+    // An empty drift cell: the gate did not measure (NaN, as the data reader takes it).
     let rows = lines
-        .map(|l| l.split(',').map(|f| f.trim().parse().unwrap()).collect())
+        .map(|l| {
+            l.split(',')
+                .map(|f| match f.trim() {
+                    "" => f64::NAN,
+                    v => v.parse().unwrap(),
+                })
+                .collect()
+        })
         .collect();
     (run, header, rows)
 }
@@ -64,11 +72,18 @@ fn every_gate_is_measured_and_logged_with_the_ambient_input() {
         ]
     );
     assert_eq!(sparse_header.len(), 5, "without [log] no input column");
+    // Both log a row at every gate (production has fewer: extra gates only where it plans to measure)
+    // and leave the drift empty where they did not measure.
+    let measured = |rows: &[Vec<f64>]| rows.iter().filter(|r| !r[2].is_nan()).count();
     assert!(
-        rows.len() >= run.passes.len() && rows.len() > sparse_rows.len(),
-        "dense {} rows, sparse {} rows, {} passes",
+        sparse_rows.len() >= run.passes.len()
+            && rows.len() >= sparse_rows.len()
+            && measured(&rows) > measured(&sparse_rows)
+            && measured(&sparse_rows) < sparse_rows.len(),
+        "dense {} rows, sparse {} rows ({} measured), {} passes",
         rows.len(),
         sparse_rows.len(),
+        measured(&sparse_rows),
         run.passes.len()
     );
     for row in &rows {
@@ -80,6 +95,11 @@ fn every_gate_is_measured_and_logged_with_the_ambient_input() {
     assert!(rows.last().unwrap()[5] > rows[0][5] + 1.0);
     // Measured drift follows the truth: the rows are real readings, not placeholders.
     assert!(rows.iter().any(|r| r[2] > 10.0), "{rows:?}");
+    // A speed change cannot measure: its row carries the new speed and no reading.
+    assert!(
+        rows.iter().any(|r| r[2].is_nan() && r[1] == 0.0),
+        "{rows:?}"
+    );
 }
 
 #[test]

@@ -54,7 +54,8 @@ impl TimeUnit {
 pub enum ColumnKind {
     /// `spindle_rpm`: speed held from its row on.
     Spindle,
-    /// `*_um`: a displacement channel.
+    /// `*_um`: a displacement channel. NaN (an empty cell in the file) marks a row where the channel was not
+    /// measured: the row still carries its time and inputs, which hold from it until the next row.
     Displacement,
     /// `*_c`: a temperature.
     Temperature,
@@ -78,6 +79,11 @@ impl ColumnKind {
             ColumnKind::Signal
         }
     }
+}
+
+/// Which rows of a displacement channel carry a reading (NaN, an empty cell in the file: not measured).
+pub fn measured(values: &[f64]) -> Vec<bool> {
+    values.iter().map(|v| !v.is_nan()).collect()
 }
 
 /// Name of the spindle speed column.
@@ -196,12 +202,16 @@ impl Dataset {
 
     /// Smallest positive time step within any run, in minutes.
     pub fn min_step_min(&self) -> Option<f64> {
+        self.min_step_between(&vec![true; self.len()])
+    }
+
+    /// Smallest positive time step between consecutive `rows` (a mask) within any run, in minutes: the
+    /// sampling step of a channel measured only at some rows ([`measured`]).
+    pub fn min_step_between(&self, rows: &[bool]) -> Option<f64> {
         self.runs()
             .flat_map(|r| {
-                self.time_min[r]
-                    .windows(2)
-                    .map(|w| w[1] - w[0])
-                    .collect::<Vec<_>>()
+                let t: Vec<f64> = r.filter(|&i| rows[i]).map(|i| self.time_min[i]).collect();
+                t.windows(2).map(|w| w[1] - w[0]).collect::<Vec<_>>()
             })
             .filter(|d| *d > 0.0)
             .min_by(f64::total_cmp)

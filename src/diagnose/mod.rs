@@ -126,8 +126,12 @@ pub struct Diagnosis {
     pub channel: String,
     pub source: String,
     pub holdout_from_min: Option<f64>,
+    /// Rows with a reading before the holdout (fitted) and from it on (scored only).
     pub rows_fit: usize,
     pub rows_holdout: usize,
+    /// Rows without a reading of the channel: they carry the inputs between readings, nothing is scored
+    /// there.
+    pub rows_unmeasured: usize,
     /// The measured drift against the first reading (what an uncompensated machine shows).
     pub uncompensated: Windows,
     pub before: Windows,
@@ -139,7 +143,7 @@ pub struct Diagnosis {
     pub rejected: Vec<String>,
     pub residual_white: bool,
     pub refined: DriftModel,
-    /// Per row: time (min), measured, model before, refined model after.
+    /// Per row: time (min), measured (NaN where not measured), model before, refined model after.
     pub time_min: Vec<f64>,
     pub measured: Vec<f64>,
     pub predicted_before: Vec<f64>,
@@ -235,7 +239,7 @@ pub fn diagnose(
                 .map(<[f64]>::to_vec)
         })
         .collect();
-    let first = ctx.y.first().copied().unwrap_or(0.0);
+    let first = ctx.y.iter().copied().find(|v| !v.is_nan()).unwrap_or(0.0);
     let uncomp: Vec<f64> = ctx.y.iter().map(|v| v - first).collect();
     let zero = vec![0.0; ctx.n()];
     Ok(Diagnosis {
@@ -243,7 +247,8 @@ pub fn diagnose(
         source: ds.source.clone(),
         holdout_from_min: opts.holdout_from_min,
         rows_fit: ctx.n_fit,
-        rows_holdout: ctx.n() - ctx.n_fit,
+        rows_holdout: ctx.n_holdout,
+        rows_unmeasured: ctx.n() - ctx.n_fit - ctx.n_holdout,
         uncompensated: windows_of(&ctx, &uncomp, &zero),
         before: windows(&ctx, &before_pred),
         recalibrated,
@@ -374,8 +379,8 @@ fn windows_of(ctx: &Ctx, y: &[f64], prediction: &[f64]) -> Windows {
     let e: Vec<f64> = y.iter().zip(prediction).map(|(a, b)| a - b).collect();
     let hold: Vec<f64> = e
         .iter()
-        .zip(&ctx.fit)
-        .filter(|(_, f)| !**f)
+        .zip(ctx.fit.iter().zip(&ctx.measured))
+        .filter(|(_, (f, m))| **m && !**f)
         .map(|(v, _)| *v)
         .collect();
     Windows {
