@@ -202,16 +202,12 @@ impl Dataset {
 
     /// Smallest positive time step within any run, in minutes.
     pub fn min_step_min(&self) -> Option<f64> {
-        self.min_step_between(&vec![true; self.len()])
-    }
-
-    /// Smallest positive time step between consecutive `rows` (a mask) within any run, in minutes: the
-    /// sampling step of a channel measured only at some rows ([`measured`]).
-    pub fn min_step_between(&self, rows: &[bool]) -> Option<f64> {
         self.runs()
             .flat_map(|r| {
-                let t: Vec<f64> = r.filter(|&i| rows[i]).map(|i| self.time_min[i]).collect();
-                t.windows(2).map(|w| w[1] - w[0]).collect::<Vec<_>>()
+                self.time_min[r]
+                    .windows(2)
+                    .map(|w| w[1] - w[0])
+                    .collect::<Vec<_>>()
             })
             .filter(|d| *d > 0.0)
             .min_by(f64::total_cmp)

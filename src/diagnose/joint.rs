@@ -53,7 +53,7 @@ impl<'a> Ctx<'a> {
         let n_fit = fit.iter().filter(|f| **f).count();
         let n_holdout = measured.iter().filter(|m| **m).count() - n_fit;
         let span = fit_span(ds, &fit);
-        let lo = ds.min_step_between(&measured).unwrap_or(1.0).max(1e-3);
+        let lo = ds.min_step_min().unwrap_or(1.0).max(1e-3);
         Some(Ctx {
             ds,
             y,

@@ -255,7 +255,7 @@ impl Prepared {
             })
             .collect();
         let longest = ds.longest_run_min();
-        let lo = ds.min_step_between(&measured).unwrap_or(0.0);
+        let lo = ds.min_step_min().unwrap_or(0.0);
         if longest <= 0.0 || lo <= 0.0 {
             return Err(FitError::TooFewSamples {
                 samples: obs.len(),
