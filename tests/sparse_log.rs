@@ -260,3 +260,51 @@ fn predict_data_leaves_the_residual_empty_where_nothing_was_measured() {
     let last: Vec<&str> = lines[3].split(',').collect();
     assert!(last[4].parse::<f64>().is_ok(), "{text}");
 }
+
+/// The production program's log, written by the dry run's WRITE, reads back as a dataset: a row at every gate
+/// (the spindle schedule complete, the stop included), a reading only where the program measured, the
+/// ambient input at every row.
+#[test]
+fn the_dry_run_production_log_reads_back_with_a_row_at_every_gate() {
+    use driftloop::demo::transform_program;
+    use driftloop::omm::{DEFAULT_PROFILE, Profile};
+    use driftloop::vm::{Config, End, SimpleMachine, SpindleHistory, run_source};
+    fn drift(axis: &str, t: f64, spindle: &SpindleHistory) -> f64 {
+        if axis != "Z" {
+            return 0.0;
+        }
+        spindle.intervals(t).fold(0.0, |x, (a, b, rpm)| {
+            let target = 30.0 * rpm / 4000.0;
+            target + (x - target) * (-(b - a) / 40.0).exp()
+        })
+    }
+    let model = DriftModel::from_toml(
+        include_str!("../fixtures/omm/spindle_40min.toml"),
+        "model.toml",
+    )
+    .unwrap();
+    let text = format!("{DEFAULT_PROFILE}\n[log]\ninputs = {{ ambient_c = 1 }}\n");
+    let profile = Profile::from_toml(&text, "production.toml").unwrap();
+    let bytes = transform_program(&model, &profile).unwrap();
+    let config = Config {
+        offsets: vec![(1, "Z".into(), -100.0)],
+        probe_surface_mm: -100.0,
+        ..Config::default()
+    };
+    let mut machine = SimpleMachine::with_drift(drift).analog(1, vec![(0.0, 20.0), (600.0, 26.0)]);
+    let run = run_source("stepped.mpf", &bytes, None, &config, &mut machine).unwrap();
+    assert_eq!(run.end, End::ProgramEnd { code: "M30".into() });
+    let log = &run.files[&profile.registers.log_file];
+    let ds = read_bytes("DRIFTLOG", log.as_bytes(), Require::Displacement).unwrap();
+    let z = ds.values("drift_z_um").unwrap();
+    let readings = z.iter().filter(|v| !v.is_nan()).count();
+    // The zero and at least one gate measured, and rows without a reading between them.
+    assert!(readings >= 2 && readings < ds.len(), "{log}");
+    assert_eq!(z[0], 0.0, "{log}");
+    assert!(z.iter().any(|v| *v > 10.0), "{log}");
+    let rpm = ds.values("spindle_rpm").unwrap();
+    // The last row is the spindle stop, which no measurement sees.
+    assert_eq!(rpm[ds.len() - 1], 0.0, "{log}");
+    let amb = ds.values("ambient_c").unwrap();
+    assert!(amb[ds.len() - 1] > amb[0] + 1.0, "{log}");
+}
