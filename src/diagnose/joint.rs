@@ -34,6 +34,8 @@ pub struct Ctx<'a> {
     pub n_fit: usize,
     /// Rows scored only (a reading, time from the holdout on).
     pub n_holdout: usize,
+    /// Start of the holdout (min), if any.
+    pub holdout_from_min: Option<f64>,
     /// Bounds on the declared model's time constants (min).
     pub tau_bounds: (f64, f64),
     /// Duration the fit rows cover (min).
@@ -63,6 +65,7 @@ impl<'a> Ctx<'a> {
             fit,
             n_fit,
             n_holdout,
+            holdout_from_min,
             tau_bounds: (lo, (3.0 * span).max(4.0 * lo)),
             span,
         })

@@ -49,6 +49,11 @@ const WHITENESS_LAGS: usize = 10;
 /// temperature can "significantly" soak up a few hundredths of a micrometre of that misfit; an effect
 /// that removes less than a tenth of what is left is not a finding a process engineer could act on.
 const MIN_SHARE: f64 = 0.1;
+/// A lagged effect whose target would move more than this many times the measured range over the logged
+/// range of its input is refused, as `fit` refuses such a gain: with an input held between rows far apart
+/// (a sparse log), a tiny logged change can buy a huge gain whose response the data never see (a 1 min lag
+/// of +430 µm/°C fed by 0.004 °C of sensor creep).
+const IMPLAUSIBLE_REACH: f64 = 10.0;
 /// Cross-validation blocks.
 const CV_BLOCKS: usize = 5;
 /// Best-screened candidates given a full joint refit per round. Screening holds the rest of the model
@@ -312,6 +317,15 @@ fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Optio
             ));
             continue;
         }
+        if let Some(reach) = added.and_then(|e| steady_state_reach(ctx, e)) {
+            let range = measured_range(ctx);
+            if reach > IMPLAUSIBLE_REACH * range {
+                rejected.push(format!(
+                    "{name}: would reach {reach:.0} µm at steady state over the logged range of its input, over {IMPLAUSIBLE_REACH:.0} times the measured range of {range:.1} µm: the data see only a sliver of its response"
+                ));
+                continue;
+            }
+        }
         let share = 1.0 - fitted.rss / rss0;
         if share < MIN_SHARE {
             rejected.push(format!(
@@ -351,6 +365,32 @@ fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Optio
         }
     }
     best
+}
+
+/// How far a lagged effect's target moves over the logged range of what drives it (µm): |gain| times the
+/// range of its signal, or of the spindle speed in krpm, on the fit window's rows (read or not).
+fn steady_state_reach(ctx: &Ctx, e: &Effect) -> Option<f64> {
+    let driver: Vec<f64> = match e.kind {
+        Kind::InputLag => ctx.ds.values(e.signal.as_deref()?)?.to_vec(),
+        Kind::ExtraMode => ctx.rpm?.iter().map(|r| r.abs() / 1000.0).collect(),
+        _ => return None,
+    };
+    let window: Vec<f64> = driver
+        .iter()
+        .zip(&ctx.ds.time_min)
+        .filter(|(_, t)| ctx.holdout_from_min.is_none_or(|h| **t < h))
+        .map(|(v, _)| *v)
+        .collect();
+    let lo = window.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = window.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    Some(e.amplitudes.first()?.abs() * (hi - lo).max(0.0))
+}
+
+/// Spread of the fit window's readings (µm).
+fn measured_range(ctx: &Ctx) -> f64 {
+    let y = ctx.fit_rows(&ctx.y);
+    y.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+        - y.iter().copied().fold(f64::INFINITY, f64::min)
 }
 
 /// The effect's time constant when the refit left it at the upper bound of its search.
