@@ -157,3 +157,34 @@ fn an_ambient_input_lag_is_predicted_in_nc() {
         .to_string();
     assert!(err.contains("ambient_c"), "{err}");
 }
+
+/// The production program's log (no `measure_every_gate`), as the dry run's WRITE left it, reads back as a
+/// dataset: a row at every gate, a reading only where the program measured, the spindle stop and the
+/// ambient input at every row.
+#[test]
+fn the_production_log_reads_back_with_rows_without_a_reading() {
+    use driftloop::data::{Require, read_bytes};
+    let text = format!("{DEFAULT_PROFILE}\n[log]\ninputs = {{ ambient_c = 1 }}\n");
+    let profile = Profile::from_toml(&text, "production.toml").unwrap();
+    let model = DriftModel::from_toml(MODEL, "model.toml").unwrap();
+    let bytes = transform_program(&model, &profile).unwrap();
+    let mut machine = SimpleMachine::with_drift(truth).analog(1, vec![(0.0, 20.0), (600.0, 26.0)]);
+    let run = run_source("stepped.mpf", &bytes, None, &config(), &mut machine).unwrap();
+    assert_eq!(run.end, End::ProgramEnd { code: "M30".into() });
+    let log = &run.files[&profile.registers.log_file];
+    let ds = read_bytes("DRIFTLOG", log.as_bytes(), Require::Displacement).unwrap();
+    let z = ds.values("drift_z_um").unwrap();
+    let readings = z.iter().filter(|v| !v.is_nan()).count();
+    // The zero and at least one gate measured, and rows without a reading between them.
+    assert!(readings >= 2 && readings < ds.len(), "{log}");
+    assert_eq!(z[0], 0.0, "{log}");
+    assert!(z.iter().any(|v| *v > 10.0), "{log}");
+    // The last row is the spindle stop, which no measurement sees.
+    assert_eq!(
+        ds.values("spindle_rpm").unwrap()[ds.len() - 1],
+        0.0,
+        "{log}"
+    );
+    let amb = ds.values("ambient_c").unwrap();
+    assert!(amb[ds.len() - 1] > amb[0] + 1.0, "{log}");
+}

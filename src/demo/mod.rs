@@ -191,16 +191,13 @@ pub fn run_demo(settings: &Settings, dir: &Path) -> anyhow::Result<Outcome> {
 
     // The diagnosis-period program ran on earlier days too; their probe logs and today's are what diagnose
     // reads.
-    let mut logs = Vec::new();
-    for day in 1..=EARLIER_DAYS.len() {
-        let m = machine(
-            &with_ambient(MACHINE, &day_course(day, settings.seed))?,
-            dir,
-            settings,
-        )?;
-        let r = run(&dense_program, &m, settings.seed + day as u64)?;
-        logs.push((format!("day{day}"), probe_log(&r, &dense)?));
-    }
+    let mut logs = earlier_logs(
+        &dense_program,
+        &dense,
+        1..EARLIER_DAYS.len() + 1,
+        dir,
+        settings,
+    )?;
     logs.push(("today".to_string(), probe_log(&dense_today, &dense)?));
     // Recalibrating on a dozen probe readings alone would forget the characterisation; diagnose reads both.
     let mut shop = data.clone();
@@ -229,15 +226,13 @@ pub fn run_demo(settings: &Settings, dir: &Path) -> anyhow::Result<Outcome> {
     // same days and later ones.
     let most = settings.production_jobs.iter().copied().max().unwrap_or(0);
     let mut production_logs = vec![("today".to_string(), probe_log(&first, &profile)?)];
-    for day in 1..most {
-        let m = machine(
-            &with_ambient(MACHINE, &day_course(day, settings.seed))?,
-            dir,
-            settings,
-        )?;
-        let r = run(&first_program, &m, settings.seed + day as u64)?;
-        production_logs.push((format!("day{day}"), probe_log(&r, &profile)?));
-    }
+    production_logs.extend(earlier_logs(
+        &first_program,
+        &profile,
+        1..most,
+        dir,
+        settings,
+    )?);
     let mut production_csv = Vec::new();
     join_runs(&production_logs)?.write_csv(&mut production_csv)?;
     write("production_log.csv", &production_csv)?;
@@ -305,6 +300,27 @@ fn day_course(day: usize, seed: u64) -> Vec<(f64, f64)> {
         (until, level + change),
         (480.0, level + change),
     ]
+}
+
+/// The logs `program` (transformed under `profile`) writes on the earlier days `days`, each day with its own
+/// ambient course and probe noise.
+fn earlier_logs(
+    program: &Path,
+    profile: &Profile,
+    days: std::ops::Range<usize>,
+    dir: &Path,
+    settings: &Settings,
+) -> anyhow::Result<Vec<(String, Dataset)>> {
+    days.map(|day| {
+        let course = with_ambient(MACHINE, &day_course(day, settings.seed))?;
+        let r = run(
+            program,
+            &machine(&course, dir, settings)?,
+            settings.seed + day as u64,
+        )?;
+        Ok((format!("day{day}"), probe_log(&r, profile)?))
+    })
+    .collect()
 }
 
 /// What of a refined model the NC program evaluates (the spindle modes and lags on the ambient sensor it
