@@ -107,7 +107,7 @@ pub struct Route {
 }
 
 /// Production jobs of the production-only route's rows in the table (today's job and earlier days).
-pub const PRODUCTION_JOBS: [usize; 3] = [6, 12, 24];
+pub const PRODUCTION_JOBS: [usize; 4] = [3, 6, 12, 24];
 
 /// What the demo found.
 #[derive(Debug)]
