@@ -38,8 +38,16 @@ fn run_log(profile: &Profile) -> (Run, Vec<String>, Vec<Vec<f64>>) {
     let text = run.files.get(&profile.registers.log_file).expect("a log");
     let mut lines = text.lines();
     let header = lines.next().unwrap().split(',').map(String::from).collect();
+    // An empty drift cell: the gate did not measure (NaN, as the data reader takes it).
     let rows = lines
-        .map(|l| l.split(',').map(|f| f.trim().parse().unwrap()).collect())
+        .map(|l| {
+            l.split(',')
+                .map(|f| match f.trim() {
+                    "" => f64::NAN,
+                    v => v.parse().unwrap(),
+                })
+                .collect()
+        })
         .collect();
     (run, header, rows)
 }
@@ -64,11 +72,18 @@ fn every_gate_is_measured_and_logged_with_the_ambient_input() {
         ]
     );
     assert_eq!(sparse_header.len(), 5, "without [log] no input column");
+    // Both log a row at every gate (production has fewer: extra gates only where it plans to measure)
+    // and leave the drift empty where they did not measure.
+    let measured = |rows: &[Vec<f64>]| rows.iter().filter(|r| !r[2].is_nan()).count();
     assert!(
-        rows.len() >= run.passes.len() && rows.len() > sparse_rows.len(),
-        "dense {} rows, sparse {} rows, {} passes",
+        sparse_rows.len() >= run.passes.len()
+            && rows.len() >= sparse_rows.len()
+            && measured(&rows) > measured(&sparse_rows)
+            && measured(&sparse_rows) < sparse_rows.len(),
+        "dense {} rows, sparse {} rows ({} measured), {} passes",
         rows.len(),
         sparse_rows.len(),
+        measured(&sparse_rows),
         run.passes.len()
     );
     for row in &rows {
@@ -80,6 +95,11 @@ fn every_gate_is_measured_and_logged_with_the_ambient_input() {
     assert!(rows.last().unwrap()[5] > rows[0][5] + 1.0);
     // Measured drift follows the truth: the rows are real readings, not placeholders.
     assert!(rows.iter().any(|r| r[2] > 10.0), "{rows:?}");
+    // A speed change cannot measure: its row carries the new speed and no reading.
+    assert!(
+        rows.iter().any(|r| r[2].is_nan() && r[1] == 0.0),
+        "{rows:?}"
+    );
 }
 
 #[test]
@@ -136,4 +156,35 @@ fn an_ambient_input_lag_is_predicted_in_nc() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("ambient_c"), "{err}");
+}
+
+/// The production program's log (no `measure_every_gate`), as the dry run's WRITE left it, reads back as a
+/// dataset: a row at every gate, a reading only where the program measured, the spindle stop and the
+/// ambient input at every row.
+#[test]
+fn the_production_log_reads_back_with_rows_without_a_reading() {
+    use driftloop::data::{Require, read_bytes};
+    let text = format!("{DEFAULT_PROFILE}\n[log]\ninputs = {{ ambient_c = 1 }}\n");
+    let profile = Profile::from_toml(&text, "production.toml").unwrap();
+    let model = DriftModel::from_toml(MODEL, "model.toml").unwrap();
+    let bytes = transform_program(&model, &profile).unwrap();
+    let mut machine = SimpleMachine::with_drift(truth).analog(1, vec![(0.0, 20.0), (600.0, 26.0)]);
+    let run = run_source("stepped.mpf", &bytes, None, &config(), &mut machine).unwrap();
+    assert_eq!(run.end, End::ProgramEnd { code: "M30".into() });
+    let log = &run.files[&profile.registers.log_file];
+    let ds = read_bytes("DRIFTLOG", log.as_bytes(), Require::Displacement).unwrap();
+    let z = ds.values("drift_z_um").unwrap();
+    let readings = z.iter().filter(|v| !v.is_nan()).count();
+    // The zero and at least one gate measured, and rows without a reading between them.
+    assert!(readings >= 2 && readings < ds.len(), "{log}");
+    assert_eq!(z[0], 0.0, "{log}");
+    assert!(z.iter().any(|v| *v > 10.0), "{log}");
+    // The last row is the spindle stop, which no measurement sees.
+    assert_eq!(
+        ds.values("spindle_rpm").unwrap()[ds.len() - 1],
+        0.0,
+        "{log}"
+    );
+    let amb = ds.values("ambient_c").unwrap();
+    assert!(amb[ds.len() - 1] > amb[0] + 1.0, "{log}");
 }

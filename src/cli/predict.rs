@@ -57,7 +57,8 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
 }
 
 /// Time (and runs) of the input, its declared inputs, `predicted_um`, and — when the input measured the
-/// model's channel — that channel and `residual_um` (measured − predicted).
+/// model's channel — that channel and `residual_um` (measured − predicted; NaN, written as an empty cell,
+/// where the row has no reading).
 fn prediction_table(model: &DriftModel, input: &Dataset, predicted: Vec<f64>) -> Dataset {
     let mut out = Dataset::new(
         input.source.clone(),

@@ -54,7 +54,8 @@ impl TimeUnit {
 pub enum ColumnKind {
     /// `spindle_rpm`: speed held from its row on.
     Spindle,
-    /// `*_um`: a displacement channel.
+    /// `*_um`: a displacement channel. NaN (an empty cell in the file) marks a row where the channel was not
+    /// measured: the row still carries its time and inputs, which hold from it until the next row.
     Displacement,
     /// `*_c`: a temperature.
     Temperature,
@@ -78,6 +79,11 @@ impl ColumnKind {
             ColumnKind::Signal
         }
     }
+}
+
+/// Which rows of a displacement channel carry a reading (NaN, an empty cell in the file: not measured).
+pub fn measured(values: &[f64]) -> Vec<bool> {
+    values.iter().map(|v| !v.is_nan()).collect()
 }
 
 /// Name of the spindle speed column.

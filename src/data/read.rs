@@ -226,7 +226,16 @@ pub fn read_bytes(file: &str, bytes: &[u8], require: Require) -> Result<Dataset,
         }
         ds.time_min.push(time);
         for (v, &col) in values.iter_mut().zip(&layout.numeric) {
-            v.push(cell(col).number()?);
+            let c = cell(col);
+            // An empty displacement cell: the row carries time and inputs, but this channel was not
+            // measured there (a log row at every gate, a measurement only at some).
+            v.push(
+                if c.text.is_empty() && ColumnKind::of(c.name) == ColumnKind::Displacement {
+                    f64::NAN
+                } else {
+                    c.number()?
+                },
+            );
         }
     }
     if ds.time_min.is_empty() {

@@ -33,9 +33,12 @@ impl Dataset {
     }
 }
 
-/// Shortest round-trip text of a number; whole numbers without a trailing `.0`.
+/// Shortest round-trip text of a number; whole numbers without a trailing `.0`; NaN (a displacement not
+/// measured at that row) as the empty cell the reader takes it from.
 pub(crate) fn format_number(v: f64) -> String {
-    if v == v.trunc() && v.abs() < 1e15 {
+    if v.is_nan() {
+        String::new()
+    } else if v == v.trunc() && v.abs() < 1e15 {
         format!("{}", v as i64)
     } else {
         format!("{v}")

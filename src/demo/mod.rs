@@ -46,6 +46,9 @@ pub struct Settings {
     pub sensor_noise_um: f64,
     /// Drawing tolerance Δ of the part (µm); `None` keeps the default profile's (20 µm).
     pub tolerance_um: Option<f64>,
+    /// Numbers of production jobs whose logs alone (with the characterisation) go to `diagnose` in the
+    /// production-only route, one row of the table each.
+    pub production_jobs: Vec<usize>,
 }
 
 impl Default for Settings {
@@ -55,6 +58,7 @@ impl Default for Settings {
             probe_noise_um: 0.5,
             sensor_noise_um: 0.3,
             tolerance_um: None,
+            production_jobs: PRODUCTION_JOBS.to_vec(),
         }
     }
 }
@@ -86,6 +90,25 @@ impl Stage {
     }
 }
 
+/// The production-only route for one number of jobs: diagnose on the characterisation and the logs the
+/// production program wrote (a reading where it measured, a row at every gate), then the refined model's
+/// program run today.
+#[derive(Debug, Clone)]
+pub struct Route {
+    pub jobs: usize,
+    /// Log rows, and of those the ones with a reading.
+    pub rows: usize,
+    pub readings: usize,
+    /// The ambient lag's gain diagnose found (µm/°C), if it found one.
+    pub ambient_gain: Option<f64>,
+    /// Every effect added, as `kind: sentence`.
+    pub effects: Vec<String>,
+    pub after: Stage,
+}
+
+/// Production jobs of the production-only route's rows in the table (today's job and earlier days).
+pub const PRODUCTION_JOBS: [usize; 4] = [3, 6, 12, 24];
+
 /// What the demo found.
 #[derive(Debug)]
 pub struct Outcome {
@@ -101,6 +124,10 @@ pub struct Outcome {
     pub log_rows: usize,
     pub log_runs: usize,
     pub characterisation_rows: usize,
+    /// Rows of the diagnosis-period logs that carry a reading.
+    pub log_readings: usize,
+    /// The production-only route, per number of jobs.
+    pub production: Vec<Route>,
     /// Where the artefacts were written.
     pub dir: PathBuf,
 }
@@ -164,24 +191,24 @@ pub fn run_demo(settings: &Settings, dir: &Path) -> anyhow::Result<Outcome> {
 
     // The diagnosis-period program ran on earlier days too; their probe logs and today's are what diagnose
     // reads.
-    let mut logs = Vec::new();
-    for (day, points) in EARLIER_DAYS.iter().enumerate() {
-        let m = machine(&with_ambient(MACHINE, points)?, dir, settings)?;
-        let r = run(&dense_program, &m, settings.seed + 1 + day as u64)?;
-        logs.push((format!("day{}", day + 1), probe_log(&r, &dense)?));
-    }
+    let mut logs = earlier_logs(
+        &dense_program,
+        &dense,
+        1..EARLIER_DAYS.len() + 1,
+        dir,
+        settings,
+    )?;
     logs.push(("today".to_string(), probe_log(&dense_today, &dense)?));
-    let log_rows = logs.iter().map(|(_, l)| l.len()).sum();
     // Recalibrating on a dozen probe readings alone would forget the characterisation; diagnose reads both.
     let mut shop = data.clone();
     let hall = vec![CHARACTERISATION_AMBIENT_C; shop.len()];
     shop.push_column(AMBIENT, hall);
-    let mut all = vec![];
-    for (i, r) in shop.runs().enumerate() {
-        all.push((shop.run_label(i), slice(&shop, r)));
-    }
-    all.extend(logs.iter().cloned());
-    let log = join_runs(&all)?;
+    let shop: Vec<(String, Dataset)> = shop
+        .runs()
+        .enumerate()
+        .map(|(i, r)| (shop.run_label(i), slice(&shop, r)))
+        .collect();
+    let log = join_runs(&[shop.clone(), logs.clone()].concat())?;
     let mut log_csv = Vec::new();
     log.write_csv(&mut log_csv)?;
     write("probe_log.csv", &log_csv)?;
@@ -189,33 +216,51 @@ pub fn run_demo(settings: &Settings, dir: &Path) -> anyhow::Result<Outcome> {
     write("diagnose.txt", diagnosis.human().as_bytes())?;
     write("diagnose.html", diagnosis.html().as_bytes())?;
     write("model_refined.toml", diagnosis.refined.to_toml().as_bytes())?;
-
-    // The NC program predicts the spindle modes and lags on the ambient sensor it reads; any other effect
-    // is left to the measurements.
-    let mut nc_model = diagnosis.refined.clone();
-    let readable =
-        |kind: &str, signal: Option<&str>| kind == "input_lag" && signal == Some(AMBIENT);
-    let dropped: Vec<String> = nc_model
-        .effects
-        .iter()
-        .filter(|e| !readable(&e.kind, e.signal.as_deref()))
-        .map(|e| e.kind.clone())
-        .chain(
-            nc_model
-                .inputs
-                .iter()
-                .filter(|i| i.signal != AMBIENT)
-                .map(|i| format!("input {}", i.signal)),
-        )
-        .collect();
-    nc_model
-        .effects
-        .retain(|e| readable(&e.kind, e.signal.as_deref()));
-    nc_model.inputs.retain(|i| i.signal == AMBIENT);
+    let (nc_model, dropped) = nc_part(&diagnosis.refined);
     write("model_refined_nc.toml", nc_model.to_toml().as_bytes())?;
     let second_program = transformed(&nc_model, &profile, "model_refined", dir)?;
     let second = run(&second_program, &today, settings.seed)?;
     write("run_model_refined.txt", second.human().as_bytes())?;
+
+    // The production-only route: no diagnosis period, only the logs the production program wrote on the
+    // same days and later ones.
+    let most = settings.production_jobs.iter().copied().max().unwrap_or(0);
+    let mut production_logs = vec![("today".to_string(), probe_log(&first, &profile)?)];
+    production_logs.extend(earlier_logs(
+        &first_program,
+        &profile,
+        1..most,
+        dir,
+        settings,
+    )?);
+    let mut production_csv = Vec::new();
+    join_runs(&production_logs)?.write_csv(&mut production_csv)?;
+    write("production_log.csv", &production_csv)?;
+    let mut production = Vec::new();
+    for &jobs in &settings.production_jobs {
+        let logs = &production_logs[..jobs.min(production_logs.len())];
+        let all = join_runs(&[shop.clone(), logs.to_vec()].concat())?;
+        let d = diagnose(&fitted, &all, &Options::new(CHANNEL))
+            .with_context(|| format!("diagnose on {jobs} production jobs"))?;
+        let stem = format!("production_{jobs}");
+        write(&format!("diagnose_{stem}.txt"), d.human().as_bytes())?;
+        let (nc, _) = nc_part(&d.refined);
+        let program = transformed(&nc, &profile, &stem, dir)?;
+        let after = run(&program, &today, settings.seed)?;
+        let readings = logs.iter().map(|(_, l)| readings(l)).sum();
+        production.push(Route {
+            jobs: logs.len(),
+            rows: logs.iter().map(|(_, l)| l.len()).sum(),
+            readings,
+            ambient_gain: d
+                .effects_added
+                .iter()
+                .find(|a| a.effect.signal.as_deref() == Some(AMBIENT))
+                .and_then(|a| a.effect.amplitudes.first().copied()),
+            effects: effect_lines(&d),
+            after: Stage::of("", &after),
+        });
+    }
 
     let effects = effect_lines(&diagnosis);
     Ok(Outcome {
@@ -228,12 +273,84 @@ pub fn run_demo(settings: &Settings, dir: &Path) -> anyhow::Result<Outcome> {
         ],
         effects,
         dropped,
-        log_rows,
+        log_rows: logs.iter().map(|(_, l)| l.len()).sum(),
+        log_readings: logs.iter().map(|(_, l)| readings(l)).sum(),
         log_runs: logs.len(),
+        production,
         characterisation_rows: data.len(),
         diagnosis,
         dir: dir.to_path_buf(),
     })
+}
+
+/// Ambient course of earlier day `day` (1-based): the fixed ones first, then courses drawn from the seed
+/// (a level of 18–23 °C that moves by −4…+5 °C over 30–240 min from a random start, then holds).
+fn day_course(day: usize, seed: u64) -> Vec<(f64, f64)> {
+    if let Some(fixed) = EARLIER_DAYS.get(day - 1) {
+        return fixed.to_vec();
+    }
+    let mut rng = Rng::new(seed.wrapping_mul(1000).wrapping_add(day as u64));
+    let level = 18.0 + 5.0 * rng.uniform();
+    let change = -4.0 + 9.0 * rng.uniform();
+    let from = 120.0 * rng.uniform();
+    let until = from + 30.0 + 210.0 * rng.uniform();
+    vec![
+        (0.0, level),
+        (from, level),
+        (until, level + change),
+        (480.0, level + change),
+    ]
+}
+
+/// The logs `program` (transformed under `profile`) writes on the earlier days `days`, each day with its own
+/// ambient course and probe noise.
+fn earlier_logs(
+    program: &Path,
+    profile: &Profile,
+    days: std::ops::Range<usize>,
+    dir: &Path,
+    settings: &Settings,
+) -> anyhow::Result<Vec<(String, Dataset)>> {
+    days.map(|day| {
+        let course = with_ambient(MACHINE, &day_course(day, settings.seed))?;
+        let r = run(
+            program,
+            &machine(&course, dir, settings)?,
+            settings.seed + day as u64,
+        )?;
+        Ok((format!("day{day}"), probe_log(&r, profile)?))
+    })
+    .collect()
+}
+
+/// What of a refined model the NC program evaluates (the spindle modes and lags on the ambient sensor it
+/// reads), and the names of what it leaves to the measurements.
+fn nc_part(refined: &DriftModel) -> (DriftModel, Vec<String>) {
+    let mut nc = refined.clone();
+    let readable =
+        |kind: &str, signal: Option<&str>| kind == "input_lag" && signal == Some(AMBIENT);
+    let dropped = nc
+        .effects
+        .iter()
+        .filter(|e| !readable(&e.kind, e.signal.as_deref()))
+        .map(|e| e.kind.clone())
+        .chain(
+            nc.inputs
+                .iter()
+                .filter(|i| i.signal != AMBIENT)
+                .map(|i| format!("input {}", i.signal)),
+        )
+        .collect();
+    nc.effects
+        .retain(|e| readable(&e.kind, e.signal.as_deref()));
+    nc.inputs.retain(|i| i.signal == AMBIENT);
+    (nc, dropped)
+}
+
+/// Rows of a probe log that carry a reading.
+fn readings(log: &Dataset) -> usize {
+    log.values(CHANNEL)
+        .map_or(0, |v| v.iter().filter(|x| !x.is_nan()).count())
 }
 
 /// The interpreter settings and machine of a machine file, probe noise from the settings.
@@ -405,9 +522,9 @@ impl Outcome {
         }
         let _ = writeln!(
             s,
-            "\ndiagnose on the characterisation ({} rows) and the probe logs of {} jobs ({} rows, every gate \
-measured, ambient sensor logged by the program):",
-            self.characterisation_rows, self.log_runs, self.log_rows
+            "\ndiagnose on the characterisation ({} rows) and the probe logs of {} jobs ({} rows, {} with a reading: \
+every gate that can measure measured, ambient sensor logged by the program):",
+            self.characterisation_rows, self.log_runs, self.log_rows, self.log_readings
         );
         if self.effects.is_empty() {
             let _ = writeln!(
@@ -424,6 +541,34 @@ measured, ambient sensor logged by the program):",
                 "  the NC program cannot evaluate {}: transformed without it",
                 self.dropped.join(", ")
             );
+        }
+        if !self.production.is_empty() {
+            let _ = writeln!(
+                s,
+                "\nproduction logs only (no diagnosis period): diagnose on the characterisation and the logs of the \
+production program (a row at every gate, a reading where it measured), then its refined program run today:"
+            );
+            let _ = writeln!(
+                s,
+                "{:>6} {:>9} {:>9}  {:<50} {:>9}",
+                "jobs", "log rows", "readings", "effect found", "max (µm)"
+            );
+            for r in &self.production {
+                let found = if r.effects.is_empty() {
+                    "none (no effect added)".to_string()
+                } else {
+                    r.effects
+                        .iter()
+                        .map(|e| e.split(", explains").next().unwrap_or(e))
+                        .collect::<Vec<_>>()
+                        .join("; ")
+                };
+                let _ = writeln!(
+                    s,
+                    "{:>6} {:>9} {:>9}  {:<50} {:>9.2}",
+                    r.jobs, r.rows, r.readings, found, r.after.max_error_um
+                );
+            }
         }
         let last = self.stages.last().map_or(f64::NAN, |st| st.max_error_um);
         if last <= TARGET_UM {

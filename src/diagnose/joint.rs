@@ -19,15 +19,23 @@ use crate::model::speed_grid::{SpeedGrid, Weights};
 use crate::model::varpro::{dot, solve_normal};
 use crate::model::{DataProvenance, DriftModel, Mode};
 
-/// The measured data of one diagnosis laid out for the refits.
+/// The measured data of one diagnosis laid out for the refits. Every row drives the recursions (its
+/// inputs hold until the next row); only rows with a reading are fitted, scored and tested.
 pub struct Ctx<'a> {
     pub ds: &'a Dataset,
+    /// The channel per row; NaN where it was not measured.
     pub y: Vec<f64>,
     pub runs: Vec<Range<usize>>,
     pub rpm: Option<&'a [f64]>,
-    /// Rows used for fitting and selecting (time before the holdout).
+    /// Rows with a reading.
+    pub measured: Vec<bool>,
+    /// Rows used for fitting and selecting (a reading, time before the holdout).
     pub fit: Vec<bool>,
     pub n_fit: usize,
+    /// Rows scored only (a reading, time from the holdout on).
+    pub n_holdout: usize,
+    /// Start of the holdout (min), if any.
+    pub holdout_from_min: Option<f64>,
     /// Bounds on the declared model's time constants (min).
     pub tau_bounds: (f64, f64),
     /// Duration the fit rows cover (min).
@@ -37,12 +45,15 @@ pub struct Ctx<'a> {
 impl<'a> Ctx<'a> {
     pub fn new(ds: &'a Dataset, channel: &str, holdout_from_min: Option<f64>) -> Option<Ctx<'a>> {
         let y = ds.values(channel)?.to_vec();
+        let measured = crate::data::measured(&y);
         let fit: Vec<bool> = ds
             .time_min
             .iter()
-            .map(|&t| holdout_from_min.is_none_or(|h| t < h))
+            .zip(&measured)
+            .map(|(&t, &m)| m && holdout_from_min.is_none_or(|h| t < h))
             .collect();
         let n_fit = fit.iter().filter(|f| **f).count();
+        let n_holdout = measured.iter().filter(|m| **m).count() - n_fit;
         let span = fit_span(ds, &fit);
         let lo = ds.min_step_min().unwrap_or(1.0).max(1e-3);
         Some(Ctx {
@@ -50,8 +61,11 @@ impl<'a> Ctx<'a> {
             y,
             runs: ds.runs().collect(),
             rpm: ds.values(SPINDLE),
+            measured,
             fit,
             n_fit,
+            n_holdout,
+            holdout_from_min,
             tau_bounds: (lo, (3.0 * span).max(4.0 * lo)),
             span,
         })
@@ -352,16 +366,15 @@ pub fn normal_equations(
 ) -> (DMatrix<f64>, DMatrix<f64>) {
     let n = y.len();
     let p = phi.ncols();
-    let masked: Vec<Vec<f64>> = phi
-        .as_slice()
-        .chunks(n)
-        .map(|c| {
-            c.iter()
-                .zip(rows)
-                .map(|(v, r)| if *r { *v } else { 0.0 })
-                .collect()
-        })
-        .collect();
+    let mask = |c: &[f64]| -> Vec<f64> {
+        c.iter()
+            .zip(rows)
+            .map(|(v, r)| if *r { *v } else { 0.0 })
+            .collect()
+    };
+    let masked: Vec<Vec<f64>> = phi.as_slice().chunks(n).map(mask).collect();
+    // Rows left out may hold no reading (NaN): masked, not multiplied by zero.
+    let y = mask(y);
     let mut gram = DMatrix::zeros(p, p);
     let mut b = DMatrix::zeros(p, 1);
     for i in 0..p {
@@ -370,7 +383,7 @@ pub fn normal_equations(
             gram[(i, j)] = v;
             gram[(j, i)] = v;
         }
-        b[(i, 0)] = dot(&masked[i], y);
+        b[(i, 0)] = dot(&masked[i], &y);
     }
     (gram, b)
 }

@@ -49,6 +49,11 @@ const WHITENESS_LAGS: usize = 10;
 /// temperature can "significantly" soak up a few hundredths of a micrometre of that misfit; an effect
 /// that removes less than a tenth of what is left is not a finding a process engineer could act on.
 const MIN_SHARE: f64 = 0.1;
+/// A lagged effect whose target would move more than this many times the measured range over the logged
+/// range of its input is refused, as `fit` refuses such a gain: with an input held between rows far apart
+/// (a sparse log), a tiny logged change can buy a huge gain whose response the data never see (a 1 min lag
+/// of +430 µm/°C fed by 0.004 °C of sensor creep).
+const IMPLAUSIBLE_REACH: f64 = 10.0;
 /// Cross-validation blocks.
 const CV_BLOCKS: usize = 5;
 /// Best-screened candidates given a full joint refit per round. Screening holds the rest of the model
@@ -126,8 +131,12 @@ pub struct Diagnosis {
     pub channel: String,
     pub source: String,
     pub holdout_from_min: Option<f64>,
+    /// Rows with a reading before the holdout (fitted) and from it on (scored only).
     pub rows_fit: usize,
     pub rows_holdout: usize,
+    /// Rows without a reading of the channel: they carry the inputs between readings, nothing is scored
+    /// there.
+    pub rows_unmeasured: usize,
     /// The measured drift against the first reading (what an uncompensated machine shows).
     pub uncompensated: Windows,
     pub before: Windows,
@@ -139,7 +148,7 @@ pub struct Diagnosis {
     pub rejected: Vec<String>,
     pub residual_white: bool,
     pub refined: DriftModel,
-    /// Per row: time (min), measured, model before, refined model after.
+    /// Per row: time (min), measured (NaN where not measured), model before, refined model after.
     pub time_min: Vec<f64>,
     pub measured: Vec<f64>,
     pub predicted_before: Vec<f64>,
@@ -235,7 +244,7 @@ pub fn diagnose(
                 .map(<[f64]>::to_vec)
         })
         .collect();
-    let first = ctx.y.first().copied().unwrap_or(0.0);
+    let first = ctx.y.iter().copied().find(|v| !v.is_nan()).unwrap_or(0.0);
     let uncomp: Vec<f64> = ctx.y.iter().map(|v| v - first).collect();
     let zero = vec![0.0; ctx.n()];
     Ok(Diagnosis {
@@ -243,7 +252,8 @@ pub fn diagnose(
         source: ds.source.clone(),
         holdout_from_min: opts.holdout_from_min,
         rows_fit: ctx.n_fit,
-        rows_holdout: ctx.n() - ctx.n_fit,
+        rows_holdout: ctx.n_holdout,
+        rows_unmeasured: ctx.n() - ctx.n_fit - ctx.n_holdout,
         uncompensated: windows_of(&ctx, &uncomp, &zero),
         before: windows(&ctx, &before_pred),
         recalibrated,
@@ -307,6 +317,15 @@ fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Optio
             ));
             continue;
         }
+        if let Some(reach) = added.and_then(|e| steady_state_reach(ctx, e)) {
+            let range = measured_range(ctx);
+            if reach > IMPLAUSIBLE_REACH * range {
+                rejected.push(format!(
+                    "{name}: would reach {reach:.0} µm at steady state over the logged range of its input, over {IMPLAUSIBLE_REACH:.0} times the measured range of {range:.1} µm: the data see only a sliver of its response"
+                ));
+                continue;
+            }
+        }
         let share = 1.0 - fitted.rss / rss0;
         if share < MIN_SHARE {
             rejected.push(format!(
@@ -348,6 +367,32 @@ fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Optio
     best
 }
 
+/// How far a lagged effect's target moves over the logged range of what drives it (µm): |gain| times the
+/// range of its signal, or of the spindle speed in krpm, on the fit window's rows (read or not).
+fn steady_state_reach(ctx: &Ctx, e: &Effect) -> Option<f64> {
+    let driver: Vec<f64> = match e.kind {
+        Kind::InputLag => ctx.ds.values(e.signal.as_deref()?)?.to_vec(),
+        Kind::ExtraMode => ctx.rpm?.iter().map(|r| r.abs() / 1000.0).collect(),
+        _ => return None,
+    };
+    let window: Vec<f64> = driver
+        .iter()
+        .zip(&ctx.ds.time_min)
+        .filter(|(_, t)| ctx.holdout_from_min.is_none_or(|h| **t < h))
+        .map(|(v, _)| *v)
+        .collect();
+    let lo = window.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = window.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    Some(e.amplitudes.first()?.abs() * (hi - lo).max(0.0))
+}
+
+/// Spread of the fit window's readings (µm).
+fn measured_range(ctx: &Ctx) -> f64 {
+    let y = ctx.fit_rows(&ctx.y);
+    y.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+        - y.iter().copied().fold(f64::INFINITY, f64::min)
+}
+
 /// The effect's time constant when the refit left it at the upper bound of its search.
 fn at_upper_tau_bound(ctx: &Ctx, e: &Effect) -> Option<f64> {
     let lagged = matches!(
@@ -374,8 +419,8 @@ fn windows_of(ctx: &Ctx, y: &[f64], prediction: &[f64]) -> Windows {
     let e: Vec<f64> = y.iter().zip(prediction).map(|(a, b)| a - b).collect();
     let hold: Vec<f64> = e
         .iter()
-        .zip(&ctx.fit)
-        .filter(|(_, f)| !**f)
+        .zip(ctx.fit.iter().zip(&ctx.measured))
+        .filter(|(_, (f, m))| **m && !**f)
         .map(|(v, _)| *v)
         .collect();
     Windows {

@@ -9,9 +9,17 @@ use crate::report::{Cell, Chart, Document, Mark, PALETTE, Series, Table};
 /// Most points drawn per series; longer series are thinned evenly (every k-th row).
 const MAX_POINTS: usize = 3000;
 
+/// The points of a series, rows without a value (a reading not taken there: NaN) left out, so a line
+/// joins the readings on either side instead of breaking at every row between them.
 fn points(t: &[f64], v: &[f64]) -> Vec<(f64, f64)> {
-    let k = t.len().div_ceil(MAX_POINTS).max(1);
-    t.iter().zip(v).step_by(k).map(|(a, b)| (*a, *b)).collect()
+    let kept: Vec<(f64, f64)> = t
+        .iter()
+        .zip(v)
+        .filter(|(_, y)| !y.is_nan())
+        .map(|(a, b)| (*a, *b))
+        .collect();
+    let k = kept.len().div_ceil(MAX_POINTS).max(1);
+    kept.into_iter().step_by(k).collect()
 }
 
 impl Diagnosis {

@@ -160,6 +160,15 @@ impl Diagnosis {
     pub fn human(&self) -> String {
         let mut s = String::new();
         let _ = writeln!(s, "diagnosis of {} on {}", self.channel, self.source);
+        if self.rows_unmeasured > 0 {
+            let _ = writeln!(
+                s,
+                "{} rows carry the inputs but no reading of {} (not measured there): they drive the model between readings; every count and number below is of the {} rows with a reading",
+                self.rows_unmeasured,
+                self.channel,
+                self.rows_fit + self.rows_holdout
+            );
+        }
         match self.holdout_from_min {
             Some(h) => {
                 let _ = writeln!(

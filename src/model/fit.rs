@@ -183,7 +183,7 @@ struct Prepared {
 
 impl Prepared {
     fn new(ds: &Dataset, opts: &FitOptions) -> Result<Prepared, FitError> {
-        let y = ds
+        let channel = ds
             .column(&opts.channel)
             .filter(|c| c.kind == crate::data::ColumnKind::Displacement)
             .ok_or_else(|| FitError::NoChannel {
@@ -196,7 +196,12 @@ impl Prepared {
                     .join(", "),
             })?
             .values
-            .clone();
+            .as_slice();
+        // Rows without a reading still carry the inputs: the recursions run over them, the least squares
+        // leaves them out.
+        let measured = crate::data::measured(channel);
+        let obs: Vec<usize> = (0..ds.len()).filter(|&i| measured[i]).collect();
+        let y = obs.iter().map(|&i| channel[i]).collect();
         if opts.inputs.is_empty() {
             return Err(FitError::NoInputs);
         }
@@ -253,7 +258,7 @@ impl Prepared {
         let lo = ds.min_step_min().unwrap_or(0.0);
         if longest <= 0.0 || lo <= 0.0 {
             return Err(FitError::TooFewSamples {
-                samples: ds.len(),
+                samples: obs.len(),
                 needed: 3,
             });
         }
@@ -261,6 +266,7 @@ impl Prepared {
         Ok(Prepared {
             problem: Problem {
                 y,
+                obs,
                 dt,
                 runs,
                 w,
@@ -315,11 +321,11 @@ impl Prepared {
             })
             .collect();
         let per_run = p
-            .runs
-            .iter()
+            .observed_runs()
+            .into_iter()
             .enumerate()
             .map(|(i, r)| {
-                let e = &t.point.resid.as_slice()[r.clone()];
+                let e = &t.point.resid.as_slice()[r];
                 RunStats {
                     run: ds.run_label(i),
                     samples: e.len(),
@@ -653,9 +659,8 @@ impl Scan {
         let l = p.u.len();
         let n = p.n();
         let ncols = theta.len() * p.m + l * input_theta.len() + 1;
-        let mut all = DMatrix::zeros(n, ncols);
-        {
-            let mut cols: Vec<&mut [f64]> = all.as_mut_slice().chunks_mut(n).collect();
+        let mut all = DMatrix::zeros(0, 0);
+        p.observed(ncols, &mut all, |cols| {
             for (g, th) in theta.iter().enumerate() {
                 p.spindle_columns(th.exp(), &mut cols[g * p.m..(g + 1) * p.m]);
             }
@@ -666,7 +671,7 @@ impl Scan {
                 }
             }
             cols[ncols - 1].fill(1.0);
-        }
+        });
         let y = DMatrix::from_column_slice(n, 1, &p.y);
         Scan {
             gram: varpro::cross(&all, &all),

@@ -12,9 +12,13 @@ use nalgebra::{DMatrix, DVector};
 use super::lag::Decay;
 use super::speed_grid::Weights;
 
-/// The data of one fit laid out for the recursions.
+/// The data of one fit laid out for the recursions. The recursions run over every row (a row's inputs hold
+/// until the next row, measured there or not); the least squares sees only the rows with a reading.
 pub(crate) struct Problem {
+    /// The readings, one per entry of `obs`.
     pub y: Vec<f64>,
+    /// Row of each reading, ascending.
+    pub obs: Vec<usize>,
     /// tᵢ − tᵢ₋₁ within a run (the value at a run's first row is unused).
     pub dt: Vec<f64>,
     pub runs: Vec<Range<usize>>,
@@ -45,8 +49,43 @@ impl Layout {
 }
 
 impl Problem {
+    /// Number of readings.
     pub fn n(&self) -> usize {
         self.y.len()
+    }
+
+    /// Number of rows the recursions run over.
+    fn rows(&self) -> usize {
+        self.dt.len()
+    }
+
+    /// The reading indices (into `y`) of each run.
+    pub fn observed_runs(&self) -> Vec<Range<usize>> {
+        self.runs
+            .iter()
+            .map(|r| {
+                self.obs.partition_point(|&i| i < r.start)..self.obs.partition_point(|&i| i < r.end)
+            })
+            .collect()
+    }
+
+    /// Fills an N × P matrix with `fill` (which writes every row), keeping only the rows with a reading.
+    pub fn observed(&self, p: usize, out: &mut DMatrix<f64>, fill: impl Fn(&mut [&mut [f64]])) {
+        let rows = self.rows();
+        let run_fill = |m: &mut DMatrix<f64>| {
+            let mut cols: Vec<&mut [f64]> = m.as_mut_slice().chunks_mut(rows).collect();
+            fill(&mut cols);
+        };
+        if self.n() == rows {
+            if out.shape() != (rows, p) {
+                *out = DMatrix::zeros(rows, p);
+            }
+            run_fill(out);
+        } else {
+            let mut full = DMatrix::zeros(rows, p);
+            run_fill(&mut full);
+            *out = DMatrix::from_fn(self.n(), p, |i, j| full[(self.obs[i], j)]);
+        }
     }
 
     pub fn layout(&self, k: usize) -> Layout {
@@ -114,37 +153,34 @@ impl Problem {
         }
     }
 
-    /// The basis Φ (N × P) for time constants `theta` (ln τ).
+    /// The basis Φ (N readings × P) for time constants `theta` (ln τ).
     pub fn basis(&self, lay: Layout, theta: &[f64], phi: &mut DMatrix<f64>) {
-        let n = self.n();
         let p = lay.n_linear();
-        if phi.shape() != (n, p) {
-            *phi = DMatrix::zeros(n, p);
-        }
-        let mut cols: Vec<&mut [f64]> = phi.as_mut_slice().chunks_mut(n).collect();
-        for k in 0..lay.k {
-            self.spindle_columns(theta[k].exp(), &mut cols[k * lay.m..(k + 1) * lay.m]);
-        }
-        for j in 0..lay.l {
-            self.input_column(j, theta[lay.k + j].exp(), cols[lay.k * lay.m + j]);
-        }
-        cols[p - 1].fill(1.0);
+        self.observed(p, phi, |cols| {
+            for k in 0..lay.k {
+                self.spindle_columns(theta[k].exp(), &mut cols[k * lay.m..(k + 1) * lay.m]);
+            }
+            for j in 0..lay.l {
+                self.input_column(j, theta[lay.k + j].exp(), cols[lay.k * lay.m + j]);
+            }
+            cols[p - 1].fill(1.0);
+        });
     }
 
-    /// ∂(Φc)/∂θ (N × q).
+    /// ∂(Φc)/∂θ (N readings × q).
     pub fn sensitivities(&self, lay: Layout, theta: &[f64], c: &DVector<f64>) -> DMatrix<f64> {
-        let n = self.n();
-        let mut v = DMatrix::zeros(n, lay.n_nonlinear());
-        let mut cols: Vec<&mut [f64]> = v.as_mut_slice().chunks_mut(n).collect();
-        for k in 0..lay.k {
-            let gains = &c.as_slice()[k * lay.m..(k + 1) * lay.m];
-            self.sensitivity(theta[k].exp(), |i| self.w[i].apply(gains), cols[k]);
-        }
-        for j in 0..lay.l {
-            let gain = c[lay.k * lay.m + j];
-            let u = &self.u[j];
-            self.sensitivity(theta[lay.k + j].exp(), |i| gain * u[i], cols[lay.k + j]);
-        }
+        let mut v = DMatrix::zeros(0, 0);
+        self.observed(lay.n_nonlinear(), &mut v, |cols| {
+            for k in 0..lay.k {
+                let gains = &c.as_slice()[k * lay.m..(k + 1) * lay.m];
+                self.sensitivity(theta[k].exp(), |i| self.w[i].apply(gains), cols[k]);
+            }
+            for j in 0..lay.l {
+                let gain = c[lay.k * lay.m + j];
+                let u = &self.u[j];
+                self.sensitivity(theta[lay.k + j].exp(), |i| gain * u[i], cols[lay.k + j]);
+            }
+        });
         v
     }
 }

@@ -436,8 +436,10 @@ impl Emitter<'_> {
         v
     }
 
-    /// One CSV line of the measurement log: time_min, spindle_rpm, drift (µm), pass, run.
-    fn log(&self, rpm: f64, pass: usize) -> String {
+    /// One CSV line of the measurement log: time_min, spindle_rpm, drift (µm), pass, run. Without
+    /// `measured` the drift cell is empty: a gate that did not measure still logs the time and the inputs
+    /// from here on, which hold until the next row, so the log keeps the whole spindle and input history.
+    fn log(&self, rpm: f64, pass: usize, measured: bool) -> String {
         let reg = &self.regs;
         let minutes = match self.profile.registers.timer_unit {
             TimerUnit::Min => format!("({}-{})", r(reg.t_last), r(reg.t0)),
@@ -450,12 +452,16 @@ impl Emitter<'_> {
             .values()
             .map(|n| format!("<<\",\"<<$A_INA[{n}]"))
             .collect();
+        let drift = if measured {
+            format!("\"<<{}*1000<<\"", r(reg.delta))
+        } else {
+            String::new()
+        };
         format!(
-            "WRITE({},\"{}\",\"\"<<{minutes}<<\",{},\"<<{}*1000<<\",{pass},\"<<{}{inputs})",
+            "WRITE({},\"{}\",\"\"<<{minutes}<<\",{},{drift},{pass},\"<<{}{inputs})",
             r(reg.write_error),
             self.profile.registers.log_file,
             number(rpm),
-            r(reg.delta),
             r(reg.t0)
         )
     }
@@ -570,7 +576,7 @@ impl Emitter<'_> {
         v.push("; driftloop stage 4: reference measurement of the base surface, the zero".into());
         v.extend(self.measure(&number(p.position.nominal), &what));
         v.push(format!("{}={}", r(reg.zero), r(reg.mean)));
-        v.push(self.log(cut_rpm, gate.pass));
+        v.push(self.log(cut_rpm, gate.pass, true));
         v.extend(self.tool_back(gate));
         v.extend(self.set_targets(gate.rpm));
         Emitter::finish(v)
@@ -596,12 +602,17 @@ impl Emitter<'_> {
         if gate.can_measure {
             let skip = format!("{}SKIP{}", self.label_prefix, gate.number);
             if !self.profile.log.measure_every_gate {
-                v.push(format!(
-                    "IF ABS({}-{})<{} GOTOF {skip}",
+                let cycle_in = format!(
+                    "IF ABS({}-{})<{}",
                     r(reg.pred),
                     r(reg.pred_at_measurement),
                     Emitter::mm(l.working_limit_um())
-                ));
+                );
+                // Cycle_in machines on without measuring but still logs its row, without a reading.
+                v.push(cycle_in.clone());
+                v.push(self.log(gate.rpm, gate.pass, false));
+                v.push("ENDIF".into());
+                v.push(format!("{cycle_in} GOTOF {skip}"));
             }
             v.extend(self.probe_in());
             let expected = format!("{}+{}-{}", r(reg.zero), r(reg.pred), r(reg.corr));
@@ -633,9 +644,12 @@ impl Emitter<'_> {
             v.push("ENDIF".into());
             v.push(format!("{}={}-{}", r(reg.eps), r(reg.delta), r(reg.pred)));
             v.push(format!("{}={}", r(reg.pred_at_measurement), r(reg.pred)));
-            v.push(self.log(gate.before.rpm(), gate.pass));
+            // The speed the prediction runs on from here (the targets above), as the unmeasured rows log it.
+            v.push(self.log(gate.rpm, gate.pass, true));
             v.extend(self.tool_back(gate));
             v.push(format!("{skip}:"));
+        } else {
+            v.push(self.log(gate.rpm, gate.pass, false));
         }
         v.push(format!("{}={}+{}", r(reg.corr), r(reg.pred), r(reg.eps)));
         v.extend(self.apply_correction());

@@ -163,10 +163,12 @@ fn regressors(ds: &Dataset, values: &[f64]) -> Vec<f64> {
 
 /// The error relative to its value at the start of its run: what the machine drifts without compensation.
 fn uncompensated(ds: &Dataset, e: &[f64]) -> Vec<f64> {
-    let mut out = vec![0.0; e.len()];
+    let mut out = vec![f64::NAN; e.len()];
     for run in ds.runs() {
-        for i in run.clone() {
-            out[i] = e[i] - e[run.start];
+        // Against the run's first reading (a row without one, NaN, stays NaN and is never scored).
+        let first = run.clone().map(|i| e[i]).find(|v| !v.is_nan());
+        for i in run {
+            out[i] = e[i] - first.unwrap_or(f64::NAN);
         }
     }
     out
@@ -341,14 +343,21 @@ pub fn analyse(ds: &Dataset, opts: &Options) -> Result<Analysis, SensorError> {
     let n = ds.len();
     let runs: Vec<Range<usize>> = ds.runs().collect();
     let by_run = ds.run_labels.is_some() && runs.len() >= 2;
+    // The regression is static (each row on its own): a row without a reading takes no part.
+    let read = |i: &usize| !inp.e[*i].is_nan();
     let (train, holdout, holdout_from, default_holdout) = if by_run {
-        ((0..n).collect::<Vec<_>>(), Vec::new(), None, false)
+        (
+            (0..n).filter(read).collect::<Vec<_>>(),
+            Vec::new(),
+            None,
+            false,
+        )
     } else {
         let t = &ds.time_min;
         let (t0, t1) = (t[0], t[n - 1]);
         let from = opts.holdout_from_min.unwrap_or(t0 + (t1 - t0) * 2.0 / 3.0);
-        let train: Vec<usize> = (0..n).filter(|&i| t[i] < from).collect();
-        let holdout: Vec<usize> = (0..n).filter(|&i| t[i] >= from).collect();
+        let train: Vec<usize> = (0..n).filter(|i| t[*i] < from && read(i)).collect();
+        let holdout: Vec<usize> = (0..n).filter(|i| t[*i] >= from && read(i)).collect();
         if train.len() < 3 || holdout.is_empty() {
             return Err(SensorError::Validation(format!(
                 "the holdout from {from} min leaves {} training and {} holdout rows",
@@ -370,7 +379,10 @@ pub fn analyse(ds: &Dataset, opts: &Options) -> Result<Analysis, SensorError> {
                     .enumerate()
                     .filter(|(j, _)| *j != k)
                     .map(|(_, r)| r.clone()),
-            );
+            )
+            .into_iter()
+            .filter(read)
+            .collect::<Vec<_>>();
             // The left-out run must not influence which sensors are chosen, or the score is optimistic.
             let fold = select(&inp, &others, opts).1.chosen();
             let part = regress(&inp, &fold, &others)?;

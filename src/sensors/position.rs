@@ -131,6 +131,14 @@ pub fn analyse_position(
         .filter(|c| c.kind == ColumnKind::Displacement)
         .map(|c| c.values.as_slice())
         .ok_or_else(|| SensorError::NoChannel(opts.channel.clone()))?;
+    // The position variant fits each thermal state's points as a whole; a state with a gap has no line.
+    let gaps = e.iter().filter(|v| v.is_nan()).count();
+    if gaps > 0 {
+        return Err(bad(format!(
+            "{gaps} rows have no reading of {} (an empty cell): the position variant needs every point of every thermal state measured",
+            opts.channel
+        )));
+    }
     let p = ds
         .values(position)
         .ok_or_else(|| bad(format!("no position column `{position}` in the data")))?;
