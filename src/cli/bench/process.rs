@@ -18,8 +18,11 @@ pub fn reset_peak() -> bool {
 /// threads of the rayon pool live as long as the process, so differences of two readings are exact.
 pub fn cpu_time() -> Option<Duration> {
     let mut total = 0u64;
-    for task in fs::read_dir("/proc/self/task").ok()? {
-        let schedstat = fs::read_to_string(task.ok()?.path().join("schedstat")).ok()?;
+    for task in fs::read_dir("/proc/self/task").ok()?.flatten() {
+        // A thread that ends between the listing and the read is simply no longer live.
+        let Ok(schedstat) = fs::read_to_string(task.path().join("schedstat")) else {
+            continue;
+        };
         total += schedstat.split_whitespace().next()?.parse::<u64>().ok()?;
     }
     Some(Duration::from_nanos(total))
