@@ -83,7 +83,7 @@ pub struct Pass {
     pub max_rpm: f64,
 }
 
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct Timeline {
     pub total_min: f64,
     pub passes: Vec<Pass>,
@@ -111,11 +111,8 @@ pub struct Timeline {
 #[derive(Debug, Default, Clone, PartialEq)]
 struct Scan {
     g: Codes,
-    axes: [Option<(f64, bool)>; 3],
+    mv: Move,
     inexact: bool,
-    centre: [Option<f64>; 3],
-    radius: Option<f64>,
-    f: Option<f64>,
     s: Option<f64>,
     m: Codes,
     tool: Option<Arc<str>>,
@@ -129,21 +126,179 @@ struct Scan {
     offsets: Vec<u32>,
 }
 
+/// The words of a block a move needs: axes (value, written with AC), arc centre or radius, feed.
+#[derive(Debug, Default, Clone, Copy, PartialEq)]
+struct Move {
+    axes: [Option<(f64, bool)>; 3],
+    centre: [Option<f64>; 3],
+    radius: Option<f64>,
+    f: Option<f64>,
+}
+
 pub fn build(program: &Program, profile: &Profile) -> Timeline {
+    use rayon::prelude::*;
     let marker = profile.passes.marker.to_ascii_uppercase();
     let mut b = Builder::new(profile);
+    let count = program.block_count();
+    if count <= CHUNK_BLOCKS {
+        b.fold(&scan_chunk(program, 0..count, &marker));
+        return b.finish();
+    }
+    // Reading the blocks is independent line by line, the fold is not: the blocks are read in parallel, a
+    // wave of chunks at a time (so the records never hold the whole program), while the previous wave is
+    // folded in order.
+    let wave = CHUNK_BLOCKS * rayon::current_num_threads().max(2);
+    let scan_wave = |start: usize| -> Vec<Chunk> {
+        (start..count.min(start + wave))
+            .step_by(CHUNK_BLOCKS)
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .map(|from| scan_chunk(program, from..count.min(from + CHUNK_BLOCKS), &marker))
+            .collect()
+    };
+    let mut current = scan_wave(0);
+    let mut next_start = wave;
+    while next_start < count {
+        let (next, ()) = rayon::join(
+            || scan_wave(next_start),
+            || current.iter().for_each(|c| b.fold(c)),
+        );
+        current = next;
+        next_start += wave;
+    }
+    current.iter().for_each(|c| b.fold(c));
+    b.finish()
+}
+
+/// Blocks read as one piece of work.
+const CHUNK_BLOCKS: usize = 1 << 15;
+
+/// The blocks of one chunk as the fold needs them: a plain move (the lines CAM output is made of) as a
+/// head of bits and its numbers, any other block as its whole [`Scan`] (4 bytes per typical CAM line
+/// instead of a few hundred).
+struct Chunk {
+    first: usize,
+    heads: Vec<u16>,
+    numbers: Vec<f64>,
+    others: Vec<(BlockKind, Scan)>,
+}
+
+/// Bits of a chunk's head: which numbers follow (x, y, z, i, j, k, cr, f in that order), the axes written
+/// with AC, the motion code, or the block being one of the chunk's `others`.
+mod head {
+    pub const AC: u16 = 8;
+    pub const MOTION: u16 = 1 << 11;
+    pub const MOTION_CODE: u16 = 12;
+    pub const OTHER: u16 = 1 << 15;
+}
+
+fn scan_chunk(program: &Program, blocks: std::ops::Range<usize>, marker: &str) -> Chunk {
+    let mut chunk = Chunk {
+        first: blocks.start,
+        heads: Vec::with_capacity(blocks.len()),
+        numbers: Vec::with_capacity(blocks.len() * 4),
+        others: Vec::new(),
+    };
     // One buffer for the word scanner, filled in place line after line: no per-line copies.
     let mut words = Scan::default();
-    for i in 0..program.block_count() {
+    let src = program.source();
+    for i in blocks {
+        let kind = program.block_kind(i);
         let content = program.content_span(i);
-        let line = &program.source()[content.start..content.end];
-        if program.block_kind(i) == BlockKind::Plain && scan_words_into(line, &marker, &mut words) {
-            b.block(i, &words, program.block_kind(i));
+        if kind == BlockKind::Plain
+            && scan_words_into(&src[content.start..content.end], marker, &mut words)
+        {
+            match words.as_move() {
+                Some(head) => {
+                    chunk.heads.push(head);
+                    words.mv.encode(&mut chunk.numbers);
+                }
+                None => {
+                    chunk.heads.push(head::OTHER);
+                    chunk.others.push((kind, words.clone()));
+                }
+            }
         } else {
-            b.block(i, &scan_tree(program, i, &marker), program.block_kind(i));
+            chunk.heads.push(head::OTHER);
+            chunk.others.push((kind, scan_tree(program, i, marker)));
         }
     }
-    b.finish()
+    chunk
+}
+
+impl Scan {
+    /// The head of a block that only moves (motion codes, axes, arc, feed), or `None`.
+    fn as_move(&self) -> Option<u16> {
+        let only_moves = self.g.iter().all(|g| g <= 3)
+            && self.m.is_empty()
+            && self.s.is_none()
+            && self.tool.is_none()
+            && self.d.is_none()
+            && !(self.inexact
+                || self.marker
+                || self.declaration
+                || self.path_comment
+                || self.kind_header)
+            && self.r.is_empty()
+            && self.label.is_none()
+            && self.offsets.is_empty();
+        if !only_moves {
+            return None;
+        }
+        let mut h = 0;
+        for (k, v) in self.mv.numbers().iter().enumerate() {
+            h |= u16::from(v.is_some()) << k;
+        }
+        for (k, a) in self.mv.axes.iter().enumerate() {
+            h |= u16::from(a.is_some_and(|(_, ac)| ac)) << (head::AC + k as u16);
+        }
+        if let Some(g) = self.g.iter().last() {
+            h |= head::MOTION | (g as u16) << head::MOTION_CODE;
+        }
+        Some(h)
+    }
+}
+
+impl Move {
+    /// x, y, z, i, j, k, cr, f: the order of a chunk's numbers.
+    fn numbers(&self) -> [Option<f64>; 8] {
+        let axis = |k: usize| self.axes[k].map(|(v, _)| v);
+        [
+            axis(0),
+            axis(1),
+            axis(2),
+            self.centre[0],
+            self.centre[1],
+            self.centre[2],
+            self.radius,
+            self.f,
+        ]
+    }
+
+    fn encode(&self, out: &mut Vec<f64>) {
+        out.extend(self.numbers().into_iter().flatten());
+    }
+
+    /// The move a head and its numbers describe (the inverse of [`Scan::as_move`] and [`Move::encode`]).
+    fn decode(h: u16, numbers: &mut impl Iterator<Item = f64>) -> Move {
+        let mut v = [None; 8];
+        for (k, slot) in v.iter_mut().enumerate() {
+            if h & (1 << k) != 0 {
+                *slot = numbers.next();
+            }
+        }
+        let ac = |k: u16| h & (1 << (head::AC + k)) != 0;
+        Move {
+            axes: [
+                v[0].map(|x| (x, ac(0))),
+                v[1].map(|x| (x, ac(1))),
+                v[2].map(|x| (x, ac(2))),
+            ],
+            centre: [v[3], v[4], v[5]],
+            radius: v[6],
+            f: v[7],
+        }
+    }
 }
 
 fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
@@ -168,9 +323,9 @@ fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
         };
         match (&a.value, a.mode) {
             (Value::Number(v), AxisMode::Modal | AxisMode::Ac) => {
-                s.axes[k] = Some((*v, a.mode == AxisMode::Ac))
+                s.mv.axes[k] = Some((*v, a.mode == AxisMode::Ac))
             }
-            (Value::Number(v), AxisMode::Ic) => s.axes[k] = Some((*v, false)),
+            (Value::Number(v), AxisMode::Ic) => s.mv.axes[k] = Some((*v, false)),
             _ => s.inexact = true,
         }
     }
@@ -178,7 +333,7 @@ fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
         Value::Number(x) => Some(*x),
         _ => None,
     };
-    s.f = f.feed.as_ref().and_then(|a| num(&a.value));
+    s.mv.f = f.feed.as_ref().and_then(|a| num(&a.value));
     s.s = f
         .spindle_speeds
         .iter()
@@ -226,9 +381,9 @@ fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
 fn scan_words_into(line: &[u8], marker: &str, s: &mut Scan) -> bool {
     s.g.len = 0;
     s.m.len = 0;
-    s.axes = [None; 3];
-    s.centre = [None; 3];
-    (s.radius, s.f, s.s, s.tool, s.d) = (None, None, None, None, None);
+    s.mv.axes = [None; 3];
+    s.mv.centre = [None; 3];
+    (s.mv.radius, s.mv.f, s.s, s.tool, s.d) = (None, None, None, None, None);
     (s.marker, s.path_comment) = (false, false);
     s.offsets.clear();
     scan_words(line, marker, s).is_some()
@@ -256,7 +411,7 @@ fn scan_words(line: &[u8], marker: &str, s: &mut Scan) -> Option<()> {
                 .iter()
                 .position(|c| matches!(c, b' ' | b'\t' | b';'))
                 .map_or(line.len(), |p| i + 3 + p);
-            s.radius = Some(decimal(&line[i + 3..end])?);
+            s.mv.radius = Some(decimal(&line[i + 3..end])?);
             i = end;
             continue;
         }
@@ -291,10 +446,11 @@ fn scan_words(line: &[u8], marker: &str, s: &mut Scan) -> Option<()> {
         }
         i = end;
         let digits = &line[start..end];
-        let int = (v >= 0.0 && v == (v as u32) as f64).then_some(v as u32);
+        // Only G, M and D need whole numbers: the conversion is left to them.
+        let int = || (v >= 0.0 && v == (v as u32) as f64).then_some(v as u32);
         match letter {
             b'G' => {
-                let g = int?;
+                let g = int()?;
                 if matches!(g, 53 | 153 | 500 | 54..=57 | 505..=599) {
                     s.offsets.push(g);
                 }
@@ -302,18 +458,18 @@ fn scan_words(line: &[u8], marker: &str, s: &mut Scan) -> Option<()> {
                     return None;
                 }
             }
-            b'X' => s.axes[0] = Some((v, false)),
-            b'Y' => s.axes[1] = Some((v, false)),
-            b'Z' => s.axes[2] = Some((v, false)),
-            b'I' => s.centre[0] = Some(v),
-            b'J' => s.centre[1] = Some(v),
-            b'K' => s.centre[2] = Some(v),
-            b'F' => s.f = Some(v),
+            b'X' => s.mv.axes[0] = Some((v, false)),
+            b'Y' => s.mv.axes[1] = Some((v, false)),
+            b'Z' => s.mv.axes[2] = Some((v, false)),
+            b'I' => s.mv.centre[0] = Some(v),
+            b'J' => s.mv.centre[1] = Some(v),
+            b'K' => s.mv.centre[2] = Some(v),
+            b'F' => s.mv.f = Some(v),
             b'S' => s.s = Some(v),
             // The guard stores the code; a block with more codes than fit goes to the tree path.
-            b'M' if !s.m.push(int?) => return None,
+            b'M' if !s.m.push(int()?) => return None,
             b'T' => s.tool = Some(Arc::from(std::str::from_utf8(digits).ok()?)),
-            b'D' => s.d = Some(int?),
+            b'D' => s.d = Some(int()?),
             _ => {}
         }
     }
@@ -372,7 +528,7 @@ fn decimal(text: &[u8]) -> Option<f64> {
 
 /// The decimal at the start of `text` and its length in bytes, in one pass over the bytes.
 fn decimal_prefix(text: &[u8]) -> Option<(f64, usize)> {
-    const POW10: [f64; 16] = [
+    static POW10: [f64; 16] = [
         1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
     ];
     let (negative, mut i) = match text.first()? {
@@ -397,7 +553,14 @@ fn decimal_prefix(text: &[u8]) -> Option<(f64, usize)> {
     if digits == 0 || digits > 15 {
         return None;
     }
-    let v = mantissa as f64 / POW10[scale];
+    // At most 15 digits: the mantissa and the power of ten are exact doubles, the quotient is rounded once
+    // (as `str::parse` rounds); the signed conversion is the one x86 does in one instruction.
+    let whole = mantissa as i64 as f64;
+    let v = if scale == 0 {
+        whole
+    } else {
+        whole / POW10[scale]
+    };
     Some((if negative { -v } else { v }, i))
 }
 
@@ -426,9 +589,9 @@ fn word(block: &Block<'_>, node: &Node, s: &mut Scan) {
         .and_then(|t| t.parse::<f64>().ok());
     match (letter.as_slice(), value) {
         (b"D", Some(d)) if d >= 0.0 && d.fract() == 0.0 => s.d = Some(d as u32),
-        (b"I", Some(v)) => s.centre[0] = Some(v),
-        (b"J", Some(v)) => s.centre[1] = Some(v),
-        (b"K", Some(v)) => s.centre[2] = Some(v),
+        (b"I", Some(v)) => s.mv.centre[0] = Some(v),
+        (b"J", Some(v)) => s.mv.centre[1] = Some(v),
+        (b"K", Some(v)) => s.mv.centre[2] = Some(v),
         _ => {}
     }
 }
@@ -441,10 +604,10 @@ fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
     let name = block.text(target).to_ascii_uppercase();
     let v = literal(block, value);
     match name.as_slice() {
-        b"CR" => s.radius = v,
-        b"I" => s.centre[0] = v,
-        b"J" => s.centre[1] = v,
-        b"K" => s.centre[2] = v,
+        b"CR" => s.mv.radius = v,
+        b"I" => s.mv.centre[0] = v,
+        b"J" => s.mv.centre[1] = v,
+        b"K" => s.mv.centre[2] = v,
         _ => {}
     }
 }
@@ -513,6 +676,75 @@ impl<'p> Builder<'p> {
         }
     }
 
+    /// Folds the blocks of a chunk, in order.
+    fn fold(&mut self, chunk: &Chunk) {
+        let mut numbers = chunk.numbers.iter().copied();
+        let mut others = chunk.others.iter();
+        for (k, &h) in chunk.heads.iter().enumerate() {
+            let i = chunk.first + k;
+            if h & head::OTHER != 0 {
+                let (kind, scan) = others.next().expect("one scan per other block");
+                self.block(i, scan, *kind);
+            } else {
+                let motion =
+                    (h & head::MOTION != 0).then_some(u32::from(h >> head::MOTION_CODE & 3));
+                self.plain_move(i, motion, &Move::decode(h, &mut numbers));
+            }
+        }
+    }
+
+    /// A block that only moves (see [`Scan::as_move`]): most of what [`Builder::block`] looks at is absent.
+    fn plain_move(&mut self, i: usize, motion: Option<u32>, mv: &Move) {
+        let before = if self.last_was_z_retract || !self.profile.passes.lines.is_empty() {
+            self.state.clone()
+        } else {
+            Modal::default()
+        };
+        let start = self.time;
+        let blank = motion.is_none() && mv.axes.iter().all(Option::is_none);
+        self.header_and_preamble(i, false, false, blank);
+        if let Some(g) = motion {
+            self.state.motion = g;
+        }
+        if let Some(f) = mv.f {
+            self.state.feed = Some(f);
+        }
+        if self.profile.passes.lines.contains(&(i + 1)) {
+            let mark = self.mark(i, false, start, &before);
+            self.pass_marks.push(mark);
+        }
+        self.movement(i, start, &before, mv, false, None, false, false);
+    }
+
+    /// Header lines (`%…`, `;$PATH`) and the declarations after them: no gate may come before their end.
+    fn header_and_preamble(&mut self, i: usize, header: bool, declaration: bool, blank: bool) {
+        if !self.header_done {
+            if header {
+                self.t.header_end = i + 1;
+            } else {
+                self.header_done = true;
+            }
+        }
+        if !self.preamble_done {
+            if declaration || blank {
+                self.t.preamble_end = i + 1;
+            } else {
+                self.preamble_done = true;
+            }
+        }
+    }
+
+    fn mark(&self, i: usize, tool_change: bool, start: f64, before: &Modal) -> PassMark {
+        PassMark {
+            block: i,
+            tool_change,
+            time: start,
+            before: before.clone(),
+            rpm: self.state.rpm(),
+            tool: self.state.tool.clone(),
+        }
+    }
+
     fn block(&mut self, i: usize, s: &Scan, kind: BlockKind) {
         match kind {
             BlockKind::While | BlockKind::For | BlockKind::Loop | BlockKind::Repeat => {
@@ -538,26 +770,18 @@ impl<'p> Builder<'p> {
             Modal::default()
         };
         let start = self.time;
-        if !self.header_done {
-            if s.kind_header || s.path_comment {
-                self.t.header_end = i + 1;
-            } else {
-                self.header_done = true;
-            }
-        }
         let blank = s.g.is_empty()
-            && s.axes.iter().all(Option::is_none)
+            && s.mv.axes.iter().all(Option::is_none)
             && s.m.is_empty()
             && s.tool.is_none()
             && s.s.is_none()
             && s.r.is_empty();
-        if !self.preamble_done {
-            if s.declaration || s.kind_header || blank {
-                self.t.preamble_end = i + 1;
-            } else {
-                self.preamble_done = true;
-            }
-        }
+        self.header_and_preamble(
+            i,
+            s.kind_header || s.path_comment,
+            s.declaration || s.kind_header,
+            blank,
+        );
         for r in &s.r {
             match r {
                 Some(n) => {
@@ -585,8 +809,9 @@ impl<'p> Builder<'p> {
                 _ => {}
             }
         }
-        if let Some(f) = s.f
-            && !s.g.contains(4)
+        let dwell = s.g.contains(4);
+        if let Some(f) = s.mv.f
+            && !dwell
         {
             self.state.feed = Some(f);
         }
@@ -609,21 +834,15 @@ impl<'p> Builder<'p> {
             self.state.tool = Some(tool.clone());
         }
         let rpm = self.state.rpm();
-        let mark = |tool_change| PassMark {
-            block: i,
-            tool_change,
-            time: start,
-            before: before.clone(),
-            rpm,
-            tool: self.state.tool.clone(),
-        };
         if s.tool.is_some() {
-            self.tool_marks.push(mark(true));
+            let mark = self.mark(i, true, start, &before);
+            self.tool_marks.push(mark);
         }
         let p = &self.profile.passes;
         let marked = s.marker || p.lines.contains(&(i + 1));
         if (p.tool_change && tool_change) || marked {
-            self.pass_marks.push(mark(tool_change));
+            let mark = self.mark(i, tool_change, start, &before);
+            self.pass_marks.push(mark);
         }
         if rpm != self.rpm {
             self.rpm = rpm;
@@ -637,15 +856,32 @@ impl<'p> Builder<'p> {
                 rpm_after: rpm,
             });
         }
-        // The move.
-        let moved = s.axes.iter().any(Option::is_some);
+        self.movement(i, start, &before, &s.mv, dwell, s.s, s.inexact, tool_change);
+    }
+
+    /// The block's move (or dwell, with G4: F seconds or S revolutions) and the tool change's time, with
+    /// the modal state already updated by the block's words.
+    #[allow(clippy::too_many_arguments)]
+    fn movement(
+        &mut self,
+        i: usize,
+        start: f64,
+        before: &Modal,
+        mv: &Move,
+        g4: bool,
+        revolutions: Option<f64>,
+        mut inexact: bool,
+        tool_change: bool,
+    ) {
+        let rpm = self.state.rpm();
+        let moved = mv.axes.iter().any(Option::is_some);
         // A dwell right after the retract is as clear of the part as the next rapid, and a gate before it is
         // the only one a long dwell can have.
-        let dwell = s.g.contains(4) && !moved;
+        let dwell = g4 && !moved;
         let retract_candidate = self.last_was_z_retract
             && self.state.motion == 0
             && self.state.absolute
-            && (dwell || (moved && s.axes[2].is_none()));
+            && (dwell || (moved && mv.axes[2].is_none()));
         if retract_candidate {
             let first_in_loop = self.loop_depth > 0 && self.loop_gate_pending;
             self.loop_gate_pending &= !first_in_loop;
@@ -661,7 +897,7 @@ impl<'p> Builder<'p> {
         let from = self.pos;
         let mut to = self.pos;
         for k in 0..3 {
-            if let Some((v, absolute)) = s.axes[k] {
+            if let Some((v, absolute)) = mv.axes[k] {
                 to[k] = if absolute || self.state.absolute {
                     Some(v)
                 } else {
@@ -670,9 +906,8 @@ impl<'p> Builder<'p> {
             }
         }
         let mut minutes = 0.0;
-        let mut inexact = s.inexact;
-        if s.g.contains(4) {
-            minutes += match (s.f, s.s) {
+        if g4 {
+            minutes += match (mv.f, revolutions) {
                 (Some(sec), _) => sec / 60.0,
                 (None, Some(rev)) if rpm > 0.0 => rev / rpm,
                 _ => {
@@ -681,7 +916,7 @@ impl<'p> Builder<'p> {
                 }
             };
         } else if moved {
-            let length = self.move_length(from, to, s);
+            let length = self.move_length(from, to, mv);
             if self.state.motion == 0 {
                 minutes += length / self.profile.timeline.rapid_mm_per_min;
             } else {
@@ -701,8 +936,8 @@ impl<'p> Builder<'p> {
         self.t.inexact_blocks += usize::from(inexact);
         self.last_was_z_retract = moved
             && self.state.motion == 0
-            && s.axes[0].is_none()
-            && s.axes[1].is_none()
+            && mv.axes[0].is_none()
+            && mv.axes[1].is_none()
             && match (from[2], to[2]) {
                 (Some(a), Some(b)) => b > a,
                 (None, Some(_)) => true,
@@ -714,7 +949,7 @@ impl<'p> Builder<'p> {
     }
 
     /// Length of the move from `from` to `to`: straight, or along the arc for G2/G3 (XY plane).
-    fn move_length(&self, from: [Option<f64>; 3], to: [Option<f64>; 3], s: &Scan) -> f64 {
+    fn move_length(&self, from: [Option<f64>; 3], to: [Option<f64>; 3], mv: &Move) -> f64 {
         let a = from.map(|v| v.unwrap_or(0.0));
         let b = to.map(|v| v.unwrap_or(0.0));
         let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
@@ -723,7 +958,7 @@ impl<'p> Builder<'p> {
             return straight;
         }
         let cw = self.state.motion == 2;
-        let (r, sweep) = match (s.centre[0], s.centre[1], s.radius) {
+        let (r, sweep) = match (mv.centre[0], mv.centre[1], mv.radius) {
             (i, j, _) if i.is_some() || j.is_some() => {
                 let c = [a[0] + i.unwrap_or(0.0), a[1] + j.unwrap_or(0.0)];
                 let r = ((a[0] - c[0]).powi(2) + (a[1] - c[1]).powi(2)).sqrt();
@@ -868,6 +1103,58 @@ mod tests {
             }
         }
         assert!(fast > 50, "the scanner took only {fast} lines");
+    }
+
+    /// The timeline of a program folded block by block from whole scans, as before chunks existed.
+    fn block_by_block(program: &Program, profile: &Profile) -> Timeline {
+        let mut b = Builder::new(profile);
+        let mut words = Scan::default();
+        for i in 0..program.block_count() {
+            let span = program.content_span(i);
+            let kind = program.block_kind(i);
+            let line = &program.source()[span.start..span.end];
+            if kind == BlockKind::Plain && scan_words_into(line, "PASS", &mut words) {
+                b.block(i, &words, kind);
+            } else {
+                b.block(i, &scan_tree(program, i, "PASS"), kind);
+            }
+        }
+        b.finish()
+    }
+
+    /// Large programs are read in parallel chunks, moves packed into heads and numbers: the timeline is the
+    /// one the blocks give one by one, site for site and bit for bit.
+    #[test]
+    fn chunks_give_the_block_by_block_timeline() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mut text = std::fs::read(dir.join("fixtures/omm/handwritten.mpf")).unwrap();
+        text.truncate(text.len() - b"M5\nM30\n".len());
+        let mut n = 0u64;
+        while text.len() < 3_000_000 {
+            let x = (n * 37 % 4000) as f64 / 10.0;
+            let line = match n % 9 {
+                0 => format!("N{n} G1 X{x} Y-{x} Z-1.5 F900\n"),
+                1 => format!("N{n} G3 X{x} Y{x} CR=-12.5\n"),
+                2 => format!("G2 X0 Y{x} I-{x} J.5 ; arc\n"),
+                3 => "G0 Z50\n".to_string(),
+                4 => format!("X{x} Y{x}\n"),
+                5 if n % 1000 == 5 => {
+                    format!("T{} M6 ; PASS\nS{} M3\nG4 F2\n", n % 7, 1000 + n % 5000)
+                }
+                6 => format!("G1 X=AC({x}) Y=IC(2) Z=R1\n"),
+                7 if n % 500 == 7 => "WHILE R1<2\nG0 Z10\nG0 X1\nENDWHILE\n".to_string(),
+                _ => format!("G91 G1 X1 F{}\nG90\n", 100 + n % 50),
+            };
+            text.extend_from_slice(line.as_bytes());
+            n += 1;
+        }
+        text.extend_from_slice(b"M5\nM30\n");
+        let program = crate::parse(&text);
+        assert!(program.block_count() > 3 * CHUNK_BLOCKS);
+        let profile = Profile::default_profile();
+        let chunked = build(&program, &profile);
+        assert!(chunked.sites.len() > 100 && chunked.passes.len() > 10);
+        assert_eq!(chunked, block_by_block(&program, &profile));
     }
 
     #[test]
