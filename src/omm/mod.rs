@@ -4,6 +4,7 @@
 //! new blocks are inserted, each parsed again before it is accepted.
 
 pub mod emit;
+pub mod loops;
 pub mod nc;
 pub mod plan;
 pub mod profile;

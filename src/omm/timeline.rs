@@ -7,12 +7,13 @@
 //! The program is read once, in order, without running it: loops and jumps are counted once, expressions
 //! as coordinates count as no move (`inexact_blocks` says how many blocks that affected).
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::sync::Arc;
 
 use crate::syntax::{Block, BlockKind, Node, NodeKind, Program};
 use crate::views::{AxisMode, Value, VarName, WorkOffset, facts};
 
+use super::loops::{Bound, Count, Loop, LoopKind, for_runs};
 use super::profile::Profile;
 
 /// The modal state a gate must restore after it moved the machine.
@@ -105,6 +106,8 @@ pub struct Timeline {
     pub offsets: Vec<(u32, usize)>,
     /// Blocks whose moves could not be timed (expressions, unknown feed).
     pub inexact_blocks: usize,
+    /// The program's loops in the order they close (a section repeat at its REPEAT statement).
+    pub loops: Vec<Loop>,
 }
 
 /// What one block says, reduced to what the timeline needs (built in parallel).
@@ -124,6 +127,10 @@ struct Scan {
     r: Vec<Option<u32>>,
     label: Option<String>,
     offsets: Vec<u32>,
+    /// R-parameters the block assigns, with the value when it is a literal.
+    r_set: Vec<(u32, Option<f64>)>,
+    /// FOR bounds or a section repeat's labels and count.
+    count: Option<Count>,
 }
 
 /// The words of a block a move needs: axes (value, written with AC), arc centre or radius, feed.
@@ -241,7 +248,9 @@ impl Scan {
                 || self.kind_header)
             && self.r.is_empty()
             && self.label.is_none()
-            && self.offsets.is_empty();
+            && self.offsets.is_empty()
+            && self.r_set.is_empty()
+            && self.count.is_none();
         if !only_moves {
             return None;
         }
@@ -369,10 +378,58 @@ fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
             NodeKind::Def | NodeKind::Proc | NodeKind::Extern | NodeKind::Define => {
                 s.declaration = true
             }
+            NodeKind::For => s.count = for_bounds(&block, node),
+            NodeKind::Repeat => s.count = section_repeat(&block, node),
             _ => {}
         }
     }
     s
+}
+
+/// `FOR var = from TO to`: the bounds.
+fn for_bounds(block: &Block<'_>, node: &Node) -> Option<Count> {
+    let parts: Vec<&Node> = node.significant().collect();
+    match parts.as_slice() {
+        [_, _, _, from, _, to] => Some(Count::For {
+            from: bound(block, from),
+            to: bound(block, to),
+        }),
+        _ => None,
+    }
+}
+
+/// `REPEAT a [b]` / `REPEATB a` with its labels (`P=n` follows as an assignment); `None` for the REPEAT
+/// that opens a REPEAT … UNTIL loop.
+fn section_repeat(block: &Block<'_>, node: &Node) -> Option<Count> {
+    let mut parts = node.significant();
+    let keyword = block.text(parts.next()?);
+    let labels: Vec<String> = parts
+        .filter(|n| n.kind == NodeKind::Name)
+        .map(|n| String::from_utf8_lossy(block.text(n)).to_ascii_uppercase())
+        .collect();
+    (!labels.is_empty()).then(|| Count::Section {
+        labels,
+        single: keyword.eq_ignore_ascii_case(b"REPEATB"),
+        times: Bound::Number(1.0),
+    })
+}
+
+fn bound(block: &Block<'_>, node: &Node) -> Bound {
+    if let Some(v) = literal(block, node) {
+        return Bound::Number(v);
+    }
+    match node.kind {
+        NodeKind::RParam => r_number(block.text(node)).map_or(Bound::Other, Bound::R),
+        _ => Bound::Other,
+    }
+}
+
+/// `R12` → 12 (not `R[…]`).
+fn r_number(text: &[u8]) -> Option<u32> {
+    let digits = text
+        .strip_prefix(b"R")
+        .or_else(|| text.strip_prefix(b"r"))?;
+    std::str::from_utf8(digits).ok()?.parse().ok()
 }
 
 /// The same facts without a syntax tree, for the lines CAM output is made of: one-letter address words with
@@ -603,7 +660,18 @@ fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
     };
     let name = block.text(target).to_ascii_uppercase();
     let v = literal(block, value);
+    if target.kind == NodeKind::RParam {
+        if let Some(n) = r_number(&name) {
+            s.r_set.push((n, v));
+        }
+        return;
+    }
     match name.as_slice() {
+        b"P" => {
+            if let Some(Count::Section { times, .. }) = &mut s.count {
+                *times = bound(block, value);
+            }
+        }
         b"CR" => s.mv.radius = v,
         b"I" => s.mv.centre[0] = v,
         b"J" => s.mv.centre[1] = v,
@@ -646,6 +714,19 @@ struct Builder<'p> {
     loop_depth: usize,
     /// A loop started and no retract site in its body yet.
     loop_gate_pending: bool,
+    open_loops: Vec<OpenLoop>,
+    /// R-parameters whose last assignment (in program order) was a literal.
+    r_values: BTreeMap<u32, f64>,
+    /// Labels seen: block, start and end of its first run (min).
+    label_times: HashMap<String, (usize, f64, f64)>,
+}
+
+/// A loop whose closing block has not come yet.
+struct OpenLoop {
+    kind: LoopKind,
+    block: usize,
+    start_min: f64,
+    runs: Result<u64, &'static str>,
 }
 
 impl<'p> Builder<'p> {
@@ -673,6 +754,9 @@ impl<'p> Builder<'p> {
             rpm: 0.0,
             loop_depth: 0,
             loop_gate_pending: false,
+            open_loops: Vec::new(),
+            r_values: BTreeMap::new(),
+            label_times: HashMap::new(),
         }
     }
 
@@ -857,6 +941,145 @@ impl<'p> Builder<'p> {
             });
         }
         self.movement(i, start, &before, &s.mv, dwell, s.s, s.inexact, tool_change);
+        if let Some(l) = &s.label {
+            self.label_times
+                .entry(l.to_ascii_uppercase())
+                .or_insert((i, start, self.time));
+        }
+        self.loops(i, s, kind, start);
+    }
+
+    /// Loop statements: a loop opens after its statement; at its end (or at a section repeat statement)
+    /// the further runs are added to the time.
+    fn loops(&mut self, i: usize, s: &Scan, kind: BlockKind, start: f64) {
+        if s.r.contains(&None) {
+            self.r_values.clear();
+        }
+        for &(n, v) in &s.r_set {
+            match v {
+                Some(v) => self.r_values.insert(n, v),
+                None => self.r_values.remove(&n),
+            };
+        }
+        let opened = match kind {
+            BlockKind::For => Some(LoopKind::For),
+            BlockKind::While => Some(LoopKind::While),
+            BlockKind::Loop => Some(LoopKind::Loop),
+            BlockKind::Repeat => Some(LoopKind::RepeatUntil),
+            _ => None,
+        };
+        if let Some(kind) = opened {
+            let runs = match &s.count {
+                Some(Count::For { from, to }) => for_runs(self.value(*from), self.value(*to)),
+                _ if kind == LoopKind::For => Err("bounds computed at run time"),
+                _ => Err("ends on a condition at run time"),
+            };
+            self.open_loops.push(OpenLoop {
+                kind,
+                block: i,
+                start_min: self.time,
+                runs,
+            });
+            return;
+        }
+        let closes = matches!(
+            kind,
+            BlockKind::EndWhile | BlockKind::EndFor | BlockKind::EndLoop | BlockKind::Until
+        );
+        if closes && let Some(open) = self.open_loops.pop() {
+            let (runs, unknown) = match open.runs {
+                Ok(n) => (Some(n), None),
+                Err(why) => (None, Some(why)),
+            };
+            self.repeat(Loop {
+                kind: open.kind,
+                block: open.block,
+                body: (open.block + 1, i),
+                runs,
+                unknown,
+                start_min: open.start_min,
+                body_min: start - open.start_min,
+                repeat_block: i,
+                repeat_min: self.time,
+            });
+        }
+        if let Some(Count::Section {
+            labels,
+            single,
+            times,
+        }) = &s.count
+        {
+            let section = self.section(i, labels, *single, start);
+            let times = self
+                .value(*times)
+                .filter(|n| *n >= 0.0 && n.fract() == 0.0)
+                .ok_or("repeat count computed at run time");
+            let (body, start_min, body_min, runs, unknown) = match (section, times) {
+                (Ok((body, from, to)), Ok(n)) => (body, from, to - from, Some(n as u64 + 1), None),
+                (Err(why), _) | (_, Err(why)) => ((i, i), start, 0.0, None, Some(why)),
+            };
+            self.repeat(Loop {
+                kind: if *single {
+                    LoopKind::RepeatBlock
+                } else {
+                    LoopKind::Repeat
+                },
+                block: i,
+                body,
+                runs,
+                unknown,
+                start_min,
+                body_min,
+                repeat_block: i,
+                repeat_min: self.time,
+            });
+        }
+    }
+
+    /// Records a loop and adds its further runs to the time.
+    fn repeat(&mut self, l: Loop) {
+        self.time += l.further_runs() as f64 * l.body_min;
+        self.t.loops.push(l);
+    }
+
+    /// The blocks and time span (first run) of the section a REPEAT statement at block `i` repeats: from
+    /// the label to the statement, from the first label to the second, or (REPEATB) the labelled block.
+    /// Only a section the program ran through before the statement is known.
+    #[allow(clippy::type_complexity)]
+    fn section(
+        &self,
+        i: usize,
+        labels: &[String],
+        single: bool,
+        start: f64,
+    ) -> Result<((usize, usize), f64, f64), &'static str> {
+        let seen = |label: &String| {
+            self.label_times
+                .get(label)
+                .copied()
+                .ok_or("the section is not before the REPEAT statement")
+        };
+        let first = seen(&labels[0])?;
+        match labels.get(1) {
+            _ if single => Ok(((first.0, first.0), first.1, first.2)),
+            Some(end) => {
+                let last = seen(end)?;
+                if last.0 < first.0 {
+                    return Err("the section's labels are in reverse order");
+                }
+                Ok(((first.0, last.0), first.1, last.2))
+            }
+            None => Ok(((first.0, i - 1), first.1, start)),
+        }
+    }
+
+    /// A bound's value: a number, or an R-parameter last assigned a literal.
+    fn value(&self, b: Bound) -> Option<f64> {
+        match b {
+            Bound::Number(v) => Some(v),
+            Bound::R(n) => self.r_values.get(&n).copied(),
+            Bound::Other => None,
+        }
     }
 
     /// The block's move (or dwell, with G4: F seconds or S revolutions) and the tool change's time, with
