@@ -1380,6 +1380,147 @@ mod tests {
         assert_eq!(chunked, block_by_block(&program, &profile));
     }
 
+    fn timeline_of(text: &str) -> Timeline {
+        build(&crate::parse(text.as_bytes()), &Profile::default_profile())
+    }
+
+    /// One minute of cutting at F100 over 100 mm, then the way back as a rapid.
+    const BODY: &str = "G1 X100 F100\nG0 Z50\nG0 X0\nG1 Z0 F6000\n";
+
+    fn loop_time(t: &Timeline) -> f64 {
+        t.loops[0].body_min
+    }
+
+    /// The time of the tool change every test program starts with.
+    fn base() -> f64 {
+        timeline_of("T1 M6\nS1000 M3\nM30\n").total_min
+    }
+
+    #[test]
+    fn a_for_loop_with_literal_bounds_runs_its_body_that_often() {
+        let once = timeline_of(&format!("T1 M6\nS1000 M3\n{BODY}M30\n"));
+        let t = timeline_of(&format!(
+            "T1 M6\nS1000 M3\nFOR R1 = 3 TO 7\n{BODY}ENDFOR\nM30\n"
+        ));
+        let l = &t.loops[0];
+        assert_eq!((l.kind, l.runs, l.unknown), (LoopKind::For, Some(5), None));
+        assert_eq!((l.block, l.body, l.repeat_block), (2, (3, 7), 7));
+        assert!((loop_time(&t) - (once.total_min - base())).abs() < 1e-9);
+        assert!((t.total_min - base() - 5.0 * loop_time(&t)).abs() < 1e-9);
+        // The retract site in the body is listed once per run, a body apart.
+        let runs = crate::omm::loops::site_runs(&t);
+        let retract = t
+            .sites
+            .iter()
+            .position(|s| matches!(s.kind, SiteKind::Retract { .. }))
+            .unwrap();
+        let times: Vec<f64> = runs
+            .sites
+            .iter()
+            .filter(|(k, _)| *k == retract)
+            .map(|(_, time)| *time)
+            .collect();
+        assert_eq!(times.len(), 5);
+        for pair in times.windows(2) {
+            assert!((pair[1] - pair[0] - loop_time(&t)).abs() < 1e-9);
+        }
+        assert!(runs.complete);
+    }
+
+    #[test]
+    fn r_parameter_bounds_count_when_last_assigned_a_literal() {
+        let t = timeline_of(&format!(
+            "R5=4\nT1 M6\nS1000 M3\nFOR R1 = 1 TO R5\n{BODY}ENDFOR\nR5=R5+1\nFOR R2 = 1 TO R5\n{BODY}ENDFOR\nM30\n"
+        ));
+        assert_eq!(t.loops[0].runs, Some(4));
+        assert_eq!(t.loops[1].runs, None);
+        assert_eq!(t.loops[1].unknown, Some("bounds computed at run time"));
+        assert!((t.total_min - base() - 5.0 * loop_time(&t)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn loops_ending_on_a_condition_are_counted_once() {
+        let t = timeline_of(&format!(
+            "T1 M6\nS1000 M3\nWHILE R1<3\n{BODY}R1=R1+1\nENDWHILE\nREPEAT\n{BODY}UNTIL R1>5\nFOR R2 = 5 TO 1\n{BODY}ENDFOR\nM30\n"
+        ));
+        let kinds: Vec<_> = t.loops.iter().map(|l| (l.kind, l.runs)).collect();
+        assert_eq!(
+            kinds,
+            [
+                (LoopKind::While, None),
+                (LoopKind::RepeatUntil, None),
+                (LoopKind::For, None)
+            ]
+        );
+        assert_eq!(t.loops[2].unknown, Some("the bounds give no run"));
+        assert!((t.total_min - base() - 3.0 * loop_time(&t)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn section_repeats_add_their_runs_at_the_statement() {
+        let t = timeline_of(&format!(
+            "T1 M6\nS1000 M3\nSTART: G0 X0\n{BODY}REPEAT START P=2\nONE: G1 X100 F100\nG0 X0\nREPEATB ONE P=3\nREPEAT LATER P=2\nLATER: G0 X0\nM30\n"
+        ));
+        let counted: Vec<_> = t
+            .loops
+            .iter()
+            .map(|l| (l.kind, l.block, l.body, l.runs))
+            .collect();
+        assert_eq!(
+            counted,
+            [
+                (LoopKind::Repeat, 7, (2, 6), Some(3)),
+                (LoopKind::RepeatBlock, 10, (8, 8), Some(4)),
+                (LoopKind::Repeat, 11, (11, 11), None),
+            ]
+        );
+        assert_eq!(
+            t.loops[2].unknown,
+            Some("the section is not before the REPEAT statement")
+        );
+        // The section: one minute of cutting plus rapids, three times; the repeated block one minute, four
+        // times; the rapid back in between.
+        let section = t.loops[0].body_min;
+        assert!((t.loops[1].body_min - 1.0).abs() < 1e-9);
+        let rapid_back = 100.0 / Profile::default_profile().timeline.rapid_mm_per_min;
+        assert!((t.total_min - base() - (3.0 * section + 4.0 + rapid_back)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn nested_counted_loops_multiply() {
+        let t = timeline_of(&format!(
+            "T1 M6\nS1000 M3\nFOR R1 = 1 TO 3\nFOR R2 = 1 TO 4\n{BODY}ENDFOR\nENDFOR\nM30\n"
+        ));
+        let inner = t.loops[0].body_min;
+        assert!((t.loops[1].body_min - 4.0 * inner).abs() < 1e-9);
+        assert!((t.total_min - base() - 12.0 * inner).abs() < 1e-9);
+        let runs = crate::omm::loops::site_runs(&t);
+        let retract = t
+            .sites
+            .iter()
+            .position(|s| matches!(s.kind, SiteKind::Retract { .. }))
+            .unwrap();
+        let times: Vec<f64> = runs
+            .sites
+            .iter()
+            .filter(|(k, _)| *k == retract)
+            .map(|(_, time)| *time)
+            .collect();
+        assert_eq!(times.len(), 12);
+        assert!(times.windows(2).all(|w| (w[1] - w[0] - inner).abs() < 1e-9));
+    }
+
+    #[test]
+    fn a_loop_of_millions_of_runs_is_timed_but_not_listed_run_by_run() {
+        let t = timeline_of(&format!(
+            "T1 M6\nS1000 M3\nFOR R1 = 1 TO 5000000\n{BODY}ENDFOR\nM30\n"
+        ));
+        assert!((t.total_min - base() - 5e6 * loop_time(&t)).abs() < 1e-3);
+        let runs = crate::omm::loops::site_runs(&t);
+        assert!(!runs.complete);
+        assert_eq!(runs.sites.len(), crate::omm::loops::MAX_SITE_RUNS);
+    }
+
     #[test]
     fn decimals_match_the_standard_parser() {
         for t in [
