@@ -8,7 +8,8 @@
 //! as coordinates count as no move (`inexact_blocks` says how many blocks that affected).
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
-use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Condvar, Mutex};
 
 use crate::syntax::{Block, BlockKind, Node, NodeKind, Program};
 use crate::views::{AxisMode, Value, VarName, WorkOffset, facts};
@@ -143,37 +144,70 @@ struct Move {
 }
 
 pub fn build(program: &Program, profile: &Profile) -> Timeline {
-    use rayon::prelude::*;
     let marker = profile.passes.marker.to_ascii_uppercase();
     let mut b = Builder::new(profile);
     let count = program.block_count();
-    if count <= CHUNK_BLOCKS {
-        b.fold(&scan_chunk(program, 0..count, &marker));
+    let chunks = count.div_ceil(CHUNK_BLOCKS);
+    let scan = |k: usize| {
+        let from = k * CHUNK_BLOCKS;
+        scan_chunk(program, from..count.min(from + CHUNK_BLOCKS), &marker)
+    };
+    let helpers = rayon::current_num_threads().saturating_sub(1);
+    if chunks <= 1 || helpers == 0 {
+        (0..chunks).for_each(|k| b.fold(&scan(k)));
         return b.finish();
     }
-    // Reading the blocks is independent line by line, the fold is not: the blocks are read in parallel, a
-    // wave of chunks at a time (so the records never hold the whole program), while the previous wave is
-    // folded in order.
-    let wave = CHUNK_BLOCKS * rayon::current_num_threads().max(2);
-    let scan_wave = |start: usize| -> Vec<Chunk> {
-        (start..count.min(start + wave))
-            .step_by(CHUNK_BLOCKS)
-            .collect::<Vec<_>>()
-            .into_par_iter()
-            .map(|from| scan_chunk(program, from..count.min(from + CHUNK_BLOCKS), &marker))
-            .collect()
+    // Reading the blocks is independent line by line, the fold is not. Helpers read chunks in order of a
+    // shared counter, at most AHEAD chunks past the fold (so the records never hold the whole program);
+    // this thread folds them in order and, while the next one is not ready, reads chunks itself.
+    const AHEAD: usize = 8;
+    let next = AtomicUsize::new(0);
+    let ready: Mutex<(Vec<Option<Chunk>>, usize)> =
+        Mutex::new(((0..chunks).map(|_| None).collect(), 0));
+    let changed = Condvar::new();
+    let put = |k: usize, chunk: Chunk| {
+        ready.lock().expect("no panic while held").0[k] = Some(chunk);
+        changed.notify_all();
     };
-    let mut current = scan_wave(0);
-    let mut next_start = wave;
-    while next_start < count {
-        let (next, ()) = rayon::join(
-            || scan_wave(next_start),
-            || current.iter().for_each(|c| b.fold(c)),
-        );
-        current = next;
-        next_start += wave;
-    }
-    current.iter().for_each(|c| b.fold(c));
+    std::thread::scope(|threads| {
+        for _ in 0..helpers {
+            threads.spawn(|| {
+                loop {
+                    let k = next.fetch_add(1, Ordering::Relaxed);
+                    if k >= chunks {
+                        return;
+                    }
+                    let mut slots = ready.lock().expect("no panic while held");
+                    while k > slots.1 + AHEAD {
+                        slots = changed.wait(slots).expect("no panic while held");
+                    }
+                    drop(slots);
+                    put(k, scan(k));
+                }
+            });
+        }
+        for k in 0..chunks {
+            let chunk = loop {
+                let mut slots = ready.lock().expect("no panic while held");
+                if let Some(chunk) = slots.0[k].take() {
+                    break chunk;
+                }
+                drop(slots);
+                let j = next.fetch_add(1, Ordering::Relaxed);
+                if j < chunks {
+                    put(j, scan(j));
+                    continue;
+                }
+                let mut slots = ready.lock().expect("no panic while held");
+                while slots.0[k].is_none() {
+                    slots = changed.wait(slots).expect("no panic while held");
+                }
+            };
+            b.fold(&chunk);
+            ready.lock().expect("no panic while held").1 = k + 1;
+            changed.notify_all();
+        }
+    });
     b.finish()
 }
 
@@ -1532,6 +1566,12 @@ mod tests {
             "-224.452",
             "19083.899",
             "123456789012345",
+            "12345678",
+            "-123456789.1234",
+            "0.000001",
+            "98765432.0",
+            "1.2345678912",
+            "00000000000042",
         ] {
             assert_eq!(
                 decimal(t.as_bytes()),
