@@ -1425,6 +1425,22 @@ mod tests {
         t.loops[0].body_min
     }
 
+    /// The times of the first retract site's runs.
+    fn retract_times(t: &Timeline) -> Vec<f64> {
+        let retract = t
+            .sites
+            .iter()
+            .position(|s| matches!(s.kind, SiteKind::Retract { .. }))
+            .unwrap();
+        let runs = crate::omm::loops::site_runs(t);
+        assert!(runs.complete);
+        runs.sites
+            .iter()
+            .filter(|(k, _)| *k == retract)
+            .map(|(_, time)| *time)
+            .collect()
+    }
+
     /// The time of the tool change every test program starts with.
     fn base() -> f64 {
         timeline_of("T1 M6\nS1000 M3\nM30\n").total_min
@@ -1442,23 +1458,11 @@ mod tests {
         assert!((loop_time(&t) - (once.total_min - base())).abs() < 1e-9);
         assert!((t.total_min - base() - 5.0 * loop_time(&t)).abs() < 1e-9);
         // The retract site in the body is listed once per run, a body apart.
-        let runs = crate::omm::loops::site_runs(&t);
-        let retract = t
-            .sites
-            .iter()
-            .position(|s| matches!(s.kind, SiteKind::Retract { .. }))
-            .unwrap();
-        let times: Vec<f64> = runs
-            .sites
-            .iter()
-            .filter(|(k, _)| *k == retract)
-            .map(|(_, time)| *time)
-            .collect();
+        let times = retract_times(&t);
         assert_eq!(times.len(), 5);
         for pair in times.windows(2) {
             assert!((pair[1] - pair[0] - loop_time(&t)).abs() < 1e-9);
         }
-        assert!(runs.complete);
     }
 
     #[test]
@@ -1528,18 +1532,7 @@ mod tests {
         let inner = t.loops[0].body_min;
         assert!((t.loops[1].body_min - 4.0 * inner).abs() < 1e-9);
         assert!((t.total_min - base() - 12.0 * inner).abs() < 1e-9);
-        let runs = crate::omm::loops::site_runs(&t);
-        let retract = t
-            .sites
-            .iter()
-            .position(|s| matches!(s.kind, SiteKind::Retract { .. }))
-            .unwrap();
-        let times: Vec<f64> = runs
-            .sites
-            .iter()
-            .filter(|(k, _)| *k == retract)
-            .map(|(_, time)| *time)
-            .collect();
+        let times = retract_times(&t);
         assert_eq!(times.len(), 12);
         assert!(times.windows(2).all(|w| (w[1] - w[0] - inner).abs() < 1e-9));
     }
