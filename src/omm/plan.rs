@@ -265,8 +265,9 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
         } else {
             site.block
         };
-        let restorable =
-            site.before.motion < 2 && (tool_change_follows || site.before.tool.is_some());
+        let restorable = !site.state_varies
+            && site.before.motion < 2
+            && (tool_change_follows || site.before.tool.is_some());
         let (kind, can_measure) = match site.kind {
             _ if reference => (GateKind::Reference, true),
             SiteKind::PassStart { .. } => (GateKind::PassStart, restorable),

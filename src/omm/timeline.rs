@@ -70,6 +70,10 @@ pub struct Site {
     pub before: Modal,
     /// Spindle speed from this block on (rpm).
     pub rpm_after: f64,
+    /// The block is in the body of a loop (or a repeated section) whose later runs reach it in another modal
+    /// state than the first (a value the body changes after this block and does not set before it): a gate
+    /// here could not restore the state after measuring.
+    pub state_varies: bool,
 }
 
 /// One technological pass.
@@ -752,7 +756,58 @@ struct Builder<'p> {
     /// R-parameters whose last assignment (in program order) was a literal.
     r_values: BTreeMap<u32, f64>,
     /// Labels seen: block, start and end of its first run (min).
-    label_times: HashMap<String, (usize, f64, f64)>,
+    label_times: HashMap<String, Label>,
+    /// Block (+1) where each of the modal fields a gate restores last changed (see [`field`]).
+    changed: [usize; field::COUNT],
+    /// Blocks that may get a site or pass mark, with `changed` there.
+    site_changes: Vec<(usize, [usize; field::COUNT])>,
+    /// Blocks whose modal state differs between the runs of a loop around them.
+    varies: BTreeSet<usize>,
+}
+
+/// A repeated section: its blocks, the start and end of its first run (min) and the state it starts in.
+struct Section {
+    body: (usize, usize),
+    start: f64,
+    end: f64,
+    entry: Modal,
+}
+
+/// A label seen: its block, the start and end of its first run (min) and the state before it.
+struct Label {
+    block: usize,
+    start: f64,
+    end: f64,
+    state: Modal,
+}
+
+/// The modal fields a gate restores after measuring, as bits.
+mod field {
+    use super::Modal;
+
+    pub const COUNT: usize = 8;
+    const TOOL: usize = 0;
+    const D: usize = 1;
+    const S: usize = 2;
+    const DIRECTION: usize = 3;
+    pub const FEED: usize = 4;
+    pub const MOTION: usize = 5;
+    const ABSOLUTE: usize = 6;
+    pub const Z: usize = 7;
+
+    /// The fields in which two states differ.
+    pub fn differ(a: &Modal, b: &Modal) -> [bool; COUNT] {
+        let mut d = [false; COUNT];
+        d[TOOL] = a.tool != b.tool;
+        d[D] = a.d != b.d;
+        d[S] = a.s != b.s;
+        d[DIRECTION] = a.direction != b.direction;
+        d[FEED] = a.feed != b.feed;
+        d[MOTION] = a.motion != b.motion;
+        d[ABSOLUTE] = a.absolute != b.absolute;
+        d[Z] = a.z != b.z;
+        d
+    }
 }
 
 /// A loop whose closing block has not come yet.
@@ -761,6 +816,8 @@ struct OpenLoop {
     block: usize,
     start_min: f64,
     runs: Result<u64, &'static str>,
+    /// The state the first run starts in.
+    entry: Modal,
 }
 
 impl<'p> Builder<'p> {
@@ -791,6 +848,9 @@ impl<'p> Builder<'p> {
             open_loops: Vec::new(),
             r_values: BTreeMap::new(),
             label_times: HashMap::new(),
+            changed: [0; field::COUNT],
+            site_changes: Vec::new(),
+            varies: BTreeSet::new(),
         }
     }
 
@@ -821,15 +881,22 @@ impl<'p> Builder<'p> {
         let start = self.time;
         let blank = motion.is_none() && mv.axes.iter().all(Option::is_none);
         self.header_and_preamble(i, false, false, blank);
-        if let Some(g) = motion {
+        if let Some(g) = motion
+            && g != self.state.motion
+        {
             self.state.motion = g;
+            self.changed[field::MOTION] = i + 1;
         }
-        if let Some(f) = mv.f {
+        if let Some(f) = mv.f
+            && self.state.feed != Some(f)
+        {
             self.state.feed = Some(f);
+            self.changed[field::FEED] = i + 1;
         }
         if self.profile.passes.lines.contains(&(i + 1)) {
             let mark = self.mark(i, false, start, &before);
             self.pass_marks.push(mark);
+            self.note_site(i);
         }
         self.movement(i, start, &before, mv, false, None, false, false);
     }
@@ -864,6 +931,10 @@ impl<'p> Builder<'p> {
     }
 
     fn block(&mut self, i: usize, s: &Scan, kind: BlockKind) {
+        // Changes matter only inside a loop body or a section that may be repeated.
+        let tracked =
+            (!self.open_loops.is_empty() || !self.label_times.is_empty() || s.label.is_some())
+                .then(|| self.state.clone());
         match kind {
             BlockKind::While | BlockKind::For | BlockKind::Loop | BlockKind::Repeat => {
                 self.loop_depth += 1;
@@ -962,6 +1033,9 @@ impl<'p> Builder<'p> {
             let mark = self.mark(i, tool_change, start, &before);
             self.pass_marks.push(mark);
         }
+        if s.tool.is_some() || (p.tool_change && tool_change) || marked || rpm != self.rpm {
+            self.note_site(i);
+        }
         if rpm != self.rpm {
             self.rpm = rpm;
             self.t.speeds.push((start, rpm));
@@ -972,13 +1046,26 @@ impl<'p> Builder<'p> {
                 pass: 0,
                 before: before.clone(),
                 rpm_after: rpm,
+                state_varies: false,
             });
         }
         self.movement(i, start, &before, &s.mv, dwell, s.s, s.inexact, tool_change);
-        if let Some(l) = &s.label {
-            self.label_times
-                .entry(l.to_ascii_uppercase())
-                .or_insert((i, start, self.time));
+        if let Some(prev) = tracked {
+            for (f, differs) in field::differ(&prev, &self.state).into_iter().enumerate() {
+                if differs {
+                    self.changed[f] = i + 1;
+                }
+            }
+            if let Some(l) = &s.label {
+                self.label_times
+                    .entry(l.to_ascii_uppercase())
+                    .or_insert(Label {
+                        block: i,
+                        start,
+                        end: self.time,
+                        state: prev,
+                    });
+            }
         }
         self.loops(i, s, kind, start);
     }
@@ -1013,6 +1100,7 @@ impl<'p> Builder<'p> {
                 block: i,
                 start_min: self.time,
                 runs,
+                entry: self.state.clone(),
             });
             return;
         }
@@ -1021,6 +1109,7 @@ impl<'p> Builder<'p> {
             BlockKind::EndWhile | BlockKind::EndFor | BlockKind::EndLoop | BlockKind::Until
         );
         if closes && let Some(open) = self.open_loops.pop() {
+            self.mark_varying(&open.entry, (open.block + 1, i));
             let (runs, unknown) = match open.runs {
                 Ok(n) => (Some(n), None),
                 Err(why) => (None, Some(why)),
@@ -1049,7 +1138,16 @@ impl<'p> Builder<'p> {
                 .filter(|n| *n >= 0.0 && n.fract() == 0.0)
                 .ok_or("repeat count computed at run time");
             let (body, start_min, body_min, runs, unknown) = match (section, times) {
-                (Ok((body, from, to)), Ok(n)) => (body, from, to - from, Some(n as u64 + 1), None),
+                (Ok(sec), Ok(n)) => {
+                    self.mark_varying(&sec.entry, (sec.body.0 + 1, sec.body.1));
+                    (
+                        sec.body,
+                        sec.start,
+                        sec.end - sec.start,
+                        Some(n as u64 + 1),
+                        None,
+                    )
+                }
                 (Err(why), _) | (_, Err(why)) => ((i, i), start, 0.0, None, Some(why)),
             };
             self.repeat(Loop {
@@ -1079,31 +1177,62 @@ impl<'p> Builder<'p> {
     /// The blocks and time span (first run) of the section a REPEAT statement at block `i` repeats: from
     /// the label to the statement, from the first label to the second, or (REPEATB) the labelled block.
     /// Only a section the program ran through before the statement is known.
-    #[allow(clippy::type_complexity)]
+    /// Returns the blocks, the start and end of the first run and the state it starts in.
     fn section(
         &self,
         i: usize,
         labels: &[String],
         single: bool,
         start: f64,
-    ) -> Result<((usize, usize), f64, f64), &'static str> {
+    ) -> Result<Section, &'static str> {
         let seen = |label: &String| {
             self.label_times
                 .get(label)
-                .copied()
                 .ok_or("the section is not before the REPEAT statement")
         };
         let first = seen(&labels[0])?;
-        match labels.get(1) {
-            _ if single => Ok(((first.0, first.0), first.1, first.2)),
+        let (last_block, end) = match labels.get(1) {
+            _ if single => (first.block, first.end),
             Some(end) => {
                 let last = seen(end)?;
-                if last.0 < first.0 {
+                if last.block < first.block {
                     return Err("the section's labels are in reverse order");
                 }
-                Ok(((first.0, last.0), first.1, last.2))
+                (last.block, last.end)
             }
-            None => Ok(((first.0, i - 1), first.1, start)),
+            None => (i - 1, start),
+        };
+        Ok(Section {
+            body: (first.block, last_block),
+            start: first.start,
+            end,
+            entry: first.state.clone(),
+        })
+    }
+
+    /// Marks the sites of a body that a later run reaches in another modal state: a field in which the state
+    /// at the repeat differs from `entry`, and which the body does not change before the site.
+    fn mark_varying(&mut self, entry: &Modal, body: (usize, usize)) {
+        let differ = field::differ(entry, &self.state);
+        if !differ.contains(&true) {
+            return;
+        }
+        let from = self.site_changes.partition_point(|(b, _)| *b < body.0);
+        for (b, changed) in &self.site_changes[from..] {
+            if *b > body.1 {
+                break;
+            }
+            let set_before = |f: usize| changed[f] > body.0 && changed[f] - 1 < *b;
+            if (0..field::COUNT).any(|f| differ[f] && !set_before(f)) {
+                self.varies.insert(*b);
+            }
+        }
+    }
+
+    /// Notes a block where a site or pass mark arises, with the fields' last changes.
+    fn note_site(&mut self, i: usize) {
+        if !self.open_loops.is_empty() || !self.label_times.is_empty() {
+            self.site_changes.push((i, self.changed));
         }
     }
 
@@ -1140,6 +1269,7 @@ impl<'p> Builder<'p> {
             && self.state.absolute
             && (dwell || (moved && mv.axes[2].is_none()));
         if retract_candidate {
+            self.note_site(i);
             let first_in_loop = self.loop_depth > 0 && self.loop_gate_pending;
             self.loop_gate_pending &= !first_in_loop;
             self.t.sites.push(Site {
@@ -1149,6 +1279,7 @@ impl<'p> Builder<'p> {
                 pass: 0,
                 before: before.clone(),
                 rpm_after: rpm,
+                state_varies: false,
             });
         }
         let from = self.pos;
@@ -1201,7 +1332,10 @@ impl<'p> Builder<'p> {
                 _ => false,
             };
         self.pos = to;
-        self.state.z = to[2];
+        if self.state.z != to[2] {
+            self.state.z = to[2];
+            self.changed[field::Z] = i + 1;
+        }
         self.time += minutes;
     }
 
@@ -1279,6 +1413,7 @@ impl<'p> Builder<'p> {
                 pass: k + 1,
                 before: m.before,
                 rpm_after: m.rpm,
+                state_varies: false,
             });
         }
         // One site per block: a pass start wins over a speed change or retract at the same block.
@@ -1288,6 +1423,7 @@ impl<'p> Builder<'p> {
         self.t.sites.dedup_by_key(|s| s.block);
         let mut pass = 0;
         for site in &mut self.t.sites {
+            site.state_varies = self.varies.contains(&site.block);
             match site.kind {
                 SiteKind::PassStart { .. } => pass = site.pass,
                 _ => site.pass = pass,
@@ -1546,6 +1682,43 @@ mod tests {
         let runs = crate::omm::loops::site_runs(&t);
         assert!(!runs.complete);
         assert_eq!(runs.sites.len(), crate::omm::loops::MAX_SITE_RUNS);
+    }
+
+    /// A gate in a loop body restores the state of the body's first run: where a later run reaches the
+    /// block in another state (the spindle speed set after it in the body), the site says so.
+    #[test]
+    fn sites_reached_in_another_state_by_later_runs_are_marked() {
+        let text = "T1 M6\nS1000 M3\nG0 X0 Y0 Z10\nFOR R1 = 1 TO 3\nG0 Z50\nG0 X10\nG1 Z-1 F100\nS2000 M3\nG1 X100\nG0 Z40\nG0 X0\nENDFOR\nM30\n";
+        let t = timeline_of(text);
+        let retracts: Vec<(usize, bool)> = t
+            .sites
+            .iter()
+            .filter(|s| matches!(s.kind, SiteKind::Retract { .. }))
+            .map(|s| (s.block, s.state_varies))
+            .collect();
+        // Before `G0 X10` the speed is 1000 rpm in the first run and 2000 in later ones; before `G0 X0` it
+        // was set in the same run.
+        assert_eq!(retracts, [(5, true), (10, false)]);
+        let (_, plan) = crate::omm::plan_program(
+            &crate::parse(text.as_bytes()),
+            &crate::model::DriftModel::read(
+                std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                    .join("fixtures/omm/model.toml")
+                    .as_ref(),
+            )
+            .unwrap(),
+            &Profile::default_profile(),
+        )
+        .unwrap();
+        let gate = plan.gates.iter().find(|g| g.block == 5).unwrap();
+        assert!(!gate.can_measure);
+        // Without the speed change, and with the feed set before the loop: every run alike.
+        let same = timeline_of(
+            &text
+                .replace("S2000 M3\n", "")
+                .replace("G0 X0 Y0 Z10", "G0 X0 Y0 Z10 F100"),
+        );
+        assert!(same.sites.iter().all(|s| !s.state_varies));
     }
 
     #[test]
