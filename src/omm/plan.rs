@@ -50,7 +50,8 @@ pub struct Gate {
     /// Whether the block after the gate changes the tool itself (no re-load needed).
     pub tool_change_follows: bool,
     /// How often the gate runs (more than once in the body of a counted loop); time and prediction above
-    /// are those of the first run.
+    /// are those of the first run the plan keeps it for (for an extra measuring cycle, the first that
+    /// measures).
     pub runs: usize,
     /// In how many of its runs the plan expects a measurement.
     pub measurements: usize,
