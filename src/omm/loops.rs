@@ -114,7 +114,7 @@ pub fn for_runs(from: Option<f64>, to: Option<f64>) -> Result<u64, &'static str>
     if b < a {
         return Err("the bounds give no run");
     }
-    Ok((b - a) as u64 + 1)
+    Ok(((b - a) as u64).saturating_add(1))
 }
 
 /// Every site in the order the program runs them, with its time: a counted loop's sites come once more for

@@ -1144,7 +1144,7 @@ impl<'p> Builder<'p> {
                         sec.body,
                         sec.start,
                         sec.end - sec.start,
-                        Some(n as u64 + 1),
+                        Some((n as u64).saturating_add(1)),
                         None,
                     )
                 }
@@ -1200,7 +1200,7 @@ impl<'p> Builder<'p> {
                 }
                 (last.block, last.end)
             }
-            None => (i - 1, start),
+            None => (i.saturating_sub(1), start),
         };
         Ok(Section {
             body: (first.block, last_block),
@@ -1682,6 +1682,13 @@ mod tests {
         let runs = crate::omm::loops::site_runs(&t);
         assert!(!runs.complete);
         assert_eq!(runs.sites.len(), crate::omm::loops::MAX_SITE_RUNS);
+        // Counts past u64 and a section that is its own statement neither overflow nor hang.
+        let t = timeline_of(&format!(
+            "START: REPEAT START P=2\nT1 M6\nFOR R1 = 0 TO 99999999999999999999\n{BODY}ENDFOR\nM30\n"
+        ));
+        assert_eq!(t.loops[1].runs, Some(u64::MAX));
+        assert_eq!(t.loops[0].runs, Some(3));
+        assert!(t.total_min.is_finite());
     }
 
     /// A gate in a loop body restores the state of the body's first run: where a later run reaches the
