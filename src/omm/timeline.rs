@@ -253,11 +253,8 @@ fn scan_chunk(program: &Program, blocks: std::ops::Range<usize>, marker: &str) -
         if kind == BlockKind::Plain
             && scan_words_into(&src[content.start..content.end], marker, &mut words)
         {
-            match words.as_move() {
-                Some(head) => {
-                    chunk.heads.push(head);
-                    words.mv.encode(&mut chunk.numbers);
-                }
+            match words.pack_move(&mut chunk.numbers) {
+                Some(head) => chunk.heads.push(head),
                 None => {
                     chunk.heads.push(head::OTHER);
                     chunk.others.push((kind, words.clone()));
@@ -272,8 +269,9 @@ fn scan_chunk(program: &Program, blocks: std::ops::Range<usize>, marker: &str) -
 }
 
 impl Scan {
-    /// The head of a block that only moves (motion codes, axes, arc, feed), or `None`.
-    fn as_move(&self) -> Option<u16> {
+    /// For a block that only moves (motion codes, axes, arc, feed): its numbers appended to `out` and its
+    /// head; `None` for any other block.
+    fn pack_move(&self, out: &mut Vec<f64>) -> Option<u16> {
         let only_moves = self.g.iter().all(|g| g <= 3)
             && self.m.is_empty()
             && self.s.is_none()
@@ -293,8 +291,11 @@ impl Scan {
             return None;
         }
         let mut h = 0;
-        for (k, v) in self.mv.numbers().iter().enumerate() {
-            h |= u16::from(v.is_some()) << k;
+        for (k, v) in self.mv.numbers().into_iter().enumerate() {
+            if let Some(v) = v {
+                out.push(v);
+                h |= 1 << k;
+            }
         }
         for (k, a) in self.mv.axes.iter().enumerate() {
             h |= u16::from(a.is_some_and(|(_, ac)| ac)) << (head::AC + k as u16);
@@ -322,11 +323,7 @@ impl Move {
         ]
     }
 
-    fn encode(&self, out: &mut Vec<f64>) {
-        out.extend(self.numbers().into_iter().flatten());
-    }
-
-    /// The move a head and its numbers describe (the inverse of [`Scan::as_move`] and [`Move::encode`]).
+    /// The move a head and its numbers describe (the inverse of [`Scan::pack_move`]).
     fn decode(h: u16, numbers: &mut impl Iterator<Item = f64>) -> Move {
         let mut v = [None; 8];
         for (k, slot) in v.iter_mut().enumerate() {
@@ -871,7 +868,7 @@ impl<'p> Builder<'p> {
         }
     }
 
-    /// A block that only moves (see [`Scan::as_move`]): most of what [`Builder::block`] looks at is absent.
+    /// A block that only moves (see [`Scan::pack_move`]): most of what [`Builder::block`] looks at is absent.
     fn plain_move(&mut self, i: usize, motion: Option<u32>, mv: &Move) {
         let before = if self.last_was_z_retract || !self.profile.passes.lines.is_empty() {
             self.state.clone()
