@@ -11,11 +11,12 @@ use driftloop::omm::emit::MARK;
 use driftloop::omm::{ModelRef, Profile, TransformError, Transformed, transform};
 use driftloop::views::used_r_parameters;
 
-const FIXTURES: [&str; 4] = [
+const FIXTURES: [&str; 5] = [
     "handwritten.mpf",
     "r_in_free_range.mpf",
     "crlf.mpf",
     "latin1.mpf",
+    "loops.mpf",
 ];
 
 fn root() -> PathBuf {
@@ -230,6 +231,40 @@ fn plan_of_the_handwritten_program() {
     assert!(
         in_loop.kind == driftloop::omm::GateKind::Extra && in_loop.can_measure && !in_loop.measure
     );
+}
+
+#[test]
+fn plan_of_the_loops_program() {
+    let profile = Profile::default_profile();
+    let input = fixture("loops.mpf");
+    let t = run(&input, &profile).unwrap();
+    let program = driftloop::parse(&input);
+    let timeline = driftloop::omm::timeline::build(&program, &profile);
+    let mut table = Vec::new();
+    let rows = driftloop::omm::report::pass_rows(&program, &timeline);
+    driftloop::omm::report::write_passes(&mut table, &rows).unwrap();
+    driftloop::omm::report::write_table(&mut table, &program, &t.plan).unwrap();
+    driftloop::omm::report::write_loops(&mut table, &program, &t.plan).unwrap();
+    insta::assert_snapshot!("plan_loops", String::from_utf8(table).unwrap());
+    // The roughing FOR runs six times, the finishing contour once plus three repeats, the FOR bounded by R10
+    // (assigned 4) four times; the WHILE is counted once.
+    let runs: Vec<Option<u64>> = t.plan.loops.iter().map(|l| l.runs).collect();
+    assert_eq!(runs, [Some(6), Some(4), Some(4), None]);
+    // The gate in the roughing loop's body runs with every layer, and the plan expects it to measure in
+    // some of them, although its first run predicts less than δ'.
+    let in_for = t.plan.gates.iter().find(|g| g.block == 18).unwrap();
+    assert_eq!(in_for.runs, 6);
+    assert!(in_for.measurements >= 1 && in_for.predicted_um < t.plan.working_limit_um);
+    assert_eq!(
+        t.plan.measurements,
+        t.plan.gates.iter().map(|g| g.measurements).sum::<usize>()
+    );
+    // Counted once, the same program would end 30 min earlier than the loops make it.
+    let once = timeline
+        .loops
+        .iter()
+        .map(|l| l.further_runs() as f64 * l.body_min);
+    assert!(once.sum::<f64>() > 30.0);
 }
 
 #[test]

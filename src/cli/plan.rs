@@ -80,6 +80,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             omm::report::write_passes(&mut out, &omm::report::pass_rows(&program, &timeline))?;
             writeln!(out)?;
             omm::report::write_table(&mut out, &program, &plan)?;
+            omm::report::write_loops(&mut out, &program, &plan)?;
         }
     }
     Ok(ExitCode::SUCCESS)

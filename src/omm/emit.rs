@@ -588,14 +588,10 @@ impl Emitter<'_> {
         let reg = &self.regs;
         let l = &self.profile.limits;
         let what = Emitter::describe(gate, pass_tool);
-        let planned = if gate.measure {
-            "measure"
-        } else {
-            "no measurement"
-        };
         let mut v = vec![format!(
-            "; driftloop {what}: predicted {} um, planned: {planned}",
-            number((gate.predicted_um * 10.0).round() / 10.0)
+            "; driftloop {what}: predicted {} um, planned: {}",
+            number((gate.predicted_um * 10.0).round() / 10.0),
+            gate.planned()
         )];
         v.extend(self.read_timer());
         v.extend(self.update_prediction(gate.rpm));

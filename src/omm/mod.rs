@@ -4,6 +4,7 @@
 //! new blocks are inserted, each parsed again before it is accepted.
 
 pub mod emit;
+pub mod loops;
 pub mod nc;
 pub mod plan;
 pub mod profile;
@@ -180,14 +181,11 @@ pub fn transform(
     };
     let mut editor = Editor::new(program);
     let mut inserted = 0;
-    let mut inserted_bytes = 0;
     let mut insert = |editor: &mut Editor, block: usize, text: String| {
         if let Some(long) = text.lines().find(|l| l.len() > MAX_BLOCK) {
             return Err(TransformError::LongBlock(long.to_string()));
         }
         inserted += text.lines().count();
-        // Line endings may grow to CRLF.
-        inserted_bytes += text.len() + 2 * text.lines().count();
         Ok(editor.insert_before(block, &text)?)
     };
     let pass_tool = |pass: usize| {
@@ -228,14 +226,9 @@ pub fn transform(
     if timeline.ends.is_empty() && program.block_count() > 0 {
         let end = emitter.end();
         inserted += end.lines().count();
-        inserted_bytes += end.len() + 2 * end.lines().count() + 2;
         editor.insert_after(program.block_count() - 1, &end)?;
     }
-    // Sized once: growing a 100 MB buffer would copy it again.
-    let mut bytes = Vec::with_capacity(program.source().len() + inserted_bytes);
-    editor
-        .write_to(&mut bytes)
-        .expect("writing to a Vec cannot fail");
+    let bytes = editor.to_bytes();
     Ok(Transformed {
         bytes,
         summary: Summary {

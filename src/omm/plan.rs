@@ -12,6 +12,7 @@ use crate::model::effects::{Effect, Kind};
 use crate::model::lag::step;
 use crate::model::speed_grid::SpeedGrid;
 
+use super::loops::{Loop, site_runs};
 use super::profile::{Axis, Position, Profile};
 use super::timeline::{Modal, SiteKind, Timeline};
 
@@ -48,8 +49,25 @@ pub struct Gate {
     pub can_measure: bool,
     /// Whether the block after the gate changes the tool itself (no re-load needed).
     pub tool_change_follows: bool,
+    /// How often the gate runs (more than once in the body of a counted loop); time and prediction above
+    /// are those of the first run the plan keeps it for (for an extra measuring cycle, the first that
+    /// measures).
+    pub runs: usize,
+    /// In how many of its runs the plan expects a measurement.
+    pub measurements: usize,
     #[serde(skip)]
     pub before: Modal,
+}
+
+impl Gate {
+    /// The plan for the gate in words: "measure", "no measurement", "measure in 2 of 5 runs".
+    pub fn planned(&self) -> String {
+        match (self.measurements, self.runs) {
+            (0, _) => "no measurement".into(),
+            (_, 1) => "measure".into(),
+            (m, n) => format!("measure in {m} of {n} runs"),
+        }
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -60,6 +78,11 @@ pub struct Plan {
     pub max_predicted_um: f64,
     /// Program time plus the planned measurements (min).
     pub total_min: f64,
+    /// The program's loops and how often the plan counts each.
+    pub loops: Vec<Loop>,
+    /// False when a loop runs so often that the plan does not follow every run of its gates (their time
+    /// is still counted).
+    pub every_run_planned: bool,
 }
 
 /// A lagged response to an analog input the control reads (`$A_INA[n]`): the model's `inputs` and its
@@ -283,32 +306,49 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
         );
     };
     let per_measurement = measurement_min(profile);
-    let mut gates = Vec::new();
+    // The sites in the order the program runs them: a counted loop's body comes once per run.
+    let runs = site_runs(timeline);
+    let start = runs
+        .sites
+        .iter()
+        .position(|&(k, _)| k == first)
+        .expect("every site runs at least once");
+    let mut visits = vec![0usize; timeline.sites.len()];
+    let mut gates: BTreeMap<usize, Gate> = BTreeMap::new();
     let mut shift = 0.0;
     let mut pending = 0.0;
-    let mut last_time = timeline.sites[first].time_min;
+    let mut last_time = runs.sites[start].1;
     let mut rpm = 0.0;
     let mut at_last_measurement = 0.0;
     let mut max: f64 = 0.0;
-    for (k, site) in timeline.sites[first..].iter().enumerate() {
+    for (n, &(k, time)) in runs.sites[start..].iter().enumerate() {
+        let site = &timeline.sites[k];
         // The program's own update uses the real time, measurements included, at the speed set last.
         p.set_rpm(rpm);
-        p.advance(site.time_min - last_time + pending);
-        last_time = site.time_min;
+        p.advance(time - last_time + pending);
+        last_time = time;
         pending = 0.0;
         let predicted = p.drift();
         max = max.max(predicted.abs());
+        visits[k] += 1;
+        let reference = k == first;
+        // The zero is planned once; should its block lie in a loop body, its further runs are not planned.
+        if reference && n > 0 {
+            rpm = site.rpm_after;
+            continue;
+        }
         let tool_change_follows = matches!(site.kind, SiteKind::PassStart { tool_change: true });
         // Declarations must stay first: a pass marked inside them is measured after them.
-        let block = if k == 0 {
+        let block = if reference {
             site.block.max(timeline.preamble_end)
         } else {
             site.block
         };
-        let restorable =
-            site.before.motion < 2 && (tool_change_follows || site.before.tool.is_some());
+        let restorable = !site.state_varies
+            && site.before.motion < 2
+            && (tool_change_follows || site.before.tool.is_some());
         let (kind, can_measure) = match site.kind {
-            _ if k == 0 => (GateKind::Reference, true),
+            _ if reference => (GateKind::Reference, true),
             SiteKind::PassStart { .. } => (GateKind::PassStart, restorable),
             SiteKind::Retract { .. } => (GateKind::Extra, restorable),
             SiteKind::SpeedChange => (GateKind::Update, false),
@@ -323,7 +363,11 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
                 first_in_loop: true
             }
         );
-        if kind == GateKind::Extra && !((measure || in_loop) && profile.passes.extra_gates) {
+        let gate_exists = gates.contains_key(&k);
+        if kind == GateKind::Extra
+            && !gate_exists
+            && !((measure || in_loop) && profile.passes.extra_gates)
+        {
             rpm = site.rpm_after;
             continue;
         }
@@ -332,31 +376,50 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
             pending = per_measurement;
         }
         rpm = site.rpm_after;
-        let time_min = site.time_min + shift;
+        let time_min = time + shift;
         shift += pending;
-        gates.push(Gate {
-            number: gates.len() + 1,
+        let gate = gates.entry(k).or_insert_with(|| Gate {
+            number: 0,
             kind,
             block,
             pass: site.pass,
             time_min,
             rpm,
             predicted_um: predicted,
-            measure,
+            measure: false,
             can_measure,
             tool_change_follows,
+            runs: 0,
+            measurements: 0,
             before: site.before.clone(),
         });
+        gate.measure |= measure;
+        gate.measurements += usize::from(measure);
     }
     p.set_rpm(rpm);
     p.advance(timeline.total_min - last_time + pending);
     max = max.max(p.drift().abs());
+    let gates: Vec<Gate> = gates
+        .into_iter()
+        .enumerate()
+        .map(|(number, (k, mut g))| {
+            g.number = number + 1;
+            g.runs = if g.kind == GateKind::Reference {
+                1
+            } else {
+                visits[k]
+            };
+            g
+        })
+        .collect();
     Ok(Plan {
         working_limit_um: limit,
-        measurements: gates.iter().filter(|g| g.measure).count(),
+        measurements: gates.iter().map(|g| g.measurements).sum(),
         gates,
         max_predicted_um: max,
         total_min: timeline.total_min + shift,
+        loops: timeline.loops.clone(),
+        every_run_planned: runs.complete,
     })
 }
 

@@ -76,10 +76,13 @@ pub fn write_table(out: &mut impl Write, program: &Program, plan: &Plan) -> io::
             GateKind::Extra => "extra",
             GateKind::Update => "update",
         };
-        let measure = match (g.measure, g.can_measure) {
-            (true, _) => "yes",
-            (false, true) => "no",
-            (false, false) => "-",
+        let measure = match (g.measurements, g.runs, g.can_measure) {
+            (0, 1, true) => "no".to_string(),
+            (0, 1, false) => "-".to_string(),
+            (0, n, true) => format!("no ({n} runs)"),
+            (0, n, false) => format!("- ({n} runs)"),
+            (_, 1, _) => "yes".to_string(),
+            (m, n, _) => format!("yes, {m} of {n} runs"),
         };
         writeln!(
             out,
@@ -92,4 +95,38 @@ pub fn write_table(out: &mut impl Write, program: &Program, plan: &Plan) -> io::
         "program {:.1} min with measurements; {} measurement(s) planned; predicted drift up to {:.1} µm; δ' = {:.1} µm",
         plan.total_min, plan.measurements, plan.max_predicted_um, plan.working_limit_um
     )
+}
+
+/// How the plan counts the program's loops: a counted loop's runs, or why one is counted once.
+pub fn write_loops(out: &mut impl Write, program: &Program, plan: &Plan) -> io::Result<()> {
+    if plan.loops.is_empty() {
+        return Ok(());
+    }
+    let lines = LineIndex::new(program.source());
+    let line = |block: usize| lines.line_col(program.block_span(block).start).0;
+    writeln!(out, "loops:")?;
+    for l in &plan.loops {
+        let what = format!("line {} {}", line(l.block), l.kind.keyword());
+        let body = format!("lines {}-{}", line(l.body.0), line(l.body.1));
+        match (l.runs, l.unknown) {
+            (Some(n), _) => writeln!(
+                out,
+                "  {what:<22} {body:<15} counted {n} times ({:.2} min each)",
+                l.body_min
+            )?,
+            (None, why) => writeln!(
+                out,
+                "  {what:<22} {body:<15} counted once: {}",
+                why.unwrap_or("runs not known")
+            )?,
+        }
+    }
+    if !plan.every_run_planned {
+        writeln!(
+            out,
+            "  (a loop runs so often that the plan follows only the first {} gate runs; the time of all runs is counted)",
+            super::loops::MAX_SITE_RUNS
+        )?;
+    }
+    Ok(())
 }

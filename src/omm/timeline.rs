@@ -7,12 +7,14 @@
 //! The program is read once, in order, without running it: loops and jumps are counted once, expressions
 //! as coordinates count as no move (`inexact_blocks` says how many blocks that affected).
 
-use std::collections::BTreeSet;
-use std::sync::Arc;
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Condvar, Mutex};
 
 use crate::syntax::{Block, BlockKind, Node, NodeKind, Program};
 use crate::views::{AxisMode, Value, VarName, WorkOffset, facts};
 
+use super::loops::{Bound, Count, Loop, LoopKind, for_runs};
 use super::profile::Profile;
 
 /// The modal state a gate must restore after it moved the machine.
@@ -68,6 +70,10 @@ pub struct Site {
     pub before: Modal,
     /// Spindle speed from this block on (rpm).
     pub rpm_after: f64,
+    /// The block is in the body of a loop (or a repeated section) whose later runs reach it in another modal
+    /// state than the first (a value the body changes after this block and does not set before it): a gate
+    /// here could not restore the state after measuring.
+    pub state_varies: bool,
 }
 
 /// One technological pass.
@@ -83,7 +89,7 @@ pub struct Pass {
     pub max_rpm: f64,
 }
 
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct Timeline {
     pub total_min: f64,
     pub passes: Vec<Pass>,
@@ -105,17 +111,16 @@ pub struct Timeline {
     pub offsets: Vec<(u32, usize)>,
     /// Blocks whose moves could not be timed (expressions, unknown feed).
     pub inexact_blocks: usize,
+    /// The program's loops in the order they close (a section repeat at its REPEAT statement).
+    pub loops: Vec<Loop>,
 }
 
 /// What one block says, reduced to what the timeline needs (built in parallel).
 #[derive(Debug, Default, Clone, PartialEq)]
 struct Scan {
     g: Codes,
-    axes: [Option<(f64, bool)>; 3],
+    mv: Move,
     inexact: bool,
-    centre: [Option<f64>; 3],
-    radius: Option<f64>,
-    f: Option<f64>,
     s: Option<f64>,
     m: Codes,
     tool: Option<Arc<str>>,
@@ -127,23 +132,217 @@ struct Scan {
     r: Vec<Option<u32>>,
     label: Option<String>,
     offsets: Vec<u32>,
+    /// R-parameters the block assigns, with the value when it is a literal.
+    r_set: Vec<(u32, Option<f64>)>,
+    /// FOR bounds or a section repeat's labels and count.
+    count: Option<Count>,
+}
+
+/// The words of a block a move needs: axes (value, written with AC), arc centre or radius, feed.
+#[derive(Debug, Default, Clone, Copy, PartialEq)]
+struct Move {
+    axes: [Option<(f64, bool)>; 3],
+    centre: [Option<f64>; 3],
+    radius: Option<f64>,
+    f: Option<f64>,
 }
 
 pub fn build(program: &Program, profile: &Profile) -> Timeline {
     let marker = profile.passes.marker.to_ascii_uppercase();
     let mut b = Builder::new(profile);
+    let count = program.block_count();
+    let chunks = count.div_ceil(CHUNK_BLOCKS);
+    let scan = |k: usize| {
+        let from = k * CHUNK_BLOCKS;
+        scan_chunk(program, from..count.min(from + CHUNK_BLOCKS), &marker)
+    };
+    let helpers = rayon::current_num_threads().saturating_sub(1);
+    if chunks <= 1 || helpers == 0 {
+        (0..chunks).for_each(|k| b.fold(&scan(k)));
+        return b.finish();
+    }
+    // Reading the blocks is independent line by line, the fold is not. Helpers read chunks in order of a
+    // shared counter, at most AHEAD chunks past the fold (so the records never hold the whole program);
+    // this thread folds them in order and, while the next one is not ready, reads chunks itself.
+    const AHEAD: usize = 8;
+    let next = AtomicUsize::new(0);
+    let ready: Mutex<(Vec<Option<Chunk>>, usize)> =
+        Mutex::new(((0..chunks).map(|_| None).collect(), 0));
+    let changed = Condvar::new();
+    let put = |k: usize, chunk: Chunk| {
+        ready.lock().expect("no panic while held").0[k] = Some(chunk);
+        changed.notify_all();
+    };
+    std::thread::scope(|threads| {
+        for _ in 0..helpers {
+            threads.spawn(|| {
+                loop {
+                    let k = next.fetch_add(1, Ordering::Relaxed);
+                    if k >= chunks {
+                        return;
+                    }
+                    let mut slots = ready.lock().expect("no panic while held");
+                    while k > slots.1 + AHEAD {
+                        slots = changed.wait(slots).expect("no panic while held");
+                    }
+                    drop(slots);
+                    put(k, scan(k));
+                }
+            });
+        }
+        for k in 0..chunks {
+            let chunk = loop {
+                let mut slots = ready.lock().expect("no panic while held");
+                if let Some(chunk) = slots.0[k].take() {
+                    break chunk;
+                }
+                drop(slots);
+                let j = next.fetch_add(1, Ordering::Relaxed);
+                if j < chunks {
+                    put(j, scan(j));
+                    continue;
+                }
+                let mut slots = ready.lock().expect("no panic while held");
+                while slots.0[k].is_none() {
+                    slots = changed.wait(slots).expect("no panic while held");
+                }
+            };
+            b.fold(&chunk);
+            ready.lock().expect("no panic while held").1 = k + 1;
+            changed.notify_all();
+        }
+    });
+    b.finish()
+}
+
+/// Blocks read as one piece of work.
+const CHUNK_BLOCKS: usize = 1 << 15;
+
+/// The blocks of one chunk as the fold needs them: a plain move (the lines CAM output is made of) as a
+/// head of bits and its numbers, any other block as its whole [`Scan`] (4 bytes per typical CAM line
+/// instead of a few hundred).
+struct Chunk {
+    first: usize,
+    heads: Vec<u16>,
+    numbers: Vec<f64>,
+    others: Vec<(BlockKind, Scan)>,
+}
+
+/// Bits of a chunk's head: which numbers follow (x, y, z, i, j, k, cr, f in that order), the axes written
+/// with AC, the motion code, or the block being one of the chunk's `others`.
+mod head {
+    pub const AC: u16 = 8;
+    pub const MOTION: u16 = 1 << 11;
+    pub const MOTION_CODE: u16 = 12;
+    pub const OTHER: u16 = 1 << 15;
+}
+
+fn scan_chunk(program: &Program, blocks: std::ops::Range<usize>, marker: &str) -> Chunk {
+    let mut chunk = Chunk {
+        first: blocks.start,
+        heads: Vec::with_capacity(blocks.len()),
+        numbers: Vec::with_capacity(blocks.len() * 4),
+        others: Vec::new(),
+    };
     // One buffer for the word scanner, filled in place line after line: no per-line copies.
     let mut words = Scan::default();
-    for i in 0..program.block_count() {
+    let src = program.source();
+    for i in blocks {
+        let kind = program.block_kind(i);
         let content = program.content_span(i);
-        let line = &program.source()[content.start..content.end];
-        if program.block_kind(i) == BlockKind::Plain && scan_words_into(line, &marker, &mut words) {
-            b.block(i, &words, program.block_kind(i));
+        if kind == BlockKind::Plain
+            && scan_words_into(&src[content.start..content.end], marker, &mut words)
+        {
+            match words.pack_move(&mut chunk.numbers) {
+                Some(head) => chunk.heads.push(head),
+                None => {
+                    chunk.heads.push(head::OTHER);
+                    chunk.others.push((kind, words.clone()));
+                }
+            }
         } else {
-            b.block(i, &scan_tree(program, i, &marker), program.block_kind(i));
+            chunk.heads.push(head::OTHER);
+            chunk.others.push((kind, scan_tree(program, i, marker)));
         }
     }
-    b.finish()
+    chunk
+}
+
+impl Scan {
+    /// For a block that only moves (motion codes, axes, arc, feed): its numbers appended to `out` and its
+    /// head; `None` for any other block.
+    fn pack_move(&self, out: &mut Vec<f64>) -> Option<u16> {
+        let only_moves = self.g.iter().all(|g| g <= 3)
+            && self.m.is_empty()
+            && self.s.is_none()
+            && self.tool.is_none()
+            && self.d.is_none()
+            && !(self.inexact
+                || self.marker
+                || self.declaration
+                || self.path_comment
+                || self.kind_header)
+            && self.r.is_empty()
+            && self.label.is_none()
+            && self.offsets.is_empty()
+            && self.r_set.is_empty()
+            && self.count.is_none();
+        if !only_moves {
+            return None;
+        }
+        let mut h = 0;
+        for (k, v) in self.mv.numbers().into_iter().enumerate() {
+            if let Some(v) = v {
+                out.push(v);
+                h |= 1 << k;
+            }
+        }
+        for (k, a) in self.mv.axes.iter().enumerate() {
+            h |= u16::from(a.is_some_and(|(_, ac)| ac)) << (head::AC + k as u16);
+        }
+        if let Some(g) = self.g.iter().last() {
+            h |= head::MOTION | (g as u16) << head::MOTION_CODE;
+        }
+        Some(h)
+    }
+}
+
+impl Move {
+    /// x, y, z, i, j, k, cr, f: the order of a chunk's numbers.
+    fn numbers(&self) -> [Option<f64>; 8] {
+        let axis = |k: usize| self.axes[k].map(|(v, _)| v);
+        [
+            axis(0),
+            axis(1),
+            axis(2),
+            self.centre[0],
+            self.centre[1],
+            self.centre[2],
+            self.radius,
+            self.f,
+        ]
+    }
+
+    /// The move a head and its numbers describe (the inverse of [`Scan::pack_move`]).
+    fn decode(h: u16, numbers: &mut impl Iterator<Item = f64>) -> Move {
+        let mut v = [None; 8];
+        for (k, slot) in v.iter_mut().enumerate() {
+            if h & (1 << k) != 0 {
+                *slot = numbers.next();
+            }
+        }
+        let ac = |k: u16| h & (1 << (head::AC + k)) != 0;
+        Move {
+            axes: [
+                v[0].map(|x| (x, ac(0))),
+                v[1].map(|x| (x, ac(1))),
+                v[2].map(|x| (x, ac(2))),
+            ],
+            centre: [v[3], v[4], v[5]],
+            radius: v[6],
+            f: v[7],
+        }
+    }
 }
 
 fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
@@ -168,9 +367,9 @@ fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
         };
         match (&a.value, a.mode) {
             (Value::Number(v), AxisMode::Modal | AxisMode::Ac) => {
-                s.axes[k] = Some((*v, a.mode == AxisMode::Ac))
+                s.mv.axes[k] = Some((*v, a.mode == AxisMode::Ac))
             }
-            (Value::Number(v), AxisMode::Ic) => s.axes[k] = Some((*v, false)),
+            (Value::Number(v), AxisMode::Ic) => s.mv.axes[k] = Some((*v, false)),
             _ => s.inexact = true,
         }
     }
@@ -178,7 +377,7 @@ fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
         Value::Number(x) => Some(*x),
         _ => None,
     };
-    s.f = f.feed.as_ref().and_then(|a| num(&a.value));
+    s.mv.f = f.feed.as_ref().and_then(|a| num(&a.value));
     s.s = f
         .spindle_speeds
         .iter()
@@ -214,10 +413,58 @@ fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
             NodeKind::Def | NodeKind::Proc | NodeKind::Extern | NodeKind::Define => {
                 s.declaration = true
             }
+            NodeKind::For => s.count = for_bounds(&block, node),
+            NodeKind::Repeat => s.count = section_repeat(&block, node),
             _ => {}
         }
     }
     s
+}
+
+/// `FOR var = from TO to`: the bounds.
+fn for_bounds(block: &Block<'_>, node: &Node) -> Option<Count> {
+    let parts: Vec<&Node> = node.significant().collect();
+    match parts.as_slice() {
+        [_, _, _, from, _, to] => Some(Count::For {
+            from: bound(block, from),
+            to: bound(block, to),
+        }),
+        _ => None,
+    }
+}
+
+/// `REPEAT a [b]` / `REPEATB a` with its labels (`P=n` follows as an assignment); `None` for the REPEAT
+/// that opens a REPEAT … UNTIL loop.
+fn section_repeat(block: &Block<'_>, node: &Node) -> Option<Count> {
+    let mut parts = node.significant();
+    let keyword = block.text(parts.next()?);
+    let labels: Vec<String> = parts
+        .filter(|n| n.kind == NodeKind::Name)
+        .map(|n| String::from_utf8_lossy(block.text(n)).to_ascii_uppercase())
+        .collect();
+    (!labels.is_empty()).then(|| Count::Section {
+        labels,
+        single: keyword.eq_ignore_ascii_case(b"REPEATB"),
+        times: Bound::Number(1.0),
+    })
+}
+
+fn bound(block: &Block<'_>, node: &Node) -> Bound {
+    if let Some(v) = literal(block, node) {
+        return Bound::Number(v);
+    }
+    match node.kind {
+        NodeKind::RParam => r_number(block.text(node)).map_or(Bound::Other, Bound::R),
+        _ => Bound::Other,
+    }
+}
+
+/// `R12` → 12 (not `R[…]`).
+fn r_number(text: &[u8]) -> Option<u32> {
+    let digits = text
+        .strip_prefix(b"R")
+        .or_else(|| text.strip_prefix(b"r"))?;
+    std::str::from_utf8(digits).ok()?.parse().ok()
 }
 
 /// The same facts without a syntax tree, for the lines CAM output is made of: one-letter address words with
@@ -226,9 +473,9 @@ fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
 fn scan_words_into(line: &[u8], marker: &str, s: &mut Scan) -> bool {
     s.g.len = 0;
     s.m.len = 0;
-    s.axes = [None; 3];
-    s.centre = [None; 3];
-    (s.radius, s.f, s.s, s.tool, s.d) = (None, None, None, None, None);
+    s.mv.axes = [None; 3];
+    s.mv.centre = [None; 3];
+    (s.mv.radius, s.mv.f, s.s, s.tool, s.d) = (None, None, None, None, None);
     (s.marker, s.path_comment) = (false, false);
     s.offsets.clear();
     scan_words(line, marker, s).is_some()
@@ -256,7 +503,7 @@ fn scan_words(line: &[u8], marker: &str, s: &mut Scan) -> Option<()> {
                 .iter()
                 .position(|c| matches!(c, b' ' | b'\t' | b';'))
                 .map_or(line.len(), |p| i + 3 + p);
-            s.radius = Some(decimal(&line[i + 3..end])?);
+            s.mv.radius = Some(decimal(&line[i + 3..end])?);
             i = end;
             continue;
         }
@@ -291,10 +538,11 @@ fn scan_words(line: &[u8], marker: &str, s: &mut Scan) -> Option<()> {
         }
         i = end;
         let digits = &line[start..end];
-        let int = (v >= 0.0 && v == (v as u32) as f64).then_some(v as u32);
+        // Only G, M and D need whole numbers: the conversion is left to them.
+        let int = || (v >= 0.0 && v == (v as u32) as f64).then_some(v as u32);
         match letter {
             b'G' => {
-                let g = int?;
+                let g = int()?;
                 if matches!(g, 53 | 153 | 500 | 54..=57 | 505..=599) {
                     s.offsets.push(g);
                 }
@@ -302,18 +550,18 @@ fn scan_words(line: &[u8], marker: &str, s: &mut Scan) -> Option<()> {
                     return None;
                 }
             }
-            b'X' => s.axes[0] = Some((v, false)),
-            b'Y' => s.axes[1] = Some((v, false)),
-            b'Z' => s.axes[2] = Some((v, false)),
-            b'I' => s.centre[0] = Some(v),
-            b'J' => s.centre[1] = Some(v),
-            b'K' => s.centre[2] = Some(v),
-            b'F' => s.f = Some(v),
+            b'X' => s.mv.axes[0] = Some((v, false)),
+            b'Y' => s.mv.axes[1] = Some((v, false)),
+            b'Z' => s.mv.axes[2] = Some((v, false)),
+            b'I' => s.mv.centre[0] = Some(v),
+            b'J' => s.mv.centre[1] = Some(v),
+            b'K' => s.mv.centre[2] = Some(v),
+            b'F' => s.mv.f = Some(v),
             b'S' => s.s = Some(v),
             // The guard stores the code; a block with more codes than fit goes to the tree path.
-            b'M' if !s.m.push(int?) => return None,
+            b'M' if !s.m.push(int()?) => return None,
             b'T' => s.tool = Some(Arc::from(std::str::from_utf8(digits).ok()?)),
-            b'D' => s.d = Some(int?),
+            b'D' => s.d = Some(int()?),
             _ => {}
         }
     }
@@ -372,7 +620,7 @@ fn decimal(text: &[u8]) -> Option<f64> {
 
 /// The decimal at the start of `text` and its length in bytes, in one pass over the bytes.
 fn decimal_prefix(text: &[u8]) -> Option<(f64, usize)> {
-    const POW10: [f64; 16] = [
+    static POW10: [f64; 16] = [
         1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
     ];
     let (negative, mut i) = match text.first()? {
@@ -397,7 +645,14 @@ fn decimal_prefix(text: &[u8]) -> Option<(f64, usize)> {
     if digits == 0 || digits > 15 {
         return None;
     }
-    let v = mantissa as f64 / POW10[scale];
+    // At most 15 digits: the mantissa and the power of ten are exact doubles, the quotient is rounded once
+    // (as `str::parse` rounds); the signed conversion is the one x86 does in one instruction.
+    let whole = mantissa as i64 as f64;
+    let v = if scale == 0 {
+        whole
+    } else {
+        whole / POW10[scale]
+    };
     Some((if negative { -v } else { v }, i))
 }
 
@@ -426,9 +681,9 @@ fn word(block: &Block<'_>, node: &Node, s: &mut Scan) {
         .and_then(|t| t.parse::<f64>().ok());
     match (letter.as_slice(), value) {
         (b"D", Some(d)) if d >= 0.0 && d.fract() == 0.0 => s.d = Some(d as u32),
-        (b"I", Some(v)) => s.centre[0] = Some(v),
-        (b"J", Some(v)) => s.centre[1] = Some(v),
-        (b"K", Some(v)) => s.centre[2] = Some(v),
+        (b"I", Some(v)) => s.mv.centre[0] = Some(v),
+        (b"J", Some(v)) => s.mv.centre[1] = Some(v),
+        (b"K", Some(v)) => s.mv.centre[2] = Some(v),
         _ => {}
     }
 }
@@ -440,11 +695,22 @@ fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
     };
     let name = block.text(target).to_ascii_uppercase();
     let v = literal(block, value);
+    if target.kind == NodeKind::RParam {
+        if let Some(n) = r_number(&name) {
+            s.r_set.push((n, v));
+        }
+        return;
+    }
     match name.as_slice() {
-        b"CR" => s.radius = v,
-        b"I" => s.centre[0] = v,
-        b"J" => s.centre[1] = v,
-        b"K" => s.centre[2] = v,
+        b"P" => {
+            if let Some(Count::Section { times, .. }) = &mut s.count {
+                *times = bound(block, value);
+            }
+        }
+        b"CR" => s.mv.radius = v,
+        b"I" => s.mv.centre[0] = v,
+        b"J" => s.mv.centre[1] = v,
+        b"K" => s.mv.centre[2] = v,
         _ => {}
     }
 }
@@ -483,6 +749,72 @@ struct Builder<'p> {
     loop_depth: usize,
     /// A loop started and no retract site in its body yet.
     loop_gate_pending: bool,
+    open_loops: Vec<OpenLoop>,
+    /// R-parameters whose last assignment (in program order) was a literal.
+    r_values: BTreeMap<u32, f64>,
+    /// Labels seen: block, start and end of its first run (min).
+    label_times: HashMap<String, Label>,
+    /// Block (+1) where each of the modal fields a gate restores last changed (see [`field`]).
+    changed: [usize; field::COUNT],
+    /// Blocks that may get a site or pass mark, with `changed` there.
+    site_changes: Vec<(usize, [usize; field::COUNT])>,
+    /// Blocks whose modal state differs between the runs of a loop around them.
+    varies: BTreeSet<usize>,
+}
+
+/// A repeated section: its blocks, the start and end of its first run (min) and the state it starts in.
+struct Section {
+    body: (usize, usize),
+    start: f64,
+    end: f64,
+    entry: Modal,
+}
+
+/// A label seen: its block, the start and end of its first run (min) and the state before it.
+struct Label {
+    block: usize,
+    start: f64,
+    end: f64,
+    state: Modal,
+}
+
+/// The modal fields a gate restores after measuring, as bits.
+mod field {
+    use super::Modal;
+
+    pub const COUNT: usize = 8;
+    const TOOL: usize = 0;
+    const D: usize = 1;
+    const S: usize = 2;
+    const DIRECTION: usize = 3;
+    pub const FEED: usize = 4;
+    pub const MOTION: usize = 5;
+    const ABSOLUTE: usize = 6;
+    pub const Z: usize = 7;
+
+    /// The fields in which two states differ.
+    pub fn differ(a: &Modal, b: &Modal) -> [bool; COUNT] {
+        let mut d = [false; COUNT];
+        d[TOOL] = a.tool != b.tool;
+        d[D] = a.d != b.d;
+        d[S] = a.s != b.s;
+        d[DIRECTION] = a.direction != b.direction;
+        d[FEED] = a.feed != b.feed;
+        d[MOTION] = a.motion != b.motion;
+        d[ABSOLUTE] = a.absolute != b.absolute;
+        d[Z] = a.z != b.z;
+        d
+    }
+}
+
+/// A loop whose closing block has not come yet.
+struct OpenLoop {
+    kind: LoopKind,
+    block: usize,
+    start_min: f64,
+    runs: Result<u64, &'static str>,
+    /// The state the first run starts in.
+    entry: Modal,
 }
 
 impl<'p> Builder<'p> {
@@ -510,10 +842,96 @@ impl<'p> Builder<'p> {
             rpm: 0.0,
             loop_depth: 0,
             loop_gate_pending: false,
+            open_loops: Vec::new(),
+            r_values: BTreeMap::new(),
+            label_times: HashMap::new(),
+            changed: [0; field::COUNT],
+            site_changes: Vec::new(),
+            varies: BTreeSet::new(),
+        }
+    }
+
+    /// Folds the blocks of a chunk, in order.
+    fn fold(&mut self, chunk: &Chunk) {
+        let mut numbers = chunk.numbers.iter().copied();
+        let mut others = chunk.others.iter();
+        for (k, &h) in chunk.heads.iter().enumerate() {
+            let i = chunk.first + k;
+            if h & head::OTHER != 0 {
+                let (kind, scan) = others.next().expect("one scan per other block");
+                self.block(i, scan, *kind);
+            } else {
+                let motion =
+                    (h & head::MOTION != 0).then_some(u32::from(h >> head::MOTION_CODE & 3));
+                self.plain_move(i, motion, &Move::decode(h, &mut numbers));
+            }
+        }
+    }
+
+    /// A block that only moves (see [`Scan::pack_move`]): most of what [`Builder::block`] looks at is absent.
+    fn plain_move(&mut self, i: usize, motion: Option<u32>, mv: &Move) {
+        let before = if self.last_was_z_retract || !self.profile.passes.lines.is_empty() {
+            self.state.clone()
+        } else {
+            Modal::default()
+        };
+        let start = self.time;
+        let blank = motion.is_none() && mv.axes.iter().all(Option::is_none);
+        self.header_and_preamble(i, false, false, blank);
+        if let Some(g) = motion
+            && g != self.state.motion
+        {
+            self.state.motion = g;
+            self.changed[field::MOTION] = i + 1;
+        }
+        if let Some(f) = mv.f
+            && self.state.feed != Some(f)
+        {
+            self.state.feed = Some(f);
+            self.changed[field::FEED] = i + 1;
+        }
+        if self.profile.passes.lines.contains(&(i + 1)) {
+            let mark = self.mark(i, false, start, &before);
+            self.pass_marks.push(mark);
+            self.note_site(i);
+        }
+        self.movement(i, start, &before, mv, false, None, false, false);
+    }
+
+    /// Header lines (`%…`, `;$PATH`) and the declarations after them: no gate may come before their end.
+    fn header_and_preamble(&mut self, i: usize, header: bool, declaration: bool, blank: bool) {
+        if !self.header_done {
+            if header {
+                self.t.header_end = i + 1;
+            } else {
+                self.header_done = true;
+            }
+        }
+        if !self.preamble_done {
+            if declaration || blank {
+                self.t.preamble_end = i + 1;
+            } else {
+                self.preamble_done = true;
+            }
+        }
+    }
+
+    fn mark(&self, i: usize, tool_change: bool, start: f64, before: &Modal) -> PassMark {
+        PassMark {
+            block: i,
+            tool_change,
+            time: start,
+            before: before.clone(),
+            rpm: self.state.rpm(),
+            tool: self.state.tool.clone(),
         }
     }
 
     fn block(&mut self, i: usize, s: &Scan, kind: BlockKind) {
+        // Changes matter only inside a loop body or a section that may be repeated.
+        let tracked =
+            (!self.open_loops.is_empty() || !self.label_times.is_empty() || s.label.is_some())
+                .then(|| self.state.clone());
         match kind {
             BlockKind::While | BlockKind::For | BlockKind::Loop | BlockKind::Repeat => {
                 self.loop_depth += 1;
@@ -538,26 +956,18 @@ impl<'p> Builder<'p> {
             Modal::default()
         };
         let start = self.time;
-        if !self.header_done {
-            if s.kind_header || s.path_comment {
-                self.t.header_end = i + 1;
-            } else {
-                self.header_done = true;
-            }
-        }
         let blank = s.g.is_empty()
-            && s.axes.iter().all(Option::is_none)
+            && s.mv.axes.iter().all(Option::is_none)
             && s.m.is_empty()
             && s.tool.is_none()
             && s.s.is_none()
             && s.r.is_empty();
-        if !self.preamble_done {
-            if s.declaration || s.kind_header || blank {
-                self.t.preamble_end = i + 1;
-            } else {
-                self.preamble_done = true;
-            }
-        }
+        self.header_and_preamble(
+            i,
+            s.kind_header || s.path_comment,
+            s.declaration || s.kind_header,
+            blank,
+        );
         for r in &s.r {
             match r {
                 Some(n) => {
@@ -585,8 +995,9 @@ impl<'p> Builder<'p> {
                 _ => {}
             }
         }
-        if let Some(f) = s.f
-            && !s.g.contains(4)
+        let dwell = s.g.contains(4);
+        if let Some(f) = s.mv.f
+            && !dwell
         {
             self.state.feed = Some(f);
         }
@@ -609,21 +1020,18 @@ impl<'p> Builder<'p> {
             self.state.tool = Some(tool.clone());
         }
         let rpm = self.state.rpm();
-        let mark = |tool_change| PassMark {
-            block: i,
-            tool_change,
-            time: start,
-            before: before.clone(),
-            rpm,
-            tool: self.state.tool.clone(),
-        };
         if s.tool.is_some() {
-            self.tool_marks.push(mark(true));
+            let mark = self.mark(i, true, start, &before);
+            self.tool_marks.push(mark);
         }
         let p = &self.profile.passes;
         let marked = s.marker || p.lines.contains(&(i + 1));
         if (p.tool_change && tool_change) || marked {
-            self.pass_marks.push(mark(tool_change));
+            let mark = self.mark(i, tool_change, start, &before);
+            self.pass_marks.push(mark);
+        }
+        if s.tool.is_some() || (p.tool_change && tool_change) || marked || rpm != self.rpm {
+            self.note_site(i);
         }
         if rpm != self.rpm {
             self.rpm = rpm;
@@ -635,18 +1043,230 @@ impl<'p> Builder<'p> {
                 pass: 0,
                 before: before.clone(),
                 rpm_after: rpm,
+                state_varies: false,
             });
         }
-        // The move.
-        let moved = s.axes.iter().any(Option::is_some);
+        self.movement(i, start, &before, &s.mv, dwell, s.s, s.inexact, tool_change);
+        if let Some(prev) = tracked {
+            for (f, differs) in field::differ(&prev, &self.state).into_iter().enumerate() {
+                if differs {
+                    self.changed[f] = i + 1;
+                }
+            }
+            if let Some(l) = &s.label {
+                self.label_times
+                    .entry(l.to_ascii_uppercase())
+                    .or_insert(Label {
+                        block: i,
+                        start,
+                        end: self.time,
+                        state: prev,
+                    });
+            }
+        }
+        self.loops(i, s, kind, start);
+    }
+
+    /// Loop statements: a loop opens after its statement; at its end (or at a section repeat statement)
+    /// the further runs are added to the time.
+    fn loops(&mut self, i: usize, s: &Scan, kind: BlockKind, start: f64) {
+        if s.r.contains(&None) {
+            self.r_values.clear();
+        }
+        for &(n, v) in &s.r_set {
+            match v {
+                Some(v) => self.r_values.insert(n, v),
+                None => self.r_values.remove(&n),
+            };
+        }
+        let opened = match kind {
+            BlockKind::For => Some(LoopKind::For),
+            BlockKind::While => Some(LoopKind::While),
+            BlockKind::Loop => Some(LoopKind::Loop),
+            BlockKind::Repeat => Some(LoopKind::RepeatUntil),
+            _ => None,
+        };
+        if let Some(kind) = opened {
+            let runs = match &s.count {
+                Some(Count::For { from, to }) => for_runs(self.value(*from), self.value(*to)),
+                _ if kind == LoopKind::For => Err("bounds computed at run time"),
+                _ => Err("ends on a condition at run time"),
+            };
+            self.open_loops.push(OpenLoop {
+                kind,
+                block: i,
+                start_min: self.time,
+                runs,
+                entry: self.state.clone(),
+            });
+            return;
+        }
+        let closes = matches!(
+            kind,
+            BlockKind::EndWhile | BlockKind::EndFor | BlockKind::EndLoop | BlockKind::Until
+        );
+        if closes && let Some(open) = self.open_loops.pop() {
+            self.mark_varying(&open.entry, (open.block + 1, i));
+            let (runs, unknown) = match open.runs {
+                Ok(n) => (Some(n), None),
+                Err(why) => (None, Some(why)),
+            };
+            self.repeat(Loop {
+                kind: open.kind,
+                block: open.block,
+                body: (open.block + 1, i),
+                runs,
+                unknown,
+                start_min: open.start_min,
+                body_min: start - open.start_min,
+                repeat_block: i,
+                repeat_min: self.time,
+            });
+        }
+        if let Some(Count::Section {
+            labels,
+            single,
+            times,
+        }) = &s.count
+        {
+            let section = self.section(i, labels, *single, start);
+            let times = self
+                .value(*times)
+                .filter(|n| *n >= 0.0 && n.fract() == 0.0)
+                .ok_or("repeat count computed at run time");
+            let (body, start_min, body_min, runs, unknown) = match (section, times) {
+                (Ok(sec), Ok(n)) => {
+                    self.mark_varying(&sec.entry, (sec.body.0 + 1, sec.body.1));
+                    (
+                        sec.body,
+                        sec.start,
+                        sec.end - sec.start,
+                        Some((n as u64).saturating_add(1)),
+                        None,
+                    )
+                }
+                (Err(why), _) | (_, Err(why)) => ((i, i), start, 0.0, None, Some(why)),
+            };
+            self.repeat(Loop {
+                kind: if *single {
+                    LoopKind::RepeatBlock
+                } else {
+                    LoopKind::Repeat
+                },
+                block: i,
+                body,
+                runs,
+                unknown,
+                start_min,
+                body_min,
+                repeat_block: i,
+                repeat_min: self.time,
+            });
+        }
+    }
+
+    /// Records a loop and adds its further runs to the time.
+    fn repeat(&mut self, l: Loop) {
+        self.time += l.further_runs() as f64 * l.body_min;
+        self.t.loops.push(l);
+    }
+
+    /// The blocks and time span (first run) of the section a REPEAT statement at block `i` repeats: from
+    /// the label to the statement, from the first label to the second, or (REPEATB) the labelled block.
+    /// Only a section the program ran through before the statement is known.
+    /// Returns the blocks, the start and end of the first run and the state it starts in.
+    fn section(
+        &self,
+        i: usize,
+        labels: &[String],
+        single: bool,
+        start: f64,
+    ) -> Result<Section, &'static str> {
+        let seen = |label: &String| {
+            self.label_times
+                .get(label)
+                .ok_or("the section is not before the REPEAT statement")
+        };
+        let first = seen(&labels[0])?;
+        let (last_block, end) = match labels.get(1) {
+            _ if single => (first.block, first.end),
+            Some(end) => {
+                let last = seen(end)?;
+                if last.block < first.block {
+                    return Err("the section's labels are in reverse order");
+                }
+                (last.block, last.end)
+            }
+            None => (i.saturating_sub(1), start),
+        };
+        Ok(Section {
+            body: (first.block, last_block),
+            start: first.start,
+            end,
+            entry: first.state.clone(),
+        })
+    }
+
+    /// Marks the sites of a body that a later run reaches in another modal state: a field in which the state
+    /// at the repeat differs from `entry`, and which the body does not change before the site.
+    fn mark_varying(&mut self, entry: &Modal, body: (usize, usize)) {
+        let differ = field::differ(entry, &self.state);
+        if !differ.contains(&true) {
+            return;
+        }
+        let from = self.site_changes.partition_point(|(b, _)| *b < body.0);
+        for (b, changed) in &self.site_changes[from..] {
+            if *b > body.1 {
+                break;
+            }
+            let set_before = |f: usize| changed[f] > body.0 && changed[f] - 1 < *b;
+            if (0..field::COUNT).any(|f| differ[f] && !set_before(f)) {
+                self.varies.insert(*b);
+            }
+        }
+    }
+
+    /// Notes a block where a site or pass mark arises, with the fields' last changes.
+    fn note_site(&mut self, i: usize) {
+        if !self.open_loops.is_empty() || !self.label_times.is_empty() {
+            self.site_changes.push((i, self.changed));
+        }
+    }
+
+    /// A bound's value: a number, or an R-parameter last assigned a literal.
+    fn value(&self, b: Bound) -> Option<f64> {
+        match b {
+            Bound::Number(v) => Some(v),
+            Bound::R(n) => self.r_values.get(&n).copied(),
+            Bound::Other => None,
+        }
+    }
+
+    /// The block's move (or dwell, with G4: F seconds or S revolutions) and the tool change's time, with
+    /// the modal state already updated by the block's words.
+    #[allow(clippy::too_many_arguments)]
+    fn movement(
+        &mut self,
+        i: usize,
+        start: f64,
+        before: &Modal,
+        mv: &Move,
+        g4: bool,
+        revolutions: Option<f64>,
+        mut inexact: bool,
+        tool_change: bool,
+    ) {
+        let rpm = self.state.rpm();
+        let moved = mv.axes.iter().any(Option::is_some);
         // A dwell right after the retract is as clear of the part as the next rapid, and a gate before it is
         // the only one a long dwell can have.
-        let dwell = s.g.contains(4) && !moved;
+        let dwell = g4 && !moved;
         let retract_candidate = self.last_was_z_retract
             && self.state.motion == 0
             && self.state.absolute
-            && (dwell || (moved && s.axes[2].is_none()));
+            && (dwell || (moved && mv.axes[2].is_none()));
         if retract_candidate {
+            self.note_site(i);
             let first_in_loop = self.loop_depth > 0 && self.loop_gate_pending;
             self.loop_gate_pending &= !first_in_loop;
             self.t.sites.push(Site {
@@ -656,12 +1276,13 @@ impl<'p> Builder<'p> {
                 pass: 0,
                 before: before.clone(),
                 rpm_after: rpm,
+                state_varies: false,
             });
         }
         let from = self.pos;
         let mut to = self.pos;
         for k in 0..3 {
-            if let Some((v, absolute)) = s.axes[k] {
+            if let Some((v, absolute)) = mv.axes[k] {
                 to[k] = if absolute || self.state.absolute {
                     Some(v)
                 } else {
@@ -670,9 +1291,8 @@ impl<'p> Builder<'p> {
             }
         }
         let mut minutes = 0.0;
-        let mut inexact = s.inexact;
-        if s.g.contains(4) {
-            minutes += match (s.f, s.s) {
+        if g4 {
+            minutes += match (mv.f, revolutions) {
                 (Some(sec), _) => sec / 60.0,
                 (None, Some(rev)) if rpm > 0.0 => rev / rpm,
                 _ => {
@@ -681,7 +1301,7 @@ impl<'p> Builder<'p> {
                 }
             };
         } else if moved {
-            let length = self.move_length(from, to, s);
+            let length = self.move_length(from, to, mv);
             if self.state.motion == 0 {
                 minutes += length / self.profile.timeline.rapid_mm_per_min;
             } else {
@@ -701,20 +1321,23 @@ impl<'p> Builder<'p> {
         self.t.inexact_blocks += usize::from(inexact);
         self.last_was_z_retract = moved
             && self.state.motion == 0
-            && s.axes[0].is_none()
-            && s.axes[1].is_none()
+            && mv.axes[0].is_none()
+            && mv.axes[1].is_none()
             && match (from[2], to[2]) {
                 (Some(a), Some(b)) => b > a,
                 (None, Some(_)) => true,
                 _ => false,
             };
         self.pos = to;
-        self.state.z = to[2];
+        if self.state.z != to[2] {
+            self.state.z = to[2];
+            self.changed[field::Z] = i + 1;
+        }
         self.time += minutes;
     }
 
     /// Length of the move from `from` to `to`: straight, or along the arc for G2/G3 (XY plane).
-    fn move_length(&self, from: [Option<f64>; 3], to: [Option<f64>; 3], s: &Scan) -> f64 {
+    fn move_length(&self, from: [Option<f64>; 3], to: [Option<f64>; 3], mv: &Move) -> f64 {
         let a = from.map(|v| v.unwrap_or(0.0));
         let b = to.map(|v| v.unwrap_or(0.0));
         let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
@@ -723,7 +1346,7 @@ impl<'p> Builder<'p> {
             return straight;
         }
         let cw = self.state.motion == 2;
-        let (r, sweep) = match (s.centre[0], s.centre[1], s.radius) {
+        let (r, sweep) = match (mv.centre[0], mv.centre[1], mv.radius) {
             (i, j, _) if i.is_some() || j.is_some() => {
                 let c = [a[0] + i.unwrap_or(0.0), a[1] + j.unwrap_or(0.0)];
                 let r = ((a[0] - c[0]).powi(2) + (a[1] - c[1]).powi(2)).sqrt();
@@ -787,6 +1410,7 @@ impl<'p> Builder<'p> {
                 pass: k + 1,
                 before: m.before,
                 rpm_after: m.rpm,
+                state_varies: false,
             });
         }
         // One site per block: a pass start wins over a speed change or retract at the same block.
@@ -796,6 +1420,7 @@ impl<'p> Builder<'p> {
         self.t.sites.dedup_by_key(|s| s.block);
         let mut pass = 0;
         for site in &mut self.t.sites {
+            site.state_varies = self.varies.contains(&site.block);
             match site.kind {
                 SiteKind::PassStart { .. } => pass = site.pass,
                 _ => site.pass = pass,
@@ -870,6 +1495,236 @@ mod tests {
         assert!(fast > 50, "the scanner took only {fast} lines");
     }
 
+    /// The timeline of a program folded block by block from whole scans, as before chunks existed.
+    fn block_by_block(program: &Program, profile: &Profile) -> Timeline {
+        let mut b = Builder::new(profile);
+        let mut words = Scan::default();
+        for i in 0..program.block_count() {
+            let span = program.content_span(i);
+            let kind = program.block_kind(i);
+            let line = &program.source()[span.start..span.end];
+            if kind == BlockKind::Plain && scan_words_into(line, "PASS", &mut words) {
+                b.block(i, &words, kind);
+            } else {
+                b.block(i, &scan_tree(program, i, "PASS"), kind);
+            }
+        }
+        b.finish()
+    }
+
+    /// Large programs are read in parallel chunks, moves packed into heads and numbers: the timeline is the
+    /// one the blocks give one by one, site for site and bit for bit.
+    #[test]
+    fn chunks_give_the_block_by_block_timeline() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mut text = std::fs::read(dir.join("fixtures/omm/handwritten.mpf")).unwrap();
+        text.truncate(text.len() - b"M5\nM30\n".len());
+        let mut n = 0u64;
+        while text.len() < 3_000_000 {
+            let x = (n * 37 % 4000) as f64 / 10.0;
+            let line = match n % 9 {
+                0 => format!("N{n} G1 X{x} Y-{x} Z-1.5 F900\n"),
+                1 => format!("N{n} G3 X{x} Y{x} CR=-12.5\n"),
+                2 => format!("G2 X0 Y{x} I-{x} J.5 ; arc\n"),
+                3 => "G0 Z50\n".to_string(),
+                4 => format!("X{x} Y{x}\n"),
+                5 if n % 1000 == 5 => {
+                    format!("T{} M6 ; PASS\nS{} M3\nG4 F2\n", n % 7, 1000 + n % 5000)
+                }
+                6 => format!("G1 X=AC({x}) Y=IC(2) Z=R1\n"),
+                7 if n % 500 == 7 => "WHILE R1<2\nG0 Z10\nG0 X1\nENDWHILE\n".to_string(),
+                _ => format!("G91 G1 X1 F{}\nG90\n", 100 + n % 50),
+            };
+            text.extend_from_slice(line.as_bytes());
+            n += 1;
+        }
+        text.extend_from_slice(b"M5\nM30\n");
+        let program = crate::parse(&text);
+        assert!(program.block_count() > 3 * CHUNK_BLOCKS);
+        let profile = Profile::default_profile();
+        let chunked = build(&program, &profile);
+        assert!(chunked.sites.len() > 100 && chunked.passes.len() > 10);
+        assert_eq!(chunked, block_by_block(&program, &profile));
+    }
+
+    fn timeline_of(text: &str) -> Timeline {
+        build(&crate::parse(text.as_bytes()), &Profile::default_profile())
+    }
+
+    /// One minute of cutting at F100 over 100 mm, then the way back as a rapid.
+    const BODY: &str = "G1 X100 F100\nG0 Z50\nG0 X0\nG1 Z0 F6000\n";
+
+    fn loop_time(t: &Timeline) -> f64 {
+        t.loops[0].body_min
+    }
+
+    /// The times of the first retract site's runs.
+    fn retract_times(t: &Timeline) -> Vec<f64> {
+        let retract = t
+            .sites
+            .iter()
+            .position(|s| matches!(s.kind, SiteKind::Retract { .. }))
+            .unwrap();
+        let runs = crate::omm::loops::site_runs(t);
+        assert!(runs.complete);
+        runs.sites
+            .iter()
+            .filter(|(k, _)| *k == retract)
+            .map(|(_, time)| *time)
+            .collect()
+    }
+
+    /// The time of the tool change every test program starts with.
+    fn base() -> f64 {
+        timeline_of("T1 M6\nS1000 M3\nM30\n").total_min
+    }
+
+    #[test]
+    fn a_for_loop_with_literal_bounds_runs_its_body_that_often() {
+        let once = timeline_of(&format!("T1 M6\nS1000 M3\n{BODY}M30\n"));
+        let t = timeline_of(&format!(
+            "T1 M6\nS1000 M3\nFOR R1 = 3 TO 7\n{BODY}ENDFOR\nM30\n"
+        ));
+        let l = &t.loops[0];
+        assert_eq!((l.kind, l.runs, l.unknown), (LoopKind::For, Some(5), None));
+        assert_eq!((l.block, l.body, l.repeat_block), (2, (3, 7), 7));
+        assert!((loop_time(&t) - (once.total_min - base())).abs() < 1e-9);
+        assert!((t.total_min - base() - 5.0 * loop_time(&t)).abs() < 1e-9);
+        // The retract site in the body is listed once per run, a body apart.
+        let times = retract_times(&t);
+        assert_eq!(times.len(), 5);
+        for pair in times.windows(2) {
+            assert!((pair[1] - pair[0] - loop_time(&t)).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn r_parameter_bounds_count_when_last_assigned_a_literal() {
+        let t = timeline_of(&format!(
+            "R5=4\nT1 M6\nS1000 M3\nFOR R1 = 1 TO R5\n{BODY}ENDFOR\nR5=R5+1\nFOR R2 = 1 TO R5\n{BODY}ENDFOR\nM30\n"
+        ));
+        assert_eq!(t.loops[0].runs, Some(4));
+        assert_eq!(t.loops[1].runs, None);
+        assert_eq!(t.loops[1].unknown, Some("bounds computed at run time"));
+        assert!((t.total_min - base() - 5.0 * loop_time(&t)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn loops_ending_on_a_condition_are_counted_once() {
+        let t = timeline_of(&format!(
+            "T1 M6\nS1000 M3\nWHILE R1<3\n{BODY}R1=R1+1\nENDWHILE\nREPEAT\n{BODY}UNTIL R1>5\nFOR R2 = 5 TO 1\n{BODY}ENDFOR\nM30\n"
+        ));
+        let kinds: Vec<_> = t.loops.iter().map(|l| (l.kind, l.runs)).collect();
+        assert_eq!(
+            kinds,
+            [
+                (LoopKind::While, None),
+                (LoopKind::RepeatUntil, None),
+                (LoopKind::For, None)
+            ]
+        );
+        assert_eq!(t.loops[2].unknown, Some("the bounds give no run"));
+        assert!((t.total_min - base() - 3.0 * loop_time(&t)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn section_repeats_add_their_runs_at_the_statement() {
+        let t = timeline_of(&format!(
+            "T1 M6\nS1000 M3\nSTART: G0 X0\n{BODY}REPEAT START P=2\nONE: G1 X100 F100\nG0 X0\nREPEATB ONE P=3\nREPEAT LATER P=2\nLATER: G0 X0\nM30\n"
+        ));
+        let counted: Vec<_> = t
+            .loops
+            .iter()
+            .map(|l| (l.kind, l.block, l.body, l.runs))
+            .collect();
+        assert_eq!(
+            counted,
+            [
+                (LoopKind::Repeat, 7, (2, 6), Some(3)),
+                (LoopKind::RepeatBlock, 10, (8, 8), Some(4)),
+                (LoopKind::Repeat, 11, (11, 11), None),
+            ]
+        );
+        assert_eq!(
+            t.loops[2].unknown,
+            Some("the section is not before the REPEAT statement")
+        );
+        // The section: one minute of cutting plus rapids, three times; the repeated block one minute, four
+        // times; the rapid back in between.
+        let section = t.loops[0].body_min;
+        assert!((t.loops[1].body_min - 1.0).abs() < 1e-9);
+        let rapid_back = 100.0 / Profile::default_profile().timeline.rapid_mm_per_min;
+        assert!((t.total_min - base() - (3.0 * section + 4.0 + rapid_back)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn nested_counted_loops_multiply() {
+        let t = timeline_of(&format!(
+            "T1 M6\nS1000 M3\nFOR R1 = 1 TO 3\nFOR R2 = 1 TO 4\n{BODY}ENDFOR\nENDFOR\nM30\n"
+        ));
+        let inner = t.loops[0].body_min;
+        assert!((t.loops[1].body_min - 4.0 * inner).abs() < 1e-9);
+        assert!((t.total_min - base() - 12.0 * inner).abs() < 1e-9);
+        let times = retract_times(&t);
+        assert_eq!(times.len(), 12);
+        assert!(times.windows(2).all(|w| (w[1] - w[0] - inner).abs() < 1e-9));
+    }
+
+    #[test]
+    fn a_loop_of_millions_of_runs_is_timed_but_not_listed_run_by_run() {
+        let t = timeline_of(&format!(
+            "T1 M6\nS1000 M3\nFOR R1 = 1 TO 5000000\n{BODY}ENDFOR\nM30\n"
+        ));
+        assert!((t.total_min - base() - 5e6 * loop_time(&t)).abs() < 1e-3);
+        let runs = crate::omm::loops::site_runs(&t);
+        assert!(!runs.complete);
+        assert_eq!(runs.sites.len(), crate::omm::loops::MAX_SITE_RUNS);
+        // Counts past u64 and a section that is its own statement neither overflow nor hang.
+        let t = timeline_of(&format!(
+            "START: REPEAT START P=2\nT1 M6\nFOR R1 = 0 TO 99999999999999999999\n{BODY}ENDFOR\nM30\n"
+        ));
+        assert_eq!(t.loops[1].runs, Some(u64::MAX));
+        assert_eq!(t.loops[0].runs, Some(3));
+        assert!(t.total_min.is_finite());
+    }
+
+    /// A gate in a loop body restores the state of the body's first run: where a later run reaches the
+    /// block in another state (the spindle speed set after it in the body), the site says so.
+    #[test]
+    fn sites_reached_in_another_state_by_later_runs_are_marked() {
+        let text = "T1 M6\nS1000 M3\nG0 X0 Y0 Z10\nFOR R1 = 1 TO 3\nG0 Z50\nG0 X10\nG1 Z-1 F100\nS2000 M3\nG1 X100\nG0 Z40\nG0 X0\nENDFOR\nM30\n";
+        let t = timeline_of(text);
+        let retracts: Vec<(usize, bool)> = t
+            .sites
+            .iter()
+            .filter(|s| matches!(s.kind, SiteKind::Retract { .. }))
+            .map(|s| (s.block, s.state_varies))
+            .collect();
+        // Before `G0 X10` the speed is 1000 rpm in the first run and 2000 in later ones; before `G0 X0` it
+        // was set in the same run.
+        assert_eq!(retracts, [(5, true), (10, false)]);
+        let (_, plan) = crate::omm::plan_program(
+            &crate::parse(text.as_bytes()),
+            &crate::model::DriftModel::read(
+                std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                    .join("fixtures/omm/model.toml")
+                    .as_ref(),
+            )
+            .unwrap(),
+            &Profile::default_profile(),
+        )
+        .unwrap();
+        let gate = plan.gates.iter().find(|g| g.block == 5).unwrap();
+        assert!(!gate.can_measure);
+        // Without the speed change, and with the feed set before the loop: every run alike.
+        let same = timeline_of(
+            &text
+                .replace("S2000 M3\n", "")
+                .replace("G0 X0 Y0 Z10", "G0 X0 Y0 Z10 F100"),
+        );
+        assert!(same.sites.iter().all(|s| !s.state_varies));
+    }
+
     #[test]
     fn decimals_match_the_standard_parser() {
         for t in [
@@ -881,6 +1736,12 @@ mod tests {
             "-224.452",
             "19083.899",
             "123456789012345",
+            "12345678",
+            "-123456789.1234",
+            "0.000001",
+            "98765432.0",
+            "1.2345678912",
+            "00000000000042",
         ] {
             assert_eq!(
                 decimal(t.as_bytes()),
