@@ -173,9 +173,16 @@ impl Predictor {
             });
         }
         let mut statics: Vec<StaticTerm> = Vec::new();
+        // (τ, µm per 1000 rpm) of `extra_mode` effects: a mode whose target is proportional to the speed,
+        // which the speed grid's piecewise-linear gains (0 at 0 rpm, the last segment continued) hold exactly.
+        let mut extra_modes: Vec<(f64, f64)> = Vec::new();
         for spec in &model.effects {
             let e = Effect::from_spec(spec).map_err(|e| e.to_string())?;
             let (signal, gain) = match (e.kind, &e.signal, &e.position) {
+                (Kind::ExtraMode, _, _) => {
+                    extra_modes.push((e.theta[0], e.amplitudes[0]));
+                    continue;
+                }
                 (Kind::InputLag, Some(signal), _) => {
                     inputs.push(InputTerm {
                         signal: signal.clone(),
@@ -212,12 +219,29 @@ impl Predictor {
             .speed_grid()
             .ok_or_else(|| "the model has no spindle speed grid".to_string())?;
         let modes = &model.spindle.modes;
+        let taus: Vec<f64> = modes
+            .iter()
+            .map(|m| m.tau_min)
+            .chain(extra_modes.iter().map(|&(tau, _)| tau))
+            .collect();
+        let gains: Vec<Vec<f64>> = modes
+            .iter()
+            .map(|m| m.gain_um.clone())
+            .chain(extra_modes.iter().map(|&(_, per_krpm)| {
+                model
+                    .spindle
+                    .grid_rpm
+                    .iter()
+                    .map(|rpm| per_krpm * rpm.abs() / 1000.0)
+                    .collect()
+            }))
+            .collect();
         Ok(Predictor {
             grid,
-            taus: modes.iter().map(|m| m.tau_min).collect(),
-            gains: modes.iter().map(|m| m.gain_um.clone()).collect(),
-            x: vec![0.0; modes.len()],
-            target: vec![0.0; modes.len()],
+            x: vec![0.0; taus.len()],
+            target: vec![0.0; taus.len()],
+            taus,
+            gains,
             input_x: vec![0.0; inputs.len()],
             input_target: vec![0.0; inputs.len()],
             inputs,
@@ -633,6 +657,48 @@ mod tests {
         assert!((p.drift() - last).abs() < 1e-9, "{} vs {last}", p.drift());
         let statics_part = (4.0 + 3.0) * (a1[2] - a1[0]) + (-4.0) * (b1[2] - b1[0]);
         assert!(statics_part.abs() > 1.0, "the static terms matter");
+    }
+
+    #[test]
+    fn an_extra_mode_agrees_with_the_model_also_above_the_grid() {
+        // What `diagnose` adds for a slower mode: k·|rpm|/1000 through its own lag, predicted in NC as one
+        // more spindle mode; 5000 rpm lies above the grid's top speed.
+        let mut model = DriftModel::from_modes(
+            "drift_z_um",
+            vec![2000.0, 4000.0],
+            &[(20.0, vec![6.0, 15.0])],
+            1.0,
+        );
+        model.effects = vec![
+            Effect {
+                kind: Kind::ExtraMode,
+                signal: None,
+                position: None,
+                theta: vec![180.0],
+                amplitudes: vec![3.5],
+            }
+            .to_spec(),
+        ];
+        let schedule: Schedule = "3000:50,0:20,5000:90,1000:30".parse().unwrap();
+        let truth = model.predict(&schedule.to_dataset(1.0)).unwrap();
+        let mut p = Predictor::new(&model, &BTreeMap::new(), &at()).unwrap();
+        assert_eq!(p.taus(), [20.0, 180.0]);
+        for seg in &schedule.segments {
+            p.set_rpm(seg.rpm);
+            p.advance(seg.minutes);
+        }
+        let last = truth.last().unwrap() - truth[0];
+        assert!((p.drift() - last).abs() < 1e-9, "{} vs {last}", p.drift());
+        let without = DriftModel {
+            effects: vec![],
+            ..model.clone()
+        }
+        .predict(&schedule.to_dataset(1.0))
+        .unwrap();
+        assert!(
+            (truth.last().unwrap() - without.last().unwrap()).abs() > 1.0,
+            "the mode matters"
+        );
     }
 
     #[test]
