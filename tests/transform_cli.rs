@@ -273,17 +273,25 @@ fn plan_says_which_signals_it_cannot_foresee() {
 }
 
 #[test]
-fn a_model_with_an_extra_mode_is_predicted_in_nc() {
-    // `diagnose` adds a slower spindle mode; the program updates it like the fitted ones.
+fn a_model_with_an_extra_mode_and_a_time_trend_is_predicted_in_nc() {
+    // `diagnose` adds a slower spindle mode and a creep; the program predicts both.
     let dir = tempfile::tempdir().unwrap();
     let mut text = std::fs::read_to_string(fixtures().join("model.toml")).unwrap();
     text.push_str("\n[[effects]]\nkind = \"extra_mode\"\n\n[effects.params]\ntau_min = 180.0\ngain_um_per_krpm = 3.0\n");
+    text.push_str("\n[[effects]]\nkind = \"time_trend\"\n\n[effects.params]\num_per_h = 0.25\n");
     let model = dir.path().join("extra.toml");
     std::fs::write(&model, text).unwrap();
     let p = fixtures().join("handwritten.mpf").display().to_string();
     let o = common::run(&["transform", &p, "--model", &model.display().to_string()]);
     assert_eq!(code(&o), 0, "{}", String::from_utf8_lossy(&o.stderr));
     let out = String::from_utf8(o.stdout).unwrap();
-    assert!(out.contains("/180) ;DL"), "the 180 min mode is updated: {out}");
+    assert!(
+        out.contains("/180) ;DL"),
+        "the 180 min mode is updated: {out}"
+    );
+    assert!(
+        out.contains("+0.00025*(R"),
+        "the creep since the zero: {out}"
+    );
     assert!(driftloop::parse(out.as_bytes()).diagnostics().is_empty());
 }

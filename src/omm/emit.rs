@@ -329,6 +329,7 @@ impl Emitter<'_> {
             .chain(&reg.input_x)
             .chain(&reg.static_v)
             .map(|x| r(*x))
+            .chain(self.trend())
             .collect();
         v.push(format!(
             "{}={}",
@@ -340,6 +341,25 @@ impl Emitter<'_> {
             }
         ));
         v
+    }
+
+    /// The `time_trend` term: µm per hour times the time since the zero.
+    fn trend(&self) -> Option<String> {
+        let per_h = self.predictor.trend_um_per_h();
+        let reg = &self.regs;
+        // mm per hour keeps the written rate's precision (a slow creep is a few nm per minute).
+        let timer_units_per_h = match self.profile.registers.timer_unit {
+            TimerUnit::Min => 60,
+            TimerUnit::S => 3600,
+        };
+        (per_h != 0.0).then(|| {
+            format!(
+                "{}*({}-{})/{timer_units_per_h}",
+                Emitter::mm(per_h),
+                r(reg.t_last),
+                r(reg.t0)
+            )
+        })
     }
 
     fn set_targets(&self, rpm: f64) -> Vec<String> {

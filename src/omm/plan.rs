@@ -120,6 +120,8 @@ pub struct Predictor {
     input_target: Vec<f64>,
     statics: Vec<StaticTerm>,
     static_du: Vec<f64>,
+    trend_um_per_h: f64,
+    elapsed_min: f64,
 }
 
 /// The coordinate of the measuring position on the axis a position column names: `x_mm`, `y_mm`, `z_mm`
@@ -176,11 +178,17 @@ impl Predictor {
         // (τ, µm per 1000 rpm) of `extra_mode` effects: a mode whose target is proportional to the speed,
         // which the speed grid's piecewise-linear gains (0 at 0 rpm, the last segment continued) hold exactly.
         let mut extra_modes: Vec<(f64, f64)> = Vec::new();
+        // `time_trend`: µm per hour since the run's start, i.e. since the zero.
+        let mut trend_um_per_h = 0.0;
         for spec in &model.effects {
             let e = Effect::from_spec(spec).map_err(|e| e.to_string())?;
             let (signal, gain) = match (e.kind, &e.signal, &e.position) {
                 (Kind::ExtraMode, _, _) => {
                     extra_modes.push((e.theta[0], e.amplitudes[0]));
+                    continue;
+                }
+                (Kind::TimeTrend, _, _) => {
+                    trend_um_per_h += e.amplitudes[0];
                     continue;
                 }
                 (Kind::InputLag, Some(signal), _) => {
@@ -247,6 +255,8 @@ impl Predictor {
             inputs,
             static_du: vec![0.0; statics.len()],
             statics,
+            trend_um_per_h,
+            elapsed_min: 0.0,
         })
     }
 
@@ -284,7 +294,13 @@ impl Predictor {
         self.static_du.copy_from_slice(du);
     }
 
+    /// µm per hour of the model's `time_trend` effects (0 without one).
+    pub fn trend_um_per_h(&self) -> f64 {
+        self.trend_um_per_h
+    }
+
     pub fn advance(&mut self, minutes: f64) {
+        self.elapsed_min += minutes;
         let taus = self
             .taus
             .iter()
@@ -304,7 +320,9 @@ impl Predictor {
             .zip(&self.static_du)
             .map(|(t, du)| t.gain_per_unit * du)
             .sum();
-        self.x.iter().chain(&self.input_x).sum::<f64>() + statics
+        self.x.iter().chain(&self.input_x).sum::<f64>()
+            + statics
+            + self.trend_um_per_h * self.elapsed_min / 60.0
     }
 }
 
@@ -660,9 +678,9 @@ mod tests {
     }
 
     #[test]
-    fn an_extra_mode_agrees_with_the_model_also_above_the_grid() {
-        // What `diagnose` adds for a slower mode: k·|rpm|/1000 through its own lag, predicted in NC as one
-        // more spindle mode; 5000 rpm lies above the grid's top speed.
+    fn an_extra_mode_and_a_time_trend_agree_with_the_model_also_above_the_grid() {
+        // What `diagnose` adds for a slower mode (k·|rpm|/1000 through its own lag, predicted in NC as one
+        // more spindle mode; 5000 rpm lies above the grid's top speed) and for a creep since the zero.
         let mut model = DriftModel::from_modes(
             "drift_z_um",
             vec![2000.0, 4000.0],
@@ -676,6 +694,14 @@ mod tests {
                 position: None,
                 theta: vec![180.0],
                 amplitudes: vec![3.5],
+            }
+            .to_spec(),
+            Effect {
+                kind: Kind::TimeTrend,
+                signal: None,
+                position: None,
+                theta: vec![],
+                amplitudes: vec![0.8],
             }
             .to_spec(),
         ];
@@ -741,13 +767,18 @@ mod tests {
         });
         let err = Predictor::new(&model, &BTreeMap::new(), &at()).unwrap_err();
         assert!(err.contains("ambient_c = n"), "{err}");
+        // A step at a time on the data's own axis has no meaning for a program run later.
         model.effects[0] = crate::model::EffectSpec {
-            kind: "time_trend".into(),
+            kind: "step".into(),
             signal: None,
             position: None,
-            params: [("um_per_h".to_string(), 1.0)].into(),
+            params: [
+                ("at_min".to_string(), 300.0),
+                ("offset_um".to_string(), 4.0),
+            ]
+            .into(),
         };
         let err = Predictor::new(&model, &BTreeMap::new(), &at()).unwrap_err();
-        assert!(err.contains("`time_trend` effect"), "{err}");
+        assert!(err.contains("`step` effect"), "{err}");
     }
 }
