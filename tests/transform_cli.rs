@@ -21,6 +21,18 @@ fn copy_fixture(dir: &Path, from: &str, to: &str) -> PathBuf {
     to
 }
 
+/// `transform TREE --model … -o OUT [extra…]` through the binary.
+fn transform_tree(tree: &Path, out: &Path, extra: &[&str]) -> Output {
+    let (tree, out, model) = (
+        tree.display().to_string(),
+        out.display().to_string(),
+        model(),
+    );
+    let mut args = vec!["transform", &tree, "--model", &model, "-o", &out];
+    args.extend_from_slice(extra);
+    common::run(&args)
+}
+
 fn code(o: &Output) -> i32 {
     o.status.code().unwrap()
 }
@@ -116,14 +128,7 @@ fn directories_mirror_into_the_output_directory() {
     copy_fixture(&tree, "latin1.mpf", "b/c/latin1.MPF");
     std::fs::write(tree.join("notes.txt"), b"not a program").unwrap();
     let out = dir.path().join("out");
-    let o = common::run(&[
-        "transform",
-        &tree.display().to_string(),
-        "--model",
-        &model(),
-        "-o",
-        &out.display().to_string(),
-    ]);
+    let o = transform_tree(&tree, &out, &[]);
     assert_eq!(code(&o), 0, "{}", String::from_utf8_lossy(&o.stderr));
     assert!(out.join("a/handwritten.mpf").exists());
     assert!(out.join("b/c/latin1.MPF").exists());
@@ -137,14 +142,7 @@ fn a_refused_program_stops_the_whole_batch() {
     copy_fixture(&tree, "handwritten.mpf", "handwritten.mpf");
     std::fs::write(tree.join("broken.mpf"), b"T1 M6\nIF R1>\nM30\n").unwrap();
     let out = dir.path().join("out");
-    let o = common::run(&[
-        "transform",
-        &tree.display().to_string(),
-        "--model",
-        &model(),
-        "-o",
-        &out.display().to_string(),
-    ]);
+    let o = transform_tree(&tree, &out, &[]);
     assert_eq!(code(&o), 2);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(
@@ -155,15 +153,7 @@ fn a_refused_program_stops_the_whole_batch() {
     assert!(!out.exists());
 
     // --keep-going writes the good one and still fails the batch.
-    let o = common::run(&[
-        "transform",
-        &tree.display().to_string(),
-        "--model",
-        &model(),
-        "-o",
-        &out.display().to_string(),
-        "--keep-going",
-    ]);
+    let o = transform_tree(&tree, &out, &["--keep-going"]);
     assert_eq!(code(&o), 2);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(

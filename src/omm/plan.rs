@@ -471,6 +471,18 @@ mod tests {
     use crate::model::Schedule;
 
     /// Probing at X 150, Y 40, the base surface at Z −5.
+    /// The end time of each schedule segment (min).
+    fn segment_ends(schedule: &Schedule) -> Vec<f64> {
+        schedule
+            .segments
+            .iter()
+            .scan(0.0, |t, s| {
+                *t += s.minutes;
+                Some(*t)
+            })
+            .collect()
+    }
+
     fn at() -> Position {
         Position {
             x: 150.0,
@@ -537,14 +549,7 @@ mod tests {
         let ambient = [20.0, 23.5, 18.0];
         let coolant = [22.0, 22.0, 25.0];
         let mut ds = schedule.to_dataset(1.0);
-        let ends: Vec<f64> = schedule
-            .segments
-            .iter()
-            .scan(0.0, |t, s| {
-                *t += s.minutes;
-                Some(*t)
-            })
-            .collect();
+        let ends = segment_ends(&schedule);
         let segment = |t: f64| {
             ends.iter()
                 .position(|e| t < *e - 1e-9)
@@ -614,14 +619,7 @@ mod tests {
         let schedule: Schedule = "4000:37,0:11,2500:52".parse().unwrap();
         let (a1, b1, coolant) = ([20.0, 23.5, 22.0], [22.0, 21.0, 24.0], [22.0, 22.0, 25.0]);
         let mut ds = schedule.to_dataset(1.0);
-        let ends: Vec<f64> = schedule
-            .segments
-            .iter()
-            .scan(0.0, |t, s| {
-                *t += s.minutes;
-                Some(*t)
-            })
-            .collect();
+        let ends = segment_ends(&schedule);
         let column = |v: &[f64]| -> Vec<f64> {
             ds.time_min
                 .iter()
