@@ -12,6 +12,8 @@ pub mod omm;
 pub mod positioning;
 pub mod report;
 pub mod sensors;
+#[cfg(test)]
+mod shared_data;
 pub mod source;
 pub mod structure;
 pub mod syntax;

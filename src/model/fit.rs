@@ -841,12 +841,9 @@ mod tests {
     /// apart from each other.
     #[test]
     fn separated_starts_give_no_sound_two_mode_fit_on_the_real_data() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../shared/data/fl_thermal_first24h.csv");
-        if !path.exists() {
-            eprintln!("skipped: {} is absent", path.display());
+        let Some(path) = crate::shared_data::path("data/fl_thermal_first24h.csv") else {
             return;
-        }
+        };
         let all = crate::data::read_path(&path, crate::data::Require::Displacement).unwrap();
         let ds = all.until(960.0);
         for ch in ["ch1_um", "ch2_um", "ch3_um", "ch4_um", "ch5_um"] {
