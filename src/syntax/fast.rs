@@ -82,11 +82,8 @@ mod tests {
         let root = Path::new(env!("CARGO_MANIFEST_DIR"));
         let mut files = Vec::new();
         files_under(&root.join("fixtures/nc"), &mut files);
-        let corpus = root.join("../shared/corpus");
-        if corpus.is_dir() {
+        if let Some(corpus) = crate::shared_data::path("corpus") {
             files_under(&corpus, &mut files);
-        } else {
-            eprintln!("../shared/corpus not found: checking fixtures only");
         }
         let accepted: usize = files
             .iter()
