@@ -11,7 +11,7 @@ use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
 use rayon::prelude::*;
 
 use driftloop::model::DriftModel;
-use driftloop::omm::{ModelRef, Profile, transform};
+use driftloop::omm::{ModelRef, Profile, prepare, transform};
 
 /// A CAM-like program: passes with tool changes, spindle speeds, feed moves, arcs and retracts.
 fn cam_program(target: usize, seed: u64) -> Vec<u8> {
@@ -86,6 +86,23 @@ fn big_file(c: &mut Criterion) {
                 };
                 let t = transform(&program, model, &profile, false).unwrap();
                 io::sink().write_all(&t.bytes).unwrap();
+                black_box(t.summary.blocks_inserted)
+            },
+            BatchSize::PerIteration,
+        )
+    });
+    // Like parse_print: the output streamed to its writer, no copy of the whole program.
+    group.bench_function("transform_stream", |b| {
+        b.iter_batched(
+            || source.clone(),
+            |src| {
+                let program = driftloop::parse_owned(src);
+                let model = ModelRef {
+                    model: &model,
+                    sha256: "bench",
+                };
+                let t = prepare(&program, model, &profile, false).unwrap();
+                t.write_to(&mut io::sink()).unwrap();
                 black_box(t.summary.blocks_inserted)
             },
             BatchSize::PerIteration,

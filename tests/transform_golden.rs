@@ -31,15 +31,17 @@ fn model() -> DriftModel {
 fn run(src: &[u8], profile: &Profile) -> Result<Transformed, TransformError> {
     let program = driftloop::parse(src);
     let model = model();
-    transform(
-        &program,
-        ModelRef {
-            model: &model,
-            sha256: "0123456789abcdef0123456789abcdef",
-        },
-        profile,
-        false,
-    )
+    let model = ModelRef {
+        model: &model,
+        sha256: "0123456789abcdef0123456789abcdef",
+    };
+    let t = transform(&program, model, profile, false)?;
+    // The streamed output is the same bytes.
+    let mut streamed = Vec::new();
+    let prepared = driftloop::omm::prepare(&program, model, profile, false)?;
+    prepared.write_to(&mut streamed).unwrap();
+    assert!(streamed == t.bytes, "streamed output differs");
+    Ok(t)
 }
 
 fn fixture(name: &str) -> Vec<u8> {

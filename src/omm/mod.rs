@@ -27,7 +27,7 @@ use emit::{Emitter, Registers, SIGNATURE};
 pub const MAX_BLOCK: usize = 512;
 
 /// The model as the transform sees it: the model and the SHA-256 (hex) of its file, named in the header.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Copy)]
 pub struct ModelRef<'a> {
     pub model: &'a DriftModel,
     pub sha256: &'a str,
@@ -148,6 +148,39 @@ pub fn transform(
     profile: &Profile,
     force: bool,
 ) -> Result<Transformed, TransformError> {
+    prepare(program, model, profile, force).map(Prepared::into_transformed)
+}
+
+/// A transformed program not yet written out: the edits over the input's own bytes.
+pub struct Prepared<'p> {
+    editor: Editor<'p>,
+    pub summary: Summary,
+    pub plan: Plan,
+}
+
+impl Prepared<'_> {
+    /// Streams the output: untouched runs of the input as they are, the inserted blocks between them — no
+    /// copy of the whole program is made.
+    pub fn write_to<W: std::io::Write>(&self, w: &mut W) -> std::io::Result<()> {
+        self.editor.write_to(w)
+    }
+
+    pub fn into_transformed(self) -> Transformed {
+        Transformed {
+            bytes: self.editor.to_bytes(),
+            summary: self.summary,
+            plan: self.plan,
+        }
+    }
+}
+
+/// [`transform`] without producing the output bytes: write them with [`Prepared::write_to`].
+pub fn prepare<'p>(
+    program: &'p Program,
+    model: ModelRef<'_>,
+    profile: &Profile,
+    force: bool,
+) -> Result<Prepared<'p>, TransformError> {
     check(program, force)?;
     let (timeline, plan) = plan_program(program, model.model, profile)?;
     if let Some(&line) = timeline.computed_r_lines.first() {
@@ -228,9 +261,8 @@ pub fn transform(
         inserted += end.lines().count();
         editor.insert_after(program.block_count() - 1, &end)?;
     }
-    let bytes = editor.to_bytes();
-    Ok(Transformed {
-        bytes,
+    Ok(Prepared {
+        editor,
         summary: Summary {
             blocks_inserted: inserted,
             passes: timeline.passes.len(),
