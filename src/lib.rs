@@ -12,7 +12,9 @@ pub mod omm;
 pub mod positioning;
 pub mod report;
 pub mod sensors;
+// The unit tests find ../shared through the same helper as the integration tests.
 #[cfg(test)]
+#[path = "../tests/shared_data/mod.rs"]
 mod shared_data;
 pub mod source;
 pub mod structure;

@@ -1,4 +1,5 @@
-//! Where the integration tests find the real programs and data of `../shared`.
+//! Where the tests (integration and, through `#[path]`, the library's unit tests) find the real programs
+//! and data of `../shared`.
 
 use std::io::Write;
 use std::path::PathBuf;
