@@ -4,8 +4,6 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::Context;
-
 use super::{Format, Global};
 use crate::data::{Require, read_path};
 use crate::model::fit::fmt_tau;
@@ -48,18 +46,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         Format::Human => summary(&model),
         Format::Json => serde_json::to_string_pretty(&model)? + "\n",
     };
-    match &args.output {
-        Some(path) if path.as_os_str() == "-" => {
-            print!("{}", model.to_toml());
-            eprint!("{report}");
-        }
-        Some(path) => {
-            std::fs::write(path, model.to_toml())
-                .with_context(|| format!("cannot write the model file {}", path.display()))?;
-            print!("{report}");
-        }
-        None => print!("{report}"),
-    }
+    super::write_model(args.output.as_deref(), &model, &report)?;
     Ok(ExitCode::SUCCESS)
 }
 

@@ -21,6 +21,29 @@ mod sensors;
 mod simulate;
 mod transform;
 
+/// `-o` of the commands that make a model (`fit`, `sensors`): the model file to `path` and the report to
+/// stdout, or with `-o -` the model to stdout and the report to stderr; without `-o` the report alone.
+fn write_model(
+    path: Option<&std::path::Path>,
+    model: &crate::model::DriftModel,
+    report: &str,
+) -> anyhow::Result<()> {
+    use anyhow::Context;
+    match path {
+        Some(path) if path.as_os_str() == "-" => {
+            print!("{}", model.to_toml());
+            eprint!("{report}");
+        }
+        Some(path) => {
+            std::fs::write(path, model.to_toml())
+                .with_context(|| format!("cannot write the model file {}", path.display()))?;
+            print!("{report}");
+        }
+        None => print!("{report}"),
+    }
+    Ok(())
+}
+
 /// Options every subcommand understands.
 #[derive(Debug, Clone, clap::Args)]
 pub struct Global {

@@ -4,8 +4,6 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::Context;
-
 use super::{Format, Global};
 use crate::data::{Require, read_path};
 use crate::sensors::position::analyse_position;
@@ -68,17 +66,6 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             (report, analysis.to_model())
         }
     };
-    match &args.output {
-        Some(path) if path.as_os_str() == "-" => {
-            print!("{}", model.to_toml());
-            eprint!("{report}");
-        }
-        Some(path) => {
-            std::fs::write(path, model.to_toml())
-                .with_context(|| format!("cannot write the model file {}", path.display()))?;
-            print!("{report}");
-        }
-        None => print!("{report}"),
-    }
+    super::write_model(args.output.as_deref(), &model, &report)?;
     Ok(ExitCode::SUCCESS)
 }
