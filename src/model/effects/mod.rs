@@ -407,34 +407,23 @@ mod tests {
 
     #[test]
     fn unknown_kinds_and_missing_params_are_refused() {
-        let spec = EffectSpec {
-            kind: "ghost".into(),
+        // A spec of `kind` with no signal, position or parameters.
+        let bare = |kind: &str| EffectSpec {
+            kind: kind.into(),
             signal: None,
             position: None,
             params: BTreeMap::new(),
         };
         assert_eq!(
-            Effect::from_spec(&spec),
+            Effect::from_spec(&bare("ghost")),
             Err(EffectError::UnknownKind("ghost".into()))
         );
-        let spec = EffectSpec {
-            kind: "time_trend".into(),
-            signal: None,
-            position: None,
-            params: BTreeMap::new(),
-        };
         assert!(matches!(
-            Effect::from_spec(&spec),
+            Effect::from_spec(&bare("time_trend")),
             Err(EffectError::BadParam { .. })
         ));
-        let spec = EffectSpec {
-            kind: "input_lag".into(),
-            signal: None,
-            position: None,
-            params: BTreeMap::new(),
-        };
         assert!(matches!(
-            Effect::from_spec(&spec),
+            Effect::from_spec(&bare("input_lag")),
             Err(EffectError::NoSignal(_))
         ));
     }
