@@ -249,8 +249,7 @@ impl DriftModel {
             .effects
             .iter()
             .filter(|e| {
-                effects::Kind::parse(&e.kind)
-                    .is_some_and(|k| !effects::Kind::DIAGNOSED.contains(&k))
+                effects::Kind::parse(&e.kind).is_some_and(|k| effects::Kind::SENSOR.contains(&k))
             })
             .flat_map(|e| e.signal.iter().chain(&e.position).cloned());
         let mut out: Vec<String> = spindle

@@ -57,21 +57,7 @@ pub enum Kind {
 }
 
 impl Kind {
-    /// Every kind a model file may carry.
-    pub const ALL: [Kind; 10] = [
-        Kind::InputLag,
-        Kind::ExtraMode,
-        Kind::CoolingAsymmetry,
-        Kind::PositionSlope,
-        Kind::TimeTrend,
-        Kind::Periodic,
-        Kind::Step,
-        Kind::StaticInput,
-        Kind::InputSlope,
-        Kind::Geometric,
-    ];
-
-    /// The kinds diagnosis proposes and `simulate-data` injects; the others are written by `sensors`.
+    /// The kinds diagnosis proposes and `simulate-data` injects.
     pub const DIAGNOSED: [Kind; 7] = [
         Kind::InputLag,
         Kind::ExtraMode,
@@ -81,6 +67,24 @@ impl Kind {
         Kind::Periodic,
         Kind::Step,
     ];
+
+    /// The terms of a sensor regression, written by `sensors`.
+    pub const SENSOR: [Kind; 3] = [Kind::StaticInput, Kind::InputSlope, Kind::Geometric];
+
+    /// Every kind a model file may carry: the diagnosed ones, then the sensor terms.
+    pub const ALL: [Kind; Kind::DIAGNOSED.len() + Kind::SENSOR.len()] = {
+        let mut all = [Kind::InputLag; Kind::DIAGNOSED.len() + Kind::SENSOR.len()];
+        let mut i = 0;
+        while i < all.len() {
+            all[i] = if i < Kind::DIAGNOSED.len() {
+                Kind::DIAGNOSED[i]
+            } else {
+                Kind::SENSOR[i - Kind::DIAGNOSED.len()]
+            };
+            i += 1;
+        }
+        all
+    };
 
     pub fn name(self) -> &'static str {
         match self {
