@@ -32,6 +32,14 @@ struct Slot {
 #[derive(Debug)]
 pub struct Editor<'p> {
     program: &'p Program,
+    edits: Edits,
+}
+
+/// The accepted edits on their own, without the program they were made against: kept next to the program
+/// (as a batch of transformed files keeps them until every file is known to transform), they write the
+/// edited program without ever holding a copy of it.
+#[derive(Debug, Default)]
+pub struct Edits {
     slots: BTreeMap<usize, Slot>,
 }
 
@@ -39,28 +47,28 @@ impl<'p> Editor<'p> {
     pub fn new(program: &'p Program) -> Self {
         Editor {
             program,
-            slots: BTreeMap::new(),
+            edits: Edits::default(),
         }
     }
 
     /// Inserts `text` (one or more lines) before block `index`.
     pub fn insert_before(&mut self, index: usize, text: &str) -> Result<(), EditError> {
         let lines = self.accept(index, text)?;
-        self.slots.entry(index).or_default().before.extend(lines);
+        self.slot(index).before.extend(lines);
         Ok(())
     }
 
     /// Inserts `text` (one or more lines) after block `index` (after earlier insertions there).
     pub fn insert_after(&mut self, index: usize, text: &str) -> Result<(), EditError> {
         let lines = self.accept(index, text)?;
-        self.slots.entry(index).or_default().after.extend(lines);
+        self.slot(index).after.extend(lines);
         Ok(())
     }
 
     /// Replaces block `index` by `text` (one or more lines; empty text deletes the block's content).
     pub fn replace(&mut self, index: usize, text: &str) -> Result<(), EditError> {
         let lines = self.accept(index, text)?;
-        self.slots.entry(index).or_default().replace = Some(lines);
+        self.slot(index).replace = Some(lines);
         Ok(())
     }
 
@@ -70,8 +78,31 @@ impl<'p> Editor<'p> {
         if index >= count {
             return Err(EditError::NoSuchBlock { index, count });
         }
-        self.slots.entry(index).or_default().replace = Some(Vec::new());
+        self.slot(index).replace = Some(Vec::new());
         Ok(())
+    }
+
+    fn slot(&mut self, index: usize) -> &mut Slot {
+        self.edits.slots.entry(index).or_default()
+    }
+
+    /// The edits, to be written later against the same program.
+    pub fn into_edits(self) -> Edits {
+        self.edits
+    }
+
+    pub fn write_to<W: Write>(&self, w: &mut W) -> std::io::Result<()> {
+        self.edits.write_to(self.program, w)
+    }
+
+    /// The edited program's bytes.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        self.edits.to_bytes(self.program)
+    }
+
+    /// The edited program, parsed again (its diagnostics include control pairing and jump targets).
+    pub fn finish(&self) -> Program {
+        parse_owned(self.to_bytes())
     }
 
     /// Splits `text` into lines and parses each; a line with an error diagnostic refuses the whole edit.
@@ -101,15 +132,19 @@ impl<'p> Editor<'p> {
         }
         Ok(lines)
     }
+}
 
-    pub fn write_to<W: Write>(&self, w: &mut W) -> std::io::Result<()> {
-        self.pieces().into_iter().try_for_each(|p| w.write_all(p))
+impl Edits {
+    /// Writes `program` (the one the edits were made against) with the edits applied.
+    pub fn write_to<W: Write>(&self, program: &Program, w: &mut W) -> std::io::Result<()> {
+        self.pieces(program)
+            .into_iter()
+            .try_for_each(|p| w.write_all(p))
     }
 
     /// The edited program as byte slices in order: runs of untouched blocks straight from the source, new
     /// lines and the terminators between them.
-    fn pieces<'s>(&'s self) -> Vec<&'s [u8]> {
-        let program = self.program;
+    fn pieces<'s>(&'s self, program: &'s Program) -> Vec<&'s [u8]> {
         let src = program.source();
         let eol = program.dominant_line_ending();
         let bom = if program.has_bom() { 3 } else { 0 };
@@ -173,10 +208,10 @@ impl<'p> Editor<'p> {
 
     /// The edited program's bytes. A large one is copied on all cores: filling a fresh buffer of 100 MB
     /// costs about as much in page faults as the copy itself, and both share out.
-    pub fn to_bytes(&self) -> Vec<u8> {
+    pub fn to_bytes(&self, program: &Program) -> Vec<u8> {
         use rayon::prelude::*;
         const PART: usize = 1 << 20;
-        let pieces = self.pieces();
+        let pieces = self.pieces(program);
         let total = pieces.iter().map(|p| p.len()).sum();
         if total < 4 * PART {
             return pieces.concat();
@@ -193,10 +228,5 @@ impl<'p> Editor<'p> {
             .into_par_iter()
             .for_each(|(from, to)| to.copy_from_slice(from));
         out
-    }
-
-    /// The edited program, parsed again (its diagnostics include control pairing and jump targets).
-    pub fn finish(&self) -> Program {
-        parse_owned(self.to_bytes())
     }
 }

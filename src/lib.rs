@@ -24,7 +24,7 @@ pub mod vm;
 pub mod walk;
 
 pub use diagnostic::{Diagnostic, Severity};
-pub use edit::{EditError, Editor};
+pub use edit::{EditError, Editor, Edits};
 pub use source::{LineIndex, Span};
 pub use structure::{Structure, analyze};
 pub use syntax::{Block, BlockKind, Node, NodeKind, Program, escape, parse, parse_owned};

@@ -13,6 +13,7 @@ use serde::Serialize;
 use sha2::{Digest, Sha256};
 
 use super::{Format, Global};
+use crate::Edits;
 use crate::model::DriftModel;
 use crate::omm::{self, ModelRef, Profile, Summary};
 use crate::walk::{self, Input};
@@ -93,11 +94,25 @@ enum Target {
     None,
 }
 
+/// A transformed program: the input and the blocks to insert, so a batch holds each program once, not
+/// twice, until it is known that every program transforms; the output is streamed from them.
 struct Outcome {
-    bytes: Vec<u8>,
     /// The input, parsed (its source is the original bytes, kept without a copy).
     program: crate::Program,
+    edits: Edits,
     summary: Summary,
+}
+
+impl Outcome {
+    fn bytes(&self) -> Vec<u8> {
+        self.edits.to_bytes(&self.program)
+    }
+
+    fn write_to(&self, w: &mut impl Write) -> io::Result<()> {
+        let mut w = io::BufWriter::with_capacity(1 << 16, w);
+        self.edits.write_to(&self.program, &mut w)?;
+        w.flush()
+    }
 }
 
 #[derive(Serialize)]
@@ -155,7 +170,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                         Target::File(p) => std::fs::read(p).ok(),
                         _ => Some(o.program.source().to_vec()),
                     };
-                    current.as_deref() != Some(o.bytes.as_slice())
+                    current != Some(o.bytes())
                 } else {
                     true
                 };
@@ -220,14 +235,14 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 &mut out,
                 &job.input.to_string(),
                 o.program.source(),
-                &o.bytes,
+                &o.bytes(),
             )?;
         }
     } else if !args.check {
         for &(job, o) in &outcomes {
             match &job.target {
-                Target::Stdout => io::stdout().lock().write_all(&o.bytes)?,
-                Target::File(p) => write_atomic(p, &o.bytes)?,
+                Target::Stdout => o.write_to(&mut io::stdout().lock())?,
+                Target::File(p) => write_atomic(p, |w| o.write_to(w))?,
                 Target::None => {}
             }
         }
@@ -258,12 +273,13 @@ fn transform_one(
 ) -> Result<Outcome, String> {
     let bytes = input.read().map_err(|e| e.to_string())?;
     let program = crate::parse_owned(bytes);
-    let t = omm::transform(&program, ModelRef { model, sha256: sha }, profile, force)
-        .map_err(|e| e.to_string())?;
+    let (edits, summary) = omm::prepare(&program, ModelRef { model, sha256: sha }, profile, force)
+        .map_err(|e| e.to_string())?
+        .into_edits();
     Ok(Outcome {
-        bytes: t.bytes,
         program,
-        summary: t.summary,
+        edits,
+        summary,
     })
 }
 
@@ -317,10 +333,14 @@ fn mirrored(out: &Path, root: &Path, input: &Input) -> anyhow::Result<PathBuf> {
     Ok(out.join(relative))
 }
 
-/// Writes `bytes` to `path` through a temporary file in the same directory and a rename. A device or pipe
-/// (`/dev/null`, a FIFO) is written directly, never replaced; a symbolic link keeps pointing where it did,
-/// and its target is replaced.
-fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+/// Writes the file `path` with `write` through a temporary file in the same directory and a rename. A device
+/// or pipe (`/dev/null`, a FIFO) is written directly, never replaced; a symbolic link keeps pointing where
+/// it did, and its target is replaced.
+fn write_atomic(
+    path: &Path,
+    write: impl Fn(&mut std::fs::File) -> io::Result<()>,
+) -> anyhow::Result<()> {
+    let create = |p: &Path| std::fs::File::create(p).and_then(|mut f| write(&mut f));
     let resolved;
     let path = match std::fs::symlink_metadata(path) {
         Ok(m) if m.file_type().is_symlink() => {
@@ -331,8 +351,7 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
         _ => path,
     };
     if std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
-        return std::fs::write(path, bytes)
-            .with_context(|| format!("cannot write {}", path.display()));
+        return create(path).with_context(|| format!("cannot write {}", path.display()));
     }
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
@@ -345,7 +364,7 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
         name.to_string_lossy(),
         std::process::id()
     ));
-    let written = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
+    let written = create(&tmp).and_then(|()| std::fs::rename(&tmp, path));
     if written.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }

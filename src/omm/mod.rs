@@ -13,7 +13,7 @@ pub mod timeline;
 
 use serde::Serialize;
 
-use crate::edit::{EditError, Editor};
+use crate::edit::{EditError, Editor, Edits};
 use crate::model::DriftModel;
 use crate::syntax::Program;
 
@@ -163,6 +163,11 @@ impl Prepared<'_> {
     /// copy of the whole program is made.
     pub fn write_to<W: std::io::Write>(&self, w: &mut W) -> std::io::Result<()> {
         self.editor.write_to(w)
+    }
+
+    /// The edits (written later with [`Edits::write_to`] against the same program) and the summary.
+    pub fn into_edits(self) -> (Edits, Summary) {
+        (self.editor.into_edits(), self.summary)
     }
 
     pub fn into_transformed(self) -> Transformed {

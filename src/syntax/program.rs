@@ -318,6 +318,10 @@ impl Program {
 
     /// The line ending most blocks use (LF when there is none), for rendering new blocks.
     pub fn dominant_line_ending(&self) -> &'static [u8] {
+        // Most programs have no CR at all, which one vectorised search tells without visiting every line.
+        if memchr::memchr(b'\r', &self.src).is_none() {
+            return b"\n";
+        }
         let (mut lf, mut crlf, mut cr) = (0usize, 0usize, 0usize);
         for (i, b) in self.blocks.iter().enumerate() {
             match b.terminator_len {
