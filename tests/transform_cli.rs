@@ -285,3 +285,36 @@ fn a_model_with_an_extra_mode_and_a_time_trend_is_predicted_in_nc() {
     );
     assert!(driftloop::parse(out.as_bytes()).diagnostics().is_empty());
 }
+
+#[test]
+fn plan_and_transform_name_the_calls_they_cannot_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = dir.path().join("calls.mpf");
+    std::fs::write(
+        &program,
+        "G17 G90 G54\nT1 M6\nS3000 M3\nG0 X0 Y0 Z50\nMSG(\"drilling\")\nCYCLE81(10,0,2,-5)\nL100 P3\nCYCLE81(10,0,2,-8)\nG1 X40 F500\nM30\n",
+    )
+    .unwrap();
+    let p = program.display().to_string();
+    let o = common::run(&["plan", &p, "--model", &model()]);
+    assert_eq!(code(&o), 0, "{}", String::from_utf8_lossy(&o.stderr));
+    let table = String::from_utf8(o.stdout).unwrap();
+    let untimed = &table[table.find("not timed").expect("a not-timed section")..];
+    insta::assert_snapshot!("plan_untimed_calls", untimed);
+    let o = common::run(&["plan", &p, "--model", &model(), "--format", "json"]);
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(
+        json["untimed_calls"],
+        serde_json::json!([
+            { "name": "CYCLE81", "calls": 2, "first_line": 6 },
+            { "name": "L100", "calls": 1, "first_line": 7 },
+        ])
+    );
+    let o = common::run(&["transform", &p, "--model", &model(), "-o", "/dev/null"]);
+    assert_eq!(code(&o), 0);
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("3 subprogram/cycle call(s) not timed"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}

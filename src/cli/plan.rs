@@ -33,6 +33,7 @@ struct JsonPlan<'a> {
     program_min: f64,
     passes: Vec<omm::report::PassRow>,
     inexact_blocks: usize,
+    untimed_calls: Vec<omm::report::UntimedCall>,
     #[serde(flatten)]
     plan: &'a Plan,
 }
@@ -71,6 +72,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 program_min: timeline.total_min,
                 passes: omm::report::pass_rows(&program, &timeline),
                 inexact_blocks: timeline.inexact_blocks,
+                untimed_calls: omm::report::untimed_calls(&timeline),
                 plan: &plan,
             };
             serde_json::to_writer_pretty(&mut out, &j)?;
@@ -81,6 +83,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             writeln!(out)?;
             omm::report::write_table(&mut out, &program, &plan)?;
             omm::report::write_loops(&mut out, &program, &plan)?;
+            omm::report::write_untimed(&mut out, &omm::report::untimed_calls(&timeline))?;
         }
     }
     Ok(ExitCode::SUCCESS)

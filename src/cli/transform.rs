@@ -179,12 +179,18 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                     let s = &o.summary;
                     writeln!(
                         stderr,
-                        "{path}: {} passes, {} gates, {} measurements planned, {} blocks inserted, predicted drift up to {:.1} µm{}",
+                        "{path}: {} passes, {} gates, {} measurements planned, {} blocks inserted, predicted drift up to {:.1} µm{}{}",
                         s.passes,
                         s.gates,
                         s.measurements_planned,
                         s.blocks_inserted,
                         s.predicted_max_drift_um,
+                        match s.untimed_calls {
+                            0 => String::new(),
+                            n => format!(
+                                "; {n} subprogram/cycle call(s) not timed (`plan` lists them)"
+                            ),
+                        },
                         if args.check && differs {
                             " — would change"
                         } else {

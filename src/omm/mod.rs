@@ -85,6 +85,8 @@ pub struct Summary {
     pub labels: Vec<String>,
     /// Blocks whose time could not be estimated (expressions as coordinates, no feed).
     pub inexact_blocks: usize,
+    /// Subprogram and cycle calls, whose time the plan does not count (`plan` lists them).
+    pub untimed_calls: usize,
 }
 
 /// A transformed program.
@@ -278,6 +280,7 @@ pub fn prepare<'p>(
             r_parameters: regs.all(),
             labels,
             inexact_blocks: timeline.inexact_blocks,
+            untimed_calls: timeline.untimed_calls.len(),
         },
         plan,
     })

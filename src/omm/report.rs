@@ -130,3 +130,46 @@ pub fn write_loops(out: &mut impl Write, program: &Program, plan: &Plan) -> io::
     }
     Ok(())
 }
+
+/// The subprograms and cycles a program calls, whose time the plan does not know: per name in order of the
+/// first call.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct UntimedCall {
+    pub name: String,
+    pub calls: usize,
+    pub first_line: usize,
+}
+
+pub fn untimed_calls(timeline: &Timeline) -> Vec<UntimedCall> {
+    let mut rows: Vec<UntimedCall> = Vec::new();
+    for (line, name) in &timeline.untimed_calls {
+        match rows.iter_mut().find(|r| &r.name == name) {
+            Some(row) => row.calls += 1,
+            None => rows.push(UntimedCall {
+                name: name.clone(),
+                calls: 1,
+                first_line: *line,
+            }),
+        }
+    }
+    rows
+}
+
+pub fn write_untimed(out: &mut impl Write, rows: &[UntimedCall]) -> io::Result<()> {
+    if rows.is_empty() {
+        return Ok(());
+    }
+    writeln!(
+        out,
+        "not timed (subprogram and cycle calls: the plan counts no time for them, so it may measure less often than needed; every gate still decides with the real elapsed time):"
+    )?;
+    for r in rows {
+        let calls = if r.calls == 1 { "call" } else { "calls" };
+        writeln!(
+            out,
+            "  {:<22} {} {calls}, first at line {}",
+            r.name, r.calls, r.first_line
+        )?;
+    }
+    Ok(())
+}

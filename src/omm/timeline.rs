@@ -113,6 +113,8 @@ pub struct Timeline {
     pub inexact_blocks: usize,
     /// The program's loops in the order they close (a section repeat at its REPEAT statement).
     pub loops: Vec<Loop>,
+    /// Subprogram and cycle calls, whose time the timeline does not know: (line, 1-based; called name).
+    pub untimed_calls: Vec<(usize, String)>,
 }
 
 /// What one block says, reduced to what the timeline needs (built in parallel).
@@ -136,6 +138,8 @@ struct Scan {
     r_set: Vec<(u32, Option<f64>)>,
     /// FOR bounds or a section repeat's labels and count.
     count: Option<Count>,
+    /// A subprogram or cycle the block calls.
+    call: Option<String>,
 }
 
 /// The words of a block a move needs: axes (value, written with AC), arc centre or radius, feed.
@@ -286,7 +290,8 @@ impl Scan {
             && self.label.is_none()
             && self.offsets.is_empty()
             && self.r_set.is_empty()
-            && self.count.is_none();
+            && self.count.is_none()
+            && self.call.is_none();
         if !only_moves {
             return None;
         }
@@ -415,10 +420,43 @@ fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
             }
             NodeKind::For => s.count = for_bounds(&block, node),
             NodeKind::Repeat => s.count = section_repeat(&block, node),
+            NodeKind::Call => {
+                let name = String::from_utf8_lossy(block.text(&node.children[0]));
+                let name = name.to_ascii_uppercase();
+                if !TIMELESS_PROCEDURES.contains(&name.as_str()) {
+                    s.call = Some(name);
+                }
+            }
+            NodeKind::ProgramCall => s.call = s.call.take().or_else(|| program_call(&block, node)),
             _ => {}
         }
     }
     s
+}
+
+/// Built-in procedures called like cycles that take no machine time: no note that they are not timed.
+const TIMELESS_PROCEDURES: &[&str] = &[
+    "MSG", "SETAL", "WRITE", "SETMS", "GETT", "GETSELT", "STOPRE",
+];
+
+/// The program `CALL`, `PCALL`, `EXTCALL`, `ISOCALL` or a modal `MCALL` names (`MCALL` alone ends a modal
+/// call: `None`).
+fn program_call(block: &Block<'_>, node: &Node) -> Option<String> {
+    let mut parts = node.significant();
+    let keyword = String::from_utf8_lossy(block.text(parts.next()?)).to_ascii_uppercase();
+    let target = parts.next()?;
+    // A cycle with its arguments (`MCALL CYCLE82(…)`) is named by its name.
+    let target = match target.kind {
+        NodeKind::FnCall => &target.children[0],
+        _ => target,
+    };
+    let text = String::from_utf8_lossy(block.text(target));
+    let name = text.trim_matches('"').to_ascii_uppercase();
+    Some(if keyword == "CALL" {
+        name
+    } else {
+        format!("{keyword} {name}")
+    })
 }
 
 /// `FOR var = from TO to`: the bounds.
@@ -508,7 +546,8 @@ fn scan_words(line: &[u8], marker: &str, s: &mut Scan) -> Option<()> {
             continue;
         }
         let letter = b.to_ascii_uppercase();
-        if !letter.is_ascii_uppercase() || letter == b'R' {
+        // R-parameters, and `L` subprogram calls, which the tree path notes.
+        if !letter.is_ascii_uppercase() || matches!(letter, b'R' | b'L') {
             return None;
         }
         let start = i + 1;
@@ -684,6 +723,10 @@ fn word(block: &Block<'_>, node: &Node, s: &mut Scan) {
         (b"I", Some(v)) => s.mv.centre[0] = Some(v),
         (b"J", Some(v)) => s.mv.centre[1] = Some(v),
         (b"K", Some(v)) => s.mv.centre[2] = Some(v),
+        // `L123 P3`: subprogram 123 (P, its repeat count, is in the call's line).
+        (b"L", Some(_)) => {
+            s.call = Some(String::from_utf8_lossy(block.text(node)).to_ascii_uppercase())
+        }
         _ => {}
     }
 }
@@ -928,6 +971,9 @@ impl<'p> Builder<'p> {
     }
 
     fn block(&mut self, i: usize, s: &Scan, kind: BlockKind) {
+        if let Some(name) = &s.call {
+            self.t.untimed_calls.push((i + 1, name.clone()));
+        }
         // Changes matter only inside a loop body or a section that may be repeated.
         let tracked =
             (!self.open_loops.is_empty() || !self.label_times.is_empty() || s.label.is_some())
@@ -1723,6 +1769,27 @@ mod tests {
                 .replace("G0 X0 Y0 Z10", "G0 X0 Y0 Z10 F100"),
         );
         assert!(same.sites.iter().all(|s| !s.state_varies));
+    }
+
+    #[test]
+    fn subprogram_and_cycle_calls_are_listed_as_not_timed() {
+        let t = timeline_of(
+            "G0 X0 Y0\nMSG(\"roughing\")\nCYCLE81(10,0,2,-5)\nN40 L100 P3\nCALL \"CONTOUR\"\nMCALL CYCLE82(10,0,2,-5,,1)\nX10\nMCALL\nSETAL(65000)\nG1 X20 F100\nM30\n",
+        );
+        let calls: Vec<(usize, &str)> = t
+            .untimed_calls
+            .iter()
+            .map(|(line, name)| (*line, name.as_str()))
+            .collect();
+        assert_eq!(
+            calls,
+            [
+                (3, "CYCLE81"),
+                (4, "L100"),
+                (5, "CONTOUR"),
+                (6, "MCALL CYCLE82")
+            ]
+        );
     }
 
     #[test]
