@@ -263,10 +263,10 @@ pub fn prepare<'p>(
     for &end in &timeline.ends {
         insert(&mut editor, end, emitter.end())?;
     }
-    if timeline.ends.is_empty() && program.block_count() > 0 {
+    if timeline.ends.is_empty() && timeline.unit_end > 0 {
         let end = emitter.end();
         inserted += end.lines().count();
-        editor.insert_after(program.block_count() - 1, &end)?;
+        editor.insert_after(timeline.unit_end - 1, &end)?;
     }
     Ok(Prepared {
         editor,

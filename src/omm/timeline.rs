@@ -115,6 +115,8 @@ pub struct Timeline {
     pub loops: Vec<Loop>,
     /// Subprogram and cycle calls, whose time the timeline does not know: (line, 1-based; called name).
     pub untimed_calls: Vec<(usize, String)>,
+    /// First block after the unit the timeline covers (the block count, unless the file is an archive).
+    pub unit_end: usize,
 }
 
 /// What one block says, reduced to what the timeline needs (built in parallel).
@@ -140,6 +142,8 @@ struct Scan {
     count: Option<Count>,
     /// A subprogram or cycle the block calls.
     call: Option<String>,
+    /// `P`: how often the call runs.
+    repeats: Option<f64>,
 }
 
 /// The words of a block a move needs: axes (value, written with AC), arc centre or radius, feed.
@@ -151,13 +155,65 @@ struct Move {
     f: Option<f64>,
 }
 
+/// The timeline of the program's first unit: of the whole file, or of the main program of an archive. The
+/// archive's other units are timed on their own, so that a call of one of its subprograms (`%_N_NAME_SPF`)
+/// adds that subprogram's time, as often as `P` says; the R-parameters, labels and work offsets they use
+/// count as used.
 pub fn build(program: &Program, profile: &Profile) -> Timeline {
-    let marker = profile.passes.marker.to_ascii_uppercase();
-    let mut b = Builder::new(profile);
+    let units = units(program);
+    let mut subprograms = HashMap::new();
+    let mut others = Vec::new();
+    // From the last unit back: a subprogram calling one defined after it in the archive is timed with it.
+    for unit in units[1..].iter().rev() {
+        let t = build_unit(program, unit.clone(), profile, &subprograms);
+        if let Some(name) = subprogram_name(program, unit.start) {
+            subprograms.insert(name, t.clone());
+        }
+        others.push(t);
+    }
+    let mut t = build_unit(program, units[0].clone(), profile, &subprograms);
+    for other in others {
+        t.used_r.extend(other.used_r);
+        t.labels.extend(other.labels);
+        t.computed_r_lines.extend(other.computed_r_lines);
+        t.offsets.extend(other.offsets);
+    }
+    t.computed_r_lines.sort_unstable();
+    t.unit_end = units[0].end;
+    t
+}
+
+/// The block ranges of the program's units: a new one starts at each `%` header after the first block.
+fn units(program: &Program) -> Vec<std::ops::Range<usize>> {
     let count = program.block_count();
-    let chunks = count.div_ceil(CHUNK_BLOCKS);
+    let mut starts: Vec<usize> = (1..count)
+        .filter(|&i| program.block_kind(i) == BlockKind::Header)
+        .collect();
+    starts.insert(0, 0);
+    starts.push(count);
+    starts.windows(2).map(|w| w[0]..w[1]).collect()
+}
+
+/// `NAME` of a unit headed `%_N_NAME_SPF` (as it is called: `NAME`, `CALL "NAME"`, `L123` for `L123`).
+fn subprogram_name(program: &Program, block: usize) -> Option<String> {
+    let header = program.content_span(block).slice(program.source());
+    let name = String::from_utf8_lossy(header).trim().to_ascii_uppercase();
+    let name = name.strip_prefix("%_N_")?.strip_suffix("_SPF")?;
+    (!name.is_empty()).then(|| name.to_string())
+}
+
+fn build_unit(
+    program: &Program,
+    blocks: std::ops::Range<usize>,
+    profile: &Profile,
+    subprograms: &HashMap<String, Timeline>,
+) -> Timeline {
+    let marker = profile.passes.marker.to_ascii_uppercase();
+    let mut b = Builder::new(profile, subprograms);
+    let (first, count) = (blocks.start, blocks.end);
+    let chunks = (count - first).div_ceil(CHUNK_BLOCKS);
     let scan = |k: usize| {
-        let from = k * CHUNK_BLOCKS;
+        let from = first + k * CHUNK_BLOCKS;
         scan_chunk(program, from..count.min(from + CHUNK_BLOCKS), &marker)
     };
     let helpers = rayon::current_num_threads().saturating_sub(1);
@@ -546,8 +602,8 @@ fn scan_words(line: &[u8], marker: &str, s: &mut Scan) -> Option<()> {
             continue;
         }
         let letter = b.to_ascii_uppercase();
-        // R-parameters, and `L` subprogram calls, which the tree path notes.
-        if !letter.is_ascii_uppercase() || matches!(letter, b'R' | b'L') {
+        // R-parameters, and `L` subprogram calls with their `P`, which the tree path reads.
+        if !letter.is_ascii_uppercase() || matches!(letter, b'R' | b'L' | b'P') {
             return None;
         }
         let start = i + 1;
@@ -723,7 +779,8 @@ fn word(block: &Block<'_>, node: &Node, s: &mut Scan) {
         (b"I", Some(v)) => s.mv.centre[0] = Some(v),
         (b"J", Some(v)) => s.mv.centre[1] = Some(v),
         (b"K", Some(v)) => s.mv.centre[2] = Some(v),
-        // `L123 P3`: subprogram 123 (P, its repeat count, is in the call's line).
+        // `L123 P3`: subprogram 123, run three times.
+        (b"P", Some(p)) => s.repeats = Some(p),
         (b"L", Some(_)) => {
             s.call = Some(String::from_utf8_lossy(block.text(node)).to_ascii_uppercase())
         }
@@ -777,6 +834,11 @@ fn literal(block: &Block<'_>, node: &Node) -> Option<f64> {
 
 struct Builder<'p> {
     profile: &'p Profile,
+    /// The archive's subprograms that a call may run, with their timelines.
+    subprograms: &'p HashMap<String, Timeline>,
+    /// A subprogram or cycle ran since the last tool change: the modal state it left (tool, speed, feed,
+    /// frame) is not known, so no gate measures, and restores a state, until the next tool change.
+    after_call: bool,
     t: Timeline,
     state: Modal,
     pos: [Option<f64>; 3],
@@ -861,9 +923,11 @@ struct OpenLoop {
 }
 
 impl<'p> Builder<'p> {
-    fn new(profile: &'p Profile) -> Self {
+    fn new(profile: &'p Profile, subprograms: &'p HashMap<String, Timeline>) -> Self {
         Builder {
             profile,
+            subprograms,
+            after_call: false,
             t: Timeline {
                 speeds: vec![(0.0, 0.0)],
                 ..Timeline::default()
@@ -972,7 +1036,18 @@ impl<'p> Builder<'p> {
 
     fn block(&mut self, i: usize, s: &Scan, kind: BlockKind) {
         if let Some(name) = &s.call {
-            self.t.untimed_calls.push((i + 1, name.clone()));
+            self.after_call = true;
+            match self.subprograms.get(name) {
+                Some(sub) => {
+                    let runs = s.repeats.filter(|p| *p >= 1.0).unwrap_or(1.0).floor();
+                    self.time += runs * sub.total_min;
+                    self.t.inexact_blocks += sub.inexact_blocks;
+                    self.t
+                        .untimed_calls
+                        .extend(sub.untimed_calls.iter().cloned());
+                }
+                None => self.t.untimed_calls.push((i + 1, name.clone())),
+            }
         }
         // Changes matter only inside a loop body or a section that may be repeated.
         let tracked =
@@ -1075,7 +1150,11 @@ impl<'p> Builder<'p> {
         if (p.tool_change && tool_change) || marked {
             let mark = self.mark(i, tool_change, start, &before);
             self.pass_marks.push(mark);
+            if self.after_call && !tool_change {
+                self.varies.insert(i);
+            }
         }
+        self.after_call &= !tool_change;
         if s.tool.is_some() || (p.tool_change && tool_change) || marked || rpm != self.rpm {
             self.note_site(i);
         }
@@ -1312,6 +1391,9 @@ impl<'p> Builder<'p> {
             && self.state.absolute
             && (dwell || (moved && mv.axes[2].is_none()));
         if retract_candidate {
+            if self.after_call {
+                self.varies.insert(i);
+            }
             self.note_site(i);
             let first_in_loop = self.loop_depth > 0 && self.loop_gate_pending;
             self.loop_gate_pending &= !first_in_loop;
@@ -1543,7 +1625,8 @@ mod tests {
 
     /// The timeline of a program folded block by block from whole scans, as before chunks existed.
     fn block_by_block(program: &Program, profile: &Profile) -> Timeline {
-        let mut b = Builder::new(profile);
+        let subprograms = HashMap::new();
+        let mut b = Builder::new(profile, &subprograms);
         let mut words = Scan::default();
         for i in 0..program.block_count() {
             let span = program.content_span(i);
@@ -1555,7 +1638,9 @@ mod tests {
                 b.block(i, &scan_tree(program, i, "PASS"), kind);
             }
         }
-        b.finish()
+        let mut t = b.finish();
+        t.unit_end = program.block_count();
+        t
     }
 
     /// Large programs are read in parallel chunks, moves packed into heads and numbers: the timeline is the
@@ -1790,6 +1875,48 @@ mod tests {
                 (6, "MCALL CYCLE82")
             ]
         );
+    }
+
+    #[test]
+    fn an_archive_times_its_main_program_and_the_subprograms_it_calls() {
+        let main = |call: &str| {
+            format!(
+                "%_N_MAIN_MPF\n;$PATH=/_N_MPF_DIR\nG90 G0 X0 Y0 Z0\nT1 M6\nG1 X100 F100\n{call}G0 Z50\nM30\n"
+            )
+        };
+        let subprograms = "%_N_L100_SPF\n;$PATH=/_N_SPF_DIR\nG91 G1 X10 F100\nG90\nT2 M6\nR55=1\nM17\n\
+                           %_N_OTHER_SPF\nG0 Z10\nG55\nM17\n";
+        let alone = timeline_of(&main(""));
+        let t = timeline_of(&(main("L100 P3\n") + subprograms));
+        // Three runs of 10 mm at F100 and a tool change, nothing of the other units.
+        let tool_change = Profile::default_profile().timeline.tool_change_s / 60.0;
+        let added = t.total_min - alone.total_min;
+        assert!((added - 3.0 * (0.1 + tool_change)).abs() < 1e-9, "{added}");
+        assert_eq!(t.unit_end, 8);
+        assert!(t.sites.iter().all(|s| s.block < 8) && t.passes.len() == 1);
+        assert_eq!(t.ends.len(), 1);
+        // What the other units use is taken all the same: R-parameters are global on the control.
+        assert!(t.used_r.contains(&55));
+        assert!(t.offsets.iter().any(|(g, _)| *g == 55));
+        assert!(t.untimed_calls.is_empty());
+        // A subprogram not in the archive stays untimed.
+        let t = timeline_of(&(main("L200\n") + subprograms));
+        assert_eq!(t.untimed_calls, [(6, "L200".to_string())]);
+    }
+
+    #[test]
+    fn after_a_call_no_gate_restores_a_state_until_the_next_tool_change() {
+        let t = timeline_of(
+            "T1 M6\nS2000 M3\nG0 X0 Y0 Z2\nG1 Z-1 F100\nG0 Z50\nG0 X10\nCYCLE81(10,0,2,-5)\nG1 Z-1\nG0 Z50\nG0 X20\nT2 M6\nG0 Z2\nG1 Z-1 F100\nG0 Z50\nG0 X30\nM30\n",
+        );
+        let retracts: Vec<(usize, bool)> = t
+            .sites
+            .iter()
+            .filter(|s| matches!(s.kind, SiteKind::Retract { .. }))
+            .map(|s| (s.block + 1, s.state_varies))
+            .collect();
+        // The cycle may have left another speed, feed or frame: the retract after it cannot measure.
+        assert_eq!(retracts, [(6, false), (10, true), (15, false)]);
     }
 
     #[test]
