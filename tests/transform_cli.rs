@@ -292,7 +292,7 @@ fn plan_and_transform_name_the_calls_they_cannot_time() {
     let program = dir.path().join("calls.mpf");
     std::fs::write(
         &program,
-        "G17 G90 G54\nT1 M6\nS3000 M3\nG0 X0 Y0 Z50\nMSG(\"drilling\")\nCYCLE81(10,0,2,-5)\nL100 P3\nCYCLE81(10,0,2,-8)\nG1 X40 F500\nM30\n",
+        "G17 G90 G54\nT1 M6\nS3000 M3\nG0 X0 Y0 Z50\nMSG(\"drilling\")\nCYCLE81(10,0,2,-5)\nL100 P3\nCYCLE81(10,0,2,-8)\nCONTOUR\nMCALL CYCLE82(10,0,2,-5,,1)\nX10\nX20\nMCALL\nG1 X40 F500\nM30\n",
     )
     .unwrap();
     let p = program.display().to_string();
@@ -308,12 +308,14 @@ fn plan_and_transform_name_the_calls_they_cannot_time() {
         serde_json::json!([
             { "name": "CYCLE81", "calls": 2, "first_line": 6 },
             { "name": "L100", "calls": 1, "first_line": 7 },
+            { "name": "CONTOUR", "calls": 1, "first_line": 9 },
+            { "name": "MCALL CYCLE82", "calls": 2, "first_line": 11 },
         ])
     );
     let o = common::run(&["transform", &p, "--model", &model(), "-o", "/dev/null"]);
     assert_eq!(code(&o), 0);
     assert!(
-        String::from_utf8_lossy(&o.stderr).contains("3 subprogram/cycle call(s) not timed"),
+        String::from_utf8_lossy(&o.stderr).contains("6 subprogram/cycle call(s) not timed"),
         "{}",
         String::from_utf8_lossy(&o.stderr)
     );

@@ -12,7 +12,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
 
 use crate::syntax::{Block, BlockKind, Node, NodeKind, Program};
-use crate::views::{AxisMode, Value, VarName, WorkOffset, facts};
+use crate::views::{AxisMode, Value, VarName, WorkOffset, facts, is_predefined_command};
 
 use super::loops::{Bound, Count, Loop, LoopKind, for_runs};
 use super::profile::Profile;
@@ -142,6 +142,8 @@ struct Scan {
     count: Option<Count>,
     /// A subprogram or cycle the block calls.
     call: Option<String>,
+    /// `MCALL NAME`: NAME runs after each later block that moves; `MCALL` alone (`Some(None)`) ends that.
+    modal_call: Option<Option<String>>,
     /// `P`: how often the call runs.
     repeats: Option<f64>,
 }
@@ -161,17 +163,33 @@ struct Move {
 /// count as used.
 pub fn build(program: &Program, profile: &Profile) -> Timeline {
     let units = units(program);
+    let names: Vec<Option<String>> = units[1..]
+        .iter()
+        .map(|u| subprogram_name(program, u.start))
+        .collect();
+    // Each subprogram on its own first, for the names it calls; then each again after those it calls (a
+    // recursive call stays untimed), unless it calls none of the archive's subprograms.
+    let mut alone: Vec<Option<(Timeline, BTreeSet<String>)>> = units[1..]
+        .iter()
+        .map(|u| Some(build_unit(program, u.clone(), profile, &HashMap::new())))
+        .collect();
+    let calls: Vec<BTreeSet<String>> = alone.iter().flatten().map(|(_, c)| c.clone()).collect();
+    let order = callees_first(&names, &calls);
     let mut subprograms = HashMap::new();
     let mut others = Vec::new();
-    // From the last unit back: a subprogram calling one defined after it in the archive is timed with it.
-    for unit in units[1..].iter().rev() {
-        let t = build_unit(program, unit.clone(), profile, &subprograms);
-        if let Some(name) = subprogram_name(program, unit.start) {
-            subprograms.insert(name, t.clone());
+    for k in order {
+        let (first, called) = alone[k].take().expect("each unit once");
+        let t = if called.iter().any(|c| names.contains(&Some(c.clone()))) {
+            build_unit(program, units[k + 1].clone(), profile, &subprograms).0
+        } else {
+            first
+        };
+        if let Some(name) = &names[k] {
+            subprograms.insert(name.clone(), t.clone());
         }
         others.push(t);
     }
-    let mut t = build_unit(program, units[0].clone(), profile, &subprograms);
+    let mut t = build_unit(program, units[0].clone(), profile, &subprograms).0;
     for other in others {
         t.used_r.extend(other.used_r);
         t.labels.extend(other.labels);
@@ -181,6 +199,40 @@ pub fn build(program: &Program, profile: &Profile) -> Timeline {
     t.computed_r_lines.sort_unstable();
     t.unit_end = units[0].end;
     t
+}
+
+/// The units (by index into `names`) ordered so that each comes after the units it calls, when they do not
+/// call it back.
+fn callees_first(names: &[Option<String>], calls: &[BTreeSet<String>]) -> Vec<usize> {
+    let index: HashMap<&str, usize> = names
+        .iter()
+        .enumerate()
+        .filter_map(|(k, n)| Some((n.as_deref()?, k)))
+        .collect();
+    let mut seen = vec![false; names.len()];
+    let mut order = Vec::with_capacity(names.len());
+    for root in 0..names.len() {
+        if seen[root] {
+            continue;
+        }
+        seen[root] = true;
+        // Depth first, iteratively: (unit, its callees still to visit).
+        let mut stack = vec![(root, calls[root].iter())];
+        while let Some((k, callees)) = stack.last_mut() {
+            let k = *k;
+            match callees.find_map(|c| index.get(c.as_str()).copied().filter(|&j| !seen[j])) {
+                Some(j) => {
+                    seen[j] = true;
+                    stack.push((j, calls[j].iter()));
+                }
+                None => {
+                    order.push(k);
+                    stack.pop();
+                }
+            }
+        }
+    }
+    order
 }
 
 /// The block ranges of the program's units: a new one starts at each `%` header after the first block.
@@ -207,7 +259,7 @@ fn build_unit(
     blocks: std::ops::Range<usize>,
     profile: &Profile,
     subprograms: &HashMap<String, Timeline>,
-) -> Timeline {
+) -> (Timeline, BTreeSet<String>) {
     let marker = profile.passes.marker.to_ascii_uppercase();
     let mut b = Builder::new(profile, subprograms);
     let (first, count) = (blocks.start, blocks.end);
@@ -219,7 +271,8 @@ fn build_unit(
     let helpers = rayon::current_num_threads().saturating_sub(1);
     if chunks <= 1 || helpers == 0 {
         (0..chunks).for_each(|k| b.fold(&scan(k)));
-        return b.finish();
+        let called = std::mem::take(&mut b.called);
+        return (b.finish(), called);
     }
     // Reading the blocks is independent line by line, the fold is not. Helpers read chunks in order of a
     // shared counter, at most AHEAD chunks past the fold (so the records never hold the whole program);
@@ -272,7 +325,8 @@ fn build_unit(
             changed.notify_all();
         }
     });
-    b.finish()
+    let called = std::mem::take(&mut b.called);
+    (b.finish(), called)
 }
 
 /// Blocks read as one piece of work.
@@ -347,7 +401,8 @@ impl Scan {
             && self.offsets.is_empty()
             && self.r_set.is_empty()
             && self.count.is_none()
-            && self.call.is_none();
+            && self.call.is_none()
+            && self.modal_call.is_none();
         if !only_moves {
             return None;
         }
@@ -483,7 +538,17 @@ fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                     s.call = Some(name);
                 }
             }
-            NodeKind::ProgramCall => s.call = s.call.take().or_else(|| program_call(&block, node)),
+            NodeKind::Command => {
+                let name = String::from_utf8_lossy(block.text(node)).to_ascii_uppercase();
+                if !is_predefined_command(&name) {
+                    s.call = Some(name);
+                }
+            }
+            NodeKind::ProgramCall => match program_call(&block, node) {
+                Some(ProgramCall::Once(name)) => s.call = s.call.take().or(Some(name)),
+                Some(ProgramCall::Modal(name)) => s.modal_call = Some(name),
+                None => {}
+            },
             _ => {}
         }
     }
@@ -495,12 +560,20 @@ const TIMELESS_PROCEDURES: &[&str] = &[
     "MSG", "SETAL", "WRITE", "SETMS", "GETT", "GETSELT", "STOPRE",
 ];
 
-/// The program `CALL`, `PCALL`, `EXTCALL`, `ISOCALL` or a modal `MCALL` names (`MCALL` alone ends a modal
-/// call: `None`).
-fn program_call(block: &Block<'_>, node: &Node) -> Option<String> {
+/// What a `CALL`, `PCALL`, `EXTCALL`, `ISOCALL` or `MCALL` statement does.
+enum ProgramCall {
+    /// Runs the program now: `NAME` for `CALL`, `KEYWORD NAME` for the others.
+    Once(String),
+    /// `MCALL NAME` (the cycle's name) or `MCALL` alone, which ends the modal call.
+    Modal(Option<String>),
+}
+
+fn program_call(block: &Block<'_>, node: &Node) -> Option<ProgramCall> {
     let mut parts = node.significant();
     let keyword = String::from_utf8_lossy(block.text(parts.next()?)).to_ascii_uppercase();
-    let target = parts.next()?;
+    let Some(target) = parts.next() else {
+        return (keyword == "MCALL").then_some(ProgramCall::Modal(None));
+    };
     // A cycle with its arguments (`MCALL CYCLE82(…)`) is named by its name.
     let target = match target.kind {
         NodeKind::FnCall => &target.children[0],
@@ -508,10 +581,10 @@ fn program_call(block: &Block<'_>, node: &Node) -> Option<String> {
     };
     let text = String::from_utf8_lossy(block.text(target));
     let name = text.trim_matches('"').to_ascii_uppercase();
-    Some(if keyword == "CALL" {
-        name
-    } else {
-        format!("{keyword} {name}")
+    Some(match keyword.as_str() {
+        "CALL" => ProgramCall::Once(name),
+        "MCALL" => ProgramCall::Modal(Some(name)),
+        _ => ProgramCall::Once(format!("{keyword} {name}")),
     })
 }
 
@@ -839,6 +912,10 @@ struct Builder<'p> {
     /// A subprogram or cycle ran since the last tool change: the modal state it left (tool, speed, feed,
     /// frame) is not known, so no gate measures, and restores a state, until the next tool change.
     after_call: bool,
+    /// The cycle or subprogram an `MCALL` made modal: it runs after each block that moves.
+    modal_call: Option<String>,
+    /// Names the unit calls (archive subprograms or not), for the order in which an archive's units are timed.
+    called: BTreeSet<String>,
     t: Timeline,
     state: Modal,
     pos: [Option<f64>; 3],
@@ -928,6 +1005,8 @@ impl<'p> Builder<'p> {
             profile,
             subprograms,
             after_call: false,
+            modal_call: None,
+            called: BTreeSet::new(),
             t: Timeline {
                 speeds: vec![(0.0, 0.0)],
                 ..Timeline::default()
@@ -1003,6 +1082,7 @@ impl<'p> Builder<'p> {
             self.note_site(i);
         }
         self.movement(i, start, &before, mv, false, None, false, false);
+        self.modal_call_after(i, mv);
     }
 
     /// Header lines (`%…`, `;$PATH`) and the declarations after them: no gate may come before their end.
@@ -1034,20 +1114,37 @@ impl<'p> Builder<'p> {
         }
     }
 
+    /// A subprogram or cycle runs at block `i`, `repeats` times: an archive subprogram adds its time, any
+    /// other call is listed as not timed (`shown` is how the list names it).
+    fn call(&mut self, i: usize, name: &str, shown: &str, repeats: Option<f64>) {
+        self.after_call = true;
+        self.called.insert(name.to_string());
+        match self.subprograms.get(name) {
+            Some(sub) => {
+                let runs = repeats.filter(|p| *p >= 1.0).unwrap_or(1.0).floor();
+                self.time += runs * sub.total_min;
+                self.t.inexact_blocks += sub.inexact_blocks;
+                self.t
+                    .untimed_calls
+                    .extend(sub.untimed_calls.iter().cloned());
+            }
+            None => self.t.untimed_calls.push((i + 1, shown.to_string())),
+        }
+    }
+
+    /// After a block that moves, the cycle an `MCALL` made modal runs.
+    fn modal_call_after(&mut self, i: usize, mv: &Move) {
+        if let Some(name) = self.modal_call.take() {
+            if mv.axes.iter().any(Option::is_some) {
+                self.call(i, &name, &format!("MCALL {name}"), None);
+            }
+            self.modal_call = Some(name);
+        }
+    }
+
     fn block(&mut self, i: usize, s: &Scan, kind: BlockKind) {
         if let Some(name) = &s.call {
-            self.after_call = true;
-            match self.subprograms.get(name) {
-                Some(sub) => {
-                    let runs = s.repeats.filter(|p| *p >= 1.0).unwrap_or(1.0).floor();
-                    self.time += runs * sub.total_min;
-                    self.t.inexact_blocks += sub.inexact_blocks;
-                    self.t
-                        .untimed_calls
-                        .extend(sub.untimed_calls.iter().cloned());
-                }
-                None => self.t.untimed_calls.push((i + 1, name.clone())),
-            }
+            self.call(i, name, name, s.repeats);
         }
         // Changes matter only inside a loop body or a section that may be repeated.
         let tracked =
@@ -1171,7 +1268,11 @@ impl<'p> Builder<'p> {
                 state_varies: false,
             });
         }
+        if let Some(modal) = &s.modal_call {
+            self.modal_call = modal.clone();
+        }
         self.movement(i, start, &before, &s.mv, dwell, s.s, s.inexact, tool_change);
+        self.modal_call_after(i, &s.mv);
         if let Some(prev) = tracked {
             for (f, differs) in field::differ(&prev, &self.state).into_iter().enumerate() {
                 if differs {
@@ -1859,7 +1960,7 @@ mod tests {
     #[test]
     fn subprogram_and_cycle_calls_are_listed_as_not_timed() {
         let t = timeline_of(
-            "G0 X0 Y0\nMSG(\"roughing\")\nCYCLE81(10,0,2,-5)\nN40 L100 P3\nCALL \"CONTOUR\"\nMCALL CYCLE82(10,0,2,-5,,1)\nX10\nMCALL\nSETAL(65000)\nG1 X20 F100\nM30\n",
+            "G0 X0 Y0\nMSG(\"roughing\")\nCYCLE81(10,0,2,-5)\nN40 L100 P3\nCALL \"CONTOUR\"\nMCALL CYCLE82(10,0,2,-5,,1)\nX10\nY10\nF200\nMCALL\nSETAL(65000)\nG1 X20 F100\nPOCKET\nSTOPRE\nTRANS Z1\nSOFT\nSUB2 P3\nM30\n",
         );
         let calls: Vec<(usize, &str)> = t
             .untimed_calls
@@ -1872,9 +1973,36 @@ mod tests {
                 (3, "CYCLE81"),
                 (4, "L100"),
                 (5, "CONTOUR"),
-                (6, "MCALL CYCLE82")
+                // A modal call runs after each block that moves, until `MCALL` alone.
+                (7, "MCALL CYCLE82"),
+                (8, "MCALL CYCLE82"),
+                // A bare name calls a subprogram unless the control predefines it.
+                (13, "POCKET"),
+                (17, "SUB2"),
             ]
         );
+    }
+
+    #[test]
+    fn archive_subprograms_are_timed_in_the_order_they_call_each_other() {
+        // SUBA calls SUBB, which comes before it; SUBC and SUBD call each other.
+        let archive = "%_N_MAIN_MPF\n;$PATH=/_N_MPF_DIR\nG90 G0 X0 Y0 Z0\nT1 M6\nSUBA P2\nMCALL SUBB\nG0 X10\nG0 X0\nMCALL\nSUBC\nM30\n\
+                       %_N_SUBB_SPF\nG91 G1 X10 F100\nG90\nM17\n\
+                       %_N_SUBA_SPF\nG91 G1 X100 F100\nG90\nSUBB\nM17\n\
+                       %_N_SUBC_SPF\nG91 G1 Z100 F100\nG90\nSUBD\nM17\n\
+                       %_N_SUBD_SPF\nG91 G1 Z50 F100\nG90\nSUBC\nM17\n";
+        let t = timeline_of(archive);
+        let tool_change = Profile::default_profile().timeline.tool_change_s / 60.0;
+        let rapid = |mm: f64| mm / Profile::default_profile().timeline.rapid_mm_per_min;
+        // SUBA twice (1 + 0.1 min each), SUBB after both moves of the modal call (0.1 min each), SUBC
+        // (1 min) with SUBD (0.5 min) once: the call back from SUBD to SUBC is not followed.
+        let expected = tool_change + 2.0 * 1.1 + 2.0 * (rapid(10.0) + 0.1) + 1.5;
+        assert!(
+            (t.total_min - expected).abs() < 1e-9,
+            "{} vs {expected}",
+            t.total_min
+        );
+        assert_eq!(t.untimed_calls, [(29, "SUBC".to_string())]);
     }
 
     #[test]

@@ -92,6 +92,9 @@ impl Interp<'_> {
                 w.frame_command = Some(name)
             }
             _ if NO_EFFECT_COMMANDS.contains(&name.as_str()) => {}
+            _ if crate::views::is_predefined_command(&name) => {
+                return Err(format!("{name} is not supported by the dry run"));
+            }
             _ => w.call = Some((name, Vec::new(), Vec::new())),
         }
         Ok(())
