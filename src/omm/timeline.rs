@@ -1133,12 +1133,13 @@ impl<'p> Builder<'p> {
     }
 
     /// After a block that moves, the cycle an `MCALL` made modal runs.
+    #[inline]
     fn modal_call_after(&mut self, i: usize, mv: &Move) {
-        if let Some(name) = self.modal_call.take() {
-            if mv.axes.iter().any(Option::is_some) {
-                self.call(i, &name, &format!("MCALL {name}"), None);
-            }
-            self.modal_call = Some(name);
+        if let Some(name) = &self.modal_call
+            && mv.axes.iter().any(Option::is_some)
+        {
+            let name = name.clone();
+            self.call(i, &name, &format!("MCALL {name}"), None);
         }
     }
 
