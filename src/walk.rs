@@ -5,6 +5,7 @@
 //! case). The result is sorted per directory so runs are reproducible, and it is a plain list so callers can
 //! process it in parallel (`rayon`) and still report in this order.
 
+use std::collections::HashMap;
 use std::fmt;
 use std::fs;
 use std::io::{self, Read};
@@ -120,6 +121,35 @@ fn walk_dir(dir: &Path, out: &mut Vec<Input>) -> Result<(), WalkError> {
         }
     }
     Ok(())
+}
+
+/// The `.SPF` / `.MPF` files of a folder (`_N_NAME_SPF` too) by upper-cased program name, as a call names
+/// them (`NAME`, `L123`); of two that differ only in case or form, the
+/// first in byte order.
+pub fn programs_by_name(dir: &Path) -> HashMap<String, PathBuf> {
+    let mut out = HashMap::new();
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return out;
+    };
+    let mut paths: Vec<PathBuf> = entries.flatten().map(|e| e.path()).collect();
+    paths.sort();
+    for path in paths {
+        let Some(name) = path.file_name() else {
+            continue;
+        };
+        let file = name.to_string_lossy().to_ascii_uppercase();
+        let stem = file
+            .strip_suffix(".SPF")
+            .or_else(|| file.strip_suffix(".MPF"))
+            .or_else(|| {
+                file.strip_prefix("_N_")
+                    .and_then(|f| f.strip_suffix("_SPF").or_else(|| f.strip_suffix("_MPF")))
+            });
+        if let Some(stem) = stem {
+            out.entry(stem.to_string()).or_insert(path);
+        }
+    }
+    out
 }
 
 #[cfg(test)]

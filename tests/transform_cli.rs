@@ -320,3 +320,80 @@ fn plan_and_transform_name_the_calls_they_cannot_time() {
         String::from_utf8_lossy(&o.stderr)
     );
 }
+
+#[test]
+fn subprogram_folders_from_the_profile_or_the_command_line_are_timed() {
+    let dir = tempfile::tempdir().unwrap();
+    let spf = dir.path().join("spf");
+    std::fs::create_dir(&spf).unwrap();
+    // R900 lies in the default free range: the transform must take others.
+    std::fs::write(
+        spf.join("ROUGH.SPF"),
+        "G91 G1 X100 F100\nR900=1\nG90\nM17\n",
+    )
+    .unwrap();
+    let program = dir.path().join("main.mpf");
+    std::fs::write(
+        &program,
+        "G17 G90 G54\nT1 M6\nS3000 M3\nG0 X0 Y0 Z50\nROUGH P3\nG0 Z50\nM30\n",
+    )
+    .unwrap();
+    let (p, model) = (program.display().to_string(), model());
+    let plan = |extra: &[&str]| {
+        let mut args = vec!["plan", &p, "--model", &model, "--format", "json"];
+        args.extend_from_slice(extra);
+        let o = common::run(&args);
+        assert_eq!(code(&o), 0, "{}", String::from_utf8_lossy(&o.stderr));
+        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()
+    };
+    let without = plan(&[]);
+    assert_eq!(without["untimed_calls"][0]["name"], "ROUGH");
+    let spf_arg = spf.display().to_string();
+    let with = plan(&["--subprograms", &spf_arg]);
+    assert_eq!(with["untimed_calls"], serde_json::json!([]));
+    let added = with["total_min"].as_f64().unwrap() - without["total_min"].as_f64().unwrap();
+    assert!(
+        (added - 3.0).abs() < 1e-6,
+        "three runs of one minute: {added}"
+    );
+    // The same folder named in the profile, relative to the profile file.
+    let profile = dir.path().join("machine.toml");
+    let text = driftloop::omm::profile::DEFAULT_PROFILE.replace(
+        "tool_change_s = 10.0\n",
+        "tool_change_s = 10.0\nsubprograms = [\"spf\"]\n",
+    );
+    assert_ne!(text, driftloop::omm::profile::DEFAULT_PROFILE);
+    std::fs::write(&profile, text).unwrap();
+    let profile_arg = profile.display().to_string();
+    assert_eq!(
+        plan(&["--profile", &profile_arg])["total_min"],
+        with["total_min"]
+    );
+    let o = common::run(&[
+        "transform",
+        &p,
+        "--model",
+        &model,
+        "--profile",
+        &profile_arg,
+        "--format",
+        "json",
+        "-o",
+        "/dev/null",
+    ]);
+    assert_eq!(code(&o), 0, "{}", String::from_utf8_lossy(&o.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let taken = json[0]["summary"]["r_parameters"].as_array().unwrap();
+    assert!(!taken.is_empty() && !taken.contains(&serde_json::json!(900)));
+    // A folder that is not there is refused, not ignored.
+    let o = common::run(&[
+        "plan",
+        &p,
+        "--model",
+        &model,
+        "--subprograms",
+        "/no/such/folder",
+    ]);
+    assert_eq!(code(&o), 2);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("/no/such/folder is not a folder"));
+}

@@ -58,6 +58,11 @@ pub struct Setup {
     /// The machine profile; the shipped Blum TC50 / G54 profile when absent.
     #[arg(long, value_name = "MACHINE.toml")]
     pub profile: Option<PathBuf>,
+    /// Folder holding the control's subprograms: a call of one (`NAME.SPF`, `NAME.MPF`, `_N_NAME_SPF`, any
+    /// case) adds its time to the plan and the R-parameters it uses are left alone; repeatable, after the
+    /// profile's own `subprograms`.
+    #[arg(long = "subprograms", value_name = "DIR")]
+    pub subprogram_dirs: Vec<PathBuf>,
 }
 
 impl Setup {
@@ -72,10 +77,15 @@ impl Setup {
             .iter()
             .map(|b| format!("{b:02x}"))
             .collect();
-        let profile = match &self.profile {
+        let mut profile = match &self.profile {
             Some(path) => Profile::read(path)?,
             None => Profile::default_profile(),
         };
+        let dirs = &mut profile.timeline.subprograms;
+        dirs.extend(self.subprogram_dirs.iter().cloned());
+        if let Some(missing) = dirs.iter().find(|d| !d.is_dir()) {
+            anyhow::bail!("subprogram folder {} is not a folder", missing.display());
+        }
         Ok((model, sha, profile))
     }
 }

@@ -9,6 +9,7 @@ pub mod nc;
 pub mod plan;
 pub mod profile;
 pub mod report;
+mod subprograms;
 pub mod timeline;
 
 use serde::Serialize;

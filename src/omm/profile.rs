@@ -155,6 +155,10 @@ pub struct Passes {
 pub struct TimelineSettings {
     pub rapid_mm_per_min: f64,
     pub tool_change_s: f64,
+    /// Optional: folders holding the control's subprograms (`NAME.SPF`, `_N_NAME_SPF`, …), relative to the
+    /// profile file; a call of one adds its time. `--subprograms DIR` adds more.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub subprograms: Vec<std::path::PathBuf>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -197,7 +201,12 @@ impl Profile {
             file: file.clone(),
             source,
         })?;
-        Profile::from_toml(&text, &file)
+        let mut profile = Profile::from_toml(&text, &file)?;
+        let base = path.parent().unwrap_or(Path::new(""));
+        for dir in &mut profile.timeline.subprograms {
+            *dir = base.join(&*dir);
+        }
+        Ok(profile)
     }
 
     /// The work-offset G number `select` names.

@@ -16,6 +16,7 @@ use crate::views::{AxisMode, Value, VarName, WorkOffset, facts, is_predefined_co
 
 use super::loops::{Bound, Count, Loop, LoopKind, for_runs};
 use super::profile::Profile;
+use super::subprograms::Folders;
 
 /// The modal state a gate must restore after it moved the machine.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -160,8 +161,20 @@ struct Move {
 /// The timeline of the program's first unit: of the whole file, or of the main program of an archive. The
 /// archive's other units are timed on their own, so that a call of one of its subprograms (`%_N_NAME_SPF`)
 /// adds that subprogram's time, as often as `P` says; the R-parameters, labels and work offsets they use
-/// count as used.
+/// count as used. So does a call of a subprogram in the profile's folders, with the R-parameters it uses.
 pub fn build(program: &Program, profile: &Profile) -> Timeline {
+    build_with(program, profile, &mut Folders::new(profile))
+}
+
+/// A subprogram a call may run. `elsewhere`: it comes from another file, so what it leaves untimed is
+/// listed at the call (its own line numbers mean nothing in this program).
+#[derive(Clone)]
+struct Subprogram {
+    timeline: Timeline,
+    elsewhere: bool,
+}
+
+pub(super) fn build_with(program: &Program, profile: &Profile, folders: &mut Folders) -> Timeline {
     let units = units(program);
     let names: Vec<Option<String>> = units[1..]
         .iter()
@@ -179,17 +192,39 @@ pub fn build(program: &Program, profile: &Profile) -> Timeline {
     let mut others = Vec::new();
     for k in order {
         let (first, called) = alone[k].take().expect("each unit once");
-        let t = if called.iter().any(|c| names.contains(&Some(c.clone()))) {
-            build_unit(program, units[k + 1].clone(), profile, &subprograms).0
+        let t = if called
+            .iter()
+            .any(|c| names.contains(&Some(c.clone())) || folders.holds(c))
+        {
+            time_unit(
+                program,
+                units[k + 1].clone(),
+                profile,
+                &mut subprograms,
+                folders,
+            )
         } else {
             first
         };
         if let Some(name) = &names[k] {
-            subprograms.insert(name.clone(), t.clone());
+            let timeline = t.clone();
+            subprograms.insert(
+                name.clone(),
+                Subprogram {
+                    timeline,
+                    elsewhere: false,
+                },
+            );
         }
         others.push(t);
     }
-    let mut t = build_unit(program, units[0].clone(), profile, &subprograms).0;
+    let mut t = time_unit(
+        program,
+        units[0].clone(),
+        profile,
+        &mut subprograms,
+        folders,
+    );
     for other in others {
         t.used_r.extend(other.used_r);
         t.labels.extend(other.labels);
@@ -199,6 +234,36 @@ pub fn build(program: &Program, profile: &Profile) -> Timeline {
     t.computed_r_lines.sort_unstable();
     t.unit_end = units[0].end;
     t
+}
+
+/// A unit timed with the subprograms it calls: the archive's, and those the profile's folders hold (added to
+/// `subprograms`; the unit is then timed again with them).
+fn time_unit(
+    program: &Program,
+    blocks: std::ops::Range<usize>,
+    profile: &Profile,
+    subprograms: &mut HashMap<String, Subprogram>,
+    folders: &mut Folders,
+) -> Timeline {
+    let (t, called) = build_unit(program, blocks.clone(), profile, subprograms);
+    let mut found = false;
+    for name in called {
+        if !subprograms.contains_key(&name)
+            && let Some(timeline) = folders.timeline(&name, profile)
+        {
+            let sub = Subprogram {
+                timeline,
+                elsewhere: true,
+            };
+            subprograms.insert(name, sub);
+            found = true;
+        }
+    }
+    if found {
+        build_unit(program, blocks, profile, subprograms).0
+    } else {
+        t
+    }
 }
 
 /// The units (by index into `names`) ordered so that each comes after the units it calls, when they do not
@@ -258,7 +323,7 @@ fn build_unit(
     program: &Program,
     blocks: std::ops::Range<usize>,
     profile: &Profile,
-    subprograms: &HashMap<String, Timeline>,
+    subprograms: &HashMap<String, Subprogram>,
 ) -> (Timeline, BTreeSet<String>) {
     let marker = profile.passes.marker.to_ascii_uppercase();
     let mut b = Builder::new(profile, subprograms);
@@ -907,8 +972,8 @@ fn literal(block: &Block<'_>, node: &Node) -> Option<f64> {
 
 struct Builder<'p> {
     profile: &'p Profile,
-    /// The archive's subprograms that a call may run, with their timelines.
-    subprograms: &'p HashMap<String, Timeline>,
+    /// The subprograms (of the archive, or of the profile's folders) that a call may run.
+    subprograms: &'p HashMap<String, Subprogram>,
     /// A subprogram or cycle ran since the last tool change: the modal state it left (tool, speed, feed,
     /// frame) is not known, so no gate measures, and restores a state, until the next tool change.
     after_call: bool,
@@ -1000,7 +1065,7 @@ struct OpenLoop {
 }
 
 impl<'p> Builder<'p> {
-    fn new(profile: &'p Profile, subprograms: &'p HashMap<String, Timeline>) -> Self {
+    fn new(profile: &'p Profile, subprograms: &'p HashMap<String, Subprogram>) -> Self {
         Builder {
             profile,
             subprograms,
@@ -1120,13 +1185,24 @@ impl<'p> Builder<'p> {
         self.after_call = true;
         self.called.insert(name.to_string());
         match self.subprograms.get(name) {
-            Some(sub) => {
+            Some(Subprogram {
+                timeline: sub,
+                elsewhere,
+            }) => {
                 let runs = repeats.filter(|p| *p >= 1.0).unwrap_or(1.0).floor();
                 self.time += runs * sub.total_min;
                 self.t.inexact_blocks += sub.inexact_blocks;
-                self.t
-                    .untimed_calls
-                    .extend(sub.untimed_calls.iter().cloned());
+                let line = |own: usize| if *elsewhere { i + 1 } else { own };
+                self.t.untimed_calls.extend(
+                    sub.untimed_calls
+                        .iter()
+                        .map(|(own, name)| (line(*own), name.clone())),
+                );
+                // R-parameters are global: those a subprogram from a folder uses are taken (the archive's
+                // are taken whether called or not).
+                if *elsewhere {
+                    self.t.used_r.extend(&sub.used_r);
+                }
             }
             None => self.t.untimed_calls.push((i + 1, shown.to_string())),
         }
@@ -2031,6 +2107,36 @@ mod tests {
         // A subprogram not in the archive stays untimed.
         let t = timeline_of(&(main("L200\n") + subprograms));
         assert_eq!(t.untimed_calls, [(6, "L200".to_string())]);
+    }
+
+    #[test]
+    fn subprograms_in_the_profiles_folders_add_their_time_and_take_their_r_parameters() {
+        let dir = tempfile::tempdir().unwrap();
+        let write = |name: &str, text: &str| std::fs::write(dir.path().join(name), text).unwrap();
+        // ROUGH cuts 100 mm and calls DRILLIT (10 mm) and a cycle; LOOPA and LOOPB call each other.
+        write(
+            "rough.spf",
+            "G91 G1 X100 F100\nR905=1\nDRILLIT\nCYCLE81(1,0,1,-1)\nG90\nM17\n",
+        );
+        write("_N_DRILLIT_SPF", "G91 G1 Z-10 F100\nG90\nM17\n");
+        write("LOOPA.SPF", "G91 G1 X50 F100\nG90\nLOOPB\nM17\n");
+        write("LOOPB.SPF", "G91 G1 X50 F100\nG90\nLOOPA\nM17\n");
+        let mut profile = Profile::default_profile();
+        profile.timeline.subprograms = vec![dir.path().to_path_buf()];
+        let program = "G90 G0 X0 Y0 Z0\nT1 M6\nROUGH P2\nLOOPA\nOTHER\nM30\n";
+        let t = build(&crate::parse(program.as_bytes()), &profile);
+        let alone = timeline_of(program);
+        // ROUGH twice (1 + 0.1 min), LOOPA with LOOPB once (1 min): the call back to LOOPA is not followed.
+        let added = t.total_min - alone.total_min;
+        assert!((added - (2.0 * 1.1 + 1.0)).abs() < 1e-9, "{added}");
+        // What the subprograms leave untimed is listed at the call in this program.
+        let calls: Vec<(usize, &str)> = t
+            .untimed_calls
+            .iter()
+            .map(|(line, name)| (*line, name.as_str()))
+            .collect();
+        assert_eq!(calls, [(3, "CYCLE81"), (4, "LOOPA"), (5, "OTHER")]);
+        assert!(t.used_r.contains(&905) && !alone.used_r.contains(&905));
     }
 
     #[test]

@@ -139,7 +139,7 @@ impl Interp<'_> {
             let listing = self
                 .listings
                 .entry(dir.clone())
-                .or_insert_with(|| list_programs(dir));
+                .or_insert_with(|| crate::walk::programs_by_name(dir));
             listing.get(name).map(|path| (dir.clone(), path.clone()))
         });
         let Some((dir, path)) = found else {
@@ -222,26 +222,4 @@ pub(super) fn proc_has_save(unit: &Unit) -> bool {
         p.significant()
             .any(|c| c.kind == NodeKind::Name && unit.upper(c) == "SAVE")
     })
-}
-
-/// Upper-cased program name → path, for the `.SPF` / `.MPF` files of a folder (`_N_NAME_SPF` too).
-pub(super) fn list_programs(dir: &Path) -> HashMap<String, PathBuf> {
-    let mut out = HashMap::new();
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return out;
-    };
-    for e in entries.flatten() {
-        let file = e.file_name().to_string_lossy().to_ascii_uppercase();
-        let stem = file
-            .strip_suffix(".SPF")
-            .or_else(|| file.strip_suffix(".MPF"))
-            .or_else(|| {
-                file.strip_prefix("_N_")
-                    .and_then(|f| f.strip_suffix("_SPF").or_else(|| f.strip_suffix("_MPF")))
-            });
-        if let Some(stem) = stem {
-            out.entry(stem.to_string()).or_insert(e.path());
-        }
-    }
-    out
 }

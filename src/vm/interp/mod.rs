@@ -9,7 +9,7 @@ mod control;
 mod statements;
 
 use std::collections::{BTreeMap, HashMap};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::rc::Rc;
 
 use crate::syntax::{BlockKind, Node, NodeKind};
