@@ -385,6 +385,32 @@ fn subprogram_folders_from_the_profile_or_the_command_line_are_timed() {
     let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let taken = json[0]["summary"]["r_parameters"].as_array().unwrap();
     assert!(!taken.is_empty() && !taken.contains(&serde_json::json!(900)));
+    // What the transform refuses in the program it refuses in a subprogram it calls, at the call.
+    for (text, refusal) in [
+        (
+            "G55\nM17\n",
+            "selects G55 (line 5, in subprogram ROUGH called there)",
+        ),
+        (
+            "R[R1]=1\nM17\n",
+            "line 5, in subprogram ROUGH called there, indexes R-parameters by an expression",
+        ),
+    ] {
+        std::fs::write(spf.join("ROUGH.SPF"), text).unwrap();
+        let o = common::run(&[
+            "transform",
+            &p,
+            "--model",
+            &model,
+            "--subprograms",
+            &spf_arg,
+            "-o",
+            "/dev/null",
+        ]);
+        assert_eq!(code(&o), 2);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(refusal), "{err}");
+    }
     // A folder that is not there is refused, not ignored.
     let o = common::run(&[
         "plan",

@@ -48,15 +48,16 @@ pub enum TransformError {
     )]
     PcArchive,
     #[error(
-        "line {0} indexes R-parameters by an expression (R[…]): driftloop cannot prove its R-parameters are free"
+        "{0} indexes R-parameters by an expression (R[…]): driftloop cannot prove its R-parameters are free"
     )]
-    ComputedR(usize),
+    ComputedR(String),
     #[error(
-        "the program selects {found} (line {line}) but the profile corrects {profile}; use a profile for {found}"
+        "the program selects {found} ({at}) but the profile corrects {profile}; use a profile for {found}"
     )]
     OtherOffset {
         found: String,
-        line: usize,
+        /// `line 12`, or `line 12, in subprogram NAME called there`.
+        at: String,
         profile: String,
     },
     #[error(
@@ -191,14 +192,18 @@ pub fn prepare<'p>(
 ) -> Result<Prepared<'p>, TransformError> {
     check(program, force)?;
     let (timeline, plan) = plan_program(program, model.model, profile)?;
+    let at = |line: usize| match timeline.found_in_call.get(&line) {
+        Some(name) => format!("line {line}, in subprogram {name} called there,"),
+        None => format!("line {line}"),
+    };
     if let Some(&line) = timeline.computed_r_lines.first() {
-        return Err(TransformError::ComputedR(line));
+        return Err(TransformError::ComputedR(at(line)));
     }
     let wanted = profile.offset_g().expect("validated profile");
     if let Some(&(g, line)) = timeline.offsets.iter().find(|(g, _)| *g != wanted) {
         return Err(TransformError::OtherOffset {
             found: format!("G{g}"),
-            line,
+            at: at(line).trim_end_matches(',').to_string(),
             profile: profile.offset.select.clone(),
         });
     }

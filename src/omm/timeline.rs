@@ -110,6 +110,9 @@ pub struct Timeline {
     pub labels: BTreeSet<String>,
     /// Settable work offsets the program selects, with the first line selecting each.
     pub offsets: Vec<(u32, usize)>,
+    /// Lines (1-based) of `computed_r_lines` and `offsets` that call a subprogram from a folder in which the
+    /// thing was found, with the subprogram's name.
+    pub found_in_call: BTreeMap<usize, String>,
     /// Blocks whose moves could not be timed (expressions, unknown feed).
     pub inexact_blocks: usize,
     /// The program's loops in the order they close (a section repeat at its REPEAT statement).
@@ -1198,13 +1201,30 @@ impl<'p> Builder<'p> {
                         .iter()
                         .map(|(own, name)| (line(*own), name.clone())),
                 );
-                // R-parameters are global: those a subprogram from a folder uses are taken (the archive's
-                // are taken whether called or not).
+                // R-parameters are global: those a subprogram from a folder uses are taken, and what it
+                // does that the transform refuses (R indexed by expressions, another work offset) is
+                // refused at the call (the archive's units count whether called or not).
                 if *elsewhere {
                     self.t.used_r.extend(&sub.used_r);
+                    if !sub.computed_r_lines.is_empty() {
+                        self.t.computed_r_lines.push(i + 1);
+                    }
+                    for &(g, _) in &sub.offsets {
+                        self.offset(g, i);
+                    }
+                    if !(sub.computed_r_lines.is_empty() && sub.offsets.is_empty()) {
+                        self.t.found_in_call.insert(i + 1, name.to_string());
+                    }
                 }
             }
             None => self.t.untimed_calls.push((i + 1, shown.to_string())),
+        }
+    }
+
+    /// A settable work offset selected at block `i` (noted at its first selection).
+    fn offset(&mut self, g: u32, i: usize) {
+        if matches!(g, 54..=57 | 505..=599) && !self.t.offsets.iter().any(|(o, _)| *o == g) {
+            self.t.offsets.push((g, i + 1));
         }
     }
 
@@ -1275,9 +1295,7 @@ impl<'p> Builder<'p> {
             self.t.labels.insert(l.clone());
         }
         for &g in &s.offsets {
-            if matches!(g, 54..=57 | 505..=599) && !self.t.offsets.iter().any(|(o, _)| *o == g) {
-                self.t.offsets.push((g, i + 1));
-            }
+            self.offset(g, i);
         }
         // Modal words first: they hold for this block's move.
         for g in s.g.iter() {
