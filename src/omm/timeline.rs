@@ -119,6 +119,9 @@ pub struct Timeline {
     pub loops: Vec<Loop>,
     /// Subprogram and cycle calls, whose time the timeline does not know: (line, 1-based; called name).
     pub untimed_calls: Vec<(usize, String)>,
+    /// Where the unit programs the spindle: (min from its start, S, M3/M4/M5). A call of the unit replays
+    /// them onto the caller's spindle (a subprogram may set only S, or only M3, and inherit the rest).
+    pub spindle_words: Vec<(f64, Option<f64>, Option<u32>)>,
     /// First block after the unit the timeline covers (the block count, unless the file is an archive).
     pub unit_end: usize,
 }
@@ -984,6 +987,9 @@ struct Builder<'p> {
     modal_call: Option<String>,
     /// Names the unit calls (archive subprograms or not), for the order in which an archive's units are timed.
     called: BTreeSet<String>,
+    /// A subprogram called at this block changed the spindle speed: the next block gets a speed-change site,
+    /// so that the program's prediction takes the new speed there.
+    speed_site_after: Option<usize>,
     t: Timeline,
     state: Modal,
     pos: [Option<f64>; 3],
@@ -1075,6 +1081,7 @@ impl<'p> Builder<'p> {
             after_call: false,
             modal_call: None,
             called: BTreeSet::new(),
+            speed_site_after: None,
             t: Timeline {
                 speeds: vec![(0.0, 0.0)],
                 ..Timeline::default()
@@ -1124,6 +1131,9 @@ impl<'p> Builder<'p> {
 
     /// A block that only moves (see [`Scan::pack_move`]): most of what [`Builder::block`] looks at is absent.
     fn plain_move(&mut self, i: usize, motion: Option<u32>, mv: &Move) {
+        if self.speed_site_after.is_some() {
+            self.speed_site_after_call(i);
+        }
         let before = if self.last_was_z_retract || !self.profile.passes.lines.is_empty() {
             self.state.clone()
         } else {
@@ -1193,6 +1203,9 @@ impl<'p> Builder<'p> {
                 elsewhere,
             }) => {
                 let runs = repeats.filter(|p| *p >= 1.0).unwrap_or(1.0).floor();
+                if !sub.spindle_words.is_empty() {
+                    self.replay_spindle(i, sub, runs);
+                }
                 self.time += runs * sub.total_min;
                 self.t.inexact_blocks += sub.inexact_blocks;
                 let line = |own: usize| if *elsewhere { i + 1 } else { own };
@@ -1221,6 +1234,82 @@ impl<'p> Builder<'p> {
         }
     }
 
+    /// The spindle words of a subprogram called at block `i` and run `runs` times, applied to this
+    /// program's spindle as they come: the speeds follow, and the state after the call is the one it left.
+    /// The program's prediction holds one speed from gate to gate and the subprogram has no gates: a gate
+    /// before the call takes the call's time-weighted mean speed, the block after it the speed it left.
+    fn replay_spindle(&mut self, i: usize, sub: &Timeline, runs: f64) {
+        let (at, rpm_before, state_before) = (self.time, self.rpm, self.state.clone());
+        let first_change = self.t.speeds.len();
+        // A bound on the speed changes one call adds, for absurd repeat counts.
+        let most = 1_000_000 / sub.spindle_words.len() as u64;
+        for run in 0..(runs as u64).min(most) {
+            let offset = at + run as f64 * sub.total_min;
+            for &(t, s, direction) in &sub.spindle_words {
+                if let Some(s) = s {
+                    self.state.s = s;
+                }
+                if let Some(d) = direction {
+                    self.state.direction = d;
+                }
+                self.t.spindle_words.push((offset + t, s, direction));
+                let rpm = self.state.rpm();
+                if rpm != self.rpm {
+                    self.rpm = rpm;
+                    self.t.speeds.push((offset + t, rpm));
+                }
+            }
+        }
+        let end = at + runs * sub.total_min;
+        let (mut sum, mut from, mut rpm) = (0.0, at, rpm_before);
+        for &(t, next) in &self.t.speeds[first_change..] {
+            sum += rpm * (t.min(end) - from);
+            (from, rpm) = (t.min(end), next);
+        }
+        sum += rpm * (end - from);
+        let mean = if end > at { sum / (end - at) } else { rpm };
+        let mut predicted = rpm_before;
+        if mean != rpm_before {
+            self.note_site(i);
+            self.speed_site(i, at, state_before, mean);
+            predicted = mean;
+        }
+        if self.rpm != predicted {
+            self.speed_site_after = Some(i);
+        }
+    }
+
+    /// A gate site where the program's prediction takes another speed (`rpm` from block `i` on); it
+    /// replaces one a call before this block asked for.
+    fn speed_site(&mut self, i: usize, time_min: f64, before: Modal, rpm: f64) {
+        if self
+            .t
+            .sites
+            .last()
+            .is_some_and(|l| l.block == i && l.kind == SiteKind::SpeedChange)
+        {
+            self.t.sites.pop();
+        }
+        self.t.sites.push(Site {
+            block: i,
+            kind: SiteKind::SpeedChange,
+            time_min,
+            pass: 0,
+            before,
+            rpm_after: rpm,
+            state_varies: false,
+        });
+    }
+
+    /// The speed-change site a subprogram's speed asks for, at the first block after its call.
+    fn speed_site_after_call(&mut self, i: usize) {
+        if self.speed_site_after.is_some_and(|call| call < i) {
+            self.speed_site_after = None;
+            self.note_site(i);
+            self.speed_site(i, self.time, self.state.clone(), self.rpm);
+        }
+    }
+
     /// A settable work offset selected at block `i` (noted at its first selection).
     fn offset(&mut self, g: u32, i: usize) {
         if matches!(g, 54..=57 | 505..=599) && !self.t.offsets.iter().any(|(o, _)| *o == g) {
@@ -1240,6 +1329,7 @@ impl<'p> Builder<'p> {
     }
 
     fn block(&mut self, i: usize, s: &Scan, kind: BlockKind) {
+        self.speed_site_after_call(i);
         if let Some(name) = &s.call {
             self.call(i, name, name, s.repeats);
         }
@@ -1320,13 +1410,20 @@ impl<'p> Builder<'p> {
         if let Some(d) = s.d {
             self.state.d = Some(d);
         }
+        let mut direction = None;
         for m in s.m.iter() {
             match m {
-                3..=5 => self.state.direction = m,
+                3..=5 => direction = Some(m),
                 6 => self.m6_seen = true,
                 2 | 30 => self.t.ends.push(i),
                 _ => {}
             }
+        }
+        if let Some(d) = direction {
+            self.state.direction = d;
+        }
+        if s.s.is_some() || direction.is_some() {
+            self.t.spindle_words.push((start, s.s, direction));
         }
         let tool_change = s.m.contains(6);
         if let Some(tool) = &s.tool {
@@ -1353,15 +1450,7 @@ impl<'p> Builder<'p> {
         if rpm != self.rpm {
             self.rpm = rpm;
             self.t.speeds.push((start, rpm));
-            self.t.sites.push(Site {
-                block: i,
-                kind: SiteKind::SpeedChange,
-                time_min: start,
-                pass: 0,
-                before: before.clone(),
-                rpm_after: rpm,
-                state_varies: false,
-            });
+            self.speed_site(i, start, before.clone(), rpm);
         }
         if let Some(modal) = &s.modal_call {
             self.modal_call = modal.clone();
@@ -2155,6 +2244,40 @@ mod tests {
             .collect();
         assert_eq!(calls, [(3, "CYCLE81"), (4, "LOOPA"), (5, "OTHER")]);
         assert!(t.used_r.contains(&905) && !alone.used_r.contains(&905));
+    }
+
+    #[test]
+    fn the_spindle_a_subprogram_programs_is_followed_through_the_call() {
+        // ROUGH starts the spindle itself; FINISH sets only S (the spindle already turns) and stops it.
+        let t = timeline_of(
+            "%_N_MAIN_MPF\n;$PATH=/_N_MPF_DIR\nG90 G0 X0 Y0 Z0\nT1 M6\nROUGH\nG0 Z50\nFINISH\nG0 Z60\nM30\n\
+             %_N_ROUGH_SPF\nS6000 M3\nG91 G1 X100 F100\nG90\nM17\n\
+             %_N_FINISH_SPF\nS2000\nG91 G1 X100 F100\nG90\nM5\nM17\n",
+        );
+        let tc = Profile::default_profile().timeline.tool_change_s / 60.0;
+        let finish = tc + 1.0 + 50.0 / Profile::default_profile().timeline.rapid_mm_per_min;
+        let expected = [
+            (0.0, 0.0),
+            (tc, 6000.0),
+            (finish, 2000.0),
+            (finish + 1.0, 0.0),
+        ];
+        assert_eq!(t.speeds.len(), expected.len(), "{:?}", t.speeds);
+        for (got, want) in t.speeds.iter().zip(expected) {
+            assert!(
+                (got.0 - want.0).abs() < 1e-9 && got.1 == want.1,
+                "{got:?} vs {want:?}"
+            );
+        }
+        let changes: Vec<(usize, f64)> = t
+            .sites
+            .iter()
+            .filter(|s| s.kind == SiteKind::SpeedChange)
+            .map(|s| (s.block + 1, s.rpm_after))
+            .collect();
+        // A gate before each call takes the call's mean speed (the subprogram has no gates of its own), the
+        // block after it the speed the subprogram left, where that differs.
+        assert_eq!(changes, [(5, 6000.0), (7, 2000.0), (8, 0.0)]);
     }
 
     #[test]
