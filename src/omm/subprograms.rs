@@ -3,6 +3,7 @@
 
 use std::collections::{BTreeSet, HashMap};
 use std::path::PathBuf;
+use std::rc::Rc;
 
 use super::profile::Profile;
 use super::timeline::{self, Timeline};
@@ -11,7 +12,7 @@ use super::timeline::{self, Timeline};
 pub(super) struct Folders {
     files: HashMap<String, PathBuf>,
     /// `None`: the file could not be read.
-    timed: HashMap<String, Option<Timeline>>,
+    timed: HashMap<String, Option<Rc<Timeline>>>,
     /// Subprograms being timed: a call back to one of them stays untimed.
     open: BTreeSet<String>,
 }
@@ -31,13 +32,9 @@ impl Folders {
         }
     }
 
-    pub(super) fn holds(&self, name: &str) -> bool {
-        self.files.contains_key(name)
-    }
-
     /// The timeline of subprogram `name` from its file (built once, with the subprograms it calls in turn);
     /// `None` when no folder holds it, its file cannot be read, or it is being timed (a recursive call).
-    pub(super) fn timeline(&mut self, name: &str, profile: &Profile) -> Option<Timeline> {
+    pub(super) fn timeline(&mut self, name: &str, profile: &Profile) -> Option<Rc<Timeline>> {
         if let Some(t) = self.timed.get(name) {
             return t.clone();
         }
@@ -51,7 +48,7 @@ impl Folders {
         };
         let program = crate::parse_owned(src);
         self.open.insert(name.to_string());
-        let t = timeline::build_with(&program, profile, self);
+        let t = Rc::new(timeline::build_with(&program, profile, self));
         self.open.remove(name);
         self.timed.insert(name.to_string(), Some(t.clone()));
         Some(t)

@@ -172,14 +172,6 @@ pub fn build(program: &Program, profile: &Profile) -> Timeline {
     build_with(program, profile, &mut Folders::new(profile))
 }
 
-/// A subprogram a call may run. `elsewhere`: it comes from another file, so what it leaves untimed is
-/// listed at the call (its own line numbers mean nothing in this program).
-#[derive(Clone)]
-struct Subprogram {
-    timeline: Timeline,
-    elsewhere: bool,
-}
-
 pub(super) fn build_with(program: &Program, profile: &Profile, folders: &mut Folders) -> Timeline {
     let units = units(program);
     let names: Vec<Option<String>> = units[1..]
@@ -190,7 +182,15 @@ pub(super) fn build_with(program: &Program, profile: &Profile, folders: &mut Fol
     // recursive call stays untimed), unless it calls none of the archive's subprograms.
     let mut alone: Vec<Option<(Timeline, BTreeSet<String>)>> = units[1..]
         .iter()
-        .map(|u| Some(build_unit(program, u.clone(), profile, &HashMap::new())))
+        .map(|u| {
+            Some(build_unit(
+                program,
+                u.clone(),
+                profile,
+                &HashMap::new(),
+                folders,
+            ))
+        })
         .collect();
     let calls: Vec<BTreeSet<String>> = alone.iter().flatten().map(|(_, c)| c.clone()).collect();
     let order = callees_first(&names, &calls);
@@ -198,39 +198,18 @@ pub(super) fn build_with(program: &Program, profile: &Profile, folders: &mut Fol
     let mut others = Vec::new();
     for k in order {
         let (first, called) = alone[k].take().expect("each unit once");
-        let t = if called
-            .iter()
-            .any(|c| names.contains(&Some(c.clone())) || folders.holds(c))
-        {
-            time_unit(
-                program,
-                units[k + 1].clone(),
-                profile,
-                &mut subprograms,
-                folders,
-            )
+        let t = if called.iter().any(|c| names.contains(&Some(c.clone()))) {
+            let unit = units[k + 1].clone();
+            build_unit(program, unit, profile, &subprograms, folders).0
         } else {
             first
         };
         if let Some(name) = &names[k] {
-            let timeline = t.clone();
-            subprograms.insert(
-                name.clone(),
-                Subprogram {
-                    timeline,
-                    elsewhere: false,
-                },
-            );
+            subprograms.insert(name.clone(), t.clone());
         }
         others.push(t);
     }
-    let mut t = time_unit(
-        program,
-        units[0].clone(),
-        profile,
-        &mut subprograms,
-        folders,
-    );
+    let mut t = build_unit(program, units[0].clone(), profile, &subprograms, folders).0;
     for other in others {
         t.used_r.extend(other.used_r);
         t.labels.extend(other.labels);
@@ -240,36 +219,6 @@ pub(super) fn build_with(program: &Program, profile: &Profile, folders: &mut Fol
     t.computed_r_lines.sort_unstable();
     t.unit_end = units[0].end;
     t
-}
-
-/// A unit timed with the subprograms it calls: the archive's, and those the profile's folders hold (added to
-/// `subprograms`; the unit is then timed again with them).
-fn time_unit(
-    program: &Program,
-    blocks: std::ops::Range<usize>,
-    profile: &Profile,
-    subprograms: &mut HashMap<String, Subprogram>,
-    folders: &mut Folders,
-) -> Timeline {
-    let (t, called) = build_unit(program, blocks.clone(), profile, subprograms);
-    let mut found = false;
-    for name in called {
-        if !subprograms.contains_key(&name)
-            && let Some(timeline) = folders.timeline(&name, profile)
-        {
-            let sub = Subprogram {
-                timeline,
-                elsewhere: true,
-            };
-            subprograms.insert(name, sub);
-            found = true;
-        }
-    }
-    if found {
-        build_unit(program, blocks, profile, subprograms).0
-    } else {
-        t
-    }
 }
 
 /// The units (by index into `names`) ordered so that each comes after the units it calls, when they do not
@@ -329,10 +278,11 @@ fn build_unit(
     program: &Program,
     blocks: std::ops::Range<usize>,
     profile: &Profile,
-    subprograms: &HashMap<String, Subprogram>,
+    subprograms: &HashMap<String, Timeline>,
+    folders: &mut Folders,
 ) -> (Timeline, BTreeSet<String>) {
     let marker = profile.passes.marker.to_ascii_uppercase();
-    let mut b = Builder::new(profile, subprograms);
+    let mut b = Builder::new(profile, subprograms, folders);
     let (first, count) = (blocks.start, blocks.end);
     let chunks = (count - first).div_ceil(CHUNK_BLOCKS);
     let scan = |k: usize| {
@@ -978,8 +928,10 @@ fn literal(block: &Block<'_>, node: &Node) -> Option<f64> {
 
 struct Builder<'p> {
     profile: &'p Profile,
-    /// The subprograms (of the archive, or of the profile's folders) that a call may run.
-    subprograms: &'p HashMap<String, Subprogram>,
+    /// The archive's subprograms that a call may run, with their timelines.
+    subprograms: &'p HashMap<String, Timeline>,
+    /// The subprograms in the profile's folders, timed when first called.
+    folders: &'p mut Folders,
     /// A subprogram or cycle ran since the last tool change: the modal state it left (tool, speed, feed,
     /// frame) is not known, so no gate measures, and restores a state, until the next tool change.
     after_call: bool,
@@ -1074,10 +1026,15 @@ struct OpenLoop {
 }
 
 impl<'p> Builder<'p> {
-    fn new(profile: &'p Profile, subprograms: &'p HashMap<String, Subprogram>) -> Self {
+    fn new(
+        profile: &'p Profile,
+        subprograms: &'p HashMap<String, Timeline>,
+        folders: &'p mut Folders,
+    ) -> Self {
         Builder {
             profile,
             subprograms,
+            folders,
             after_call: false,
             modal_call: None,
             called: BTreeSet::new(),
@@ -1197,18 +1154,25 @@ impl<'p> Builder<'p> {
     fn call(&mut self, i: usize, name: &str, shown: &str, repeats: Option<f64>) {
         self.after_call = true;
         self.called.insert(name.to_string());
-        match self.subprograms.get(name) {
-            Some(Subprogram {
-                timeline: sub,
-                elsewhere,
-            }) => {
+        // A subprogram from a folder is in another file: what it leaves untimed is listed at the call (its
+        // own line numbers mean nothing in this program).
+        let from_folder;
+        let found = match self.subprograms.get(name) {
+            Some(sub) => Some((sub, false)),
+            None => {
+                from_folder = self.folders.timeline(name, self.profile);
+                from_folder.as_deref().map(|sub| (sub, true))
+            }
+        };
+        match found {
+            Some((sub, elsewhere)) => {
                 let runs = repeats.filter(|p| *p >= 1.0).unwrap_or(1.0).floor();
                 if !sub.spindle_words.is_empty() {
                     self.replay_spindle(i, sub, runs);
                 }
                 self.time += runs * sub.total_min;
                 self.t.inexact_blocks += sub.inexact_blocks;
-                let line = |own: usize| if *elsewhere { i + 1 } else { own };
+                let line = |own: usize| if elsewhere { i + 1 } else { own };
                 self.t.untimed_calls.extend(
                     sub.untimed_calls
                         .iter()
@@ -1217,7 +1181,7 @@ impl<'p> Builder<'p> {
                 // R-parameters are global: those a subprogram from a folder uses are taken, and what it
                 // does that the transform refuses (R indexed by expressions, another work offset) is
                 // refused at the call (the archive's units count whether called or not).
-                if *elsewhere {
+                if elsewhere {
                     self.t.used_r.extend(&sub.used_r);
                     if !sub.computed_r_lines.is_empty() {
                         self.t.computed_r_lines.push(i + 1);
@@ -1911,7 +1875,8 @@ mod tests {
     /// The timeline of a program folded block by block from whole scans, as before chunks existed.
     fn block_by_block(program: &Program, profile: &Profile) -> Timeline {
         let subprograms = HashMap::new();
-        let mut b = Builder::new(profile, &subprograms);
+        let mut folders = Folders::new(profile);
+        let mut b = Builder::new(profile, &subprograms, &mut folders);
         let mut words = Scan::default();
         for i in 0..program.block_count() {
             let span = program.content_span(i);
