@@ -1,0 +1,320 @@
+//! The program's timeline, estimated from its moves: feed moves take distance / F (arcs by their length,
+//! G95 feeds per revolution by F·S), rapids distance / rapid rate, dwells their time, tool changes the
+//! profile's time. It also collects what the emitter needs to know about the program: where passes start,
+//! where the spindle speed changes, where the tool is retracted (safe points for extra measurements),
+//! where the program ends, and which R-parameters and labels it already uses.
+//!
+//! The program is read once, in order, without running it: loops and jumps are counted once, expressions
+//! as coordinates count as no move (`inexact_blocks` says how many blocks that affected).
+
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Condvar, Mutex};
+
+use crate::syntax::{BlockKind, Program};
+
+use super::loops::Loop;
+use super::profile::Profile;
+use super::subprograms::Folders;
+
+/// The modal state a gate must restore after it moved the machine.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Modal {
+    /// The tool as written after `T=` or `T` (`"DRILL 8.5"` with quotes, or `12`).
+    pub tool: Option<Arc<str>>,
+    pub d: Option<u32>,
+    /// Programmed spindle speed and direction (3, 4 or 5 = stopped).
+    pub s: f64,
+    pub direction: u32,
+    pub feed: Option<f64>,
+    /// Modal motion G code (0, 1, 2, 3).
+    pub motion: u32,
+    pub absolute: bool,
+    pub z: Option<f64>,
+}
+
+impl Modal {
+    /// Speed the spindle turns at (rpm, 0 when stopped).
+    pub fn rpm(&self) -> f64 {
+        if matches!(self.direction, 3 | 4) {
+            self.s.abs()
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Why a gate site exists.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SiteKind {
+    /// A technological pass starts at this block; `tool_change` when the block itself changes the tool.
+    PassStart { tool_change: bool },
+    /// A rapid move or a dwell right after a Z-only retract: the tool is clear of the part. `first_in_loop`: the first
+    /// such move in the body of a loop of the program (the timeline counts a loop once, so the plan
+    /// cannot know how long it really runs; a gate there lets the program decide on every iteration).
+    Retract { first_in_loop: bool },
+    /// The spindle speed changes at this block.
+    SpeedChange,
+}
+
+/// A block before which driftloop may insert a gate, with the state the program is in there.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Site {
+    pub block: usize,
+    pub kind: SiteKind,
+    /// Estimated time the block starts (min from program start).
+    pub time_min: f64,
+    /// Pass the block belongs to (1-based; 0 before the first pass).
+    pub pass: usize,
+    /// The state before the block.
+    pub before: Modal,
+    /// Spindle speed from this block on (rpm).
+    pub rpm_after: f64,
+    /// The block is in the body of a loop (or a repeated section) whose later runs reach it in another modal
+    /// state than the first (a value the body changes after this block and does not set before it): a gate
+    /// here could not restore the state after measuring.
+    pub state_varies: bool,
+}
+
+/// One technological pass.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Pass {
+    pub number: usize,
+    pub first_block: usize,
+    pub start_min: f64,
+    pub end_min: f64,
+    /// Tool of the pass as written, when known.
+    pub tool: Option<Arc<str>>,
+    /// Highest spindle speed in the pass (rpm).
+    pub max_rpm: f64,
+}
+
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Timeline {
+    pub total_min: f64,
+    pub passes: Vec<Pass>,
+    /// Pass starts, retracts and speed changes, in block order.
+    pub sites: Vec<Site>,
+    /// Spindle speed from each time on: (min, rpm), starting at (0, 0).
+    pub speeds: Vec<(f64, f64)>,
+    /// Blocks that end the program (M2, M30).
+    pub ends: Vec<usize>,
+    /// First block after the transfer header (`%…`, `;$PATH=…`).
+    pub header_end: usize,
+    /// First block after the declarations (DEF, PROC, EXTERN, DEFINE) at the top.
+    pub preamble_end: usize,
+    pub used_r: BTreeSet<u32>,
+    /// Lines (1-based) that index R-parameters by an expression.
+    pub computed_r_lines: Vec<usize>,
+    pub labels: BTreeSet<String>,
+    /// Settable work offsets the program selects, with the first line selecting each.
+    pub offsets: Vec<(u32, usize)>,
+    /// Lines (1-based) of `computed_r_lines` and `offsets` that call a subprogram from a folder in which the
+    /// thing was found, with the subprogram's name.
+    pub found_in_call: BTreeMap<usize, String>,
+    /// Blocks whose moves could not be timed (expressions, unknown feed).
+    pub inexact_blocks: usize,
+    /// The program's loops in the order they close (a section repeat at its REPEAT statement).
+    pub loops: Vec<Loop>,
+    /// Subprogram and cycle calls, whose time the timeline does not know: (line, 1-based; called name).
+    pub untimed_calls: Vec<(usize, String)>,
+    /// Where the unit programs the spindle: (min from its start, S, M3/M4/M5). A call of the unit replays
+    /// them onto the caller's spindle (a subprogram may set only S, or only M3, and inherit the rest).
+    pub spindle_words: Vec<(f64, Option<f64>, Option<u32>)>,
+    /// First block after the unit the timeline covers (the block count, unless the file is an archive).
+    pub unit_end: usize,
+}
+
+/// The timeline of the program's first unit: of the whole file, or of the main program of an archive. The
+/// archive's other units are timed on their own, so that a call of one of its subprograms (`%_N_NAME_SPF`)
+/// adds that subprogram's time, as often as `P` says; the R-parameters, labels and work offsets they use
+/// count as used. So does a call of a subprogram in the profile's folders, with the R-parameters it uses.
+pub fn build(program: &Program, profile: &Profile) -> Timeline {
+    build_with(program, profile, &mut Folders::new(profile))
+}
+
+pub(super) fn build_with(program: &Program, profile: &Profile, folders: &mut Folders) -> Timeline {
+    let units = units(program);
+    let names: Vec<Option<String>> = units[1..]
+        .iter()
+        .map(|u| subprogram_name(program, u.start))
+        .collect();
+    // Each subprogram on its own first, for the names it calls; then each again after those it calls (a
+    // recursive call stays untimed), unless it calls none of the archive's subprograms.
+    let mut alone: Vec<Option<(Timeline, BTreeSet<String>)>> = units[1..]
+        .iter()
+        .map(|u| {
+            Some(build_unit(
+                program,
+                u.clone(),
+                profile,
+                &HashMap::new(),
+                folders,
+            ))
+        })
+        .collect();
+    let calls: Vec<BTreeSet<String>> = alone.iter().flatten().map(|(_, c)| c.clone()).collect();
+    let order = callees_first(&names, &calls);
+    let mut subprograms = HashMap::new();
+    let mut others = Vec::new();
+    for k in order {
+        let (first, called) = alone[k].take().expect("each unit once");
+        let t = if called.iter().any(|c| names.contains(&Some(c.clone()))) {
+            let unit = units[k + 1].clone();
+            build_unit(program, unit, profile, &subprograms, folders).0
+        } else {
+            first
+        };
+        if let Some(name) = &names[k] {
+            subprograms.insert(name.clone(), t.clone());
+        }
+        others.push(t);
+    }
+    let mut t = build_unit(program, units[0].clone(), profile, &subprograms, folders).0;
+    for other in others {
+        t.used_r.extend(other.used_r);
+        t.labels.extend(other.labels);
+        t.computed_r_lines.extend(other.computed_r_lines);
+        t.offsets.extend(other.offsets);
+    }
+    t.computed_r_lines.sort_unstable();
+    t.unit_end = units[0].end;
+    t
+}
+
+/// The units (by index into `names`) ordered so that each comes after the units it calls, when they do not
+/// call it back.
+fn callees_first(names: &[Option<String>], calls: &[BTreeSet<String>]) -> Vec<usize> {
+    let index: HashMap<&str, usize> = names
+        .iter()
+        .enumerate()
+        .filter_map(|(k, n)| Some((n.as_deref()?, k)))
+        .collect();
+    let mut seen = vec![false; names.len()];
+    let mut order = Vec::with_capacity(names.len());
+    for root in 0..names.len() {
+        if seen[root] {
+            continue;
+        }
+        seen[root] = true;
+        // Depth first, iteratively: (unit, its callees still to visit).
+        let mut stack = vec![(root, calls[root].iter())];
+        while let Some((k, callees)) = stack.last_mut() {
+            let k = *k;
+            match callees.find_map(|c| index.get(c.as_str()).copied().filter(|&j| !seen[j])) {
+                Some(j) => {
+                    seen[j] = true;
+                    stack.push((j, calls[j].iter()));
+                }
+                None => {
+                    order.push(k);
+                    stack.pop();
+                }
+            }
+        }
+    }
+    order
+}
+
+/// The block ranges of the program's units: a new one starts at each `%` header after the first block.
+fn units(program: &Program) -> Vec<std::ops::Range<usize>> {
+    let count = program.block_count();
+    let mut starts: Vec<usize> = (1..count)
+        .filter(|&i| program.block_kind(i) == BlockKind::Header)
+        .collect();
+    starts.insert(0, 0);
+    starts.push(count);
+    starts.windows(2).map(|w| w[0]..w[1]).collect()
+}
+
+/// `NAME` of a unit headed `%_N_NAME_SPF` (as it is called: `NAME`, `CALL "NAME"`, `L123` for `L123`).
+fn subprogram_name(program: &Program, block: usize) -> Option<String> {
+    let header = program.content_span(block).slice(program.source());
+    let name = String::from_utf8_lossy(header).trim().to_ascii_uppercase();
+    let name = name.strip_prefix("%_N_")?.strip_suffix("_SPF")?;
+    (!name.is_empty()).then(|| name.to_string())
+}
+
+fn build_unit(
+    program: &Program,
+    blocks: std::ops::Range<usize>,
+    profile: &Profile,
+    subprograms: &HashMap<String, Timeline>,
+    folders: &mut Folders,
+) -> (Timeline, BTreeSet<String>) {
+    let marker = profile.passes.marker.to_ascii_uppercase();
+    let mut b = Builder::new(profile, subprograms, folders);
+    let (first, count) = (blocks.start, blocks.end);
+    let chunks = (count - first).div_ceil(CHUNK_BLOCKS);
+    let scan = |k: usize| {
+        let from = first + k * CHUNK_BLOCKS;
+        scan_chunk(program, from..count.min(from + CHUNK_BLOCKS), &marker)
+    };
+    let helpers = rayon::current_num_threads().saturating_sub(1);
+    if chunks <= 1 || helpers == 0 {
+        (0..chunks).for_each(|k| b.fold(&scan(k)));
+        let called = std::mem::take(&mut b.called);
+        return (b.finish(), called);
+    }
+    // Reading the blocks is independent line by line, the fold is not. Helpers read chunks in order of a
+    // shared counter, at most AHEAD chunks past the fold (so the records never hold the whole program);
+    // this thread folds them in order and, while the next one is not ready, reads chunks itself.
+    const AHEAD: usize = 8;
+    let next = AtomicUsize::new(0);
+    let ready: Mutex<(Vec<Option<Chunk>>, usize)> =
+        Mutex::new(((0..chunks).map(|_| None).collect(), 0));
+    let changed = Condvar::new();
+    let put = |k: usize, chunk: Chunk| {
+        ready.lock().expect("no panic while held").0[k] = Some(chunk);
+        changed.notify_all();
+    };
+    std::thread::scope(|threads| {
+        for _ in 0..helpers {
+            threads.spawn(|| {
+                loop {
+                    let k = next.fetch_add(1, Ordering::Relaxed);
+                    if k >= chunks {
+                        return;
+                    }
+                    let mut slots = ready.lock().expect("no panic while held");
+                    while k > slots.1 + AHEAD {
+                        slots = changed.wait(slots).expect("no panic while held");
+                    }
+                    drop(slots);
+                    put(k, scan(k));
+                }
+            });
+        }
+        for k in 0..chunks {
+            let chunk = loop {
+                let mut slots = ready.lock().expect("no panic while held");
+                if let Some(chunk) = slots.0[k].take() {
+                    break chunk;
+                }
+                drop(slots);
+                let j = next.fetch_add(1, Ordering::Relaxed);
+                if j < chunks {
+                    put(j, scan(j));
+                    continue;
+                }
+                let mut slots = ready.lock().expect("no panic while held");
+                while slots.0[k].is_none() {
+                    slots = changed.wait(slots).expect("no panic while held");
+                }
+            };
+            b.fold(&chunk);
+            ready.lock().expect("no panic while held").1 = k + 1;
+            changed.notify_all();
+        }
+    });
+    let called = std::mem::take(&mut b.called);
+    (b.finish(), called)
+}
+
+mod fold;
+mod read;
+#[cfg(test)]
+mod tests;
+
+use fold::Builder;
+use read::{CHUNK_BLOCKS, Chunk, scan_chunk};

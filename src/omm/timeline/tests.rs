@@ -1,0 +1,475 @@
+//! Tests of the timeline: the word scanner against the tree, times, passes, sites, loops and calls.
+use super::read::{Scan, decimal, scan_tree, scan_words_into};
+use super::*;
+use crate::omm::loops::LoopKind;
+
+/// Every line the word scanner accepts gives the same facts as the syntax tree.
+#[test]
+fn word_scanner_agrees_with_the_tree() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut sources = vec![
+        b"N10 G1 X10.5 Y-3 F800 ; PASS finish\nG0 Z50.\nT12 M6\nS3000 M3 D2\nG2 X1 Y2 I-.5 J0\nG54 G90\nG3 X5 Y5 CR=-12.5 F100\n"
+            .to_vec(),
+    ];
+    for name in ["handwritten.mpf", "crlf.mpf", "latin1.mpf"] {
+        sources.push(std::fs::read(dir.join("fixtures/omm").join(name)).unwrap());
+    }
+    // The real CAM program joins the sources when ../shared is there.
+    if let Some(cam) =
+        crate::shared_data::path("corpus/sinumerik-840d-sl-cas-package/Approach A/CAM TEST.MPF")
+    {
+        sources.push(std::fs::read(cam).unwrap());
+    }
+    let mut fast = 0;
+    for src in sources {
+        let program = crate::parse(&src);
+        // One buffer for all lines, as `build` uses it: a field left over from a line shows here.
+        let mut quick = Scan::default();
+        for i in 0..program.block_count() {
+            let span = program.content_span(i);
+            if scan_words_into(&program.source()[span.start..span.end], "PASS", &mut quick) {
+                let mut tree = scan_tree(&program, i, "PASS");
+                let mut copy = quick.clone();
+                let len = usize::from(copy.g.len);
+                copy.g.v[..len].sort_unstable();
+                let len = usize::from(tree.g.len);
+                tree.g.v[..len].sort_unstable();
+                assert_eq!(copy, tree, "line {}", i + 1);
+                fast += 1;
+            }
+        }
+    }
+    assert!(fast > 50, "the scanner took only {fast} lines");
+}
+
+/// The timeline of a program folded block by block from whole scans, as before chunks existed.
+fn block_by_block(program: &Program, profile: &Profile) -> Timeline {
+    let subprograms = HashMap::new();
+    let mut folders = Folders::new(profile);
+    let mut b = Builder::new(profile, &subprograms, &mut folders);
+    let mut words = Scan::default();
+    for i in 0..program.block_count() {
+        let span = program.content_span(i);
+        let kind = program.block_kind(i);
+        let line = &program.source()[span.start..span.end];
+        if kind == BlockKind::Plain && scan_words_into(line, "PASS", &mut words) {
+            b.block(i, &words, kind);
+        } else {
+            b.block(i, &scan_tree(program, i, "PASS"), kind);
+        }
+    }
+    let mut t = b.finish();
+    t.unit_end = program.block_count();
+    t
+}
+
+/// Large programs are read in parallel chunks, moves packed into heads and numbers: the timeline is the
+/// one the blocks give one by one, site for site and bit for bit.
+#[test]
+fn chunks_give_the_block_by_block_timeline() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut text = std::fs::read(dir.join("fixtures/omm/handwritten.mpf")).unwrap();
+    text.truncate(text.len() - b"M5\nM30\n".len());
+    let mut n = 0u64;
+    while text.len() < 3_000_000 {
+        let x = (n * 37 % 4000) as f64 / 10.0;
+        let line = match n % 9 {
+            0 => format!("N{n} G1 X{x} Y-{x} Z-1.5 F900\n"),
+            1 => format!("N{n} G3 X{x} Y{x} CR=-12.5\n"),
+            2 => format!("G2 X0 Y{x} I-{x} J.5 ; arc\n"),
+            3 => "G0 Z50\n".to_string(),
+            4 => format!("X{x} Y{x}\n"),
+            5 if n % 1000 == 5 => {
+                format!("T{} M6 ; PASS\nS{} M3\nG4 F2\n", n % 7, 1000 + n % 5000)
+            }
+            6 => format!("G1 X=AC({x}) Y=IC(2) Z=R1\n"),
+            7 if n % 500 == 7 => "WHILE R1<2\nG0 Z10\nG0 X1\nENDWHILE\n".to_string(),
+            _ => format!("G91 G1 X1 F{}\nG90\n", 100 + n % 50),
+        };
+        text.extend_from_slice(line.as_bytes());
+        n += 1;
+    }
+    text.extend_from_slice(b"M5\nM30\n");
+    let program = crate::parse(&text);
+    assert!(program.block_count() > 3 * CHUNK_BLOCKS);
+    let profile = Profile::default_profile();
+    let chunked = build(&program, &profile);
+    assert!(chunked.sites.len() > 100 && chunked.passes.len() > 10);
+    assert_eq!(chunked, block_by_block(&program, &profile));
+}
+
+fn timeline_of(text: &str) -> Timeline {
+    build(&crate::parse(text.as_bytes()), &Profile::default_profile())
+}
+
+/// One minute of cutting at F100 over 100 mm, then the way back as a rapid.
+const BODY: &str = "G1 X100 F100\nG0 Z50\nG0 X0\nG1 Z0 F6000\n";
+
+fn loop_time(t: &Timeline) -> f64 {
+    t.loops[0].body_min
+}
+
+/// The times of the first retract site's runs.
+fn retract_times(t: &Timeline) -> Vec<f64> {
+    let retract = t
+        .sites
+        .iter()
+        .position(|s| matches!(s.kind, SiteKind::Retract { .. }))
+        .unwrap();
+    let runs = crate::omm::loops::site_runs(t);
+    assert!(runs.complete);
+    runs.sites
+        .iter()
+        .filter(|(k, _)| *k == retract)
+        .map(|(_, time)| *time)
+        .collect()
+}
+
+/// The time of the tool change every test program starts with.
+fn base() -> f64 {
+    timeline_of("T1 M6\nS1000 M3\nM30\n").total_min
+}
+
+#[test]
+fn a_for_loop_with_literal_bounds_runs_its_body_that_often() {
+    let once = timeline_of(&format!("T1 M6\nS1000 M3\n{BODY}M30\n"));
+    let t = timeline_of(&format!(
+        "T1 M6\nS1000 M3\nFOR R1 = 3 TO 7\n{BODY}ENDFOR\nM30\n"
+    ));
+    let l = &t.loops[0];
+    assert_eq!((l.kind, l.runs, l.unknown), (LoopKind::For, Some(5), None));
+    assert_eq!((l.block, l.body, l.repeat_block), (2, (3, 7), 7));
+    assert!((loop_time(&t) - (once.total_min - base())).abs() < 1e-9);
+    assert!((t.total_min - base() - 5.0 * loop_time(&t)).abs() < 1e-9);
+    // The retract site in the body is listed once per run, a body apart.
+    let times = retract_times(&t);
+    assert_eq!(times.len(), 5);
+    for pair in times.windows(2) {
+        assert!((pair[1] - pair[0] - loop_time(&t)).abs() < 1e-9);
+    }
+}
+
+#[test]
+fn r_parameter_bounds_count_when_last_assigned_a_literal() {
+    let t = timeline_of(&format!(
+        "R5=4\nT1 M6\nS1000 M3\nFOR R1 = 1 TO R5\n{BODY}ENDFOR\nR5=R5+1\nFOR R2 = 1 TO R5\n{BODY}ENDFOR\nM30\n"
+    ));
+    assert_eq!(t.loops[0].runs, Some(4));
+    assert_eq!(t.loops[1].runs, None);
+    assert_eq!(t.loops[1].unknown, Some("bounds computed at run time"));
+    assert!((t.total_min - base() - 5.0 * loop_time(&t)).abs() < 1e-9);
+}
+
+#[test]
+fn loops_ending_on_a_condition_are_counted_once() {
+    let t = timeline_of(&format!(
+        "T1 M6\nS1000 M3\nWHILE R1<3\n{BODY}R1=R1+1\nENDWHILE\nREPEAT\n{BODY}UNTIL R1>5\nFOR R2 = 5 TO 1\n{BODY}ENDFOR\nM30\n"
+    ));
+    let kinds: Vec<_> = t.loops.iter().map(|l| (l.kind, l.runs)).collect();
+    assert_eq!(
+        kinds,
+        [
+            (LoopKind::While, None),
+            (LoopKind::RepeatUntil, None),
+            (LoopKind::For, None)
+        ]
+    );
+    assert_eq!(t.loops[2].unknown, Some("the bounds give no run"));
+    assert!((t.total_min - base() - 3.0 * loop_time(&t)).abs() < 1e-9);
+}
+
+#[test]
+fn section_repeats_add_their_runs_at_the_statement() {
+    let t = timeline_of(&format!(
+        "T1 M6\nS1000 M3\nSTART: G0 X0\n{BODY}REPEAT START P=2\nONE: G1 X100 F100\nG0 X0\nREPEATB ONE P=3\nREPEAT LATER P=2\nLATER: G0 X0\nM30\n"
+    ));
+    let counted: Vec<_> = t
+        .loops
+        .iter()
+        .map(|l| (l.kind, l.block, l.body, l.runs))
+        .collect();
+    assert_eq!(
+        counted,
+        [
+            (LoopKind::Repeat, 7, (2, 6), Some(3)),
+            (LoopKind::RepeatBlock, 10, (8, 8), Some(4)),
+            (LoopKind::Repeat, 11, (11, 11), None),
+        ]
+    );
+    assert_eq!(
+        t.loops[2].unknown,
+        Some("the section is not before the REPEAT statement")
+    );
+    // The section: one minute of cutting plus rapids, three times; the repeated block one minute, four
+    // times; the rapid back in between.
+    let section = t.loops[0].body_min;
+    assert!((t.loops[1].body_min - 1.0).abs() < 1e-9);
+    let rapid_back = 100.0 / Profile::default_profile().timeline.rapid_mm_per_min;
+    assert!((t.total_min - base() - (3.0 * section + 4.0 + rapid_back)).abs() < 1e-9);
+}
+
+#[test]
+fn nested_counted_loops_multiply() {
+    let t = timeline_of(&format!(
+        "T1 M6\nS1000 M3\nFOR R1 = 1 TO 3\nFOR R2 = 1 TO 4\n{BODY}ENDFOR\nENDFOR\nM30\n"
+    ));
+    let inner = t.loops[0].body_min;
+    assert!((t.loops[1].body_min - 4.0 * inner).abs() < 1e-9);
+    assert!((t.total_min - base() - 12.0 * inner).abs() < 1e-9);
+    let times = retract_times(&t);
+    assert_eq!(times.len(), 12);
+    assert!(times.windows(2).all(|w| (w[1] - w[0] - inner).abs() < 1e-9));
+}
+
+#[test]
+fn a_loop_of_millions_of_runs_is_timed_but_not_listed_run_by_run() {
+    let t = timeline_of(&format!(
+        "T1 M6\nS1000 M3\nFOR R1 = 1 TO 5000000\n{BODY}ENDFOR\nM30\n"
+    ));
+    assert!((t.total_min - base() - 5e6 * loop_time(&t)).abs() < 1e-3);
+    let runs = crate::omm::loops::site_runs(&t);
+    assert!(!runs.complete);
+    assert_eq!(runs.sites.len(), crate::omm::loops::MAX_SITE_RUNS);
+    // Counts past u64 and a section that is its own statement neither overflow nor hang.
+    let t = timeline_of(&format!(
+        "START: REPEAT START P=2\nT1 M6\nFOR R1 = 0 TO 99999999999999999999\n{BODY}ENDFOR\nM30\n"
+    ));
+    assert_eq!(t.loops[1].runs, Some(u64::MAX));
+    assert_eq!(t.loops[0].runs, Some(3));
+    assert!(t.total_min.is_finite());
+}
+
+/// A gate in a loop body restores the state of the body's first run: where a later run reaches the
+/// block in another state (the spindle speed set after it in the body), the site says so.
+#[test]
+fn sites_reached_in_another_state_by_later_runs_are_marked() {
+    let text = "T1 M6\nS1000 M3\nG0 X0 Y0 Z10\nFOR R1 = 1 TO 3\nG0 Z50\nG0 X10\nG1 Z-1 F100\nS2000 M3\nG1 X100\nG0 Z40\nG0 X0\nENDFOR\nM30\n";
+    let t = timeline_of(text);
+    let retracts: Vec<(usize, bool)> = t
+        .sites
+        .iter()
+        .filter(|s| matches!(s.kind, SiteKind::Retract { .. }))
+        .map(|s| (s.block, s.state_varies))
+        .collect();
+    // Before `G0 X10` the speed is 1000 rpm in the first run and 2000 in later ones; before `G0 X0` it
+    // was set in the same run.
+    assert_eq!(retracts, [(5, true), (10, false)]);
+    let (_, plan) = crate::omm::plan_program(
+        &crate::parse(text.as_bytes()),
+        &crate::model::DriftModel::read(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("fixtures/omm/model.toml")
+                .as_ref(),
+        )
+        .unwrap(),
+        &Profile::default_profile(),
+    )
+    .unwrap();
+    let gate = plan.gates.iter().find(|g| g.block == 5).unwrap();
+    assert!(!gate.can_measure);
+    // Without the speed change, and with the feed set before the loop: every run alike.
+    let same = timeline_of(
+        &text
+            .replace("S2000 M3\n", "")
+            .replace("G0 X0 Y0 Z10", "G0 X0 Y0 Z10 F100"),
+    );
+    assert!(same.sites.iter().all(|s| !s.state_varies));
+}
+
+#[test]
+fn subprogram_and_cycle_calls_are_listed_as_not_timed() {
+    let t = timeline_of(
+        "G0 X0 Y0\nMSG(\"roughing\")\nCYCLE81(10,0,2,-5)\nN40 L100 P3\nCALL \"CONTOUR\"\nMCALL CYCLE82(10,0,2,-5,,1)\nX10\nY10\nF200\nMCALL\nSETAL(65000)\nG1 X20 F100\nPOCKET\nSTOPRE\nTRANS Z1\nSOFT\nSUB2 P3\nM30\n",
+    );
+    let calls: Vec<(usize, &str)> = t
+        .untimed_calls
+        .iter()
+        .map(|(line, name)| (*line, name.as_str()))
+        .collect();
+    assert_eq!(
+        calls,
+        [
+            (3, "CYCLE81"),
+            (4, "L100"),
+            (5, "CONTOUR"),
+            // A modal call runs after each block that moves, until `MCALL` alone.
+            (7, "MCALL CYCLE82"),
+            (8, "MCALL CYCLE82"),
+            // A bare name calls a subprogram unless the control predefines it.
+            (13, "POCKET"),
+            (17, "SUB2"),
+        ]
+    );
+}
+
+#[test]
+fn archive_subprograms_are_timed_in_the_order_they_call_each_other() {
+    // SUBA calls SUBB, which comes before it; SUBC and SUBD call each other.
+    let archive = "%_N_MAIN_MPF\n;$PATH=/_N_MPF_DIR\nG90 G0 X0 Y0 Z0\nT1 M6\nSUBA P2\nMCALL SUBB\nG0 X10\nG0 X0\nMCALL\nSUBC\nM30\n\
+                   %_N_SUBB_SPF\nG91 G1 X10 F100\nG90\nM17\n\
+                   %_N_SUBA_SPF\nG91 G1 X100 F100\nG90\nSUBB\nM17\n\
+                   %_N_SUBC_SPF\nG91 G1 Z100 F100\nG90\nSUBD\nM17\n\
+                   %_N_SUBD_SPF\nG91 G1 Z50 F100\nG90\nSUBC\nM17\n";
+    let t = timeline_of(archive);
+    let tool_change = Profile::default_profile().timeline.tool_change_s / 60.0;
+    let rapid = |mm: f64| mm / Profile::default_profile().timeline.rapid_mm_per_min;
+    // SUBA twice (1 + 0.1 min each), SUBB after both moves of the modal call (0.1 min each), SUBC
+    // (1 min) with SUBD (0.5 min) once: the call back from SUBD to SUBC is not followed.
+    let expected = tool_change + 2.0 * 1.1 + 2.0 * (rapid(10.0) + 0.1) + 1.5;
+    assert!(
+        (t.total_min - expected).abs() < 1e-9,
+        "{} vs {expected}",
+        t.total_min
+    );
+    assert_eq!(t.untimed_calls, [(29, "SUBC".to_string())]);
+}
+
+#[test]
+fn an_archive_times_its_main_program_and_the_subprograms_it_calls() {
+    let main = |call: &str| {
+        format!(
+            "%_N_MAIN_MPF\n;$PATH=/_N_MPF_DIR\nG90 G0 X0 Y0 Z0\nT1 M6\nG1 X100 F100\n{call}G0 Z50\nM30\n"
+        )
+    };
+    let subprograms = "%_N_L100_SPF\n;$PATH=/_N_SPF_DIR\nG91 G1 X10 F100\nG90\nT2 M6\nR55=1\nM17\n\
+                       %_N_OTHER_SPF\nG0 Z10\nG55\nM17\n";
+    let alone = timeline_of(&main(""));
+    let t = timeline_of(&(main("L100 P3\n") + subprograms));
+    // Three runs of 10 mm at F100 and a tool change, nothing of the other units.
+    let tool_change = Profile::default_profile().timeline.tool_change_s / 60.0;
+    let added = t.total_min - alone.total_min;
+    assert!((added - 3.0 * (0.1 + tool_change)).abs() < 1e-9, "{added}");
+    assert_eq!(t.unit_end, 8);
+    assert!(t.sites.iter().all(|s| s.block < 8) && t.passes.len() == 1);
+    assert_eq!(t.ends.len(), 1);
+    // What the other units use is taken all the same: R-parameters are global on the control.
+    assert!(t.used_r.contains(&55));
+    assert!(t.offsets.iter().any(|(g, _)| *g == 55));
+    assert!(t.untimed_calls.is_empty());
+    // A subprogram not in the archive stays untimed.
+    let t = timeline_of(&(main("L200\n") + subprograms));
+    assert_eq!(t.untimed_calls, [(6, "L200".to_string())]);
+}
+
+#[test]
+fn subprograms_in_the_profiles_folders_add_their_time_and_take_their_r_parameters() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, text: &str| std::fs::write(dir.path().join(name), text).unwrap();
+    // ROUGH cuts 100 mm and calls DRILLIT (10 mm) and a cycle; LOOPA and LOOPB call each other.
+    write(
+        "rough.spf",
+        "G91 G1 X100 F100\nR905=1\nDRILLIT\nCYCLE81(1,0,1,-1)\nG90\nM17\n",
+    );
+    write("_N_DRILLIT_SPF", "G91 G1 Z-10 F100\nG90\nM17\n");
+    write("LOOPA.SPF", "G91 G1 X50 F100\nG90\nLOOPB\nM17\n");
+    write("LOOPB.SPF", "G91 G1 X50 F100\nG90\nLOOPA\nM17\n");
+    let mut profile = Profile::default_profile();
+    profile.timeline.subprograms = vec![dir.path().to_path_buf()];
+    let program = "G90 G0 X0 Y0 Z0\nT1 M6\nROUGH P2\nLOOPA\nOTHER\nM30\n";
+    let t = build(&crate::parse(program.as_bytes()), &profile);
+    let alone = timeline_of(program);
+    // ROUGH twice (1 + 0.1 min), LOOPA with LOOPB once (1 min): the call back to LOOPA is not followed.
+    let added = t.total_min - alone.total_min;
+    assert!((added - (2.0 * 1.1 + 1.0)).abs() < 1e-9, "{added}");
+    // What the subprograms leave untimed is listed at the call in this program.
+    let calls: Vec<(usize, &str)> = t
+        .untimed_calls
+        .iter()
+        .map(|(line, name)| (*line, name.as_str()))
+        .collect();
+    assert_eq!(calls, [(3, "CYCLE81"), (4, "LOOPA"), (5, "OTHER")]);
+    assert!(t.used_r.contains(&905) && !alone.used_r.contains(&905));
+}
+
+#[test]
+fn the_spindle_a_subprogram_programs_is_followed_through_the_call() {
+    // ROUGH starts the spindle itself; FINISH sets only S (the spindle already turns) and stops it.
+    let t = timeline_of(
+        "%_N_MAIN_MPF\n;$PATH=/_N_MPF_DIR\nG90 G0 X0 Y0 Z0\nT1 M6\nROUGH\nG0 Z50\nFINISH\nG0 Z60\nM30\n\
+         %_N_ROUGH_SPF\nS6000 M3\nG91 G1 X100 F100\nG90\nM17\n\
+         %_N_FINISH_SPF\nS2000\nG91 G1 X100 F100\nG90\nM5\nM17\n",
+    );
+    let tc = Profile::default_profile().timeline.tool_change_s / 60.0;
+    let finish = tc + 1.0 + 50.0 / Profile::default_profile().timeline.rapid_mm_per_min;
+    let expected = [
+        (0.0, 0.0),
+        (tc, 6000.0),
+        (finish, 2000.0),
+        (finish + 1.0, 0.0),
+    ];
+    assert_eq!(t.speeds.len(), expected.len(), "{:?}", t.speeds);
+    for (got, want) in t.speeds.iter().zip(expected) {
+        assert!(
+            (got.0 - want.0).abs() < 1e-9 && got.1 == want.1,
+            "{got:?} vs {want:?}"
+        );
+    }
+    let changes: Vec<(usize, f64)> = t
+        .sites
+        .iter()
+        .filter(|s| s.kind == SiteKind::SpeedChange)
+        .map(|s| (s.block + 1, s.rpm_after))
+        .collect();
+    // A gate before each call takes the call's mean speed (the subprogram has no gates of its own), the
+    // block after it the speed the subprogram left, where that differs.
+    assert_eq!(changes, [(5, 6000.0), (7, 2000.0), (8, 0.0)]);
+}
+
+#[test]
+fn after_a_call_no_gate_restores_a_state_until_the_next_tool_change() {
+    let t = timeline_of(
+        "T1 M6\nS2000 M3\nG0 X0 Y0 Z2\nG1 Z-1 F100\nG0 Z50\nG0 X10\nCYCLE81(10,0,2,-5)\nG1 Z-1\nG0 Z50\nG0 X20\nT2 M6\nG0 Z2\nG1 Z-1 F100\nG0 Z50\nG0 X30\nM30\n",
+    );
+    let retracts: Vec<(usize, bool)> = t
+        .sites
+        .iter()
+        .filter(|s| matches!(s.kind, SiteKind::Retract { .. }))
+        .map(|s| (s.block + 1, s.state_varies))
+        .collect();
+    // The cycle may have left another speed, feed or frame: the retract after it cannot measure.
+    assert_eq!(retracts, [(6, false), (10, true), (15, false)]);
+}
+
+#[test]
+fn decimals_match_the_standard_parser() {
+    for t in [
+        "0",
+        "-0.5",
+        "+12.",
+        ".25",
+        "165.356",
+        "-224.452",
+        "19083.899",
+        "123456789012345",
+        "12345678",
+        "-123456789.1234",
+        "0.000001",
+        "98765432.0",
+        "1.2345678912",
+        "00000000000042",
+    ] {
+        assert_eq!(
+            decimal(t.as_bytes()),
+            Some(t.parse::<f64>().unwrap()),
+            "{t}"
+        );
+    }
+    for t in ["", "-", "1.2.3", "1e5", "1234567890123456", "12a"] {
+        assert_eq!(decimal(t.as_bytes()), None, "{t}");
+    }
+}
+
+#[test]
+fn a_dwell_after_a_retract_is_a_site() {
+    let text = "T1 M6\nS4000 M3\nG0 X0 Y0 Z2\nG1 Z-1 F300\nG1 X50 F1200\nG0 Z5\nG4 F600\nG1 X0\nG4 F60\nM30\n";
+    let program = crate::parse(text.as_bytes());
+    let t = build(&program, &Profile::default_profile());
+    let retracts: Vec<usize> = t
+        .sites
+        .iter()
+        .filter(|s| matches!(s.kind, SiteKind::Retract { .. }))
+        .map(|s| s.block)
+        .collect();
+    // The dwell after `G0 Z5` (block 6), not the one after a feed move (block 8).
+    assert_eq!(retracts, [6]);
+}
