@@ -351,6 +351,10 @@ fn subprogram_folders_from_the_profile_or_the_command_line_are_timed() {
     let spf_arg = spf.display().to_string();
     let with = plan(&["--subprograms", &spf_arg]);
     assert_eq!(with["untimed_calls"], serde_json::json!([]));
+    assert_eq!(
+        with["timed_calls"],
+        serde_json::json!([{ "name": "ROUGH", "calls": 1, "first_line": 5, "min_per_run": 1.0 }])
+    );
     let added = with["total_min"].as_f64().unwrap() - without["total_min"].as_f64().unwrap();
     assert!(
         (added - 3.0).abs() < 1e-6,

@@ -33,7 +33,8 @@ struct JsonPlan<'a> {
     program_min: f64,
     passes: Vec<omm::report::PassRow>,
     inexact_blocks: usize,
-    untimed_calls: Vec<omm::report::UntimedCall>,
+    untimed_calls: Vec<omm::report::CallCount>,
+    timed_calls: Vec<omm::report::TimedCall>,
     #[serde(flatten)]
     plan: &'a Plan,
 }
@@ -73,6 +74,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 passes: omm::report::pass_rows(&program, &timeline),
                 inexact_blocks: timeline.inexact_blocks,
                 untimed_calls: omm::report::untimed_calls(&timeline),
+                timed_calls: omm::report::timed_calls(&timeline),
                 plan: &plan,
             };
             serde_json::to_writer_pretty(&mut out, &j)?;
@@ -84,6 +86,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             omm::report::write_table(&mut out, &program, &plan)?;
             omm::report::write_loops(&mut out, &program, &plan)?;
             omm::report::write_untimed(&mut out, &omm::report::untimed_calls(&timeline))?;
+            omm::report::write_timed(&mut out, &omm::report::timed_calls(&timeline))?;
         }
     }
     Ok(ExitCode::SUCCESS)

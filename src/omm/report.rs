@@ -131,44 +131,94 @@ pub fn write_loops(out: &mut impl Write, program: &Program, plan: &Plan) -> io::
     Ok(())
 }
 
-/// The subprograms and cycles a program calls, whose time the plan does not know: per name in order of the
-/// first call.
+/// Calls of one subprogram or cycle: how many call statements, and the line of the first.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct UntimedCall {
+pub struct CallCount {
     pub name: String,
     pub calls: usize,
     pub first_line: usize,
 }
 
-pub fn untimed_calls(timeline: &Timeline) -> Vec<UntimedCall> {
-    let mut rows: Vec<UntimedCall> = Vec::new();
-    for (line, name) in &timeline.untimed_calls {
-        match rows.iter_mut().find(|r| &r.name == name) {
+/// A subprogram the plan timed (the archive's, or one in a subprogram folder), with the time of one run.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TimedCall {
+    #[serde(flatten)]
+    pub call: CallCount,
+    pub min_per_run: f64,
+}
+
+/// Calls grouped per name, in order of the first call.
+fn count_calls<'a>(calls: impl Iterator<Item = (usize, &'a str)>) -> Vec<CallCount> {
+    let mut rows: Vec<CallCount> = Vec::new();
+    for (line, name) in calls {
+        match rows.iter_mut().find(|r| r.name == name) {
             Some(row) => row.calls += 1,
-            None => rows.push(UntimedCall {
-                name: name.clone(),
+            None => rows.push(CallCount {
+                name: name.to_string(),
                 calls: 1,
-                first_line: *line,
+                first_line: line,
             }),
         }
     }
     rows
 }
 
-pub fn write_untimed(out: &mut impl Write, rows: &[UntimedCall]) -> io::Result<()> {
-    if rows.is_empty() {
+/// The subprograms and cycles a program calls whose time the plan does not know.
+pub fn untimed_calls(timeline: &Timeline) -> Vec<CallCount> {
+    count_calls(timeline.untimed_calls.iter().map(|(l, n)| (*l, n.as_str())))
+}
+
+/// The subprograms a program calls whose time the plan counts.
+pub fn timed_calls(timeline: &Timeline) -> Vec<TimedCall> {
+    let calls = timeline
+        .timed_calls
+        .iter()
+        .map(|(l, n, _)| (*l, n.as_str()));
+    count_calls(calls)
+        .into_iter()
+        .map(|call| {
+            let run = timeline.timed_calls.iter().find(|c| c.1 == call.name);
+            let min_per_run = run.map_or(0.0, |c| c.2);
+            TimedCall { call, min_per_run }
+        })
+        .collect()
+}
+
+pub fn write_timed(out: &mut impl Write, rows: &[TimedCall]) -> io::Result<()> {
+    write_calls(
+        out,
+        "timed subprograms (of the archive or a subprogram folder; their calls of others included):",
+        rows.iter().map(|r| (&r.call, Some(r.min_per_run))),
+    )
+}
+
+pub fn write_untimed(out: &mut impl Write, rows: &[CallCount]) -> io::Result<()> {
+    write_calls(
+        out,
+        "not timed (subprogram and cycle calls: the plan counts no time for them, so it may measure less often than needed; every gate still decides with the real elapsed time):",
+        rows.iter().map(|c| (c, None)),
+    )
+}
+
+/// A heading and a line per called name (with the minutes of one run when timed); nothing without rows.
+fn write_calls<'a>(
+    out: &mut impl Write,
+    heading: &str,
+    rows: impl ExactSizeIterator<Item = (&'a CallCount, Option<f64>)>,
+) -> io::Result<()> {
+    if rows.len() == 0 {
         return Ok(());
     }
-    writeln!(
-        out,
-        "not timed (subprogram and cycle calls: the plan counts no time for them, so it may measure less often than needed; every gate still decides with the real elapsed time):"
-    )?;
-    for r in rows {
-        let calls = if r.calls == 1 { "call" } else { "calls" };
+    writeln!(out, "{heading}")?;
+    for (c, min) in rows {
+        let calls = if c.calls == 1 { "call" } else { "calls" };
+        let run = min
+            .map(|m| format!(", {m:.2} min a run"))
+            .unwrap_or_default();
         writeln!(
             out,
-            "  {:<22} {} {calls}, first at line {}",
-            r.name, r.calls, r.first_line
+            "  {:<22} {} {calls}, first at line {}{run}",
+            c.name, c.calls, c.first_line
         )?;
     }
     Ok(())

@@ -250,6 +250,9 @@ impl<'p> Builder<'p> {
         };
         match found {
             Some((sub, elsewhere)) => {
+                self.t
+                    .timed_calls
+                    .push((i + 1, shown.to_string(), sub.total_min));
                 let runs = repeats.filter(|p| *p >= 1.0).unwrap_or(1.0).floor();
                 if !sub.spindle_words.is_empty() {
                     self.replay_spindle(i, sub, runs);

@@ -118,6 +118,8 @@ pub struct Timeline {
     pub loops: Vec<Loop>,
     /// Subprogram and cycle calls, whose time the timeline does not know: (line, 1-based; called name).
     pub untimed_calls: Vec<(usize, String)>,
+    /// Calls of subprograms the timeline timed (the archive's, or a folder's): (line, name, min per run).
+    pub timed_calls: Vec<(usize, String, f64)>,
     /// Where the unit programs the spindle: (min from its start, S, M3/M4/M5). A call of the unit replays
     /// them onto the caller's spindle (a subprogram may set only S, or only M3, and inherit the rest).
     pub spindle_words: Vec<(f64, Option<f64>, Option<u32>)>,
