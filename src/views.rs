@@ -124,21 +124,23 @@ const FRAME_COMMANDS: &[&str] = &[
     "CSCALE", "MIRROR", "AMIRROR", "CMIRROR",
 ];
 
-/// Predefined instructions written as a bare name in a block (no `=`, no arguments): frames, spline and
-/// path modes, feed profiles, kinematic transformations, tool compensation, look-ahead and display
-/// switches, program flow. Any other bare name calls a subprogram (`MYSUB`, `SUB2 P3`).
-const PREDEFINED_COMMANDS: &[&str] = &[
-    "RET",
+/// Predefined bare commands that change no programmed position (spline end conditions, the default feed
+/// profile, acceleration, look-ahead, display and single-block switches, the end of a transformation the
+/// dry run does not model): the dry run accepts them as they are.
+pub const NEUTRAL_COMMANDS: &[&str] = &[
+    "BNAT",
+    "BTAN",
+    "BAUTO",
+    "ENAT",
+    "ETAN",
+    "EAUTO",
+    "FNORM",
+    "TRAFOOF",
     "STOPRE",
-    "STOPREOF",
-    "SAVE",
-    "SBLOF",
-    "SBLON",
     "DISPLOF",
     "DISPLON",
-    "STOPFIFO",
-    "STARTFIFO",
-    "FIFOCTRL",
+    "SBLOF",
+    "SBLON",
     "SOFT",
     "BRISK",
     "DRIVE",
@@ -147,6 +149,18 @@ const PREDEFINED_COMMANDS: &[&str] = &[
     "CFC",
     "CFTCP",
     "CFIN",
+    "STOPFIFO",
+    "STARTFIFO",
+    "SAVE",
+];
+
+/// The other predefined instructions written as a bare name in a block (no `=`, no arguments): program
+/// flow, path and interpolation modes, kinematic transformations, tool compensation, retraction. With
+/// [`NEUTRAL_COMMANDS`] and the frame commands, any other bare name calls a subprogram (`MYSUB`, `SUB2 P3`).
+const PREDEFINED_COMMANDS: &[&str] = &[
+    "RET",
+    "STOPREOF",
+    "FIFOCTRL",
     "CPRECON",
     "CPRECOF",
     "CIP",
@@ -155,13 +169,6 @@ const PREDEFINED_COMMANDS: &[&str] = &[
     "ASPLINE",
     "BSPLINE",
     "CSPLINE",
-    "BNAT",
-    "BTAN",
-    "BAUTO",
-    "ENAT",
-    "ETAN",
-    "EAUTO",
-    "FNORM",
     "FLIN",
     "FCUB",
     "UPATH",
@@ -189,7 +196,6 @@ const PREDEFINED_COMMANDS: &[&str] = &[
     "COMPOF",
     "TRAORI",
     "TRANSMIT",
-    "TRAFOOF",
     "ORIWKS",
     "ORIMKS",
     "ORIAXES",
@@ -256,7 +262,9 @@ const PREDEFINED_COMMANDS: &[&str] = &[
 
 /// A bare name in a block is a subprogram call unless the control predefines it (upper-case `name`).
 pub fn is_predefined_command(name: &str) -> bool {
-    PREDEFINED_COMMANDS.contains(&name) || FRAME_COMMANDS.contains(&name)
+    PREDEFINED_COMMANDS.contains(&name)
+        || NEUTRAL_COMMANDS.contains(&name)
+        || FRAME_COMMANDS.contains(&name)
 }
 
 /// Predefined addresses that take `=` but are not variables (arc radius, chamfer, spindle positioning, …).

@@ -91,7 +91,7 @@ impl Interp<'_> {
             "TRANS" | "ATRANS" | "ROT" | "AROT" | "SCALE" | "ASCALE" | "MIRROR" | "AMIRROR" => {
                 w.frame_command = Some(name)
             }
-            _ if NO_EFFECT_COMMANDS.contains(&name.as_str()) => {}
+            _ if crate::views::NEUTRAL_COMMANDS.contains(&name.as_str()) => {}
             _ if crate::views::is_predefined_command(&name) => {
                 return Err(format!("{name} is not supported by the dry run"));
             }

@@ -101,36 +101,6 @@ struct Words {
     section: Option<(usize, usize)>,
 }
 
-/// Commands that change nothing the dry run models (display, single block, acceleration and look-ahead modes,
-/// the default feed profile; TRAFOOF because no kinematic transformation is modelled), accepted by name.
-const NO_EFFECT_COMMANDS: &[&str] = &[
-    // Spline start and end conditions shape the curve between the programmed points.
-    "BNAT",
-    "BTAN",
-    "BAUTO",
-    "ENAT",
-    "ETAN",
-    "EAUTO",
-    "FNORM",
-    "TRAFOOF",
-    "STOPRE",
-    "DISPLOF",
-    "DISPLON",
-    "SBLOF",
-    "SBLON",
-    "SOFT",
-    "BRISK",
-    "DRIVE",
-    "FFWON",
-    "FFWOF",
-    "CFC",
-    "CFTCP",
-    "CFIN",
-    "STOPFIFO",
-    "STARTFIFO",
-    "SAVE",
-];
-
 const MM_PER_INCH: f64 = 25.4;
 
 /// Frame commands that take axis values; the bare form of an absolute one deletes the programmable frame.
