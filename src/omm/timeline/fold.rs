@@ -19,8 +19,9 @@ pub(super) struct Builder<'p> {
     /// A subprogram or cycle ran since the last tool change: the modal state it left (tool, speed, feed,
     /// frame) is not known, so no gate measures, and restores a state, until the next tool change.
     after_call: bool,
-    /// The cycle or subprogram an `MCALL` made modal: it runs after each block that moves.
-    modal_call: Option<String>,
+    /// The cycle or subprogram an `MCALL` made modal, and how the call lists name it (`MCALL NAME`): it
+    /// runs after each block that moves.
+    modal_call: Option<(String, String)>,
     /// Names the unit calls (archive subprograms or not), for the order in which an archive's units are timed.
     pub(super) called: BTreeSet<String>,
     /// A subprogram called at this block changed the spindle speed: the next block gets a speed-change site,
@@ -237,7 +238,9 @@ impl<'p> Builder<'p> {
     /// other call is listed as not timed (`shown` is how the list names it).
     fn call(&mut self, i: usize, name: &str, shown: &str, repeats: Option<f64>) {
         self.after_call = true;
-        self.called.insert(name.to_string());
+        if !self.called.contains(name) {
+            self.called.insert(name.to_string());
+        }
         // A subprogram from a folder is in another file: what it leaves untimed is listed at the call (its
         // own line numbers mean nothing in this program).
         let from_folder;
@@ -371,11 +374,11 @@ impl<'p> Builder<'p> {
     /// After a block that moves, the cycle an `MCALL` made modal runs.
     #[inline]
     fn modal_call_after(&mut self, i: usize, mv: &Move) {
-        if let Some(name) = &self.modal_call
-            && mv.axes.iter().any(Option::is_some)
+        if mv.axes.iter().any(Option::is_some)
+            && let Some((name, shown)) = self.modal_call.take()
         {
-            let name = name.clone();
-            self.call(i, &name, &format!("MCALL {name}"), None);
+            self.call(i, &name, &shown, None);
+            self.modal_call = Some((name, shown));
         }
     }
 
@@ -504,7 +507,7 @@ impl<'p> Builder<'p> {
             self.speed_site(i, start, before.clone(), rpm);
         }
         if let Some(modal) = &s.modal_call {
-            self.modal_call = modal.clone();
+            self.modal_call = modal.as_ref().map(|n| (n.clone(), format!("MCALL {n}")));
         }
         self.movement(i, start, &before, &s.mv, dwell, s.s, s.inexact, tool_change);
         self.modal_call_after(i, &s.mv);

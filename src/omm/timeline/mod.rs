@@ -155,13 +155,16 @@ pub(super) fn build_with(program: &Program, profile: &Profile, folders: &mut Fol
             ))
         })
         .collect();
-    let calls: Vec<BTreeSet<String>> = alone.iter().flatten().map(|(_, c)| c.clone()).collect();
+    let calls: Vec<&BTreeSet<String>> = alone.iter().flatten().map(|(_, c)| c).collect();
     let order = callees_first(&names, &calls);
     let mut subprograms = HashMap::new();
     let mut others = Vec::new();
     for k in order {
         let (first, called) = alone[k].take().expect("each unit once");
-        let t = if called.iter().any(|c| names.contains(&Some(c.clone()))) {
+        let t = if called
+            .iter()
+            .any(|c| names.iter().flatten().any(|n| n == c))
+        {
             let unit = units[k + 1].clone();
             build_unit(program, unit, profile, &subprograms, folders).0
         } else {
@@ -186,7 +189,7 @@ pub(super) fn build_with(program: &Program, profile: &Profile, folders: &mut Fol
 
 /// The units (by index into `names`) ordered so that each comes after the units it calls, when they do not
 /// call it back.
-fn callees_first(names: &[Option<String>], calls: &[BTreeSet<String>]) -> Vec<usize> {
+fn callees_first(names: &[Option<String>], calls: &[&BTreeSet<String>]) -> Vec<usize> {
     let index: HashMap<&str, usize> = names
         .iter()
         .enumerate()
