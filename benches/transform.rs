@@ -11,7 +11,7 @@ use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
 use rayon::prelude::*;
 
 use driftloop::model::DriftModel;
-use driftloop::omm::{ModelRef, Profile, prepare, transform};
+use driftloop::omm::{ModelRef, Profile, parse_timed, prepare, prepare_timed, transform};
 
 /// A CAM-like program: passes with tool changes, spindle speeds, feed moves, arcs and retracts.
 fn cam_program(target: usize, seed: u64) -> Vec<u8> {
@@ -92,6 +92,19 @@ fn big_file(c: &mut Criterion) {
         let t = prepare(program, model, &profile, false).unwrap();
         t.write_to(&mut io::sink()).unwrap();
         t.summary.blocks_inserted
+    });
+    // What `driftloop transform` does: the parser times the plain moves in its pass, the output streamed.
+    group.bench_function("transform_timed", |b| {
+        b.iter_batched(
+            || source.clone(),
+            |src| {
+                let (program, moves) = parse_timed(src);
+                let t = prepare_timed(&program, &moves, model, &profile, false).unwrap();
+                t.write_to(&mut io::sink()).unwrap();
+                black_box(t.summary.blocks_inserted)
+            },
+            BatchSize::PerIteration,
+        )
     });
     group.finish();
 }

@@ -3,7 +3,7 @@
 //! and written with the file's dominant line ending. A BOM stays first and a missing final newline stays
 //! missing.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashSet};
 use std::io::Write;
 
 use crate::diagnostic::{Diagnostic, Severity};
@@ -33,6 +33,8 @@ struct Slot {
 pub struct Editor<'p> {
     program: &'p Program,
     edits: Edits,
+    /// Lines already found to parse without errors: a transform inserts the same lines many times.
+    clean: HashSet<Vec<u8>>,
 }
 
 /// The accepted edits on their own, without the program they were made against: kept next to the program
@@ -48,6 +50,7 @@ impl<'p> Editor<'p> {
         Editor {
             program,
             edits: Edits::default(),
+            clean: HashSet::new(),
         }
     }
 
@@ -106,7 +109,7 @@ impl<'p> Editor<'p> {
     }
 
     /// Splits `text` into lines and parses each; a line with an error diagnostic refuses the whole edit.
-    fn accept(&self, index: usize, text: &str) -> Result<Vec<Vec<u8>>, EditError> {
+    fn accept(&mut self, index: usize, text: &str) -> Result<Vec<Vec<u8>>, EditError> {
         let count = self.program.block_count();
         if index >= count {
             return Err(EditError::NoSuchBlock { index, count });
@@ -119,6 +122,9 @@ impl<'p> Editor<'p> {
             lines.push(Vec::new());
         }
         for line in &lines {
+            if self.clean.contains(line) {
+                continue;
+            }
             let diagnostics: Vec<Diagnostic> = line_syntax_errors(line)
                 .into_iter()
                 .filter(|d| d.severity == Severity::Error)
@@ -129,6 +135,7 @@ impl<'p> Editor<'p> {
                     diagnostics,
                 });
             }
+            self.clean.insert(line.clone());
         }
         Ok(lines)
     }

@@ -46,10 +46,10 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     } else {
         Input::File(args.program.clone())
     };
-    let program = crate::parse_owned(input.read()?);
+    let (program, moves) = omm::parse_timed(input.read()?);
     let name = input.to_string();
     let planned = omm::check(&program, args.force)
-        .and_then(|()| omm::plan_program(&program, &model, &profile));
+        .and_then(|()| omm::plan_timed(&program, &moves, &model, &profile));
     let (timeline, plan) = match planned {
         Ok(p) => p,
         Err(e) => {

@@ -288,8 +288,9 @@ fn transform_one(
     force: bool,
 ) -> Result<Outcome, String> {
     let bytes = input.read().map_err(|e| e.to_string())?;
-    let program = crate::parse_owned(bytes);
-    let (edits, summary) = omm::prepare(&program, ModelRef { model, sha256: sha }, profile, force)
+    let (program, moves) = omm::parse_timed(bytes);
+    let model = ModelRef { model, sha256: sha };
+    let (edits, summary) = omm::prepare_timed(&program, &moves, model, profile, force)
         .map_err(|e| e.to_string())?
         .into_edits();
     Ok(Outcome {

@@ -20,7 +20,7 @@ use crate::syntax::Program;
 
 pub use plan::{Gate, GateKind, Plan, Predictor};
 pub use profile::{DEFAULT_PROFILE, Profile, ProfileError};
-pub use timeline::Timeline;
+pub use timeline::{Moves, Timeline, parse_timed};
 
 use emit::{Emitter, Registers, SIGNATURE};
 
@@ -140,7 +140,30 @@ pub fn plan_program(
     model: &DriftModel,
     profile: &Profile,
 ) -> Result<(Timeline, Plan), TransformError> {
-    let timeline = timeline::build(program, profile);
+    plan_with(program, None, model, profile)
+}
+
+/// [`plan_program`] for a program parsed with [`timeline::parse_timed`]: the same plan, without reading the
+/// moves the parser timed again.
+pub fn plan_timed(
+    program: &Program,
+    moves: &Moves,
+    model: &DriftModel,
+    profile: &Profile,
+) -> Result<(Timeline, Plan), TransformError> {
+    plan_with(program, Some(moves), model, profile)
+}
+
+fn plan_with(
+    program: &Program,
+    moves: Option<&Moves>,
+    model: &DriftModel,
+    profile: &Profile,
+) -> Result<(Timeline, Plan), TransformError> {
+    let timeline = match moves {
+        Some(moves) => timeline::build_with_moves(program, moves, profile),
+        None => timeline::build(program, profile),
+    };
     let plan = plan::plan(&timeline, model, profile).map_err(TransformError::Plan)?;
     Ok((timeline, plan))
 }
@@ -190,8 +213,35 @@ pub fn prepare<'p>(
     profile: &Profile,
     force: bool,
 ) -> Result<Prepared<'p>, TransformError> {
-    check(program, force)?;
-    let (timeline, plan) = plan_program(program, model.model, profile)?;
+    prepare_with(program, None, model, profile, force)
+}
+
+/// [`prepare`] for a program parsed with [`timeline::parse_timed`] (what the `transform` command does): the
+/// same output, without reading the moves the parser timed again.
+pub fn prepare_timed<'p>(
+    program: &'p Program,
+    moves: &Moves,
+    model: ModelRef<'_>,
+    profile: &Profile,
+    force: bool,
+) -> Result<Prepared<'p>, TransformError> {
+    prepare_with(program, Some(moves), model, profile, force)
+}
+
+fn prepare_with<'p>(
+    program: &'p Program,
+    moves: Option<&Moves>,
+    model: ModelRef<'_>,
+    profile: &Profile,
+    force: bool,
+) -> Result<Prepared<'p>, TransformError> {
+    // The checks search the whole source while the timeline is folded, which keeps one core busy.
+    let (checked, planned) = rayon::join(
+        || check(program, force),
+        || plan_with(program, moves, model.model, profile),
+    );
+    checked?;
+    let (timeline, plan) = planned?;
     let at = |line: usize| match timeline.found_in_call.get(&line) {
         Some(name) => format!("line {line}, in subprogram {name} called there,"),
         None => format!("line {line}"),

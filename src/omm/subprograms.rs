@@ -48,7 +48,7 @@ impl Folders {
         };
         let program = crate::parse_owned(src);
         self.open.insert(name.to_string());
-        let t = Rc::new(timeline::build_with(&program, profile, self));
+        let t = Rc::new(timeline::build_with(&program, None, profile, self));
         self.open.remove(name);
         self.timed.insert(name.to_string(), Some(t.clone()));
         Some(t)

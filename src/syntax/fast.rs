@@ -2,7 +2,7 @@
 //! comment. Whatever it accepts the full grammar accepts as a plain block without diagnostics (a test checks
 //! this over every fixture line); anything else goes to the full grammar.
 
-use super::lexeme::{is_blank, skip_blanks, skip_level_len, word_end};
+use super::lexeme::{Digits, is_blank, skip_blanks, skip_level_len, word_end_with};
 
 pub(crate) fn plain_block(line: &[u8]) -> bool {
     plain_prefix(line) == Some(line.len())
@@ -11,9 +11,44 @@ pub(crate) fn plain_block(line: &[u8]) -> bool {
 /// Length of the plain block at the start of `rest`, up to (not including) its CR / LF, or None when the
 /// line is not plain. Finds the line end in the same pass as the words.
 pub(crate) fn plain_prefix(rest: &[u8]) -> Option<usize> {
+    plain_prefix_with(rest, &mut ())
+}
+
+/// What the recogniser reports of a line while it reads it: nothing (`()`), or what the motion record keeps
+/// (`syntax::motion`). A line that turns out not to be plain is reported by its reader with
+/// [`Words::end_line`]`(false)`, whatever was reported of it before.
+pub trait Words {
+    type Number: Digits + Default;
+    fn skip_level(&mut self);
+    /// An address word: its letter as written and its number's parts.
+    fn word(&mut self, letter: u8, number: &Self::Number);
+    fn comment(&mut self);
+    /// The line ended; `plain` when the recogniser accepted it.
+    fn end_line(&mut self, plain: bool);
+}
+
+impl Words for () {
+    type Number = ();
+    #[inline(always)]
+    fn skip_level(&mut self) {}
+    #[inline(always)]
+    fn word(&mut self, _: u8, _: &()) {}
+    #[inline(always)]
+    fn comment(&mut self) {}
+    #[inline(always)]
+    fn end_line(&mut self, _: bool) {}
+}
+
+/// [`plain_prefix`], reporting the line's parts to `w` (but not its end: see [`Words::end_line`]).
+#[inline(always)]
+pub(crate) fn plain_prefix_with<W: Words>(rest: &[u8], w: &mut W) -> Option<usize> {
     let n = rest.len();
     let mut k = n - skip_blanks(rest).len();
-    k += skip_level_len(&rest[k..]);
+    let level = skip_level_len(&rest[k..]);
+    if level > 0 {
+        w.skip_level();
+        k += level;
+    }
     loop {
         while k < n && is_blank(rest[k]) {
             k += 1;
@@ -21,9 +56,14 @@ pub(crate) fn plain_prefix(rest: &[u8]) -> Option<usize> {
         match rest.get(k) {
             None | Some(b'\r' | b'\n') => return Some(k),
             Some(b';') => {
+                w.comment();
                 return Some(k + memchr::memchr2(b'\n', b'\r', &rest[k..]).unwrap_or(n - k));
             }
-            Some(_) => k = word_end(rest, k)?.1,
+            Some(&letter) => {
+                let mut number = W::Number::default();
+                k = word_end_with(rest, k, &mut number)?.1;
+                w.word(letter, &number);
+            }
         }
     }
 }

@@ -77,24 +77,61 @@ pub(crate) fn ident(i: &[u8]) -> R<'_, &[u8]> {
     .parse(i)
 }
 
+/// What the recogniser hands a number's parts to while it finds the number's end: nothing, for the grammar
+/// (`()`), or an accumulator of its value (the motion record, `syntax::motion`), so a value is read in the
+/// same pass that recognises it.
+pub trait Digits {
+    fn sign(&mut self, negative: bool);
+    /// One digit, of the fraction when `fraction`.
+    fn digit(&mut self, d: u8, fraction: bool);
+    fn point(&mut self);
+    fn exponent(&mut self);
+}
+
+impl Digits for () {
+    #[inline(always)]
+    fn sign(&mut self, _: bool) {}
+    #[inline(always)]
+    fn digit(&mut self, _: u8, _: bool) {}
+    #[inline(always)]
+    fn point(&mut self) {}
+    #[inline(always)]
+    fn exponent(&mut self) {}
+}
+
 /// End of the number starting at `s[k]`: `12`, `12.`, `12.5`, `.5` (with a sign if `signed`), each optionally
 /// with a Sinumerik exponent `EX[+-]digits`. Index-based and inlined: every word of every block goes
 /// through it.
 #[inline(always)]
-fn number_end(s: &[u8], mut k: usize, signed: bool) -> Option<usize> {
+fn number_end(s: &[u8], k: usize, signed: bool) -> Option<usize> {
+    number_end_with(s, k, signed, &mut ())
+}
+
+/// [`number_end`], handing the number's parts to `d`.
+#[inline(always)]
+pub(crate) fn number_end_with(
+    s: &[u8],
+    mut k: usize,
+    signed: bool,
+    d: &mut impl Digits,
+) -> Option<usize> {
     let n = s.len();
     if signed && k < n && (s[k] == b'+' || s[k] == b'-') {
+        d.sign(s[k] == b'-');
         k += 1;
     }
     let int_start = k;
     while k < n && s[k].is_ascii_digit() {
+        d.digit(s[k] - b'0', false);
         k += 1;
     }
     let has_int = k > int_start;
     if k < n && s[k] == b'.' {
+        d.point();
         let frac_start = k + 1;
         k = frac_start;
         while k < n && s[k].is_ascii_digit() {
+            d.digit(s[k] - b'0', true);
             k += 1;
         }
         if !has_int && k == frac_start {
@@ -113,6 +150,7 @@ fn number_end(s: &[u8], mut k: usize, signed: bool) -> Option<usize> {
             e += 1;
         }
         if e > digits {
+            d.exponent();
             k = e;
         }
     }
@@ -139,10 +177,16 @@ pub(crate) fn signed_number(i: &[u8]) -> R<'_, &[u8]> {
 /// assigned (`X1=5` is an assignment to axis `X1`).
 #[inline(always)]
 pub(crate) fn word_end(s: &[u8], k: usize) -> Option<(usize, usize)> {
+    word_end_with(s, k, &mut ())
+}
+
+/// [`word_end`], handing the number's parts to `d`.
+#[inline(always)]
+pub(crate) fn word_end_with(s: &[u8], k: usize, d: &mut impl Digits) -> Option<(usize, usize)> {
     if k >= s.len() || !s[k].is_ascii_alphabetic() {
         return None;
     }
-    let end = number_end(s, k + 1, true)?;
+    let end = number_end_with(s, k + 1, true, d)?;
     if matches!(s.get(end), Some(b'_' | b'[')) {
         return None;
     }

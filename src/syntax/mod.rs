@@ -1,5 +1,6 @@
 //! Lossless Sinumerik syntax: one block per line, parsed from raw bytes.
 
+mod decimal;
 mod fast;
 mod grammar;
 mod keyword;
@@ -9,5 +10,12 @@ mod tree;
 
 pub(crate) use lexeme::leading_block_number;
 pub use program::flag;
-pub use program::{Block, BlockKind, Program, line_syntax_errors, parse, parse_owned};
+pub use decimal::{Decimal, decimal_prefix};
+pub use fast::Words;
+pub use lexeme::Digits;
+#[cfg(test)]
+pub(crate) use program::parse_owned_in_pieces;
+pub use program::{
+    Block, BlockKind, Program, line_syntax_errors, parse, parse_owned, parse_owned_with,
+};
 pub use tree::{Node, NodeJson, NodeKind, escape};

@@ -6,8 +6,9 @@ use std::io::Write;
 use serde::Serialize;
 use serde::ser::{SerializeStruct, Serializer};
 
+use super::fast::{self, Words};
+use super::grammar;
 use super::tree::{Node, NodeJson, NodeKind};
-use super::{fast, grammar};
 use crate::diagnostic::{Diagnostic, Severity};
 use crate::source::{RawLine, Span};
 use crate::structure;
@@ -70,6 +71,25 @@ pub fn parse(src: &[u8]) -> Program {
 
 /// Like [`parse`], but takes ownership of the buffer, so the program costs no second copy of the source.
 pub fn parse_owned(src: Vec<u8>) -> Program {
+    parse_owned_with(src, |_| ()).0
+}
+
+/// Like [`parse_owned`], with what a `words(bytes)` of its own heard of each piece of the source the parser
+/// read (with the piece's first block): a reader of the plain blocks' words in the same pass that
+/// recognises them (see [`Words`]).
+pub fn parse_owned_with<W: Words + Send>(
+    src: Vec<u8>,
+    words: impl Fn(usize) -> W + Sync,
+) -> (Program, Vec<(usize, W)>) {
+    parse_owned_in_pieces(src, PARALLEL_CHUNK, words)
+}
+
+/// [`parse_owned_with`] with pieces of about `chunk` bytes (small in tests, to cut small programs).
+pub(crate) fn parse_owned_in_pieces<W: Words + Send>(
+    src: Vec<u8>,
+    chunk: usize,
+    words: impl Fn(usize) -> W + Sync,
+) -> (Program, Vec<(usize, W)>) {
     if u32::try_from(src.len()).is_err() {
         let span = Span::new(0, src.len());
         let blocks = vec![BlockRec {
@@ -81,13 +101,14 @@ pub fn parse_owned(src: Vec<u8>) -> Program {
         let diagnostics = vec![
             Diagnostic::error(span, "file is larger than 4 GiB").with_help("split the program"),
         ];
-        return Program {
+        let program = Program {
             src,
             blocks,
             diagnostics,
         };
+        return (program, Vec::new());
     }
-    let (blocks, diagnostics) = parse_blocks(&src, PARALLEL_CHUNK);
+    let (blocks, diagnostics, pieces) = parse_blocks(&src, chunk, words);
     let mut program = Program {
         src,
         blocks,
@@ -98,7 +119,7 @@ pub fn parse_owned(src: Vec<u8>) -> Program {
     program
         .diagnostics
         .sort_by_key(|d| (d.span.start, d.severity, d.span.end));
-    program
+    (program, pieces)
 }
 
 /// Size of the pieces a large source is cut into (at line ends) to parse them on all cores.
@@ -106,19 +127,27 @@ const PARALLEL_CHUNK: usize = 8 << 20;
 
 /// The blocks of one piece of the source, parsed as if a `…_COM` text section were (or were not) open at its
 /// start, and whether one is open at its end.
-struct Chunk {
+struct Chunk<W> {
     blocks: Vec<BlockRec>,
     diagnostics: Vec<Diagnostic>,
     in_text_section: bool,
+    words: W,
 }
 
-fn parse_chunk(src: &[u8], start: usize, end: usize, mut in_text_section: bool) -> Chunk {
+fn parse_chunk<W: Words>(
+    src: &[u8],
+    start: usize,
+    end: usize,
+    mut in_text_section: bool,
+    mut words: W,
+) -> Chunk<W> {
     let mut blocks = Vec::with_capacity((end - start) / 32 + 1);
     let mut diagnostics = Vec::new();
     let mut pos = start;
     while pos < end {
         let rest = &src[pos..end];
-        let plain = fast::plain_prefix(rest);
+        let plain = fast::plain_prefix_with(rest, &mut words);
+        words.end_line(plain.is_some());
         let content_end = pos
             + plain.unwrap_or_else(|| memchr::memchr2(b'\n', b'\r', rest).unwrap_or(rest.len()));
         let line = RawLine::ending_at(src, pos, content_end);
@@ -148,13 +177,22 @@ fn parse_chunk(src: &[u8], start: usize, end: usize, mut in_text_section: bool) 
         blocks,
         diagnostics,
         in_text_section,
+        words,
     }
 }
 
+/// Blocks, diagnostics, and the pieces' word reports with their first blocks.
+type Parsed<W> = (Vec<BlockRec>, Vec<Diagnostic>, Vec<(usize, W)>);
+
 /// Parses every block. Sources larger than two chunks are cut after an LF near each multiple of `chunk` and
 /// the pieces parsed in parallel; the rare piece that starts inside a text section is parsed again with that
-/// state, so the result equals a sequential parse.
-fn parse_blocks(src: &[u8], chunk: usize) -> (Vec<BlockRec>, Vec<Diagnostic>) {
+/// state, so the result equals a sequential parse. Each piece's blocks are reported to a `words(bytes)` of
+/// its own.
+fn parse_blocks<W: Words + Send>(
+    src: &[u8],
+    chunk: usize,
+    words: impl Fn(usize) -> W + Sync,
+) -> Parsed<W> {
     use rayon::prelude::*;
     let mut cuts = vec![0];
     while let Some(&last) = cuts.last() {
@@ -169,35 +207,34 @@ fn parse_blocks(src: &[u8], chunk: usize) -> (Vec<BlockRec>, Vec<Diagnostic>) {
     }
     cuts.push(src.len());
     let ranges: Vec<(usize, usize)> = cuts.windows(2).map(|w| (w[0], w[1])).collect();
-    let mut chunks: Vec<Chunk> = if ranges.len() > 2 {
-        ranges
-            .par_iter()
-            .map(|&(start, end)| parse_chunk(src, start, end, false))
-            .collect()
+    let piece = |&(start, end): &(usize, usize), open: bool| {
+        parse_chunk(src, start, end, open, words(end - start))
+    };
+    let mut chunks: Vec<Chunk<W>> = if ranges.len() > 2 {
+        ranges.par_iter().map(|r| piece(r, false)).collect()
     } else {
-        ranges
-            .iter()
-            .map(|&(start, end)| parse_chunk(src, start, end, false))
-            .collect()
+        ranges.iter().map(|r| piece(r, false)).collect()
     };
     let mut open = false;
-    for (chunk, &(start, end)) in chunks.iter_mut().zip(&ranges) {
+    for (chunk, range) in chunks.iter_mut().zip(&ranges) {
         if open {
-            *chunk = parse_chunk(src, start, end, true);
+            *chunk = piece(range, true);
         }
         open = chunk.in_text_section;
     }
     if chunks.len() == 1 {
         let only = chunks.pop().expect("one chunk");
-        return (only.blocks, only.diagnostics);
+        return (only.blocks, only.diagnostics, vec![(0, only.words)]);
     }
     let mut blocks = Vec::with_capacity(chunks.iter().map(|c| c.blocks.len()).sum());
     let mut diagnostics = Vec::new();
+    let mut pieces = Vec::with_capacity(chunks.len());
     for chunk in chunks {
+        pieces.push((blocks.len(), chunk.words));
         blocks.extend_from_slice(&chunk.blocks);
         diagnostics.extend(chunk.diagnostics);
     }
-    (blocks, diagnostics)
+    (blocks, diagnostics, pieces)
 }
 
 /// Archive sections named `…_COM` hold alarm texts and HMI masks, not NC code.
@@ -427,9 +464,9 @@ mod tests {
         let src =
             b"N10 G0 X0\r\n%_N_T_COM\n700 0 \"t\"\n7 \"u\"\nIF R1\n%_N_A_MPF\nX=(\nENDIF\n\rM30"
                 .repeat(20);
-        let (seq_blocks, seq_diags) = parse_blocks(&src, usize::MAX / 2);
+        let (seq_blocks, seq_diags, _) = parse_blocks(&src, usize::MAX / 2, |_| ());
         for chunk in [1, 7, 40, 100] {
-            let (blocks, diags) = parse_blocks(&src, chunk);
+            let (blocks, diags, _) = parse_blocks(&src, chunk, |_| ());
             let key = |b: &BlockRec| (b.start, b.kind, b.flags, b.terminator_len);
             assert_eq!(
                 blocks.iter().map(key).collect::<Vec<_>>(),

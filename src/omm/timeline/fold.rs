@@ -6,6 +6,7 @@ use std::sync::Arc;
 
 use crate::syntax::BlockKind;
 
+use super::moves::RunRef;
 use super::read::{Chunk, Move, Scan, head};
 use super::{Folders, Modal, Pass, Profile, Site, SiteKind, Timeline};
 use crate::omm::loops::{Bound, Count, Loop, LoopKind, for_runs};
@@ -53,6 +54,8 @@ pub(super) struct Builder<'p> {
     site_changes: Vec<(usize, [usize; field::COUNT])>,
     /// Blocks whose modal state differs between the runs of a loop around them.
     varies: BTreeSet<usize>,
+    /// End of the last run of timed moves folded (its blocks in later chunks are skipped).
+    run_end: usize,
 }
 
 /// A repeated section: its blocks, the start and end of its first run (min) and the state it starts in.
@@ -151,15 +154,36 @@ impl<'p> Builder<'p> {
             changed: [0; field::COUNT],
             site_changes: Vec::new(),
             varies: BTreeSet::new(),
+            run_end: 0,
         }
     }
 
-    /// Folds the blocks of a chunk, in order.
-    pub(super) fn fold(&mut self, chunk: &Chunk) {
+    /// Folds the blocks of a chunk, in order; `read(blocks)` reads the blocks of a run of timed moves whose
+    /// assumptions the state at its start does not meet.
+    pub(super) fn fold<'m>(
+        &mut self,
+        chunk: &Chunk<'m>,
+        read: &dyn Fn(std::ops::Range<usize>) -> Chunk<'m>,
+    ) {
         let mut numbers = chunk.numbers.iter().copied();
         let mut others = chunk.others.iter();
-        for (k, &h) in chunk.heads.iter().enumerate() {
-            let i = chunk.first + k;
+        let mut runs = chunk.runs.iter();
+        let mut covered = chunk.covered.iter();
+        let mut i = chunk.first;
+        for &h in &chunk.heads {
+            if h & head::RUN != 0 {
+                let blocks = covered.next().expect("one range per run head");
+                // A run begun in an earlier chunk was folded there.
+                if blocks.start >= self.run_end {
+                    let run = runs.next().expect("a run starts where its first range does");
+                    if !self.timed_run(run) {
+                        self.fold(&read(run.blocks()), read);
+                    }
+                    self.run_end = run.blocks().end;
+                }
+                i = blocks.end;
+                continue;
+            }
             if h & head::OTHER != 0 {
                 let (kind, scan) = others.next().expect("one scan per other block");
                 self.block(i, scan, *kind);
@@ -168,6 +192,7 @@ impl<'p> Builder<'p> {
                     (h & head::MOTION != 0).then_some(u32::from(h >> head::MOTION_CODE & 3));
                 self.plain_move(i, motion, &Move::decode(h, &mut numbers));
             }
+            i += 1;
         }
     }
 
@@ -203,6 +228,67 @@ impl<'p> Builder<'p> {
         }
         self.movement(i, start, &before, mv, false, None, false, false);
         self.modal_call_after(i, mv);
+    }
+
+    /// A run of moves the parser timed (see [`super::moves`]): what [`Builder::plain_move`] would make of its
+    /// blocks, at once. False, with nothing folded, when the state at its start is not the one the run
+    /// assumed (incremental dimensions, feeds per revolution), or its blocks need more than a plain move's
+    /// fold (a pass line, a modal call, the header or preamble not yet over, a possible retract site).
+    fn timed_run(&mut self, r: &RunRef<'_>) -> bool {
+        let run = r.run;
+        let blocks = r.blocks();
+        let plain = self.header_done
+            && self.preamble_done
+            && self.state.absolute
+            && !self.per_rev
+            && self.modal_call.is_none()
+            && self.speed_site_after.is_none()
+            && !(self.last_was_z_retract && run.first_could_retract)
+            && !self.profile.passes.lines.iter().any(|&l| blocks.contains(&(l - 1)));
+        if !plain {
+            return false;
+        }
+        if let Some((b, g)) = run.motion.first
+            && g != self.state.motion
+        {
+            self.changed[field::MOTION] = b + 1;
+        }
+        if let Some((b, f)) = run.feed.first
+            && self.state.feed != Some(f)
+        {
+            self.changed[field::FEED] = b + 1;
+        }
+        if self.state.z != run.first_z.or(self.pos[2]) {
+            self.changed[field::Z] = run.first + 1;
+        }
+        for (k, change) in [
+            (field::MOTION, run.motion.change),
+            (field::FEED, run.feed.change),
+            (field::Z, run.z_change),
+        ] {
+            if let Some(b) = change {
+                self.changed[k] = b + 1;
+            }
+        }
+        if let Some(g) = run.motion.last {
+            self.state.motion = g;
+        }
+        if let Some(f) = run.feed.last {
+            self.state.feed = Some(f);
+        }
+        let rapid = self.profile.timeline.rapid_mm_per_min;
+        for &v in r.values {
+            let minutes = if v.is_sign_negative() { -v / rapid } else { v };
+            self.time += minutes;
+        }
+        for (p, end) in self.pos.iter_mut().zip(run.end_pos) {
+            if end.is_some() {
+                *p = end;
+            }
+        }
+        self.state.z = self.pos[2];
+        self.last_was_z_retract = run.end_retract;
+        true
     }
 
     /// Header lines (`%…`, `;$PATH`) and the declarations after them: no gate may come before their end.
@@ -768,7 +854,7 @@ impl<'p> Builder<'p> {
                 }
             };
         } else if moved {
-            let length = self.move_length(from, to, mv);
+            let length = move_length(self.state.motion, from, to, mv.centre, mv.radius);
             if self.state.motion == 0 {
                 minutes += length / self.profile.timeline.rapid_mm_per_min;
             } else {
@@ -801,47 +887,6 @@ impl<'p> Builder<'p> {
             self.changed[field::Z] = i + 1;
         }
         self.time += minutes;
-    }
-
-    /// Length of the move from `from` to `to`: straight, or along the arc for G2/G3 (XY plane).
-    fn move_length(&self, from: [Option<f64>; 3], to: [Option<f64>; 3], mv: &Move) -> f64 {
-        let a = from.map(|v| v.unwrap_or(0.0));
-        let b = to.map(|v| v.unwrap_or(0.0));
-        let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-        let straight = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-        if !matches!(self.state.motion, 2 | 3) {
-            return straight;
-        }
-        let cw = self.state.motion == 2;
-        let (r, sweep) = match (mv.centre[0], mv.centre[1], mv.radius) {
-            (i, j, _) if i.is_some() || j.is_some() => {
-                let c = [a[0] + i.unwrap_or(0.0), a[1] + j.unwrap_or(0.0)];
-                let r = ((a[0] - c[0]).powi(2) + (a[1] - c[1]).powi(2)).sqrt();
-                let a0 = (a[1] - c[1]).atan2(a[0] - c[0]);
-                let a1 = (b[1] - c[1]).atan2(b[0] - c[0]);
-                let mut sweep = if cw { a0 - a1 } else { a1 - a0 };
-                if sweep <= 1e-12 {
-                    sweep += std::f64::consts::TAU;
-                }
-                (r, sweep)
-            }
-            (_, _, Some(cr)) => {
-                let chord = (d[0] * d[0] + d[1] * d[1]).sqrt();
-                let r = cr.abs().max(chord / 2.0);
-                let small = 2.0 * (chord / (2.0 * r)).clamp(-1.0, 1.0).asin();
-                // CR < 0 selects the arc over 180°.
-                (
-                    r,
-                    if cr < 0.0 {
-                        std::f64::consts::TAU - small
-                    } else {
-                        small
-                    },
-                )
-            }
-            _ => return straight,
-        };
-        ((r * sweep).powi(2) + d[2] * d[2]).sqrt()
     }
 
     pub(super) fn finish(mut self) -> Timeline {
@@ -905,6 +950,53 @@ struct PassMark {
     before: Modal,
     rpm: f64,
     tool: Option<Arc<str>>,
+}
+
+/// Length of the move from `from` to `to`: straight, or along the arc for G2/G3 (XY plane).
+pub(super) fn move_length(
+motion: u32,
+from: [Option<f64>; 3],
+to: [Option<f64>; 3],
+centre: [Option<f64>; 3],
+radius: Option<f64>,
+) -> f64 {
+    let a = from.map(|v| v.unwrap_or(0.0));
+    let b = to.map(|v| v.unwrap_or(0.0));
+    let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let straight = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    if !matches!(motion, 2 | 3) {
+        return straight;
+    }
+    let cw = motion == 2;
+    let (r, sweep) = match (centre[0], centre[1], radius) {
+        (i, j, _) if i.is_some() || j.is_some() => {
+            let c = [a[0] + i.unwrap_or(0.0), a[1] + j.unwrap_or(0.0)];
+            let r = ((a[0] - c[0]).powi(2) + (a[1] - c[1]).powi(2)).sqrt();
+            let a0 = (a[1] - c[1]).atan2(a[0] - c[0]);
+            let a1 = (b[1] - c[1]).atan2(b[0] - c[0]);
+            let mut sweep = if cw { a0 - a1 } else { a1 - a0 };
+            if sweep <= 1e-12 {
+                sweep += std::f64::consts::TAU;
+            }
+            (r, sweep)
+        }
+        (_, _, Some(cr)) => {
+            let chord = (d[0] * d[0] + d[1] * d[1]).sqrt();
+            let r = cr.abs().max(chord / 2.0);
+            let small = 2.0 * (chord / (2.0 * r)).clamp(-1.0, 1.0).asin();
+            // CR < 0 selects the arc over 180°.
+            (
+                r,
+                if cr < 0.0 {
+                    std::f64::consts::TAU - small
+                } else {
+                    small
+                },
+            )
+        }
+        _ => return straight,
+    };
+    ((r * sweep).powi(2) + d[2] * d[2]).sqrt()
 }
 
 /// Highest speed held at any time in [from, to).

@@ -132,10 +132,21 @@ pub struct Timeline {
 /// adds that subprogram's time, as often as `P` says; the R-parameters, labels and work offsets they use
 /// count as used. So does a call of a subprogram in the profile's folders, with the R-parameters it uses.
 pub fn build(program: &Program, profile: &Profile) -> Timeline {
-    build_with(program, profile, &mut Folders::new(profile))
+    build_with(program, None, profile, &mut Folders::new(profile))
 }
 
-pub(super) fn build_with(program: &Program, profile: &Profile, folders: &mut Folders) -> Timeline {
+/// [`build`] for a program parsed with [`parse_timed`]: the runs of moves the parser timed are folded
+/// without reading their blocks again. The timeline is the one [`build`] makes.
+pub fn build_with_moves(program: &Program, moves: &Moves, profile: &Profile) -> Timeline {
+    build_with(program, Some(moves), profile, &mut Folders::new(profile))
+}
+
+pub(super) fn build_with(
+    program: &Program,
+    moves: Option<&Moves>,
+    profile: &Profile,
+    folders: &mut Folders,
+) -> Timeline {
     let units = units(program);
     let names: Vec<Option<String>> = units[1..]
         .iter()
@@ -148,6 +159,7 @@ pub(super) fn build_with(program: &Program, profile: &Profile, folders: &mut Fol
         .map(|u| {
             Some(build_unit(
                 program,
+                moves,
                 u.clone(),
                 profile,
                 &HashMap::new(),
@@ -166,7 +178,7 @@ pub(super) fn build_with(program: &Program, profile: &Profile, folders: &mut Fol
             .any(|c| names.iter().flatten().any(|n| n == c))
         {
             let unit = units[k + 1].clone();
-            build_unit(program, unit, profile, &subprograms, folders).0
+            build_unit(program, moves, unit, profile, &subprograms, folders).0
         } else {
             first
         };
@@ -175,7 +187,15 @@ pub(super) fn build_with(program: &Program, profile: &Profile, folders: &mut Fol
         }
         others.push(t);
     }
-    let mut t = build_unit(program, units[0].clone(), profile, &subprograms, folders).0;
+    let mut t = build_unit(
+        program,
+        moves,
+        units[0].clone(),
+        profile,
+        &subprograms,
+        folders,
+    )
+    .0;
     for other in others {
         t.used_r.extend(other.used_r);
         t.labels.extend(other.labels);
@@ -240,8 +260,9 @@ fn subprogram_name(program: &Program, block: usize) -> Option<String> {
     (!name.is_empty()).then(|| name.to_string())
 }
 
-fn build_unit(
+fn build_unit<'m>(
     program: &Program,
+    moves: Option<&'m Moves>,
     blocks: std::ops::Range<usize>,
     profile: &Profile,
     subprograms: &HashMap<String, Timeline>,
@@ -253,11 +274,12 @@ fn build_unit(
     let chunks = (count - first).div_ceil(CHUNK_BLOCKS);
     let scan = |k: usize| {
         let from = first + k * CHUNK_BLOCKS;
-        scan_chunk(program, from..count.min(from + CHUNK_BLOCKS), &marker)
+        scan_chunk(program, from..count.min(from + CHUNK_BLOCKS), &marker, moves)
     };
+    let read = |blocks: std::ops::Range<usize>| scan_chunk(program, blocks, &marker, None);
     let helpers = rayon::current_num_threads().saturating_sub(1);
     if chunks <= 1 || helpers == 0 {
-        (0..chunks).for_each(|k| b.fold(&scan(k)));
+        (0..chunks).for_each(|k| b.fold(&scan(k), &read));
         let called = std::mem::take(&mut b.called);
         return (b.finish(), called);
     }
@@ -266,10 +288,10 @@ fn build_unit(
     // this thread folds them in order and, while the next one is not ready, reads chunks itself.
     const AHEAD: usize = 8;
     let next = AtomicUsize::new(0);
-    let ready: Mutex<(Vec<Option<Chunk>>, usize)> =
+    let ready: Mutex<(Vec<Option<Chunk<'m>>>, usize)> =
         Mutex::new(((0..chunks).map(|_| None).collect(), 0));
     let changed = Condvar::new();
-    let put = |k: usize, chunk: Chunk| {
+    let put = |k: usize, chunk: Chunk<'m>| {
         ready.lock().expect("no panic while held").0[k] = Some(chunk);
         changed.notify_all();
     };
@@ -307,7 +329,7 @@ fn build_unit(
                     slots = changed.wait(slots).expect("no panic while held");
                 }
             };
-            b.fold(&chunk);
+            b.fold(&chunk, &read);
             ready.lock().expect("no panic while held").1 = k + 1;
             changed.notify_all();
         }
@@ -317,9 +339,11 @@ fn build_unit(
 }
 
 mod fold;
+mod moves;
 mod read;
 #[cfg(test)]
 mod tests;
 
 use fold::Builder;
+pub use moves::{Moves, parse_timed};
 use read::{CHUNK_BLOCKS, Chunk, scan_chunk};

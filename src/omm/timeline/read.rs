@@ -3,10 +3,12 @@
 
 use std::sync::Arc;
 
-use crate::syntax::{Block, BlockKind, Node, NodeKind, Program};
+use crate::syntax::{Block, BlockKind, Node, NodeKind, Program, decimal_prefix};
 use crate::views::{AxisMode, Value, VarName, WorkOffset, facts, is_predefined_command};
 
 use crate::omm::loops::{Bound, Count};
+
+use super::moves::{Moves, RunRef};
 
 /// What one block says, reduced to what the timeline needs (built in parallel).
 #[derive(Debug, Default, Clone, PartialEq)]
@@ -52,51 +54,87 @@ pub(super) const CHUNK_BLOCKS: usize = 1 << 15;
 /// The blocks of one chunk as the fold needs them: a plain move (the lines CAM output is made of) as a
 /// head of bits and its numbers, any other block as its whole [`Scan`] (4 bytes per typical CAM line
 /// instead of a few hundred).
-pub(super) struct Chunk {
+pub(super) struct Chunk<'m> {
     pub(super) first: usize,
     pub(super) heads: Vec<u16>,
     pub(super) numbers: Vec<f64>,
     pub(super) others: Vec<(BlockKind, Scan)>,
+    /// The runs of timed moves starting in the chunk, and the blocks of the chunk runs cover: not read,
+    /// one head [`head::RUN`] for each range.
+    pub(super) runs: Vec<RunRef<'m>>,
+    pub(super) covered: Vec<std::ops::Range<usize>>,
 }
 
 /// Bits of a chunk's head: which numbers follow (x, y, z, i, j, k, cr, f in that order), the axes written
-/// with AC, the motion code, or the block being one of the chunk's `others`.
+/// with AC, the motion code, the block being one of the chunk's `others`, or in a run of timed moves.
 pub(super) mod head {
     pub const AC: u16 = 8;
     pub const MOTION: u16 = 1 << 11;
     pub const MOTION_CODE: u16 = 12;
+    pub const RUN: u16 = 1 << 14;
     pub const OTHER: u16 = 1 << 15;
 }
 
-pub(super) fn scan_chunk(program: &Program, blocks: std::ops::Range<usize>, marker: &str) -> Chunk {
+/// Reads the blocks of `blocks` but those in the runs of `moves`.
+pub(super) fn scan_chunk<'m>(
+    program: &Program,
+    blocks: std::ops::Range<usize>,
+    marker: &str,
+    moves: Option<&'m Moves>,
+) -> Chunk<'m> {
+    let covered = moves.map_or_else(Vec::new, |m| m.covered(blocks.clone()));
+    let uncovered = blocks.len() - covered.iter().map(|c| c.len()).sum::<usize>();
     let mut chunk = Chunk {
         first: blocks.start,
-        heads: Vec::with_capacity(blocks.len()),
-        numbers: Vec::with_capacity(blocks.len() * 4),
+        heads: Vec::with_capacity(uncovered + covered.len()),
+        numbers: Vec::with_capacity(uncovered * 4),
         others: Vec::new(),
+        runs: moves.map_or_else(Vec::new, |m| m.starting_in(blocks.clone())),
+        covered: Vec::new(),
     };
     // One buffer for the word scanner, filled in place line after line: no per-line copies.
     let mut words = Scan::default();
     let src = program.source();
-    for i in blocks {
-        let kind = program.block_kind(i);
-        let content = program.content_span(i);
-        if kind == BlockKind::Plain
-            && scan_words_into(&src[content.start..content.end], marker, &mut words)
-        {
-            match words.pack_move(&mut chunk.numbers) {
-                Some(head) => chunk.heads.push(head),
-                None => {
-                    chunk.heads.push(head::OTHER);
-                    chunk.others.push((kind, words.clone()));
-                }
-            }
-        } else {
-            chunk.heads.push(head::OTHER);
-            chunk.others.push((kind, scan_tree(program, i, marker)));
+    let mut covered = covered.into_iter().peekable();
+    let mut i = blocks.start;
+    while i < blocks.end {
+        if let Some(run) = covered.next_if(|c| c.start == i) {
+            chunk.heads.push(head::RUN);
+            i = run.end;
+            chunk.covered.push(run);
+            continue;
         }
+        scan_block(program, src, i, marker, &mut words, &mut chunk);
+        i += 1;
     }
     chunk
+}
+
+/// Reads block `i` into the chunk.
+fn scan_block(
+    program: &Program,
+    src: &[u8],
+    i: usize,
+    marker: &str,
+    words: &mut Scan,
+    chunk: &mut Chunk<'_>,
+) {
+    let kind = program.block_kind(i);
+    let content = program.content_span(i);
+    if kind == BlockKind::Plain
+        && scan_words_into(&src[content.start..content.end], marker, words)
+    {
+        match words.pack_move(&mut chunk.numbers) {
+            Some(head) => chunk.heads.push(head),
+            None => {
+                chunk.heads.push(head::OTHER);
+                chunk.others.push((kind, words.clone()));
+            }
+        }
+    } else {
+        chunk.heads.push(head::OTHER);
+        chunk.others.push((kind, scan_tree(program, i, marker)));
+    }
 }
 
 impl Scan {
@@ -501,44 +539,6 @@ impl Codes {
 /// what CAM output carries; anything else (exponents, more digits) returns `None` and takes the tree path.
 pub(super) fn decimal(text: &[u8]) -> Option<f64> {
     decimal_prefix(text).and_then(|(v, len)| (len == text.len()).then_some(v))
-}
-
-/// The decimal at the start of `text` and its length in bytes, in one pass over the bytes.
-fn decimal_prefix(text: &[u8]) -> Option<(f64, usize)> {
-    static POW10: [f64; 16] = [
-        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
-    ];
-    let (negative, mut i) = match text.first()? {
-        b'-' => (true, 1),
-        b'+' => (false, 1),
-        _ => (false, 0),
-    };
-    let mut mantissa: u64 = 0;
-    let (mut digits, mut scale, mut point) = (0usize, 0usize, false);
-    while let Some(&b) = text.get(i) {
-        match b {
-            b'0'..=b'9' => {
-                mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(b - b'0'));
-                digits += 1;
-                scale += usize::from(point);
-            }
-            b'.' if !point => point = true,
-            _ => break,
-        }
-        i += 1;
-    }
-    if digits == 0 || digits > 15 {
-        return None;
-    }
-    // At most 15 digits: the mantissa and the power of ten are exact doubles, the quotient is rounded once
-    // (as `str::parse` rounds); the signed conversion is the one x86 does in one instruction.
-    let whole = mantissa as i64 as f64;
-    let v = if scale == 0 {
-        whole
-    } else {
-        whole / POW10[scale]
-    };
-    Some((if negative { -v } else { v }, i))
 }
 
 /// Marker and `;$PATH` facts of a comment (`text` starts at the `;`).

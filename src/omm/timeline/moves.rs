@@ -1,0 +1,492 @@
+//! The plain moves of a program timed while the parser reads them: the parser hands each plain block's words
+//! (with their values, read in the same pass that recognises the numbers) to a [`Mover`], which works out
+//! the length of every move it can from what the blocks before it in the same piece said, and keeps runs
+//! of consecutive such blocks. The timeline then folds a run at once instead of reading its blocks again;
+//! every other block (and every run whose assumptions the program's state at its start does not meet) is
+//! read from its text as before, so the timeline is the same either way (a test checks this).
+
+use crate::syntax::{Decimal, Program, Words, parse_owned_with};
+
+use super::fold::move_length;
+
+/// Parses `src` and times its plain moves in the same pass (see [`super::build_with_moves`]).
+pub fn parse_timed(src: Vec<u8>) -> (Program, Moves) {
+    let (program, pieces) = parse_owned_with(src, Mover::with_capacity);
+    (program, Moves::from_pieces(pieces))
+}
+
+/// The runs of timed moves of a program (about 8 bytes per block that only moves).
+#[derive(Debug, Clone, Default)]
+pub struct Moves {
+    pieces: Vec<Piece>,
+}
+
+#[derive(Debug, Clone, Default)]
+struct Piece {
+    /// Sorted by first block, not overlapping.
+    runs: Vec<Run>,
+    /// Per block of the runs: the length of a rapid move (with the sign bit set), or the minutes of a feed
+    /// move (length / F); 0 for a block that does not move.
+    values: Vec<f64>,
+}
+
+/// Consecutive blocks that only move (`N`, `G0`-`G3`, `X Y Z I J K F`) and whose lengths are known from the
+/// blocks before them, in absolute dimensions with feeds per minute. A run starts after any block that is
+/// not such a move, or whose move depends on what came before the piece, and ends before the next.
+#[derive(Debug, Clone)]
+pub(super) struct Run {
+    pub(super) first: usize,
+    pub(super) count: usize,
+    /// Where its values start in its piece.
+    at: usize,
+    /// The first block is a rapid move without Z: a retract site if the block before it retracted.
+    pub(super) first_could_retract: bool,
+    pub(super) motion: Field<u32>,
+    pub(super) feed: Field<f64>,
+    /// Z the first block writes (`None`: it keeps the Z it starts at).
+    pub(super) first_z: Option<f64>,
+    /// The last block after the first whose move changes Z.
+    pub(super) z_change: Option<usize>,
+    /// The position after the run on the axes the run writes.
+    pub(super) end_pos: [Option<f64>; 3],
+    /// The last block is a rapid Z-only move up.
+    pub(super) end_retract: bool,
+}
+
+impl Run {
+    /// Block numbers counted from the program's start instead of the piece's.
+    fn shift(&mut self, by: usize) {
+        self.first += by;
+        let blocks = [
+            self.motion.first.as_mut().map(|f| &mut f.0),
+            self.motion.change.as_mut(),
+            self.feed.first.as_mut().map(|f| &mut f.0),
+            self.feed.change.as_mut(),
+            self.z_change.as_mut(),
+        ];
+        for b in blocks.into_iter().flatten() {
+            *b += by;
+        }
+    }
+}
+
+/// A modal value the run's blocks write: the first block writing it (whether that is a change depends on
+/// the state before the run), the last block changing it after that, and its value at the end.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Field<T> {
+    pub(super) first: Option<(usize, T)>,
+    pub(super) change: Option<usize>,
+    pub(super) last: Option<T>,
+}
+
+impl<T: Copy + PartialEq> Field<T> {
+    fn none() -> Self {
+        Field {
+            first: None,
+            change: None,
+            last: None,
+        }
+    }
+
+    fn write(&mut self, block: usize, value: T) {
+        match self.last {
+            None => self.first = Some((block, value)),
+            Some(v) if v != value => self.change = Some(block),
+            Some(_) => {}
+        }
+        self.last = Some(value);
+    }
+}
+
+/// A run with its values.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct RunRef<'m> {
+    pub(super) run: &'m Run,
+    pub(super) values: &'m [f64],
+}
+
+impl RunRef<'_> {
+    pub(super) fn blocks(&self) -> std::ops::Range<usize> {
+        self.run.first..self.run.first + self.run.count
+    }
+}
+
+impl Moves {
+    fn from_pieces(pieces: Vec<(usize, Mover)>) -> Moves {
+        let pieces = pieces
+            .into_iter()
+            .map(|(first, mover)| {
+                let mut runs = mover.runs;
+                for r in &mut runs {
+                    r.shift(first);
+                }
+                Piece {
+                    runs,
+                    values: mover.values,
+                }
+            })
+            .collect();
+        Moves { pieces }
+    }
+
+    /// The runs that start in `blocks`, in order.
+    pub(super) fn starting_in(&self, blocks: std::ops::Range<usize>) -> Vec<RunRef<'_>> {
+        let mut out = Vec::new();
+        for piece in &self.pieces {
+            let from = piece.runs.partition_point(|r| r.first < blocks.start);
+            for run in piece.runs[from..]
+                .iter()
+                .take_while(|r| r.first < blocks.end)
+            {
+                out.push(RunRef {
+                    run,
+                    values: &piece.values[run.at..run.at + run.count],
+                });
+            }
+        }
+        out
+    }
+
+    /// The blocks of `blocks` that runs cover, as ranges in order.
+    pub(super) fn covered(&self, blocks: std::ops::Range<usize>) -> Vec<std::ops::Range<usize>> {
+        let mut out = Vec::new();
+        for piece in &self.pieces {
+            let from = piece
+                .runs
+                .partition_point(|r| r.first + r.count <= blocks.start);
+            for r in piece.runs[from..]
+                .iter()
+                .take_while(|r| r.first < blocks.end)
+            {
+                out.push(r.first.max(blocks.start)..(r.first + r.count).min(blocks.end));
+            }
+        }
+        out
+    }
+}
+
+/// What an address letter is to a move: a value slot (x, y, z, i, j, k, f), the block number, the motion
+/// code, or anything else (the block does more than move).
+const SLOT_F: usize = 6;
+const BLOCK_NUMBER: u8 = 7;
+const MOTION: u8 = 8;
+static LETTER: [u8; 256] = {
+    let mut t = [u8::MAX; 256];
+    let slots = *b"XYZIJKFNG";
+    let mut k = 0;
+    while k < slots.len() {
+        t[slots[k] as usize] = k as u8;
+        t[slots[k].to_ascii_lowercase() as usize] = k as u8;
+        k += 1;
+    }
+    t
+};
+
+/// The words of the line being read.
+#[derive(Debug, Clone, Copy)]
+struct Line {
+    /// Bit per value slot written.
+    written: u8,
+    values: [f64; 7],
+    motion: Option<u32>,
+    /// Nothing but a move so far.
+    moves_only: bool,
+}
+
+impl Line {
+    const EMPTY: Line = Line {
+        written: 0,
+        values: [0.0; 7],
+        motion: None,
+        moves_only: true,
+    };
+
+    fn value(&self, slot: usize) -> Option<f64> {
+        (self.written >> slot & 1 != 0).then_some(self.values[slot])
+    }
+}
+
+/// Times the moves of one piece of the program as the parser reads it.
+#[derive(Debug)]
+pub struct Mover {
+    line: Line,
+    /// What the blocks of the piece so far say (`None`: it depends on what came before, or on a block
+    /// that is not a plain move).
+    pos: [Option<f64>; 3],
+    motion: Option<u32>,
+    feed: Option<f64>,
+    retract: Option<bool>,
+    block: usize,
+    open: bool,
+    runs: Vec<Run>,
+    values: Vec<f64>,
+}
+
+impl Mover {
+    fn with_capacity(bytes: usize) -> Mover {
+        Mover {
+            line: Line::EMPTY,
+            pos: [None; 3],
+            motion: None,
+            feed: None,
+            retract: None,
+            block: 0,
+            open: false,
+            runs: Vec::new(),
+            values: Vec::with_capacity(bytes / 32 + 1),
+        }
+    }
+
+    /// A line that moves only: its length when known, the run it joins, and what it leaves known.
+    fn plain_move(&mut self, i: usize, line: Line) {
+        let axis = |k: usize| line.value(k);
+        let motion = line.motion.or(self.motion);
+        let feed = line.value(SLOT_F).or(self.feed);
+        let from = self.pos;
+        let mut to = from;
+        for (k, t) in to.iter_mut().enumerate() {
+            if let Some(v) = axis(k) {
+                *t = Some(v);
+            }
+        }
+        let moved = line.written & 7 != 0;
+        let rapid_xy = moved && motion == Some(0) && axis(2).is_none();
+        let retracts = if !moved || motion.is_some_and(|m| m != 0) || axis(0).or(axis(1)).is_some()
+        {
+            Some(false)
+        } else {
+            motion.and(from[2]).zip(to[2]).map(|(a, b)| b > a)
+        };
+        let value = match motion {
+            _ if !moved => Some(0.0),
+            Some(m) => {
+                let written_known = (0..3).all(|k| axis(k).is_none() || from[k].is_some());
+                let arc_known = !matches!(m, 2 | 3) || (from[0].is_some() && from[1].is_some());
+                let site = self.retract == Some(true) && rapid_xy;
+                let length = || {
+                    let centre = [axis(3), axis(4), axis(5)];
+                    move_length(m, from, to, centre, None)
+                };
+                match feed {
+                    _ if !written_known || !arc_known || site => None,
+                    _ if m == 0 => Some(-length()),
+                    Some(f) if f > 0.0 => Some(length() / f),
+                    _ => None,
+                }
+            }
+            None => None,
+        };
+        match value {
+            Some(v) => {
+                if !self.open {
+                    self.runs.push(Run {
+                        first: i,
+                        count: 0,
+                        at: self.values.len(),
+                        first_could_retract: self.retract.is_none() && rapid_xy,
+                        motion: Field::none(),
+                        feed: Field::none(),
+                        first_z: axis(2),
+                        z_change: None,
+                        end_pos: [None; 3],
+                        end_retract: false,
+                    });
+                    self.open = true;
+                } else if axis(2).is_some() && to[2] != from[2] {
+                    self.run().z_change = Some(i);
+                }
+                let run = self.run();
+                run.count += 1;
+                if let Some(g) = line.motion {
+                    run.motion.write(i, g);
+                }
+                if let Some(f) = line.value(SLOT_F) {
+                    run.feed.write(i, f);
+                }
+                for (k, end) in run.end_pos.iter_mut().enumerate() {
+                    if let Some(v) = axis(k) {
+                        *end = Some(v);
+                    }
+                }
+                run.end_retract = retracts == Some(true);
+                self.values.push(v);
+            }
+            None => self.open = false,
+        }
+        (self.pos, self.motion, self.feed, self.retract) = (to, motion, feed, retracts);
+    }
+
+    fn run(&mut self) -> &mut Run {
+        self.runs.last_mut().expect("an open run")
+    }
+}
+
+impl Words for Mover {
+    type Number = Decimal;
+
+    #[inline(always)]
+    fn skip_level(&mut self) {
+        self.line.moves_only = false;
+    }
+
+    #[inline(always)]
+    fn word(&mut self, letter: u8, number: &Decimal) {
+        let line = &mut self.line;
+        match LETTER[usize::from(letter)] {
+            slot @ 0..=6 => match number.value() {
+                Some(v) if line.written >> slot & 1 == 0 => {
+                    line.written |= 1 << slot;
+                    line.values[usize::from(slot)] = v;
+                }
+                _ => line.moves_only = false,
+            },
+            BLOCK_NUMBER => line.moves_only &= number.whole().is_some(),
+            MOTION => match number.whole() {
+                Some(g @ 0..=3) if line.motion.is_none() => line.motion = Some(g as u32),
+                _ => line.moves_only = false,
+            },
+            _ => line.moves_only = false,
+        }
+    }
+
+    #[inline(always)]
+    fn comment(&mut self) {
+        self.line.moves_only = false;
+    }
+
+    #[inline(always)]
+    fn end_line(&mut self, plain: bool) {
+        let line = std::mem::replace(&mut self.line, Line::EMPTY);
+        let i = self.block;
+        self.block += 1;
+        if plain && line.moves_only {
+            self.plain_move(i, line);
+        } else {
+            // What the block does is read from its text: nothing is known after it.
+            (self.pos, self.motion, self.feed, self.retract) = ([None; 3], None, None, None);
+            self.open = false;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::omm::profile::Profile;
+    use crate::omm::timeline::{build, build_with_moves};
+
+    /// Parses `src` in pieces of about `piece` bytes with its moves timed.
+    fn timed(src: &[u8], piece: usize) -> (Program, Moves) {
+        let (program, pieces) =
+            crate::syntax::parse_owned_in_pieces(src.to_vec(), piece, Mover::with_capacity);
+        (program, Moves::from_pieces(pieces))
+    }
+
+    fn covered_share(program: &Program, moves: &Moves) -> f64 {
+        let blocks: usize = moves
+            .covered(0..program.block_count())
+            .iter()
+            .map(|r| r.len())
+            .sum();
+        blocks as f64 / program.block_count().max(1) as f64
+    }
+
+    /// The timeline with the parser's timed runs is the one reading every block gives, bit for bit, for
+    /// every way of cutting the source into pieces.
+    fn assert_same_timeline(src: &[u8], profile: &Profile) -> f64 {
+        let plain = build(&crate::parse(src), profile);
+        let mut share: f64 = 0.0;
+        for piece in [usize::MAX / 2, 100_000, 777, 1] {
+            let (program, moves) = timed(src, piece);
+            assert_eq!(
+                build_with_moves(&program, &moves, profile),
+                plain,
+                "pieces of {piece} bytes"
+            );
+            let covered = covered_share(&program, &moves);
+            share = share.max(covered);
+            // The runs are folded, not read again: times doubled in them show in the total.
+            let mut doubled = moves.clone();
+            for v in doubled.pieces.iter_mut().flat_map(|p| p.values.iter_mut()) {
+                *v *= 2.0;
+            }
+            let total = build_with_moves(&program, &doubled, profile).total_min;
+            assert!(
+                moves.pieces.iter().all(|p| p.values.iter().all(|&v| v == 0.0))
+                    || total > plain.total_min,
+                "pieces of {piece} bytes"
+            );
+        }
+        share
+    }
+
+    /// Lines that only move, written in the ways CAM and people write them, between blocks that change
+    /// the state the moves are timed in (incremental dimensions, feeds per revolution, retracts, passes).
+    fn awkward_program(repeat: usize) -> Vec<u8> {
+        let mut text = b"%_N_AWK_MPF\n;$PATH=/_N_MPF_DIR\nDEF REAL A\n\nG17 G90 G94\nT1 M6\nS2000 M3\n"
+            .to_vec();
+        for k in 0..repeat {
+            let x = (k * 37 % 400) as f64 / 8.0;
+            let lines = format!(
+                "N{k} G1 X{x} Y-{x} Z-1.5 F900\nx{x} y2 z-1\nN{k}G01X1.5Y{x}\nG1 X{x} Y1 Z.5 F0\nX3\n\
+                 G0 Z50\nG0 X1 Y1\nG0 Z60\nG4 F1\nG0 Z70\nZ80\nX5 Y5\nG2 X{x} Y0 I-.5 J2\nG3 X0 Y{x} I1\n\
+                 G2 X1 Y1 CR=5\nX2 Y2\nG1.0 X4\nX1 X2\n/ X7 Y1\nX8 ; note\nX9 Y9 Z1.5EX1\nX1.234567890123456\n\
+                 G91 G1 X1 F{}\nX1 Y1\nZ-1\nG90\nX1 Y2 Z3\nX2 Y3 Z4\nG95 F0.1\nX10\nX20 Y20\nG94 F800\nX3 Y3\n\
+                 G1 X=AC({x}) Y=IC(2)\nX4 Y4 Z4\nX5\nF0\nX6\nF700\nX7\nG0\nX8\nG1\nX9 Y0 Z0\n",
+                100 + k
+            );
+            text.extend_from_slice(lines.as_bytes());
+            if k % 5 == 4 {
+                text.extend_from_slice(b"T2 M6 ; PASS\nS3000 M4\nG0 X0 Y0 Z5\nG1 Z-2 F300\n");
+            }
+        }
+        text.extend_from_slice(b"M5\nM30\n");
+        text
+    }
+
+    #[test]
+    fn timed_runs_give_the_timeline_of_the_blocks() {
+        let profile = Profile::default_profile();
+        let share = assert_same_timeline(&awkward_program(40), &profile);
+        assert!(share > 0.2, "runs cover {share}");
+        // A profile that names pass lines: runs that hold one are read block by block.
+        let mut lines = profile.clone();
+        lines.passes.lines = vec![9, 30, 31, 200, 481];
+        assert_same_timeline(&awkward_program(40), &lines);
+        // A loop or a modal call around moves.
+        let looped = b"T1 M6\nS1000 M3\nG0 X0 Y0 Z5\nLBL: G1 X1 F100\nG1 X2 Y2 F100\nX3\nX4 Y4\nWHILE R1<2\nG1 X1 Y1 F200\nX4\nX5\nENDWHILE\nMCALL CYCLE81(5)\nG0 X1 Y1\nX2\nX3\nMCALL\nX4\nX5\nREPEAT LBL LBL P=3\nM30\n";
+        assert_same_timeline(looped, &profile);
+    }
+
+    #[test]
+    fn fixtures_and_corpus_give_the_same_timeline() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mut dirs = vec![root.join("fixtures/nc"), root.join("fixtures/omm")];
+        dirs.extend(crate::shared_data::path("corpus"));
+        let files: Vec<std::path::PathBuf> = crate::walk::expand(&dirs)
+            .unwrap()
+            .into_iter()
+            .filter_map(|input| match input {
+                crate::walk::Input::File(f) => Some(f),
+                crate::walk::Input::Stdin => None,
+            })
+            .collect();
+        let profile = Profile::default_profile();
+        let mut checked = 0;
+        for file in files {
+            let src = std::fs::read(&file).unwrap();
+            let plain = build(&crate::parse(&src), &profile);
+            for piece in [usize::MAX / 2, 300] {
+                let (program, moves) = timed(&src, piece);
+                assert_eq!(
+                    build_with_moves(&program, &moves, &profile),
+                    plain,
+                    "{}",
+                    file.display()
+                );
+            }
+            checked += 1;
+        }
+        assert!(checked > 20, "{checked} files");
+    }
+}
