@@ -23,15 +23,16 @@ impl Digits for Decimal {
     }
 
     #[inline(always)]
-    fn digit(&mut self, d: u8, fraction: bool) {
+    fn digit(&mut self, d: u8) {
         self.mantissa = self.mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
-        self.digits += 1;
-        self.scale += u32::from(fraction);
     }
 
     #[inline(always)]
-    fn point(&mut self) {
-        self.point = true;
+    fn counts(&mut self, int: usize, fraction: usize, point: bool) {
+        // Beyond 15 digits the value is refused; the counts only need to say so.
+        self.digits = (int + fraction).min(16) as u32;
+        self.scale = fraction.min(15) as u32;
+        self.point = point;
     }
 
     #[inline(always)]
@@ -58,7 +59,8 @@ impl Decimal {
 
     /// The number as a whole number written with digits only (`12`, `01`; not `+1`, `1.`, `1.0`).
     pub fn whole(&self) -> Option<u64> {
-        (!(self.signed || self.point || self.exponent) && self.digits <= 15).then_some(self.mantissa)
+        (!(self.signed || self.point || self.exponent) && self.digits <= 15)
+            .then_some(self.mantissa)
     }
 }
 
@@ -77,12 +79,25 @@ mod tests {
 
     #[test]
     fn values_as_str_parse_gives_them() {
-        for text in ["12", "-3.25", "+.5", "5.", "0.001", "-0", "400.123", "123456789012345"] {
+        for text in [
+            "12",
+            "-3.25",
+            "+.5",
+            "5.",
+            "0.001",
+            "-0",
+            "400.123",
+            "123456789012345",
+        ] {
             let (v, len) = decimal_prefix(text.as_bytes()).unwrap();
             assert_eq!(len, text.len());
             assert_eq!(v, text.parse::<f64>().unwrap(), "{text}");
         }
-        assert_eq!(decimal_prefix(b"1.5EX3"), None, "exponents have no value here");
+        assert_eq!(
+            decimal_prefix(b"1.5EX3"),
+            None,
+            "exponents have no value here"
+        );
         assert_eq!(decimal_prefix(b"1234567890123456"), None, "16 digits");
         assert_eq!(decimal_prefix(b"7 X"), Some((7.0, 1)));
         assert_eq!(decimal_prefix(b"X"), None);

@@ -78,13 +78,14 @@ pub(crate) fn ident(i: &[u8]) -> R<'_, &[u8]> {
 }
 
 /// What the recogniser hands a number's parts to while it finds the number's end: nothing, for the grammar
-/// (`()`), or an accumulator of its value (the motion record, `syntax::motion`), so a value is read in the
+/// (`()`), or an accumulator of its value ([`super::Decimal`]), so a value is read in the
 /// same pass that recognises it.
 pub trait Digits {
     fn sign(&mut self, negative: bool);
-    /// One digit, of the fraction when `fraction`.
-    fn digit(&mut self, d: u8, fraction: bool);
-    fn point(&mut self);
+    /// One digit, before or after the point.
+    fn digit(&mut self, d: u8);
+    /// After the digits: how many came before the point and after it, and whether there was a point.
+    fn counts(&mut self, int: usize, fraction: usize, point: bool);
     fn exponent(&mut self);
 }
 
@@ -92,9 +93,9 @@ impl Digits for () {
     #[inline(always)]
     fn sign(&mut self, _: bool) {}
     #[inline(always)]
-    fn digit(&mut self, _: u8, _: bool) {}
+    fn digit(&mut self, _: u8) {}
     #[inline(always)]
-    fn point(&mut self) {}
+    fn counts(&mut self, _: usize, _: usize, _: bool) {}
     #[inline(always)]
     fn exponent(&mut self) {}
 }
@@ -122,23 +123,25 @@ pub(crate) fn number_end_with(
     }
     let int_start = k;
     while k < n && s[k].is_ascii_digit() {
-        d.digit(s[k] - b'0', false);
+        d.digit(s[k] - b'0');
         k += 1;
     }
-    let has_int = k > int_start;
+    let int = k - int_start;
     if k < n && s[k] == b'.' {
-        d.point();
         let frac_start = k + 1;
         k = frac_start;
         while k < n && s[k].is_ascii_digit() {
-            d.digit(s[k] - b'0', true);
+            d.digit(s[k] - b'0');
             k += 1;
         }
-        if !has_int && k == frac_start {
+        if int == 0 && k == frac_start {
             return None;
         }
-    } else if !has_int {
+        d.counts(int, k - frac_start, true);
+    } else if int == 0 {
         return None;
+    } else {
+        d.counts(int, 0, false);
     }
     if k + 1 < n && (s[k] | 0x20) == b'e' && (s[k + 1] | 0x20) == b'x' {
         let mut e = k + 2;

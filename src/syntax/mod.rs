@@ -8,11 +8,11 @@ mod lexeme;
 mod program;
 mod tree;
 
-pub(crate) use lexeme::leading_block_number;
-pub use program::flag;
 pub use decimal::{Decimal, decimal_prefix};
 pub use fast::Words;
 pub use lexeme::Digits;
+pub(crate) use lexeme::leading_block_number;
+pub use program::flag;
 #[cfg(test)]
 pub(crate) use program::parse_owned_in_pieces;
 pub use program::{

@@ -175,7 +175,9 @@ impl<'p> Builder<'p> {
                 let blocks = covered.next().expect("one range per run head");
                 // A run begun in an earlier chunk was folded there.
                 if blocks.start >= self.run_end {
-                    let run = runs.next().expect("a run starts where its first range does");
+                    let run = runs
+                        .next()
+                        .expect("a run starts where its first range does");
                     if !self.timed_run(run) {
                         self.fold(&read(run.blocks()), read);
                     }
@@ -244,7 +246,12 @@ impl<'p> Builder<'p> {
             && self.modal_call.is_none()
             && self.speed_site_after.is_none()
             && !(self.last_was_z_retract && run.first_could_retract)
-            && !self.profile.passes.lines.iter().any(|&l| blocks.contains(&(l - 1)));
+            && !self
+                .profile
+                .passes
+                .lines
+                .iter()
+                .any(|&l| blocks.contains(&(l - 1)));
         if !plain {
             return false;
         }
@@ -854,7 +861,8 @@ impl<'p> Builder<'p> {
                 }
             };
         } else if moved {
-            let length = move_length(self.state.motion, from, to, mv.centre, mv.radius);
+            let (a, b) = (from.map(|v| v.unwrap_or(0.0)), to.map(|v| v.unwrap_or(0.0)));
+            let length = move_length(self.state.motion, a, b, mv.centre, mv.radius);
             if self.state.motion == 0 {
                 minutes += length / self.profile.timeline.rapid_mm_per_min;
             } else {
@@ -952,16 +960,15 @@ struct PassMark {
     tool: Option<Arc<str>>,
 }
 
-/// Length of the move from `from` to `to`: straight, or along the arc for G2/G3 (XY plane).
+/// Length of the move from `a` to `b` (an axis never programmed at 0): straight, or along the arc for
+/// G2/G3 (XY plane).
 pub(super) fn move_length(
-motion: u32,
-from: [Option<f64>; 3],
-to: [Option<f64>; 3],
-centre: [Option<f64>; 3],
-radius: Option<f64>,
+    motion: u32,
+    a: [f64; 3],
+    b: [f64; 3],
+    centre: [Option<f64>; 3],
+    radius: Option<f64>,
 ) -> f64 {
-    let a = from.map(|v| v.unwrap_or(0.0));
-    let b = to.map(|v| v.unwrap_or(0.0));
     let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
     let straight = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
     if !matches!(motion, 2 | 3) {

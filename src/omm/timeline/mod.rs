@@ -274,7 +274,12 @@ fn build_unit<'m>(
     let chunks = (count - first).div_ceil(CHUNK_BLOCKS);
     let scan = |k: usize| {
         let from = first + k * CHUNK_BLOCKS;
-        scan_chunk(program, from..count.min(from + CHUNK_BLOCKS), &marker, moves)
+        scan_chunk(
+            program,
+            from..count.min(from + CHUNK_BLOCKS),
+            &marker,
+            moves,
+        )
     };
     let read = |blocks: std::ops::Range<usize>| scan_chunk(program, blocks, &marker, None);
     let helpers = rayon::current_num_threads().saturating_sub(1);

@@ -116,14 +116,11 @@ impl Moves {
         let pieces = pieces
             .into_iter()
             .map(|(first, mover)| {
-                let mut runs = mover.runs;
+                let (mut runs, values) = mover.finish();
                 for r in &mut runs {
                     r.shift(first);
                 }
-                Piece {
-                    runs,
-                    values: mover.values,
-                }
+                Piece { runs, values }
             })
             .collect();
         Moves { pieces }
@@ -210,114 +207,154 @@ impl Line {
 #[derive(Debug)]
 pub struct Mover {
     line: Line,
-    /// What the blocks of the piece so far say (`None`: it depends on what came before, or on a block
-    /// that is not a plain move).
-    pos: [Option<f64>; 3],
-    motion: Option<u32>,
-    feed: Option<f64>,
-    retract: Option<bool>,
+    /// What the blocks of the piece so far say, as far as it does not depend on what came before the piece
+    /// or on a block that is not a plain move: the axes in `known` (the others at 0), the motion code
+    /// ([`UNKNOWN`] when not known), the feed when `feed_known`, and whether the last block retracted
+    /// (`retract`: 0 no, 1 yes, [`UNKNOWN`]).
+    pos: [f64; 3],
+    known: u8,
+    motion: u32,
+    feed: f64,
+    feed_known: bool,
+    retract: u8,
     block: usize,
-    open: bool,
+    /// The run being extended, pushed to `runs` when a block ends it.
+    open: Option<Run>,
     runs: Vec<Run>,
     values: Vec<f64>,
 }
+
+const UNKNOWN: u8 = 2;
+const NO_MOTION: u32 = u32::MAX;
 
 impl Mover {
     fn with_capacity(bytes: usize) -> Mover {
         Mover {
             line: Line::EMPTY,
-            pos: [None; 3],
-            motion: None,
-            feed: None,
-            retract: None,
+            pos: [0.0; 3],
+            known: 0,
+            motion: NO_MOTION,
+            feed: 0.0,
+            feed_known: false,
+            retract: UNKNOWN,
             block: 0,
-            open: false,
+            open: None,
             runs: Vec::new(),
             values: Vec::with_capacity(bytes / 32 + 1),
         }
     }
 
+    /// The runs and their values, the open run closed.
+    fn finish(mut self) -> (Vec<Run>, Vec<f64>) {
+        self.close();
+        (self.runs, self.values)
+    }
+
+    fn close(&mut self) {
+        if let Some(run) = self.open.take() {
+            self.runs.push(run);
+        }
+    }
+
+    /// Nothing is known after a block read from its text.
+    fn forget(&mut self) {
+        self.close();
+        (self.pos, self.known, self.motion) = ([0.0; 3], 0, NO_MOTION);
+        (self.feed_known, self.retract) = (false, UNKNOWN);
+    }
+
     /// A line that moves only: its length when known, the run it joins, and what it leaves known.
-    fn plain_move(&mut self, i: usize, line: Line) {
-        let axis = |k: usize| line.value(k);
-        let motion = line.motion.or(self.motion);
-        let feed = line.value(SLOT_F).or(self.feed);
+    fn plain_move(&mut self, i: usize, line: &Line) {
+        let axes = line.written & 7;
+        let motion = line.motion.unwrap_or(self.motion);
+        let feed_written = line.written >> SLOT_F & 1 != 0;
+        let feed = if feed_written {
+            line.values[SLOT_F]
+        } else {
+            self.feed
+        };
+        let feed_known = feed_written || self.feed_known;
         let from = self.pos;
         let mut to = from;
         for (k, t) in to.iter_mut().enumerate() {
-            if let Some(v) = axis(k) {
-                *t = Some(v);
+            if axes >> k & 1 != 0 {
+                *t = line.values[k];
             }
         }
-        let moved = line.written & 7 != 0;
-        let rapid_xy = moved && motion == Some(0) && axis(2).is_none();
-        let retracts = if !moved || motion.is_some_and(|m| m != 0) || axis(0).or(axis(1)).is_some()
-        {
-            Some(false)
+        let moved = axes != 0;
+        let rapid_xy = moved && motion == 0 && axes & 4 == 0;
+        // A rapid Z-only move up retracts (an unknown start counts as below, as the fold has it).
+        let retracts = if !moved || (motion != 0 && motion != NO_MOTION) || axes & 3 != 0 {
+            0
+        } else if motion == NO_MOTION || self.known & 4 == 0 {
+            UNKNOWN
         } else {
-            motion.and(from[2]).zip(to[2]).map(|(a, b)| b > a)
+            u8::from(to[2] > from[2])
         };
-        let value = match motion {
-            _ if !moved => Some(0.0),
-            Some(m) => {
-                let written_known = (0..3).all(|k| axis(k).is_none() || from[k].is_some());
-                let arc_known = !matches!(m, 2 | 3) || (from[0].is_some() && from[1].is_some());
-                let site = self.retract == Some(true) && rapid_xy;
-                let length = || {
-                    let centre = [axis(3), axis(4), axis(5)];
-                    move_length(m, from, to, centre, None)
-                };
-                match feed {
-                    _ if !written_known || !arc_known || site => None,
-                    _ if m == 0 => Some(-length()),
-                    Some(f) if f > 0.0 => Some(length() / f),
-                    _ => None,
-                }
+        let value = if !moved {
+            Some(0.0)
+        } else if motion == NO_MOTION
+            || axes & !self.known != 0
+            || (motion >= 2 && self.known & 3 != 3)
+            || (self.retract == 1 && rapid_xy)
+        {
+            None
+        } else {
+            let centre = [3, 4, 5].map(|k| line.value(k));
+            let length = move_length(motion, from, to, centre, None);
+            match motion {
+                0 => Some(-length),
+                _ if feed_known && feed > 0.0 => Some(length / feed),
+                _ => None,
             }
-            None => None,
         };
         match value {
-            Some(v) => {
-                if !self.open {
-                    self.runs.push(Run {
-                        first: i,
-                        count: 0,
-                        at: self.values.len(),
-                        first_could_retract: self.retract.is_none() && rapid_xy,
-                        motion: Field::none(),
-                        feed: Field::none(),
-                        first_z: axis(2),
-                        z_change: None,
-                        end_pos: [None; 3],
-                        end_retract: false,
-                    });
-                    self.open = true;
-                } else if axis(2).is_some() && to[2] != from[2] {
-                    self.run().z_change = Some(i);
-                }
-                let run = self.run();
-                run.count += 1;
-                if let Some(g) = line.motion {
-                    run.motion.write(i, g);
-                }
-                if let Some(f) = line.value(SLOT_F) {
-                    run.feed.write(i, f);
-                }
-                for (k, end) in run.end_pos.iter_mut().enumerate() {
-                    if let Some(v) = axis(k) {
-                        *end = Some(v);
-                    }
-                }
-                run.end_retract = retracts == Some(true);
-                self.values.push(v);
-            }
-            None => self.open = false,
+            Some(v) => self.extend(i, line, v, from[2] != to[2], rapid_xy),
+            None => self.close(),
         }
-        (self.pos, self.motion, self.feed, self.retract) = (to, motion, feed, retracts);
+        if let Some(run) = &mut self.open {
+            for (k, end) in run.end_pos.iter_mut().enumerate() {
+                if axes >> k & 1 != 0 {
+                    *end = Some(to[k]);
+                }
+            }
+            run.end_retract = retracts == 1;
+        }
+        (self.pos, self.known, self.motion) = (to, self.known | axes, motion);
+        (self.feed, self.feed_known, self.retract) = (feed, feed_known, retracts);
     }
 
-    fn run(&mut self) -> &mut Run {
-        self.runs.last_mut().expect("an open run")
+    /// Adds block `i` to the open run, or opens one with it.
+    fn extend(&mut self, i: usize, line: &Line, value: f64, z_moves: bool, rapid_xy: bool) {
+        let retract_unknown = self.retract == UNKNOWN;
+        let run = match &mut self.open {
+            Some(run) => {
+                if z_moves && line.written & 4 != 0 {
+                    run.z_change = Some(i);
+                }
+                run
+            }
+            None => self.open.insert(Run {
+                first: i,
+                count: 0,
+                at: self.values.len(),
+                first_could_retract: retract_unknown && rapid_xy,
+                motion: Field::none(),
+                feed: Field::none(),
+                first_z: line.value(2),
+                z_change: None,
+                end_pos: [None; 3],
+                end_retract: false,
+            }),
+        };
+        run.count += 1;
+        if let Some(g) = line.motion {
+            run.motion.write(i, g);
+        }
+        if let Some(f) = line.value(SLOT_F) {
+            run.feed.write(i, f);
+        }
+        self.values.push(value);
     }
 }
 
@@ -356,15 +393,14 @@ impl Words for Mover {
 
     #[inline(always)]
     fn end_line(&mut self, plain: bool) {
-        let line = std::mem::replace(&mut self.line, Line::EMPTY);
+        let line = self.line;
+        (self.line.written, self.line.motion, self.line.moves_only) = (0, None, true);
         let i = self.block;
         self.block += 1;
         if plain && line.moves_only {
-            self.plain_move(i, line);
+            self.plain_move(i, &line);
         } else {
-            // What the block does is read from its text: nothing is known after it.
-            (self.pos, self.motion, self.feed, self.retract) = ([None; 3], None, None, None);
-            self.open = false;
+            self.forget();
         }
     }
 }
@@ -412,7 +448,10 @@ mod tests {
             }
             let total = build_with_moves(&program, &doubled, profile).total_min;
             assert!(
-                moves.pieces.iter().all(|p| p.values.iter().all(|&v| v == 0.0))
+                moves
+                    .pieces
+                    .iter()
+                    .all(|p| p.values.iter().all(|&v| v == 0.0))
                     || total > plain.total_min,
                 "pieces of {piece} bytes"
             );
@@ -423,8 +462,9 @@ mod tests {
     /// Lines that only move, written in the ways CAM and people write them, between blocks that change
     /// the state the moves are timed in (incremental dimensions, feeds per revolution, retracts, passes).
     fn awkward_program(repeat: usize) -> Vec<u8> {
-        let mut text = b"%_N_AWK_MPF\n;$PATH=/_N_MPF_DIR\nDEF REAL A\n\nG17 G90 G94\nT1 M6\nS2000 M3\n"
-            .to_vec();
+        let mut text =
+            b"%_N_AWK_MPF\n;$PATH=/_N_MPF_DIR\nDEF REAL A\n\nG17 G90 G94\nT1 M6\nS2000 M3\n"
+                .to_vec();
         for k in 0..repeat {
             let x = (k * 37 % 400) as f64 / 8.0;
             let lines = format!(

@@ -121,8 +121,7 @@ fn scan_block(
 ) {
     let kind = program.block_kind(i);
     let content = program.content_span(i);
-    if kind == BlockKind::Plain
-        && scan_words_into(&src[content.start..content.end], marker, words)
+    if kind == BlockKind::Plain && scan_words_into(&src[content.start..content.end], marker, words)
     {
         match words.pack_move(&mut chunk.numbers) {
             Some(head) => chunk.heads.push(head),
