@@ -529,4 +529,45 @@ mod tests {
         }
         assert!(checked > 20, "{checked} files");
     }
+
+    /// One line of a random program: mostly moves in the ways CAM writes them, sometimes a block that
+    /// changes the state moves are timed in.
+    fn line(kind: u8, a: i32, b: i32, c: i32) -> String {
+        let (x, y, z) = (a as f64 / 100.0, b as f64 / 1000.0, c as f64 / 10.0);
+        match kind % 16 {
+            0..=4 => format!("N{a} G1 X{x} Y{y} Z{z}"),
+            5 => format!("X{x} Y{y}"),
+            6 => format!("G0 Z{}", z.abs() + 1.0),
+            7 => format!("G0 X{x} Y{y}"),
+            8 => format!("G{} X{x} Y{y} I{z} J{x}", 2 + (a & 1)),
+            9 => format!("G3 X{x} Y{y} CR={z}"),
+            10 => format!("F{}", b.unsigned_abs() % 3000),
+            11 => format!("Z{z} ; c"),
+            12 => ["G91", "G90", "G95 F0.1", "G94 F500", "M8", "S2000 M3"]
+                [a.unsigned_abs() as usize % 6]
+                .into(),
+            13 => format!("G1 X=AC({x}) Y{y}"),
+            14 => "T2 M6".into(),
+            _ => format!("G{} Z{z}", a.unsigned_abs() % 4),
+        }
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn any_program_gives_the_timeline_of_its_blocks(
+            lines in proptest::collection::vec((0u8..16, -40_000i32..40_000, -9_000i32..9_000, -60i32..60), 1..120),
+            piece in 1usize..400,
+        ) {
+            let mut text = String::from("T1 M6\nS1000 M3\n");
+            for (kind, a, b, c) in lines {
+                text.push_str(&line(kind, a, b, c));
+                text.push('\n');
+            }
+            text.push_str("M30\n");
+            let profile = Profile::default_profile();
+            let plain = build(&crate::parse(text.as_bytes()), &profile);
+            let (program, moves) = timed(text.as_bytes(), piece);
+            proptest::prop_assert_eq!(build_with_moves(&program, &moves, &profile), plain);
+        }
+    }
 }
