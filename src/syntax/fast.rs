@@ -14,8 +14,8 @@ pub(crate) fn plain_prefix(rest: &[u8]) -> Option<usize> {
     plain_prefix_with(rest, &mut ())
 }
 
-/// What the recogniser reports of a line while it reads it: nothing (`()`), or what the motion record keeps
-/// (`syntax::motion`). A line that turns out not to be plain is reported by its reader with
+/// What the recogniser reports of a line while it reads it: nothing (`()`), or the words and their values to a
+/// reader that times the moves (`omm::timeline::moves`). A line that turns out not to be plain is reported by its reader with
 /// [`Words::end_line`]`(false)`, whatever was reported of it before.
 pub trait Words {
     type Number: Digits + Default;
