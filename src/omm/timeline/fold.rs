@@ -246,12 +246,13 @@ impl<'p> Builder<'p> {
             && self.modal_call.is_none()
             && self.speed_site_after.is_none()
             && !(self.last_was_z_retract && run.first_could_retract)
+            // Pass lines are 1-based.
             && !self
                 .profile
                 .passes
                 .lines
                 .iter()
-                .any(|&l| blocks.contains(&(l - 1)));
+                .any(|&l| l > blocks.start && l <= blocks.end);
         if !plain {
             return false;
         }

@@ -16,12 +16,12 @@ pub fn parse_timed(src: Vec<u8>) -> (Program, Moves) {
 }
 
 /// The runs of timed moves of a program (about 8 bytes per block that only moves).
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct Moves {
     pieces: Vec<Piece>,
 }
 
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 struct Piece {
     /// Sorted by first block, not overlapping.
     runs: Vec<Run>,
@@ -126,11 +126,13 @@ impl Moves {
         Moves { pieces }
     }
 
-    /// The runs that start in `blocks`, in order.
-    pub(super) fn starting_in(&self, blocks: std::ops::Range<usize>) -> Vec<RunRef<'_>> {
+    /// The runs that cover any of `blocks`, in order.
+    pub(super) fn overlapping(&self, blocks: std::ops::Range<usize>) -> Vec<RunRef<'_>> {
         let mut out = Vec::new();
         for piece in &self.pieces {
-            let from = piece.runs.partition_point(|r| r.first < blocks.start);
+            let from = piece
+                .runs
+                .partition_point(|r| r.first + r.count <= blocks.start);
             for run in piece.runs[from..]
                 .iter()
                 .take_while(|r| r.first < blocks.end)
@@ -139,23 +141,6 @@ impl Moves {
                     run,
                     values: &piece.values[run.at..run.at + run.count],
                 });
-            }
-        }
-        out
-    }
-
-    /// The blocks of `blocks` that runs cover, as ranges in order.
-    pub(super) fn covered(&self, blocks: std::ops::Range<usize>) -> Vec<std::ops::Range<usize>> {
-        let mut out = Vec::new();
-        for piece in &self.pieces {
-            let from = piece
-                .runs
-                .partition_point(|r| r.first + r.count <= blocks.start);
-            for r in piece.runs[from..]
-                .iter()
-                .take_while(|r| r.first < blocks.end)
-            {
-                out.push(r.first.max(blocks.start)..(r.first + r.count).min(blocks.end));
             }
         }
         out
@@ -420,9 +405,9 @@ mod tests {
 
     fn covered_share(program: &Program, moves: &Moves) -> f64 {
         let blocks: usize = moves
-            .covered(0..program.block_count())
+            .overlapping(0..program.block_count())
             .iter()
-            .map(|r| r.len())
+            .map(|r| r.run.count)
             .sum();
         blocks as f64 / program.block_count().max(1) as f64
     }

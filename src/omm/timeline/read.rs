@@ -82,14 +82,21 @@ pub(super) fn scan_chunk<'m>(
     marker: &str,
     moves: Option<&'m Moves>,
 ) -> Chunk<'m> {
-    let covered = moves.map_or_else(Vec::new, |m| m.covered(blocks.clone()));
+    let overlapping = moves.map_or_else(Vec::new, |m| m.overlapping(blocks.clone()));
+    let covered: Vec<std::ops::Range<usize>> = overlapping
+        .iter()
+        .map(|r| r.run.first.max(blocks.start)..r.blocks().end.min(blocks.end))
+        .collect();
     let uncovered = blocks.len() - covered.iter().map(|c| c.len()).sum::<usize>();
     let mut chunk = Chunk {
         first: blocks.start,
         heads: Vec::with_capacity(uncovered + covered.len()),
         numbers: Vec::with_capacity(uncovered * 4),
         others: Vec::new(),
-        runs: moves.map_or_else(Vec::new, |m| m.starting_in(blocks.clone())),
+        runs: overlapping
+            .into_iter()
+            .filter(|r| r.run.first >= blocks.start)
+            .collect(),
         covered: Vec::new(),
     };
     // One buffer for the word scanner, filled in place line after line: no per-line copies.
