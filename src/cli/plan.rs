@@ -48,7 +48,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     };
     let (program, moves) = omm::parse_timed(input.read()?);
     let name = input.to_string();
-    let planned = omm::check(&program, args.force)
+    let planned = omm::check_timed(&program, &moves, args.force)
         .and_then(|()| omm::plan_timed(&program, &moves, &model, &profile));
     let (timeline, plan) = match planned {
         Ok(p) => p,

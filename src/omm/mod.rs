@@ -111,16 +111,43 @@ pub fn is_pc_archive(src: &[u8]) -> bool {
 /// Line (1-based) of a driftloop header comment, if the program carries one.
 pub fn transformed_line(src: &[u8]) -> Option<usize> {
     let at = memchr::memmem::find(src, SIGNATURE.as_bytes())?;
-    Some(src[..at].iter().filter(|&&b| b == b'\n').count() + 1)
+    Some(line_of(src, at))
+}
+
+fn line_of(src: &[u8], at: usize) -> usize {
+    memchr::memchr_iter(b'\n', &src[..at]).count() + 1
 }
 
 /// The checks every transform makes before planning; also used by `plan`.
 pub fn check(program: &Program, force: bool) -> Result<(), TransformError> {
+    check_with(program, None, force)
+}
+
+/// [`check`] for a program parsed with [`timeline::parse_timed`]: the header is searched for only outside
+/// the timed moves, which cannot hold it.
+pub fn check_timed(program: &Program, moves: &Moves, force: bool) -> Result<(), TransformError> {
+    check_with(program, Some(moves), force)
+}
+
+fn check_with(program: &Program, moves: Option<&Moves>, force: bool) -> Result<(), TransformError> {
     let src = program.source();
     if is_pc_archive(src) {
         return Err(TransformError::PcArchive);
     }
-    if let Some(line) = transformed_line(src) {
+    let signature = SIGNATURE.as_bytes();
+    let header = match moves {
+        None => transformed_line(src),
+        Some(moves) => {
+            let finder = memchr::memmem::Finder::new(signature);
+            let reach = signature.len() - 1;
+            moves.untimed_bytes(program).into_iter().find_map(|r| {
+                let from = r.start.saturating_sub(reach);
+                let to = (r.end + reach).min(src.len());
+                finder.find(&src[from..to]).map(|k| line_of(src, from + k))
+            })
+        }
+    };
+    if let Some(line) = header {
         return Err(TransformError::AlreadyTransformed(line));
     }
     let errors = program
@@ -235,9 +262,9 @@ fn prepare_with<'p>(
     profile: &Profile,
     force: bool,
 ) -> Result<Prepared<'p>, TransformError> {
-    // The checks search the whole source while the timeline is folded, which keeps one core busy.
+    // The checks search the source (outside the timed moves, when there are) while the timeline is folded.
     let (checked, planned) = rayon::join(
-        || check(program, force),
+        || check_with(program, moves, force),
         || plan_with(program, moves, model.model, profile),
     );
     checked?;

@@ -8,18 +8,22 @@ use super::lexeme::{Digits, number_end_with};
 #[derive(Debug, Default, Clone, Copy)]
 pub struct Decimal {
     mantissa: u64,
-    digits: u32,
+    /// Digits after the point.
     scale: u32,
-    negative: bool,
-    signed: bool,
-    point: bool,
-    exponent: bool,
+    /// [`NEGATIVE`], [`SIGNED`], [`POINT`], [`NO_VALUE`]: one byte, so a word's number costs two stores
+    /// to start.
+    flags: u8,
 }
+
+const NEGATIVE: u8 = 1;
+const SIGNED: u8 = 2;
+const POINT: u8 = 4;
+const NO_VALUE: u8 = 8;
 
 impl Digits for Decimal {
     #[inline(always)]
     fn sign(&mut self, negative: bool) {
-        (self.signed, self.negative) = (true, negative);
+        self.flags |= SIGNED | (u8::from(negative) * NEGATIVE);
     }
 
     #[inline(always)]
@@ -29,15 +33,13 @@ impl Digits for Decimal {
 
     #[inline(always)]
     fn counts(&mut self, int: usize, fraction: usize, point: bool) {
-        // Beyond 15 digits the value is refused; the counts only need to say so.
-        self.digits = (int + fraction).min(16) as u32;
-        self.scale = fraction.min(15) as u32;
-        self.point = point;
+        self.scale = fraction as u32;
+        self.flags |= (u8::from(point) * POINT) | (u8::from(int + fraction > 15) * NO_VALUE);
     }
 
     #[inline(always)]
     fn exponent(&mut self) {
-        self.exponent = true;
+        self.flags |= NO_VALUE;
     }
 }
 
@@ -47,20 +49,22 @@ impl Decimal {
         static POW10: [f64; 16] = [
             1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
         ];
-        if self.exponent || self.digits > 15 {
+        if self.flags & NO_VALUE != 0 {
             return None;
         }
-        // At most 15 digits: the mantissa and the power of ten are exact doubles, the quotient is rounded
-        // once (as `str::parse` rounds); the signed conversion is the one x86 does in one instruction. No
-        // branch on the scale: a division by 1 is exact, a mispredicted branch per word is not cheap.
-        let v = self.mantissa as i64 as f64 / POW10[self.scale as usize];
-        Some(if self.negative { -v } else { v })
+        // At most 15 digits (so the scale indexes the table): the mantissa and the power of ten are exact
+        // doubles, the quotient is rounded once (as `str::parse` rounds); the signed conversion is the one
+        // x86 does in one instruction. No branch on the scale or the sign: a division by 1 is exact and a
+        // negation flips the sign bit, a mispredicted branch per word is not cheap.
+        let v = self.mantissa as i64 as f64 / POW10[self.scale as usize & 15];
+        Some(f64::from_bits(
+            v.to_bits() ^ u64::from(self.flags & NEGATIVE) << 63,
+        ))
     }
 
     /// The number as a whole number written with digits only (`12`, `01`; not `+1`, `1.`, `1.0`).
     pub fn whole(&self) -> Option<u64> {
-        (!(self.signed || self.point || self.exponent) && self.digits <= 15)
-            .then_some(self.mantissa)
+        (self.flags & (SIGNED | POINT | NO_VALUE) == 0).then_some(self.mantissa)
     }
 }
 

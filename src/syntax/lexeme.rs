@@ -122,18 +122,11 @@ pub(crate) fn number_end_with(
         k += 1;
     }
     let int_start = k;
-    while k < n && s[k].is_ascii_digit() {
-        d.digit(s[k] - b'0');
-        k += 1;
-    }
+    k = digits_end(s, k, d);
     let int = k - int_start;
     if k < n && s[k] == b'.' {
         let frac_start = k + 1;
-        k = frac_start;
-        while k < n && s[k].is_ascii_digit() {
-            d.digit(s[k] - b'0');
-            k += 1;
-        }
+        k = digits_end(s, frac_start, d);
         if int == 0 && k == frac_start {
             return None;
         }
@@ -158,6 +151,21 @@ pub(crate) fn number_end_with(
         }
     }
     Some(k)
+}
+
+/// End of the digits starting at `s[k]`, each handed to `d`. The digit's value is the test for it, so the
+/// test and the hand-over share one subtraction.
+#[inline(always)]
+fn digits_end(s: &[u8], mut k: usize, d: &mut impl Digits) -> usize {
+    while let Some(&b) = s.get(k) {
+        let digit = b.wrapping_sub(b'0');
+        if digit > 9 {
+            break;
+        }
+        d.digit(digit);
+        k += 1;
+    }
+    k
 }
 
 fn lexeme<'a>(i: &'a [u8], len: Option<usize>, expected: &'static str) -> R<'a, &'a [u8]> {

@@ -62,6 +62,34 @@ pub struct Program {
     src: Vec<u8>,
     blocks: Vec<BlockRec>,
     diagnostics: Vec<Diagnostic>,
+    endings: Endings,
+}
+
+/// How many lines end in LF, CRLF and a lone CR, counted while parsing: an editor asks for the dominant
+/// one, and searching a large source again for it costs a pass over every byte.
+#[derive(Debug, Clone, Copy, Default)]
+struct Endings {
+    lf: usize,
+    crlf: usize,
+    cr: usize,
+}
+
+impl Endings {
+    #[inline(always)]
+    fn count(&mut self, src: &[u8], line: &RawLine) {
+        match line.end - line.content_end {
+            2 => self.crlf += 1,
+            1 if src[line.content_end] == b'\r' => self.cr += 1,
+            1 => self.lf += 1,
+            _ => {}
+        }
+    }
+
+    fn add(&mut self, other: Endings) {
+        self.lf += other.lf;
+        self.crlf += other.crlf;
+        self.cr += other.cr;
+    }
 }
 
 /// Parses any bytes. Never fails and never panics; `parse(x).to_bytes() == x`.
@@ -105,14 +133,16 @@ pub(crate) fn parse_owned_in_pieces<W: Words + Send>(
             src,
             blocks,
             diagnostics,
+            endings: Endings::default(),
         };
         return (program, Vec::new());
     }
-    let (blocks, diagnostics, pieces) = parse_blocks(&src, chunk, words);
+    let (blocks, diagnostics, endings, pieces) = parse_blocks(&src, chunk, words);
     let mut program = Program {
         src,
         blocks,
         diagnostics,
+        endings,
     };
     let structural = structure::analyze(&program).diagnostics;
     program.diagnostics.extend(structural);
@@ -130,6 +160,7 @@ const PARALLEL_CHUNK: usize = 8 << 20;
 struct Chunk<W> {
     blocks: Vec<BlockRec>,
     diagnostics: Vec<Diagnostic>,
+    endings: Endings,
     in_text_section: bool,
     words: W,
 }
@@ -143,6 +174,7 @@ fn parse_chunk<W: Words>(
 ) -> Chunk<W> {
     let mut blocks = Vec::with_capacity((end - start) / 32 + 1);
     let mut diagnostics = Vec::new();
+    let mut endings = Endings::default();
     let mut pos = start;
     while pos < end {
         let rest = &src[pos..end];
@@ -151,6 +183,7 @@ fn parse_chunk<W: Words>(
         let content_end = pos
             + plain.unwrap_or_else(|| memchr::memchr2(b'\n', b'\r', rest).unwrap_or(rest.len()));
         let line = RawLine::ending_at(src, pos, content_end);
+        endings.count(src, &line);
         pos = line.end;
         let content = line_content(src, &line);
         let bytes = content.slice(src);
@@ -176,13 +209,14 @@ fn parse_chunk<W: Words>(
     Chunk {
         blocks,
         diagnostics,
+        endings,
         in_text_section,
         words,
     }
 }
 
-/// Blocks, diagnostics, and the pieces' word reports with their first blocks.
-type Parsed<W> = (Vec<BlockRec>, Vec<Diagnostic>, Vec<(usize, W)>);
+/// Blocks, diagnostics, line endings, and the pieces' word reports with their first blocks.
+type Parsed<W> = (Vec<BlockRec>, Vec<Diagnostic>, Endings, Vec<(usize, W)>);
 
 /// Parses every block. Sources larger than two chunks are cut after an LF near each multiple of `chunk` and
 /// the pieces parsed in parallel; the rare piece that starts inside a text section is parsed again with that
@@ -224,17 +258,24 @@ fn parse_blocks<W: Words + Send>(
     }
     if chunks.len() == 1 {
         let only = chunks.pop().expect("one chunk");
-        return (only.blocks, only.diagnostics, vec![(0, only.words)]);
+        return (
+            only.blocks,
+            only.diagnostics,
+            only.endings,
+            vec![(0, only.words)],
+        );
     }
     let mut blocks = Vec::with_capacity(chunks.iter().map(|c| c.blocks.len()).sum());
     let mut diagnostics = Vec::new();
+    let mut endings = Endings::default();
     let mut pieces = Vec::with_capacity(chunks.len());
     for chunk in chunks {
         pieces.push((blocks.len(), chunk.words));
         blocks.extend_from_slice(&chunk.blocks);
         diagnostics.extend(chunk.diagnostics);
+        endings.add(chunk.endings);
     }
-    (blocks, diagnostics, pieces)
+    (blocks, diagnostics, endings, pieces)
 }
 
 /// Archive sections named `…_COM` hold alarm texts and HMI masks, not NC code.
@@ -355,19 +396,7 @@ impl Program {
 
     /// The line ending most blocks use (LF when there is none), for rendering new blocks.
     pub fn dominant_line_ending(&self) -> &'static [u8] {
-        // Most programs have no CR at all, which one vectorised search tells without visiting every line.
-        if memchr::memchr(b'\r', &self.src).is_none() {
-            return b"\n";
-        }
-        let (mut lf, mut crlf, mut cr) = (0usize, 0usize, 0usize);
-        for (i, b) in self.blocks.iter().enumerate() {
-            match b.terminator_len {
-                2 => crlf += 1,
-                1 if self.src[self.block_span(i).end - 1] == b'\r' => cr += 1,
-                1 => lf += 1,
-                _ => {}
-            }
-        }
+        let Endings { lf, crlf, cr } = self.endings;
         if crlf > lf && crlf >= cr {
             b"\r\n"
         } else if cr > lf && cr > crlf {
@@ -464,9 +493,17 @@ mod tests {
         let src =
             b"N10 G0 X0\r\n%_N_T_COM\n700 0 \"t\"\n7 \"u\"\nIF R1\n%_N_A_MPF\nX=(\nENDIF\n\rM30"
                 .repeat(20);
-        let (seq_blocks, seq_diags, _) = parse_blocks(&src, usize::MAX / 2, |_| ());
+        let (seq_blocks, seq_diags, seq_endings, _) = parse_blocks(&src, usize::MAX / 2, |_| ());
+        // 20 lines end in CRLF, 20 in a lone CR, 140 in LF; the last has no terminator.
+        let Endings { lf, crlf, cr } = seq_endings;
+        assert_eq!((lf, crlf, cr), (140, 20, 20));
         for chunk in [1, 7, 40, 100] {
-            let (blocks, diags, _) = parse_blocks(&src, chunk, |_| ());
+            let (blocks, diags, endings, _) = parse_blocks(&src, chunk, |_| ());
+            assert_eq!(
+                (endings.lf, endings.crlf, endings.cr),
+                (lf, crlf, cr),
+                "chunk {chunk}"
+            );
             let key = |b: &BlockRec| (b.start, b.kind, b.flags, b.terminator_len);
             assert_eq!(
                 blocks.iter().map(key).collect::<Vec<_>>(),

@@ -47,6 +47,8 @@ pub(super) struct Run {
     pub(super) first_z: Option<f64>,
     /// The last block after the first whose move changes Z.
     pub(super) z_change: Option<usize>,
+    /// Bit per axis the run's blocks write.
+    axes: u8,
     /// The position after the run on the axes the run writes.
     pub(super) end_pos: [Option<f64>; 3],
     /// The last block is a rapid Z-only move up.
@@ -147,6 +149,29 @@ impl Moves {
     }
 }
 
+impl Moves {
+    /// The byte ranges of `program`'s source outside the runs, in order. A block in a run holds nothing but
+    /// move words (letters `N G X Y Z I J K F`, digits, signs, points and blanks), so a search for text
+    /// with any other character in it needs to read only these (widened by the text's length, so a match
+    /// across a run's edge is found too).
+    pub(crate) fn untimed_bytes(&self, program: &Program) -> Vec<std::ops::Range<usize>> {
+        let mut out = Vec::new();
+        let mut from = 0;
+        for r in self.overlapping(0..program.block_count()) {
+            let blocks = r.blocks();
+            let start = program.block_span(blocks.start).start;
+            if start > from {
+                out.push(from..start);
+            }
+            from = program.block_span(blocks.end - 1).end;
+        }
+        if from < program.source().len() {
+            out.push(from..program.source().len());
+        }
+        out
+    }
+}
+
 /// What an address letter is to a move: a value slot (x, y, z, i, j, k, f), the block number, the motion
 /// code, or anything else (the block does more than move).
 const SLOT_F: usize = 6;
@@ -164,37 +189,19 @@ static LETTER: [u8; 256] = {
     t
 };
 
-/// The words of the line being read.
-#[derive(Debug, Clone, Copy)]
-struct Line {
-    /// Bit per value slot written.
-    written: u8,
-    values: [f64; 7],
-    motion: Option<u32>,
-    /// Nothing but a move so far.
-    moves_only: bool,
-}
-
-impl Line {
-    const EMPTY: Line = Line {
-        written: 0,
-        values: [0.0; 7],
-        motion: None,
-        moves_only: true,
-    };
-
-    fn value(&self, slot: usize) -> Option<f64> {
-        (self.written >> slot & 1 != 0).then_some(self.values[slot])
-    }
-}
-
 /// Times the moves of one piece of the program as the parser reads it.
 #[derive(Debug)]
 pub struct Mover {
-    line: Line,
+    /// The line being read: its values by slot, where X, Y and Z hold the position before the line until
+    /// the line writes them (so the position after a move needs no merging); a bit per slot written; its
+    /// motion code ([`NO_MOTION`]: none); whether it does nothing but move so far.
+    vals: [f64; 7],
+    written: u8,
+    motion_word: u32,
+    moves_only: bool,
     /// What the blocks of the piece so far say, as far as it does not depend on what came before the piece
     /// or on a block that is not a plain move: the axes in `known` (the others at 0), the motion code
-    /// ([`UNKNOWN`] when not known), the feed when `feed_known`, and whether the last block retracted
+    /// ([`NO_MOTION`] when not known), the feed when `feed_known`, and whether the last block retracted
     /// (`retract`: 0 no, 1 yes, [`UNKNOWN`]).
     pos: [f64; 3],
     known: u8,
@@ -215,7 +222,10 @@ const NO_MOTION: u32 = u32::MAX;
 impl Mover {
     fn with_capacity(bytes: usize) -> Mover {
         Mover {
-            line: Line::EMPTY,
+            vals: [0.0; 7],
+            written: 0,
+            motion_word: NO_MOTION,
+            moves_only: true,
             pos: [0.0; 3],
             known: 0,
             motion: NO_MOTION,
@@ -235,8 +245,15 @@ impl Mover {
         (self.runs, self.values)
     }
 
+    /// Ends the open run after the block read last: what that block left is where the run ends.
     fn close(&mut self) {
-        if let Some(run) = self.open.take() {
+        if let Some(mut run) = self.open.take() {
+            for (k, end) in run.end_pos.iter_mut().enumerate() {
+                if run.axes >> k & 1 != 0 {
+                    *end = Some(self.pos[k]);
+                }
+            }
+            run.end_retract = self.retract == 1;
             self.runs.push(run);
         }
     }
@@ -245,38 +262,40 @@ impl Mover {
     fn forget(&mut self) {
         self.close();
         (self.pos, self.known, self.motion) = ([0.0; 3], 0, NO_MOTION);
+        self.vals[..3].fill(0.0);
         (self.feed_known, self.retract) = (false, UNKNOWN);
     }
 
+    fn written(&self, slot: usize) -> Option<f64> {
+        (self.written >> slot & 1 != 0).then_some(self.vals[slot])
+    }
+
     /// A line that moves only: its length when known, the run it joins, and what it leaves known.
-    fn plain_move(&mut self, i: usize, line: &Line) {
-        let axes = line.written & 7;
-        let motion = line.motion.unwrap_or(self.motion);
-        let feed_written = line.written >> SLOT_F & 1 != 0;
+    fn plain_move(&mut self, i: usize) {
+        let axes = self.written & 7;
+        let motion = match self.motion_word {
+            NO_MOTION => self.motion,
+            g => g,
+        };
+        let feed_written = self.written >> SLOT_F & 1 != 0;
         let feed = if feed_written {
-            line.values[SLOT_F]
+            self.vals[SLOT_F]
         } else {
             self.feed
         };
         let feed_known = feed_written || self.feed_known;
         let from = self.pos;
-        let mut to = from;
-        for (k, t) in to.iter_mut().enumerate() {
-            if axes >> k & 1 != 0 {
-                *t = line.values[k];
-            }
-        }
-        let moved = axes != 0;
-        let rapid_xy = moved && motion == 0 && axes & 4 == 0;
+        let to = [self.vals[0], self.vals[1], self.vals[2]];
+        let rapid_xy = axes != 0 && motion == 0 && axes & 4 == 0;
         // A rapid Z-only move up retracts (an unknown start counts as below, as the fold has it).
-        let retracts = if !moved || (motion != 0 && motion != NO_MOTION) || axes & 3 != 0 {
+        let retracts = if axes != 4 || (motion != 0 && motion != NO_MOTION) {
             0
         } else if motion == NO_MOTION || self.known & 4 == 0 {
             UNKNOWN
         } else {
             u8::from(to[2] > from[2])
         };
-        let value = if !moved {
+        let value = if axes == 0 {
             Some(0.0)
         } else if motion == NO_MOTION
             || axes & !self.known != 0
@@ -285,7 +304,11 @@ impl Mover {
         {
             None
         } else {
-            let centre = [3, 4, 5].map(|k| line.value(k));
+            let centre = if motion >= 2 {
+                [3, 4, 5].map(|k| self.written(k))
+            } else {
+                [None; 3]
+            };
             let length = move_length(motion, from, to, centre, None);
             match motion {
                 0 => Some(-length),
@@ -294,27 +317,19 @@ impl Mover {
             }
         };
         match value {
-            Some(v) => self.extend(i, line, v, from[2] != to[2], rapid_xy),
+            Some(v) => self.extend(i, v, from[2] != to[2], rapid_xy),
             None => self.close(),
-        }
-        if let Some(run) = &mut self.open {
-            for (k, end) in run.end_pos.iter_mut().enumerate() {
-                if axes >> k & 1 != 0 {
-                    *end = Some(to[k]);
-                }
-            }
-            run.end_retract = retracts == 1;
         }
         (self.pos, self.known, self.motion) = (to, self.known | axes, motion);
         (self.feed, self.feed_known, self.retract) = (feed, feed_known, retracts);
     }
 
     /// Adds block `i` to the open run, or opens one with it.
-    fn extend(&mut self, i: usize, line: &Line, value: f64, z_moves: bool, rapid_xy: bool) {
-        let retract_unknown = self.retract == UNKNOWN;
+    fn extend(&mut self, i: usize, value: f64, z_moves: bool, rapid_xy: bool) {
+        let written = self.written;
         let run = match &mut self.open {
             Some(run) => {
-                if z_moves && line.written & 4 != 0 {
+                if z_moves && written & 4 != 0 {
                     run.z_change = Some(i);
                 }
                 run
@@ -323,21 +338,23 @@ impl Mover {
                 first: i,
                 count: 0,
                 at: self.values.len(),
-                first_could_retract: retract_unknown && rapid_xy,
+                first_could_retract: self.retract == UNKNOWN && rapid_xy,
                 motion: Field::none(),
                 feed: Field::none(),
-                first_z: line.value(2),
+                first_z: (written & 4 != 0).then_some(self.vals[2]),
                 z_change: None,
+                axes: 0,
                 end_pos: [None; 3],
                 end_retract: false,
             }),
         };
         run.count += 1;
-        if let Some(g) = line.motion {
-            run.motion.write(i, g);
+        run.axes |= written & 7;
+        if self.motion_word != NO_MOTION {
+            run.motion.write(i, self.motion_word);
         }
-        if let Some(f) = line.value(SLOT_F) {
-            run.feed.write(i, f);
+        if written >> SLOT_F & 1 != 0 {
+            run.feed.write(i, self.vals[SLOT_F]);
         }
         self.values.push(value);
     }
@@ -348,45 +365,43 @@ impl Words for Mover {
 
     #[inline(always)]
     fn skip_level(&mut self) {
-        self.line.moves_only = false;
+        self.moves_only = false;
     }
 
     #[inline(always)]
     fn word(&mut self, letter: u8, number: &Decimal) {
-        let line = &mut self.line;
         match LETTER[usize::from(letter)] {
             slot @ 0..=6 => match number.value() {
-                Some(v) if line.written >> slot & 1 == 0 => {
-                    line.written |= 1 << slot;
-                    line.values[usize::from(slot)] = v;
+                Some(v) if self.written >> slot & 1 == 0 => {
+                    self.written |= 1 << slot;
+                    self.vals[usize::from(slot)] = v;
                 }
-                _ => line.moves_only = false,
+                _ => self.moves_only = false,
             },
-            BLOCK_NUMBER => line.moves_only &= number.whole().is_some(),
+            BLOCK_NUMBER => self.moves_only &= number.whole().is_some(),
             MOTION => match number.whole() {
-                Some(g @ 0..=3) if line.motion.is_none() => line.motion = Some(g as u32),
-                _ => line.moves_only = false,
+                Some(g @ 0..=3) if self.motion_word == NO_MOTION => self.motion_word = g as u32,
+                _ => self.moves_only = false,
             },
-            _ => line.moves_only = false,
+            _ => self.moves_only = false,
         }
     }
 
     #[inline(always)]
     fn comment(&mut self) {
-        self.line.moves_only = false;
+        self.moves_only = false;
     }
 
     #[inline(always)]
     fn end_line(&mut self, plain: bool) {
-        let line = self.line;
-        (self.line.written, self.line.motion, self.line.moves_only) = (0, None, true);
         let i = self.block;
         self.block += 1;
-        if plain && line.moves_only {
-            self.plain_move(i, &line);
+        if plain && self.moves_only {
+            self.plain_move(i);
         } else {
             self.forget();
         }
+        (self.written, self.motion_word, self.moves_only) = (0, NO_MOTION, true);
     }
 }
 
@@ -513,6 +528,44 @@ mod tests {
             checked += 1;
         }
         assert!(checked > 20, "{checked} files");
+    }
+
+    /// The header search outside the runs finds what a search of the whole source finds, wherever the
+    /// header is: on a line of its own between moves, after a move, at the very end.
+    #[test]
+    fn the_header_is_found_outside_the_runs() {
+        use crate::omm::{TransformError, check, check_timed};
+        let base = String::from_utf8(awkward_program(3)).unwrap();
+        let lines: Vec<&str> = base.lines().collect();
+        let line_of = |r: Result<(), TransformError>| match r {
+            Err(TransformError::AlreadyTransformed(line)) => Some(line),
+            Err(e) => panic!("{e}"),
+            Ok(()) => None,
+        };
+        let mut cases = vec![base.clone()];
+        for at in [0, 7, 8, 9, 20, 21, lines.len()] {
+            for header in [
+                "; driftloop-omm 1.0",
+                "G1 X1 Y1 ; driftloop-omm",
+                "MSG(\"driftloop-omm\")",
+            ] {
+                let mut l = lines.clone();
+                l.insert(at, header);
+                cases.push(l.join("\n"));
+            }
+        }
+        for text in cases {
+            let whole = line_of(check(&crate::parse(text.as_bytes()), true));
+            assert_eq!(whole.is_some(), text.contains("driftloop-omm"));
+            for piece in [usize::MAX / 2, 50] {
+                let (program, moves) = timed(text.as_bytes(), piece);
+                assert_eq!(
+                    line_of(check_timed(&program, &moves, true)),
+                    whole,
+                    "{text}"
+                );
+            }
+        }
     }
 
     /// One line of a random program: mostly moves in the ways CAM writes them, sometimes a block that
