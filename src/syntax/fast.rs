@@ -15,16 +15,20 @@ pub(crate) fn plain_prefix(rest: &[u8]) -> Option<usize> {
 }
 
 /// What the recogniser reports of a line while it reads it: nothing (`()`), or the words and their values to a
-/// reader that times the moves (`omm::timeline::moves`). A line that turns out not to be plain is reported by its reader with
-/// [`Words::end_line`]`(false)`, whatever was reported of it before.
+/// reader that times the moves (`omm::timeline::moves`). Every line ends with exactly one of
+/// [`Words::end_line`] (the recogniser accepted it) or [`Words::other_line`] (it did not, whatever was
+/// reported of it before).
 pub trait Words {
     type Number: Digits + Default;
     fn skip_level(&mut self);
     /// An address word: its letter as written and its number's parts.
     fn word(&mut self, letter: u8, number: &Self::Number);
     fn comment(&mut self);
-    /// The line ended; `plain` when the recogniser accepted it.
-    fn end_line(&mut self, plain: bool);
+    /// The recogniser accepted the line.
+    fn end_line(&mut self);
+    /// The recogniser did not accept the line; `plain` is its text when the full grammar found it a plain
+    /// block without flags or diagnostics (`G2 X1 Y1 CR=5`), which a reader may read on its own terms.
+    fn other_line(&mut self, plain: Option<&[u8]>);
 }
 
 impl Words for () {
@@ -36,10 +40,12 @@ impl Words for () {
     #[inline(always)]
     fn comment(&mut self) {}
     #[inline(always)]
-    fn end_line(&mut self, _: bool) {}
+    fn end_line(&mut self) {}
+    #[inline(always)]
+    fn other_line(&mut self, _: Option<&[u8]>) {}
 }
 
-/// [`plain_prefix`], reporting the line's parts to `w` (but not its end: see [`Words::end_line`]).
+/// [`plain_prefix`], reporting the line's parts to `w` (but not its end: see [`Words`]).
 #[inline(always)]
 pub(crate) fn plain_prefix_with<W: Words>(rest: &[u8], w: &mut W) -> Option<usize> {
     let n = rest.len();

@@ -11,7 +11,7 @@ mod tree;
 pub use decimal::{Decimal, decimal_prefix};
 pub use fast::Words;
 pub use lexeme::Digits;
-pub(crate) use lexeme::leading_block_number;
+pub(crate) use lexeme::{leading_block_number, word_end_with};
 pub use program::flag;
 #[cfg(test)]
 pub(crate) use program::parse_owned_in_pieces;

@@ -179,7 +179,6 @@ fn parse_chunk<W: Words>(
     while pos < end {
         let rest = &src[pos..end];
         let plain = fast::plain_prefix_with(rest, &mut words);
-        words.end_line(plain.is_some());
         let content_end = pos
             + plain.unwrap_or_else(|| memchr::memchr2(b'\n', b'\r', rest).unwrap_or(rest.len()));
         let line = RawLine::ending_at(src, pos, content_end);
@@ -188,11 +187,17 @@ fn parse_chunk<W: Words>(
         let content = line_content(src, &line);
         let bytes = content.slice(src);
         let (kind, flags) = if plain.is_some() {
+            words.end_line();
             (BlockKind::Plain, 0)
         } else if in_text_section && !bytes.starts_with(b"%") {
+            words.other_line(None);
             (BlockKind::Plain, flag::TEXT)
         } else {
             let parsed = grammar::parse_block(src, content, line.terminator());
+            let clean = parsed.kind == BlockKind::Plain
+                && parsed.flags == 0
+                && parsed.diagnostics.is_empty();
+            words.other_line(clean.then_some(bytes));
             diagnostics.extend(parsed.diagnostics);
             if parsed.kind == BlockKind::Header {
                 in_text_section = is_text_section(bytes);

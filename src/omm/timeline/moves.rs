@@ -5,7 +5,7 @@
 //! every other block (and every run whose assumptions the program's state at its start does not meet) is
 //! read from its text as before, so the timeline is the same either way (a test checks this).
 
-use crate::syntax::{Decimal, Program, Words, parse_owned_with};
+use crate::syntax::{Decimal, Program, Words, decimal_prefix, parse_owned_with, word_end_with};
 
 use super::fold::move_length;
 
@@ -198,6 +198,8 @@ pub struct Mover {
     vals: [f64; 7],
     written: u8,
     motion_word: u32,
+    /// The arc radius of a line the grammar read (`CR=`), see [`Mover::read_radius_line`].
+    radius: Option<f64>,
     moves_only: bool,
     /// What the blocks of the piece so far say, as far as it does not depend on what came before the piece
     /// or on a block that is not a plain move: the axes in `known` (the others at 0), the motion code
@@ -225,6 +227,7 @@ impl Mover {
             vals: [0.0; 7],
             written: 0,
             motion_word: NO_MOTION,
+            radius: None,
             moves_only: true,
             pos: [0.0; 3],
             known: 0,
@@ -309,7 +312,7 @@ impl Mover {
             } else {
                 [None; 3]
             };
-            let length = move_length(motion, from, to, centre, None);
+            let length = move_length(motion, from, to, centre, self.radius);
             match motion {
                 0 => Some(-length),
                 _ if feed_known && feed > 0.0 => Some(length / feed),
@@ -393,15 +396,60 @@ impl Words for Mover {
     }
 
     #[inline(always)]
-    fn end_line(&mut self, plain: bool) {
+    fn end_line(&mut self) {
+        self.finish_line(self.moves_only);
+    }
+
+    fn other_line(&mut self, plain: Option<&[u8]>) {
+        (self.written, self.motion_word, self.moves_only) = (0, NO_MOTION, true);
+        let moves = plain.is_some_and(|text| self.read_radius_line(text).is_some());
+        self.finish_line(moves && self.moves_only);
+    }
+}
+
+impl Mover {
+    /// Times the line if `moves`, else forgets what is known; then starts the next line.
+    #[inline(always)]
+    fn finish_line(&mut self, moves: bool) {
         let i = self.block;
         self.block += 1;
-        if plain && self.moves_only {
+        if moves {
             self.plain_move(i);
         } else {
             self.forget();
         }
         (self.written, self.motion_word, self.moves_only) = (0, NO_MOTION, true);
+        self.radius = None;
+    }
+
+    /// Reads a line the recogniser left to the grammar because of a `CR=radius` (the one assignment CAM
+    /// arcs carry) as its words and that radius; `None` for anything else. Only lines the grammar found
+    /// plain come here, so the words are the grammar's words.
+    fn read_radius_line(&mut self, text: &[u8]) -> Option<()> {
+        let mut k = 0;
+        loop {
+            while text.get(k).is_some_and(|&b| matches!(b, b' ' | b'\t')) {
+                k += 1;
+            }
+            let Some(&letter) = text.get(k) else {
+                return self.radius.map(|_| ());
+            };
+            let radius = text[k..]
+                .get(..3)
+                .is_some_and(|t| t.eq_ignore_ascii_case(b"CR="));
+            if radius && self.radius.is_none() {
+                let (v, len) = decimal_prefix(&text[k + 3..])?;
+                k += 3 + len;
+                if text.get(k).is_some_and(|&b| !matches!(b, b' ' | b'\t')) {
+                    return None;
+                }
+                self.radius = Some(v);
+                continue;
+            }
+            let mut number = Decimal::default();
+            k = word_end_with(text, k, &mut number)?.1;
+            self.word(letter, &number);
+        }
     }
 }
 
@@ -528,6 +576,41 @@ mod tests {
             checked += 1;
         }
         assert!(checked > 20, "{checked} files");
+    }
+
+    /// Arcs CAM writes with a radius (`CR=`, which the grammar reads) join the runs like any move, in the
+    /// ways they are written; lines with anything more are read from their text.
+    #[test]
+    fn arcs_with_a_radius_stay_in_the_runs() {
+        let mut text = String::from("T1 M6\nS1000 M3\nG0 X0 Y0 Z5\nG1 Z-1 F100\n");
+        for k in 0..60 {
+            let x = k as f64 / 4.0;
+            text.push_str(&match k % 6 {
+                0 => format!("N{k} G3 X{x} Y1 CR=8 F900\n"),
+                1 => format!("G2 X{x} Y-1 cr=-3.5\n"),
+                2 => format!("X{x} Y{x} CR=+2 Z-1.5\n"),
+                _ => format!("G1 X{x} Y2\n"),
+            });
+        }
+        let profile = Profile::default_profile();
+        let (program, moves) = timed(text.as_bytes(), usize::MAX / 2);
+        assert_eq!(
+            build_with_moves(&program, &moves, &profile),
+            build(&crate::parse(text.as_bytes()), &profile)
+        );
+        let share = covered_share(&program, &moves);
+        assert!(share > 0.9, "runs cover {share}");
+        for other in [
+            "G2 X1 Y1 CR=5 M8",
+            "G2 X1 Y1 CR = 5",
+            "G2 X1 Y1 CR=5 CR=6",
+            "G2 X1 Y1 CR=R1",
+            "R1=5",
+        ] {
+            let (program, moves) = timed(format!("G0 X0 Y0\n{other}\n").as_bytes(), 100);
+            let runs = moves.overlapping(0..program.block_count());
+            assert!(runs.iter().all(|r| r.run.first == 0), "{other}");
+        }
     }
 
     /// The header search outside the runs finds what a search of the whole source finds, wherever the
