@@ -63,6 +63,8 @@ pub struct Program {
     blocks: Vec<BlockRec>,
     diagnostics: Vec<Diagnostic>,
     endings: Endings,
+    /// The `%…` header blocks, in order: where program units start.
+    headers: Vec<usize>,
 }
 
 /// How many lines end in LF, CRLF and a lone CR, counted while parsing: an editor asks for the dominant
@@ -134,15 +136,23 @@ pub(crate) fn parse_owned_in_pieces<W: Words + Send>(
             blocks,
             diagnostics,
             endings: Endings::default(),
+            headers: Vec::new(),
         };
         return (program, Vec::new());
     }
-    let (blocks, diagnostics, endings, pieces) = parse_blocks(&src, chunk, words);
+    let Parsed {
+        blocks,
+        diagnostics,
+        endings,
+        headers,
+        pieces,
+    } = parse_blocks(&src, chunk, words);
     let mut program = Program {
         src,
         blocks,
         diagnostics,
         endings,
+        headers,
     };
     let structural = structure::analyze(&program).diagnostics;
     program.diagnostics.extend(structural);
@@ -161,6 +171,7 @@ struct Chunk<W> {
     blocks: Vec<BlockRec>,
     diagnostics: Vec<Diagnostic>,
     endings: Endings,
+    headers: Vec<usize>,
     in_text_section: bool,
     words: W,
 }
@@ -175,6 +186,7 @@ fn parse_chunk<W: Words>(
     let mut blocks = Vec::with_capacity((end - start) / 32 + 1);
     let mut diagnostics = Vec::new();
     let mut endings = Endings::default();
+    let mut headers = Vec::new();
     let mut pos = start;
     while pos < end {
         let rest = &src[pos..end];
@@ -201,6 +213,7 @@ fn parse_chunk<W: Words>(
             diagnostics.extend(parsed.diagnostics);
             if parsed.kind == BlockKind::Header {
                 in_text_section = is_text_section(bytes);
+                headers.push(blocks.len());
             }
             (parsed.kind, parsed.flags)
         };
@@ -215,13 +228,21 @@ fn parse_chunk<W: Words>(
         blocks,
         diagnostics,
         endings,
+        headers,
         in_text_section,
         words,
     }
 }
 
-/// Blocks, diagnostics, line endings, and the pieces' word reports with their first blocks.
-type Parsed<W> = (Vec<BlockRec>, Vec<Diagnostic>, Endings, Vec<(usize, W)>);
+/// What parsing every block gives: blocks, diagnostics, line endings, header blocks, and the pieces' word
+/// reports with their first blocks.
+struct Parsed<W> {
+    blocks: Vec<BlockRec>,
+    diagnostics: Vec<Diagnostic>,
+    endings: Endings,
+    headers: Vec<usize>,
+    pieces: Vec<(usize, W)>,
+}
 
 /// Parses every block. Sources larger than two chunks are cut after an LF near each multiple of `chunk` and
 /// the pieces parsed in parallel; the rare piece that starts inside a text section is parsed again with that
@@ -263,24 +284,34 @@ fn parse_blocks<W: Words + Send>(
     }
     if chunks.len() == 1 {
         let only = chunks.pop().expect("one chunk");
-        return (
-            only.blocks,
-            only.diagnostics,
-            only.endings,
-            vec![(0, only.words)],
-        );
+        return Parsed {
+            blocks: only.blocks,
+            diagnostics: only.diagnostics,
+            endings: only.endings,
+            headers: only.headers,
+            pieces: vec![(0, only.words)],
+        };
     }
     let mut blocks = Vec::with_capacity(chunks.iter().map(|c| c.blocks.len()).sum());
     let mut diagnostics = Vec::new();
     let mut endings = Endings::default();
+    let mut headers = Vec::new();
     let mut pieces = Vec::with_capacity(chunks.len());
     for chunk in chunks {
-        pieces.push((blocks.len(), chunk.words));
+        let first = blocks.len();
+        pieces.push((first, chunk.words));
         blocks.extend_from_slice(&chunk.blocks);
         diagnostics.extend(chunk.diagnostics);
         endings.add(chunk.endings);
+        headers.extend(chunk.headers.iter().map(|h| first + h));
     }
-    (blocks, diagnostics, endings, pieces)
+    Parsed {
+        blocks,
+        diagnostics,
+        endings,
+        headers,
+        pieces,
+    }
 }
 
 /// Archive sections named `…_COM` hold alarm texts and HMI masks, not NC code.
@@ -399,6 +430,11 @@ impl Program {
         (0..self.blocks.len()).map(|i| self.block(i))
     }
 
+    /// The `%…` header blocks (where program units start), in order.
+    pub fn header_blocks(&self) -> &[usize] {
+        &self.headers
+    }
+
     /// The line ending most blocks use (LF when there is none), for rendering new blocks.
     pub fn dominant_line_ending(&self) -> &'static [u8] {
         let Endings { lf, crlf, cr } = self.endings;
@@ -498,12 +534,25 @@ mod tests {
         let src =
             b"N10 G0 X0\r\n%_N_T_COM\n700 0 \"t\"\n7 \"u\"\nIF R1\n%_N_A_MPF\nX=(\nENDIF\n\rM30"
                 .repeat(20);
-        let (seq_blocks, seq_diags, seq_endings, _) = parse_blocks(&src, usize::MAX / 2, |_| ());
+        let seq = parse_blocks(&src, usize::MAX / 2, |_| ());
+        let (seq_blocks, seq_diags, seq_endings) = (seq.blocks, seq.diagnostics, seq.endings);
+        let seq_headers: Vec<usize> = (0..seq_blocks.len())
+            .filter(|&i| seq_blocks[i].kind == BlockKind::Header)
+            .collect();
+        assert_eq!(seq.headers, seq_headers);
+        assert_eq!(seq_headers.len(), 40);
         // 20 lines end in CRLF, 20 in a lone CR, 140 in LF; the last has no terminator.
         let Endings { lf, crlf, cr } = seq_endings;
         assert_eq!((lf, crlf, cr), (140, 20, 20));
         for chunk in [1, 7, 40, 100] {
-            let (blocks, diags, endings, _) = parse_blocks(&src, chunk, |_| ());
+            let Parsed {
+                blocks,
+                diagnostics: diags,
+                endings,
+                headers,
+                ..
+            } = parse_blocks(&src, chunk, |_| ());
+            assert_eq!(headers, seq_headers, "chunk {chunk}");
             assert_eq!(
                 (endings.lf, endings.crlf, endings.cr),
                 (lf, crlf, cr),

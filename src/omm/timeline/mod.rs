@@ -11,7 +11,7 @@ use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
 
-use crate::syntax::{BlockKind, Program};
+use crate::syntax::Program;
 
 use super::loops::Loop;
 use super::profile::Profile;
@@ -244,10 +244,8 @@ fn callees_first(names: &[Option<String>], calls: &[&BTreeSet<String>]) -> Vec<u
 /// The block ranges of the program's units: a new one starts at each `%` header after the first block.
 fn units(program: &Program) -> Vec<std::ops::Range<usize>> {
     let count = program.block_count();
-    let mut starts: Vec<usize> = (1..count)
-        .filter(|&i| program.block_kind(i) == BlockKind::Header)
-        .collect();
-    starts.insert(0, 0);
+    let mut starts = vec![0];
+    starts.extend(program.header_blocks().iter().filter(|&&h| h > 0));
     starts.push(count);
     starts.windows(2).map(|w| w[0]..w[1]).collect()
 }

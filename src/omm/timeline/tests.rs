@@ -2,6 +2,7 @@
 use super::read::{Scan, decimal, scan_tree, scan_words_into};
 use super::*;
 use crate::omm::loops::LoopKind;
+use crate::syntax::BlockKind;
 
 /// Every line the word scanner accepts gives the same facts as the syntax tree.
 #[test]
