@@ -32,7 +32,8 @@ pub(super) struct Builder<'p> {
     state: Modal,
     pos: [Option<f64>; 3],
     per_rev: bool,
-    time: f64,
+    /// The time so far, in [`TICKS_PER_MIN`] ticks.
+    ticks: u64,
     last_was_z_retract: bool,
     header_done: bool,
     preamble_done: bool,
@@ -138,7 +139,7 @@ impl<'p> Builder<'p> {
             },
             pos: [None; 3],
             per_rev: false,
-            time: 0.0,
+            ticks: 0,
             last_was_z_retract: false,
             header_done: false,
             preamble_done: false,
@@ -208,7 +209,7 @@ impl<'p> Builder<'p> {
         } else {
             Modal::default()
         };
-        let start = self.time;
+        let start = self.time();
         let blank = motion.is_none() && mv.axes.iter().all(Option::is_none);
         self.header_and_preamble(i, false, false, blank);
         if let Some(g) = motion
@@ -285,9 +286,9 @@ impl<'p> Builder<'p> {
             self.state.feed = Some(f);
         }
         let rapid = self.profile.timeline.rapid_mm_per_min;
-        for &v in r.values {
-            let minutes = if v.is_sign_negative() { -v / rapid } else { v };
-            self.time += minutes;
+        self.ticks = self.ticks.saturating_add(run.feed_ticks);
+        for &length in r.rapids {
+            self.add_minutes(length / rapid);
         }
         for (p, end) in self.pos.iter_mut().zip(run.end_pos) {
             if end.is_some() {
@@ -354,7 +355,7 @@ impl<'p> Builder<'p> {
                 if !sub.spindle_words.is_empty() {
                     self.replay_spindle(i, sub, runs);
                 }
-                self.time += runs * sub.total_min;
+                self.add_minutes(runs * sub.total_min);
                 self.t.inexact_blocks += sub.inexact_blocks;
                 let line = |own: usize| if elsewhere { i + 1 } else { own };
                 self.t.untimed_calls.extend(
@@ -387,7 +388,7 @@ impl<'p> Builder<'p> {
     /// The program's prediction holds one speed from gate to gate and the subprogram has no gates: a gate
     /// before the call takes the call's time-weighted mean speed, the block after it the speed it left.
     fn replay_spindle(&mut self, i: usize, sub: &Timeline, runs: f64) {
-        let (at, rpm_before, state_before) = (self.time, self.rpm, self.state.clone());
+        let (at, rpm_before, state_before) = (self.time(), self.rpm, self.state.clone());
         let first_change = self.t.speeds.len();
         // A bound on the speed changes one call adds, for absurd repeat counts.
         let most = 1_000_000 / sub.spindle_words.len() as u64;
@@ -454,7 +455,7 @@ impl<'p> Builder<'p> {
         if self.speed_site_after.is_some_and(|call| call < i) {
             self.speed_site_after = None;
             self.note_site(i);
-            self.speed_site(i, self.time, self.state.clone(), self.rpm);
+            self.speed_site(i, self.time(), self.state.clone(), self.rpm);
         }
     }
 
@@ -508,7 +509,7 @@ impl<'p> Builder<'p> {
         } else {
             Modal::default()
         };
-        let start = self.time;
+        let start = self.time();
         let blank = s.g.is_empty()
             && s.mv.axes.iter().all(Option::is_none)
             && s.m.is_empty()
@@ -612,12 +613,13 @@ impl<'p> Builder<'p> {
                 }
             }
             if let Some(l) = &s.label {
+                let end = self.time();
                 self.label_times
                     .entry(l.to_ascii_uppercase())
                     .or_insert(Label {
                         block: i,
                         start,
-                        end: self.time,
+                        end,
                         state: prev,
                     });
             }
@@ -653,7 +655,7 @@ impl<'p> Builder<'p> {
             self.open_loops.push(OpenLoop {
                 kind,
                 block: i,
-                start_min: self.time,
+                start_min: self.time(),
                 runs,
                 entry: self.state.clone(),
             });
@@ -678,7 +680,7 @@ impl<'p> Builder<'p> {
                 start_min: open.start_min,
                 body_min: start - open.start_min,
                 repeat_block: i,
-                repeat_min: self.time,
+                repeat_min: self.time(),
             });
         }
         if let Some(Count::Section {
@@ -718,14 +720,14 @@ impl<'p> Builder<'p> {
                 start_min,
                 body_min,
                 repeat_block: i,
-                repeat_min: self.time,
+                repeat_min: self.time(),
             });
         }
     }
 
     /// Records a loop and adds its further runs to the time.
     fn repeat(&mut self, l: Loop) {
-        self.time += l.further_runs() as f64 * l.body_min;
+        self.add_minutes(l.further_runs() as f64 * l.body_min);
         self.t.loops.push(l);
     }
 
@@ -895,11 +897,21 @@ impl<'p> Builder<'p> {
             self.state.z = to[2];
             self.changed[field::Z] = i + 1;
         }
-        self.time += minutes;
+        self.add_minutes(minutes);
+    }
+
+    /// The time so far (min).
+    fn time(&self) -> f64 {
+        self.ticks as f64 / TICKS_PER_MIN
+    }
+
+    fn add_minutes(&mut self, minutes: f64) {
+        self.ticks = self.ticks.saturating_add(ticks(minutes));
     }
 
     pub(super) fn finish(mut self) -> Timeline {
-        self.t.total_min = self.time;
+        let total = self.time();
+        self.t.total_min = total;
         // Without M6 in the program the T word changes the tool.
         let mut starts = self.pass_marks;
         if !self.m6_seen && self.profile.passes.tool_change {
@@ -911,7 +923,7 @@ impl<'p> Builder<'p> {
             .iter()
             .skip(1)
             .map(|m| m.time)
-            .chain(std::iter::once(self.time))
+            .chain(std::iter::once(total))
             .collect();
         for (k, (m, end)) in starts.into_iter().zip(ends).enumerate() {
             self.t.passes.push(Pass {
@@ -959,6 +971,17 @@ struct PassMark {
     before: Modal,
     rpm: f64,
     tool: Option<Arc<str>>,
+}
+
+/// The timeline counts time in whole ticks of 2^-32 min (14 ns), each block's time rounded to a tick: sums
+/// of ticks do not depend on their order, so the parser can add up a run of moves on its own and the
+/// timeline still equals, bit for bit, the one reading every block gives. Rounding moves a block's time by
+/// at most 7 ns.
+pub(super) const TICKS_PER_MIN: f64 = 4_294_967_296.0;
+
+/// `minutes` in whole ticks (negative, NaN: none; beyond `u64`: the most there are).
+pub(super) fn ticks(minutes: f64) -> u64 {
+    (minutes * TICKS_PER_MIN + 0.5) as u64
 }
 
 /// Length of the move from `a` to `b` (an axis never programmed at 0): straight, or along the arc for

@@ -7,15 +7,15 @@
 
 use crate::syntax::{Decimal, Program, Words, decimal_prefix, parse_owned_with, word_end_with};
 
-use super::fold::move_length;
+use super::fold::{move_length, ticks};
 
 /// Parses `src` and times its plain moves in the same pass (see [`super::build_with_moves`]).
 pub fn parse_timed(src: Vec<u8>) -> (Program, Moves) {
-    let (program, pieces) = parse_owned_with(src, Mover::with_capacity);
+    let (program, pieces) = parse_owned_with(src, |_| Mover::new());
     (program, Moves::from_pieces(pieces))
 }
 
-/// The runs of timed moves of a program (about 8 bytes per block that only moves).
+/// The runs of timed moves of a program: one record per run, plus the length of each rapid move in them.
 #[derive(Debug, Clone)]
 pub struct Moves {
     pieces: Vec<Piece>,
@@ -25,9 +25,8 @@ pub struct Moves {
 struct Piece {
     /// Sorted by first block, not overlapping.
     runs: Vec<Run>,
-    /// Per block of the runs: the length of a rapid move (with the sign bit set), or the minutes of a feed
-    /// move (length / F); 0 for a block that does not move.
-    values: Vec<f64>,
+    /// The lengths of the rapid moves of the runs, in order (their time depends on the profile's rapid rate).
+    rapids: Vec<f64>,
 }
 
 /// Consecutive blocks that only move (`N`, `G0`-`G3`, `X Y Z I J K F`) and whose lengths are known from the
@@ -37,8 +36,11 @@ struct Piece {
 pub(super) struct Run {
     pub(super) first: usize,
     pub(super) count: usize,
-    /// Where its values start in its piece.
+    /// Where its rapid moves' lengths start in its piece, and how many there are.
     at: usize,
+    rapid_count: usize,
+    /// The time of its feed moves (length / F), in the timeline's ticks.
+    pub(super) feed_ticks: u64,
     /// The first block is a rapid move without Z: a retract site if the block before it retracted.
     pub(super) first_could_retract: bool,
     pub(super) motion: Field<u32>,
@@ -100,11 +102,11 @@ impl<T: Copy + PartialEq> Field<T> {
     }
 }
 
-/// A run with its values.
+/// A run with the lengths of its rapid moves.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct RunRef<'m> {
     pub(super) run: &'m Run,
-    pub(super) values: &'m [f64],
+    pub(super) rapids: &'m [f64],
 }
 
 impl RunRef<'_> {
@@ -118,11 +120,11 @@ impl Moves {
         let pieces = pieces
             .into_iter()
             .map(|(first, mover)| {
-                let (mut runs, values) = mover.finish();
+                let (mut runs, rapids) = mover.finish();
                 for r in &mut runs {
                     r.shift(first);
                 }
-                Piece { runs, values }
+                Piece { runs, rapids }
             })
             .collect();
         Moves { pieces }
@@ -141,7 +143,7 @@ impl Moves {
             {
                 out.push(RunRef {
                     run,
-                    values: &piece.values[run.at..run.at + run.count],
+                    rapids: &piece.rapids[run.at..run.at + run.rapid_count],
                 });
             }
         }
@@ -215,14 +217,21 @@ pub struct Mover {
     /// The run being extended, pushed to `runs` when a block ends it.
     open: Option<Run>,
     runs: Vec<Run>,
-    values: Vec<f64>,
+    rapids: Vec<f64>,
+}
+
+/// What a timed block adds to its run.
+enum Timed {
+    Still,
+    Rapid(f64),
+    Feed(f64),
 }
 
 const UNKNOWN: u8 = 2;
 const NO_MOTION: u32 = u32::MAX;
 
 impl Mover {
-    fn with_capacity(bytes: usize) -> Mover {
+    fn new() -> Mover {
         Mover {
             vals: [0.0; 7],
             written: 0,
@@ -238,14 +247,14 @@ impl Mover {
             block: 0,
             open: None,
             runs: Vec::new(),
-            values: Vec::with_capacity(bytes / 32 + 1),
+            rapids: Vec::new(),
         }
     }
 
-    /// The runs and their values, the open run closed.
+    /// The runs and their rapid moves' lengths, the open run closed.
     fn finish(mut self) -> (Vec<Run>, Vec<f64>) {
         self.close();
-        (self.runs, self.values)
+        (self.runs, self.rapids)
     }
 
     /// Ends the open run after the block read last: what that block left is where the run ends.
@@ -299,7 +308,7 @@ impl Mover {
             u8::from(to[2] > from[2])
         };
         let value = if axes == 0 {
-            Some(0.0)
+            Some(Timed::Still)
         } else if motion == NO_MOTION
             || axes & !self.known != 0
             || (motion >= 2 && self.known & 3 != 3)
@@ -314,8 +323,8 @@ impl Mover {
             };
             let length = move_length(motion, from, to, centre, self.radius);
             match motion {
-                0 => Some(-length),
-                _ if feed_known && feed > 0.0 => Some(length / feed),
+                0 => Some(Timed::Rapid(length)),
+                _ if feed_known && feed > 0.0 => Some(Timed::Feed(length / feed)),
                 _ => None,
             }
         };
@@ -328,7 +337,7 @@ impl Mover {
     }
 
     /// Adds block `i` to the open run, or opens one with it.
-    fn extend(&mut self, i: usize, value: f64, z_moves: bool, rapid_xy: bool) {
+    fn extend(&mut self, i: usize, value: Timed, z_moves: bool, rapid_xy: bool) {
         let written = self.written;
         let run = match &mut self.open {
             Some(run) => {
@@ -340,7 +349,9 @@ impl Mover {
             None => self.open.insert(Run {
                 first: i,
                 count: 0,
-                at: self.values.len(),
+                at: self.rapids.len(),
+                rapid_count: 0,
+                feed_ticks: 0,
                 first_could_retract: self.retract == UNKNOWN && rapid_xy,
                 motion: Field::none(),
                 feed: Field::none(),
@@ -359,7 +370,14 @@ impl Mover {
         if written >> SLOT_F & 1 != 0 {
             run.feed.write(i, self.vals[SLOT_F]);
         }
-        self.values.push(value);
+        match value {
+            Timed::Still => {}
+            Timed::Rapid(length) => {
+                self.rapids.push(length);
+                run.rapid_count += 1;
+            }
+            Timed::Feed(minutes) => run.feed_ticks = run.feed_ticks.saturating_add(ticks(minutes)),
+        }
     }
 }
 
@@ -462,7 +480,7 @@ mod tests {
     /// Parses `src` in pieces of about `piece` bytes with its moves timed.
     fn timed(src: &[u8], piece: usize) -> (Program, Moves) {
         let (program, pieces) =
-            crate::syntax::parse_owned_in_pieces(src.to_vec(), piece, Mover::with_capacity);
+            crate::syntax::parse_owned_in_pieces(src.to_vec(), piece, |_| Mover::new());
         (program, Moves::from_pieces(pieces))
     }
 
@@ -491,18 +509,15 @@ mod tests {
             share = share.max(covered);
             // The runs are folded, not read again: times doubled in them show in the total.
             let mut doubled = moves.clone();
-            for v in doubled.pieces.iter_mut().flat_map(|p| p.values.iter_mut()) {
-                *v *= 2.0;
+            for p in &mut doubled.pieces {
+                p.rapids.iter_mut().for_each(|v| *v *= 2.0);
+                p.runs.iter_mut().for_each(|r| r.feed_ticks *= 2);
             }
             let total = build_with_moves(&program, &doubled, profile).total_min;
-            assert!(
-                moves
-                    .pieces
-                    .iter()
-                    .all(|p| p.values.iter().all(|&v| v == 0.0))
-                    || total > plain.total_min,
-                "pieces of {piece} bytes"
-            );
+            let timed = moves.pieces.iter().any(|p| {
+                p.rapids.iter().any(|&v| v > 0.0) || p.runs.iter().any(|r| r.feed_ticks > 0)
+            });
+            assert!(!timed || total > plain.total_min, "pieces of {piece} bytes");
         }
         share
     }

@@ -474,3 +474,19 @@ fn a_dwell_after_a_retract_is_a_site() {
     // The dwell after `G0 Z5` (block 6), not the one after a feed move (block 8).
     assert_eq!(retracts, [6]);
 }
+
+/// Time is counted in ticks: a block's minutes round to the nearest tick, nothing below zero counts, and a
+/// program whose times overflow them stays at the most there are instead of failing.
+#[test]
+fn times_are_whole_ticks_that_saturate() {
+    use super::fold::{TICKS_PER_MIN, ticks};
+    assert_eq!(ticks(1.0), 1 << 32);
+    assert_eq!(ticks(0.4 / TICKS_PER_MIN), 0);
+    assert_eq!(ticks(0.6 / TICKS_PER_MIN), 1);
+    assert_eq!((ticks(-1.0), ticks(f64::NAN)), (0, 0));
+    assert_eq!(ticks(1e30), u64::MAX);
+    let t = timeline_of("T1 M6\nS1000 M3\nG0 X0 Y0 Z0\nG1 X1EX15 F1EX-15\nX0\nX1EX15\nM30\n");
+    assert_eq!(t.total_min, u64::MAX as f64 / TICKS_PER_MIN);
+    let one = timeline_of("T1 M6\nS1000 M3\nG0 X0 Y0 Z0\nG1 X100 F1000\nM30\n").total_min;
+    assert!((one - base() - 0.1).abs() < 1.0 / TICKS_PER_MIN);
+}
