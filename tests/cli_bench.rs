@@ -47,3 +47,41 @@ fn small_bench_reports_a_byte_identical_round_trip() {
         );
     }
 }
+
+/// `--transform` times what `driftloop transform` does to the same program: the blocks it reports inserted
+/// are the ones the command inserts with the same model and the default profile.
+#[test]
+fn bench_transform_matches_the_command() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = ["bench", "--size-mb", "1", "--runs", "1", "--format", "json"];
+    let plain = driftloop(dir.path(), &args, b"");
+    let report: serde_json::Value = serde_json::from_slice(&plain.stdout).unwrap();
+    assert!(report["transform"].is_null(), "only with --transform");
+    let mut with = args.to_vec();
+    with.extend(["--transform", "--save", "cam.mpf"]);
+    let output = driftloop(dir.path(), &with, b"");
+    assert_eq!(output.status.code(), Some(0), "{}", stderr(&output));
+    let report: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    let t = &report["transform"];
+    assert!(t["ratio_to_parse_print"].as_f64().unwrap() > 0.0);
+    let model = concat!(env!("CARGO_MANIFEST_DIR"), "/fixtures/omm/model.toml");
+    let command = driftloop(
+        dir.path(),
+        &[
+            "transform",
+            "cam.mpf",
+            "--model",
+            model,
+            "--format",
+            "json",
+            "-o",
+            "out.mpf",
+        ],
+        b"",
+    );
+    assert_eq!(command.status.code(), Some(0), "{}", stderr(&command));
+    let files: serde_json::Value = serde_json::from_slice(&command.stdout).unwrap();
+    let inserted = &files[0]["summary"]["blocks_inserted"];
+    assert!(inserted.as_u64().unwrap() > 0);
+    assert_eq!(&t["blocks_inserted"], inserted);
+}

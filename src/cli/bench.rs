@@ -17,6 +17,7 @@ use super::{Format, Global};
 
 mod cam_program;
 mod process;
+mod transform;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -32,6 +33,10 @@ pub struct Args {
     /// Also write the generated program to this file, to feed other tools the same bytes.
     #[arg(long)]
     save: Option<PathBuf>,
+    /// Also time `transform` of the same program (the transform tests' model, the default profile) in the
+    /// same alternation, and report it against parse + print (the transform's target is 1.5x).
+    #[arg(long)]
+    transform: bool,
     #[arg(long, value_enum, default_value_t = Format::Human)]
     format: Format,
 }
@@ -50,6 +55,8 @@ struct Report {
     ratio_parse_print_vs_gcode: Option<f64>,
     /// The same per CPU-second: how much less work per byte, whatever the number of cores.
     ratio_parse_print_vs_gcode_per_cpu_s: Option<f64>,
+    /// With `--transform`.
+    transform: Option<transform::TransformNumbers>,
 }
 
 #[derive(Debug, Serialize)]
@@ -82,7 +89,9 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             .with_context(|| format!("cannot write {}", path.display()))?;
     }
     let lines = source.iter().filter(|&&b| b == b'\n').count();
-    let (driftloop, gcode, file_bytes) = measure_interleaved(source, args.runs);
+    let setup = args.transform.then(transform::Setup::new).transpose()?;
+    let measured = measure_interleaved(source, args.runs, setup.as_ref())?;
+    let (driftloop, gcode, file_bytes) = (measured.driftloop, measured.gcode, measured.file_bytes);
     let report = Report {
         file_bytes,
         lines,
@@ -96,6 +105,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             .and_then(|g| Some(driftloop.parse_print_mb_per_cpu_s? / g.parse_mb_per_cpu_s?)),
         driftloop,
         gcode,
+        transform: measured.transform,
     };
     let mut out = io::stdout().lock();
     match args.format {
@@ -112,28 +122,45 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     })
 }
 
-/// Runs the two parsers alternately, so a change in machine load (a shared 2-core box) hits both alike and the
-/// ratio stays meaningful. Peak memory is reset before each parser's run, so each peak is that parser's own.
+struct Measured {
+    driftloop: DriftloopNumbers,
+    gcode: Option<GcodeNumbers>,
+    transform: Option<transform::TransformNumbers>,
+    file_bytes: usize,
+}
+
+/// Runs the two parsers (and the transform, when asked) alternately, so a change in machine load (a shared
+/// 2-core box) hits all alike and the ratios stay meaningful. Peak memory is reset before each run, so each
+/// peak is that run's own.
 fn measure_interleaved(
     mut source: Vec<u8>,
     runs: u32,
-) -> (DriftloopNumbers, Option<GcodeNumbers>, usize) {
+    setup: Option<&transform::Setup>,
+) -> anyhow::Result<Measured> {
     let len = source.len();
     let expected = Fingerprint::of(&source);
     let mut sink = CopySink::default();
     let mut driftloop_runs = Vec::new();
     let mut gcode_runs = Vec::new();
+    let mut transform_runs = Vec::new();
     for _ in 0..runs {
         let (run, returned) = driftloop_run(source, &expected, &mut sink);
         source = returned;
         driftloop_runs.push(run);
         gcode_runs.extend(gcode_run(&source));
+        if let Some(setup) = setup {
+            let (run, returned) = transform::transform_run(source, setup, &mut sink)?;
+            source = returned;
+            transform_runs.push(run);
+        }
     }
 
     let mut parse: Vec<Duration> = driftloop_runs.iter().map(|r| r.parse).collect();
     let mut print: Vec<Duration> = driftloop_runs.iter().map(|r| r.print).collect();
     let mut both: Vec<Duration> = driftloop_runs.iter().map(|r| r.parse + r.print).collect();
     let mut both_cpu: Option<Vec<Duration>> = driftloop_runs.iter().map(|r| r.cpu).collect();
+    let transform = setup
+        .map(|_| transform::TransformNumbers::new(&transform_runs, both.clone(), both_cpu.clone()));
     let peak = driftloop_runs.iter().filter_map(|r| r.peak).max();
     let driftloop = DriftloopNumbers {
         parse_mb_per_s: mb_per_s(len, median(&mut parse)),
@@ -157,7 +184,12 @@ fn measure_interleaved(
             blocks: gcode_runs.last().map_or(0, |r| r.blocks),
         }
     });
-    (driftloop, gcode, len)
+    Ok(Measured {
+        driftloop,
+        gcode,
+        transform,
+        file_bytes: len,
+    })
 }
 
 struct DriftloopRun {
@@ -234,6 +266,14 @@ fn gcode_run(_source: &[u8]) -> Option<GcodeRun> {
 }
 
 fn write_human(out: &mut impl Write, r: &Report) -> io::Result<()> {
+    write_parsers(out, r)?;
+    match &r.transform {
+        Some(t) => t.write_human(out),
+        None => Ok(()),
+    }
+}
+
+fn write_parsers(out: &mut impl Write, r: &Report) -> io::Result<()> {
     let mb = r.file_bytes as f64 / 1e6;
     let per_file = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.2}x file size"));
     let bytes =
