@@ -27,8 +27,8 @@ impl Digits for Decimal {
     }
 
     #[inline(always)]
-    fn digit(&mut self, d: u8) {
-        self.mantissa = self.mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
+    fn digit(&mut self, d: u64) {
+        self.mantissa = self.mantissa.wrapping_mul(10).wrapping_add(d);
     }
 
     #[inline(always)]

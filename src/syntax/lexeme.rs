@@ -82,8 +82,8 @@ pub(crate) fn ident(i: &[u8]) -> R<'_, &[u8]> {
 /// same pass that recognises it.
 pub trait Digits {
     fn sign(&mut self, negative: bool);
-    /// One digit, before or after the point.
-    fn digit(&mut self, d: u8);
+    /// One digit (0-9), before or after the point.
+    fn digit(&mut self, d: u64);
     /// After the digits: how many came before the point and after it, and whether there was a point.
     fn counts(&mut self, int: usize, fraction: usize, point: bool);
     fn exponent(&mut self);
@@ -93,7 +93,7 @@ impl Digits for () {
     #[inline(always)]
     fn sign(&mut self, _: bool) {}
     #[inline(always)]
-    fn digit(&mut self, _: u8) {}
+    fn digit(&mut self, _: u64) {}
     #[inline(always)]
     fn counts(&mut self, _: usize, _: usize, _: bool) {}
     #[inline(always)]
@@ -158,7 +158,8 @@ pub(crate) fn number_end_with(
 #[inline(always)]
 fn digits_end(s: &[u8], mut k: usize, d: &mut impl Digits) -> usize {
     while let Some(&b) = s.get(k) {
-        let digit = b.wrapping_sub(b'0');
+        // Widened first: the accumulator adds it as it is.
+        let digit = u64::from(b).wrapping_sub(u64::from(b'0'));
         if digit > 9 {
             break;
         }

@@ -282,9 +282,9 @@ impl Mover {
         (self.written >> slot & 1 != 0).then_some(self.vals[slot])
     }
 
-    /// A line that moves only: its length when known, the run it joins, and what it leaves known.
-    fn plain_move(&mut self, i: usize) {
-        let axes = self.written & 7;
+    /// The line's axes, its motion code and feed with the ones before it (whether the feed is known).
+    #[inline(always)]
+    fn modal(&self) -> (u8, u32, f64, bool) {
         let motion = match self.motion_word {
             NO_MOTION => self.motion,
             g => g,
@@ -295,7 +295,35 @@ impl Mover {
         } else {
             self.feed
         };
-        let feed_known = feed_written || self.feed_known;
+        (
+            self.written & 7,
+            motion,
+            feed,
+            feed_written || self.feed_known,
+        )
+    }
+
+    /// A line that moves only: its length when known, the run it joins, and what it leaves known.
+    #[inline(always)]
+    fn plain_move(&mut self, i: usize) {
+        let (axes, motion, feed, feed_known) = self.modal();
+        // The block CAM output is made of, a feed move on known axes with a known feed, in short: it retracts
+        // nothing and cannot be a retract site, and its time is its straight length over the feed.
+        if motion == 1 && axes != 0 && axes & !self.known == 0 && feed_known && feed > 0.0 {
+            let (from, to) = (self.pos, [self.vals[0], self.vals[1], self.vals[2]]);
+            let minutes = move_length(1, from, to, [None; 3], None) / feed;
+            self.extend(i, Timed::Feed(minutes), from[2] != to[2], false);
+            (self.pos, self.motion, self.feed, self.retract) = (to, motion, feed, 0);
+            self.feed_known = true;
+        } else {
+            self.other_move(i);
+        }
+    }
+
+    /// [`Mover::plain_move`] for any other line that moves only.
+    #[inline(never)]
+    fn other_move(&mut self, i: usize) {
+        let (axes, motion, feed, feed_known) = self.modal();
         let from = self.pos;
         let to = [self.vals[0], self.vals[1], self.vals[2]];
         let rapid_xy = axes != 0 && motion == 0 && axes & 4 == 0;
@@ -337,6 +365,7 @@ impl Mover {
     }
 
     /// Adds block `i` to the open run, or opens one with it.
+    #[inline(always)]
     fn extend(&mut self, i: usize, value: Timed, z_moves: bool, rapid_xy: bool) {
         let written = self.written;
         let run = match &mut self.open {
