@@ -328,19 +328,26 @@ fn prepare_with<'p>(
         .map(|g| g.rpm)
         .find(|rpm| *rpm > 0.0)
         .unwrap_or(0.0);
-    for gate in &plan.gates {
+    // The gates' texts are independent of each other (a large program has hundreds): written on all cores,
+    // inserted in order.
+    let texts: Vec<String> = {
+        use rayon::prelude::*;
+        plan.gates
+            .par_iter()
+            .map(|gate| match gate.kind {
+                GateKind::Reference => emitter.reference(gate, pass_tool(gate.pass), cut_rpm),
+                _ => emitter.gate(gate, pass_tool(gate.pass)),
+            })
+            .collect()
+    };
+    for (gate, text) in plan.gates.iter().zip(texts) {
         let needs_tool = gate.can_measure && !gate.tool_change_follows;
         if needs_tool && gate.before.tool.is_none() {
             return Err(TransformError::UnknownTool(gate.number));
         }
-        let text = if gate.kind == GateKind::Reference {
-            emitter.reference(gate, pass_tool(gate.pass), cut_rpm)
-        } else {
-            if gate.can_measure {
-                labels.push(format!("{}SKIP{}", emitter.label_prefix, gate.number));
-            }
-            emitter.gate(gate, pass_tool(gate.pass))
-        };
+        if gate.kind != GateKind::Reference && gate.can_measure {
+            labels.push(format!("{}SKIP{}", emitter.label_prefix, gate.number));
+        }
         insert(&mut editor, gate.block, text)?;
     }
     for &end in &timeline.ends {
