@@ -124,7 +124,7 @@ pub fn check(program: &Program, force: bool) -> Result<(), TransformError> {
 }
 
 /// [`check`] for a program parsed with [`timeline::parse_timed`]: the header is searched for only outside
-/// the timed moves, which cannot hold it.
+/// the timed moves, which cannot hold it (its name has letters no move word has).
 pub fn check_timed(program: &Program, moves: &Moves, force: bool) -> Result<(), TransformError> {
     check_with(program, Some(moves), force)
 }

@@ -1,7 +1,8 @@
 //! The plain moves of a program timed while the parser reads them: the parser hands each plain block's words
-//! (with their values, read in the same pass that recognises the numbers) to a [`Mover`], which works out
-//! the length of every move it can from what the blocks before it in the same piece said, and keeps runs
-//! of consecutive such blocks. The timeline then folds a run at once instead of reading its blocks again;
+//! (with their values, read in the same pass that recognises the numbers) to a [`Mover`], and the text of a
+//! line its grammar found plain (a radius arc, `G3 X1 Y1 CR=5`), which the mover reads itself. The mover
+//! works out the length of every move it can from what the blocks before it in the same piece said, and
+//! keeps runs of consecutive such blocks, with their feed moves' time summed in the timeline's ticks. The timeline then folds a run at once instead of reading its blocks again;
 //! every other block (and every run whose assumptions the program's state at its start does not meet) is
 //! read from its text as before, so the timeline is the same either way (a test checks this).
 
@@ -29,7 +30,7 @@ struct Piece {
     rapids: Vec<f64>,
 }
 
-/// Consecutive blocks that only move (`N`, `G0`-`G3`, `X Y Z I J K F`) and whose lengths are known from the
+/// Consecutive blocks that only move (`N`, `G0`-`G3`, `X Y Z I J K F`, `CR=`) and whose lengths are known from the
 /// blocks before them, in absolute dimensions with feeds per minute. A run starts after any block that is
 /// not such a move, or whose move depends on what came before the piece, and ends before the next.
 #[derive(Debug, Clone)]
@@ -130,6 +131,27 @@ impl Moves {
         Moves { pieces }
     }
 
+    /// The byte ranges of `program`'s source outside the runs, in order. A block in a run holds nothing but
+    /// move words and a radius (`N G X Y Z I J K F`, `CR=`, digits, signs, points, blanks), so a search for
+    /// text with any other letter in it needs to read only these (widened by the text's length, so a match
+    /// across a run's edge is found too).
+    pub(crate) fn untimed_bytes(&self, program: &Program) -> Vec<std::ops::Range<usize>> {
+        let mut out = Vec::new();
+        let mut from = 0;
+        for r in self.overlapping(0..program.block_count()) {
+            let blocks = r.blocks();
+            let start = program.block_span(blocks.start).start;
+            if start > from {
+                out.push(from..start);
+            }
+            from = program.block_span(blocks.end - 1).end;
+        }
+        if from < program.source().len() {
+            out.push(from..program.source().len());
+        }
+        out
+    }
+
     /// The runs that cover any of `blocks`, in order.
     pub(super) fn overlapping(&self, blocks: std::ops::Range<usize>) -> Vec<RunRef<'_>> {
         let mut out = Vec::new();
@@ -146,29 +168,6 @@ impl Moves {
                     rapids: &piece.rapids[run.at..run.at + run.rapid_count],
                 });
             }
-        }
-        out
-    }
-}
-
-impl Moves {
-    /// The byte ranges of `program`'s source outside the runs, in order. A block in a run holds nothing but
-    /// move words (letters `N G X Y Z I J K F`, digits, signs, points and blanks), so a search for text
-    /// with any other character in it needs to read only these (widened by the text's length, so a match
-    /// across a run's edge is found too).
-    pub(crate) fn untimed_bytes(&self, program: &Program) -> Vec<std::ops::Range<usize>> {
-        let mut out = Vec::new();
-        let mut from = 0;
-        for r in self.overlapping(0..program.block_count()) {
-            let blocks = r.blocks();
-            let start = program.block_span(blocks.start).start;
-            if start > from {
-                out.push(from..start);
-            }
-            from = program.block_span(blocks.end - 1).end;
-        }
-        if from < program.source().len() {
-            out.push(from..program.source().len());
         }
         out
     }
