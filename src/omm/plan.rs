@@ -418,7 +418,7 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
             pending = per_measurement;
         }
         rpm = site.rpm_after;
-        let time_min = time + shift;
+        let time_min = super::timeline::on_tick(time + shift);
         shift += pending;
         let gate = gates.entry(k).or_insert_with(|| Gate {
             number: 0,
@@ -459,7 +459,7 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
         measurements: gates.iter().map(|g| g.measurements).sum(),
         gates,
         max_predicted_um: max,
-        total_min: timeline.total_min + shift,
+        total_min: super::timeline::on_tick(timeline.total_min + shift),
         loops: timeline.loops.clone(),
         every_run_planned: runs.complete,
     })

@@ -973,15 +973,21 @@ struct PassMark {
     tool: Option<Arc<str>>,
 }
 
-/// The timeline counts time in whole ticks of 2^-32 min (14 ns), each block's time rounded to a tick: sums
+/// The timeline counts time in whole ticks of 10^-9 min (60 ns), each block's time rounded to a tick: sums
 /// of ticks do not depend on their order, so the parser can add up a run of moves on its own and the
 /// timeline still equals, bit for bit, the one reading every block gives. Rounding moves a block's time by
-/// at most 7 ns.
-pub(super) const TICKS_PER_MIN: f64 = 4_294_967_296.0;
+/// at most 30 ns; a decimal tick keeps times that are whole in it (0.65 min) the same decimals in reports.
+pub(super) const TICKS_PER_MIN: f64 = 1e9;
 
 /// `minutes` in whole ticks (negative, NaN: none; beyond `u64`: the most there are).
 pub(super) fn ticks(minutes: f64) -> u64 {
     (minutes * TICKS_PER_MIN + 0.5) as u64
+}
+
+/// `minutes` rounded to the nearest tick: a time derived from the timeline's (plus a measurement's time, say)
+/// reported in the timeline's own steps.
+pub(crate) fn on_tick(minutes: f64) -> f64 {
+    ticks(minutes) as f64 / TICKS_PER_MIN
 }
 
 /// Length of the move from `a` to `b` (an axis never programmed at 0): straight, or along the arc for

@@ -348,5 +348,6 @@ mod read;
 mod tests;
 
 use fold::Builder;
+pub(crate) use fold::on_tick;
 pub use moves::{Moves, parse_timed};
 use read::{CHUNK_BLOCKS, Chunk, scan_chunk};

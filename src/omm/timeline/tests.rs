@@ -475,12 +475,17 @@ fn a_dwell_after_a_retract_is_a_site() {
     assert_eq!(retracts, [6]);
 }
 
-/// Time is counted in ticks: a block's minutes round to the nearest tick, nothing below zero counts, and a
+/// Time is counted in ticks of 10^-9 min: a block's minutes round to the nearest tick, nothing below zero counts, and a
 /// program whose times overflow them stays at the most there are instead of failing.
 #[test]
 fn times_are_whole_ticks_that_saturate() {
     use super::fold::{TICKS_PER_MIN, ticks};
-    assert_eq!(ticks(1.0), 1 << 32);
+    assert_eq!(ticks(1.0), 1_000_000_000);
+    assert_eq!(
+        ticks(0.65) as f64 / TICKS_PER_MIN,
+        0.65,
+        "decimal times stay decimal"
+    );
     assert_eq!(ticks(0.4 / TICKS_PER_MIN), 0);
     assert_eq!(ticks(0.6 / TICKS_PER_MIN), 1);
     assert_eq!((ticks(-1.0), ticks(f64::NAN)), (0, 0));
