@@ -486,6 +486,8 @@ fn times_are_whole_ticks_that_saturate() {
         0.65,
         "decimal times stay decimal"
     );
+    // A gate's time: the timeline's (in ticks) plus a measurement of 20 s, reported in ticks again.
+    assert_eq!(super::on_tick(0.316666667 + 20.0 / 60.0), 0.65);
     assert_eq!(ticks(0.4 / TICKS_PER_MIN), 0);
     assert_eq!(ticks(0.6 / TICKS_PER_MIN), 1);
     assert_eq!((ticks(-1.0), ticks(f64::NAN)), (0, 0));
