@@ -6,9 +6,10 @@
 //! every other block (and every run whose assumptions the program's state at its start does not meet) is
 //! read from its text as before, so the timeline is the same either way (a test checks this).
 
-use crate::syntax::{Decimal, Program, Words, decimal_prefix, parse_owned_with, word_end_with};
+use crate::syntax::{Decimal, Program, Words, parse_owned_with, word_end_with};
 
 use super::fold::{move_length, ticks};
+use super::read::{at_radius, radius_at};
 
 /// Parses `src` and times its plain moves in the same pass (see [`super::build_with_moves`]).
 pub fn parse_timed(src: Vec<u8>) -> (Program, Moves) {
@@ -480,16 +481,10 @@ impl Mover {
             let Some(&letter) = text.get(k) else {
                 return self.radius.map(|_| ());
             };
-            let radius = text[k..]
-                .get(..3)
-                .is_some_and(|t| t.eq_ignore_ascii_case(b"CR="));
-            if radius && self.radius.is_none() {
-                let (v, len) = decimal_prefix(&text[k + 3..])?;
-                k += 3 + len;
-                if text.get(k).is_some_and(|&b| !matches!(b, b' ' | b'\t')) {
-                    return None;
-                }
-                self.radius = Some(v);
+            if self.radius.is_none() && at_radius(text, k) {
+                let (radius, end) = radius_at(text, k)?;
+                self.radius = Some(radius);
+                k = end;
                 continue;
             }
             let mut number = Decimal::default();

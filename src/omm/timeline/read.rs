@@ -422,16 +422,10 @@ fn scan_words(line: &[u8], marker: &str, s: &mut Scan) -> Option<()> {
             comment(&line[i..], marker, s);
             break;
         }
-        // `CR=radius` is the one assignment CAM arcs carry; it is read here so arcs stay on this path.
-        if matches!(b, b'C' | b'c')
-            && line.len() >= i + 3
-            && line[i..i + 3].eq_ignore_ascii_case(b"CR=")
-        {
-            let end = line[i + 3..]
-                .iter()
-                .position(|c| matches!(c, b' ' | b'\t' | b';'))
-                .map_or(line.len(), |p| i + 3 + p);
-            s.mv.radius = Some(decimal(&line[i + 3..end])?);
+        // Read here so arcs stay on this path.
+        if at_radius(line, i) {
+            let (radius, end) = radius_at(line, i)?;
+            s.mv.radius = Some(radius);
             i = end;
             continue;
         }
@@ -545,6 +539,22 @@ impl Codes {
 /// what CAM output carries; anything else (exponents, more digits) returns `None` and takes the tree path.
 pub(super) fn decimal(text: &[u8]) -> Option<f64> {
     decimal_prefix(text).and_then(|(v, len)| (len == text.len()).then_some(v))
+}
+
+/// Whether `line[i..]` starts `CR=`, the radius of an arc: the one assignment CAM arcs carry.
+pub(super) fn at_radius(line: &[u8], i: usize) -> bool {
+    line.get(i..i + 3)
+        .is_some_and(|t| t.eq_ignore_ascii_case(b"CR="))
+}
+
+/// The radius of the `CR=` at `line[i..]` and where it ends (at a blank, `;` or the line's end); `None` when
+/// it is not a plain number.
+pub(super) fn radius_at(line: &[u8], i: usize) -> Option<(f64, usize)> {
+    let end = line[i + 3..]
+        .iter()
+        .position(|c| matches!(c, b' ' | b'\t' | b';'))
+        .map_or(line.len(), |p| i + 3 + p);
+    Some((decimal(&line[i + 3..end])?, end))
 }
 
 /// Marker and `;$PATH` facts of a comment (`text` starts at the `;`).
