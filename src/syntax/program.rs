@@ -101,15 +101,15 @@ pub fn parse(src: &[u8]) -> Program {
 
 /// Like [`parse`], but takes ownership of the buffer, so the program costs no second copy of the source.
 pub fn parse_owned(src: Vec<u8>) -> Program {
-    parse_owned_with(src, |_| ()).0
+    parse_owned_with(src, || ()).0
 }
 
-/// Like [`parse_owned`], with what a `words(bytes)` of its own heard of each piece of the source the parser
+/// Like [`parse_owned`], with what a `words()` of its own heard of each piece of the source the parser
 /// read (with the piece's first block): a reader of the plain blocks' words in the same pass that
 /// recognises them (see [`Words`]).
 pub fn parse_owned_with<W: Words + Send>(
     src: Vec<u8>,
-    words: impl Fn(usize) -> W + Sync,
+    words: impl Fn() -> W + Sync,
 ) -> (Program, Vec<(usize, W)>) {
     parse_owned_in_pieces(src, PARALLEL_CHUNK, words)
 }
@@ -118,7 +118,7 @@ pub fn parse_owned_with<W: Words + Send>(
 pub(crate) fn parse_owned_in_pieces<W: Words + Send>(
     src: Vec<u8>,
     chunk: usize,
-    words: impl Fn(usize) -> W + Sync,
+    words: impl Fn() -> W + Sync,
 ) -> (Program, Vec<(usize, W)>) {
     if u32::try_from(src.len()).is_err() {
         let span = Span::new(0, src.len());
@@ -246,12 +246,12 @@ struct Parsed<W> {
 
 /// Parses every block. Sources larger than two chunks are cut after an LF near each multiple of `chunk` and
 /// the pieces parsed in parallel; the rare piece that starts inside a text section is parsed again with that
-/// state, so the result equals a sequential parse. Each piece's blocks are reported to a `words(bytes)` of
-/// its own.
+/// state, so the result equals a sequential parse. Each piece's blocks are reported to a `words()` of its
+/// own.
 fn parse_blocks<W: Words + Send>(
     src: &[u8],
     chunk: usize,
-    words: impl Fn(usize) -> W + Sync,
+    words: impl Fn() -> W + Sync,
 ) -> Parsed<W> {
     use rayon::prelude::*;
     let mut cuts = vec![0];
@@ -267,9 +267,8 @@ fn parse_blocks<W: Words + Send>(
     }
     cuts.push(src.len());
     let ranges: Vec<(usize, usize)> = cuts.windows(2).map(|w| (w[0], w[1])).collect();
-    let piece = |&(start, end): &(usize, usize), open: bool| {
-        parse_chunk(src, start, end, open, words(end - start))
-    };
+    let piece =
+        |&(start, end): &(usize, usize), open: bool| parse_chunk(src, start, end, open, words());
     let mut chunks: Vec<Chunk<W>> = if ranges.len() > 2 {
         ranges.par_iter().map(|r| piece(r, false)).collect()
     } else {
@@ -534,7 +533,7 @@ mod tests {
         let src =
             b"N10 G0 X0\r\n%_N_T_COM\n700 0 \"t\"\n7 \"u\"\nIF R1\n%_N_A_MPF\nX=(\nENDIF\n\rM30"
                 .repeat(20);
-        let seq = parse_blocks(&src, usize::MAX / 2, |_| ());
+        let seq = parse_blocks(&src, usize::MAX / 2, || ());
         let (seq_blocks, seq_diags, seq_endings) = (seq.blocks, seq.diagnostics, seq.endings);
         let seq_headers: Vec<usize> = (0..seq_blocks.len())
             .filter(|&i| seq_blocks[i].kind == BlockKind::Header)
@@ -551,7 +550,7 @@ mod tests {
                 endings,
                 headers,
                 ..
-            } = parse_blocks(&src, chunk, |_| ());
+            } = parse_blocks(&src, chunk, || ());
             assert_eq!(headers, seq_headers, "chunk {chunk}");
             assert_eq!(
                 (endings.lf, endings.crlf, endings.cr),

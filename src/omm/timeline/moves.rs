@@ -13,7 +13,7 @@ use super::read::{at_radius, radius_at};
 
 /// Parses `src` and times its plain moves in the same pass (see [`super::build_with_moves`]).
 pub fn parse_timed(src: Vec<u8>) -> (Program, Moves) {
-    let (program, pieces) = parse_owned_with(src, |_| Mover::new());
+    let (program, pieces) = parse_owned_with(src, Mover::new);
     (program, Moves::from_pieces(pieces))
 }
 
@@ -503,7 +503,7 @@ mod tests {
     /// Parses `src` in pieces of about `piece` bytes with its moves timed.
     fn timed(src: &[u8], piece: usize) -> (Program, Moves) {
         let (program, pieces) =
-            crate::syntax::parse_owned_in_pieces(src.to_vec(), piece, |_| Mover::new());
+            crate::syntax::parse_owned_in_pieces(src.to_vec(), piece, Mover::new);
         (program, Moves::from_pieces(pieces))
     }
 
