@@ -3,12 +3,21 @@
 
 mod common;
 
+use std::path::Path;
+
 use common::{driftloop, stderr};
+
+/// Runs driftloop in `dir`, requires it to succeed, and returns what it printed as JSON.
+fn json(dir: &Path, args: &[&str]) -> serde_json::Value {
+    let output = driftloop(dir, args, b"");
+    assert_eq!(output.status.code(), Some(0), "{}", stderr(&output));
+    serde_json::from_slice(&output.stdout).unwrap()
+}
 
 #[test]
 fn small_bench_reports_a_byte_identical_round_trip() {
     let dir = tempfile::tempdir().unwrap();
-    let output = driftloop(
+    let report = json(
         dir.path(),
         &[
             "bench",
@@ -21,10 +30,7 @@ fn small_bench_reports_a_byte_identical_round_trip() {
             "--save",
             "cam.mpf",
         ],
-        b"",
     );
-    assert_eq!(output.status.code(), Some(0), "{}", stderr(&output));
-    let report: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
     let saved = std::fs::read(dir.path().join("cam.mpf")).unwrap();
     assert_eq!(report["file_bytes"], saved.len());
     assert!(saved.len() >= 1_000_000);
@@ -54,18 +60,15 @@ fn small_bench_reports_a_byte_identical_round_trip() {
 fn bench_transform_matches_the_command() {
     let dir = tempfile::tempdir().unwrap();
     let args = ["bench", "--size-mb", "1", "--runs", "1", "--format", "json"];
-    let plain = driftloop(dir.path(), &args, b"");
-    let report: serde_json::Value = serde_json::from_slice(&plain.stdout).unwrap();
+    let report = json(dir.path(), &args);
     assert!(report["transform"].is_null(), "only with --transform");
     let mut with = args.to_vec();
     with.extend(["--transform", "--save", "cam.mpf"]);
-    let output = driftloop(dir.path(), &with, b"");
-    assert_eq!(output.status.code(), Some(0), "{}", stderr(&output));
-    let report: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    let report = json(dir.path(), &with);
     let t = &report["transform"];
     assert!(t["ratio_to_parse_print"].as_f64().unwrap() > 0.0);
     let model = concat!(env!("CARGO_MANIFEST_DIR"), "/fixtures/omm/model.toml");
-    let command = driftloop(
+    let files = json(
         dir.path(),
         &[
             "transform",
@@ -77,10 +80,7 @@ fn bench_transform_matches_the_command() {
             "-o",
             "out.mpf",
         ],
-        b"",
     );
-    assert_eq!(command.status.code(), Some(0), "{}", stderr(&command));
-    let files: serde_json::Value = serde_json::from_slice(&command.stdout).unwrap();
     let inserted = &files[0]["summary"]["blocks_inserted"];
     assert!(inserted.as_u64().unwrap() > 0);
     assert_eq!(&t["blocks_inserted"], inserted);
