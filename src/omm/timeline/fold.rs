@@ -8,7 +8,7 @@ use crate::syntax::BlockKind;
 
 use super::moves::RunRef;
 use super::read::{Chunk, Move, Scan, head};
-use super::{Folders, Modal, Pass, Profile, Site, SiteKind, Timeline};
+use super::{Folders, Modal, Pass, Profile, Site, SiteKind, Timeline, unknown};
 use crate::omm::loops::{Bound, Count, Loop, LoopKind, for_runs};
 
 pub(super) struct Builder<'p> {
@@ -79,7 +79,7 @@ struct Label {
 mod field {
     use super::Modal;
 
-    pub const COUNT: usize = 8;
+    pub const COUNT: usize = 16;
     const TOOL: usize = 0;
     const D: usize = 1;
     const S: usize = 2;
@@ -88,6 +88,14 @@ mod field {
     pub const MOTION: usize = 5;
     const ABSOLUTE: usize = 6;
     pub const Z: usize = 7;
+    const SELECTED: usize = 8;
+    const FEED_MODE: usize = 9;
+    const PLANE: usize = 10;
+    const PATH_MODE: usize = 11;
+    const COOLANT: usize = 12;
+    const COMP: usize = 13;
+    const FRAMES: usize = 14;
+    const UNKNOWN: usize = 15;
 
     /// The fields in which two states differ.
     pub fn differ(a: &Modal, b: &Modal) -> [bool; COUNT] {
@@ -100,6 +108,14 @@ mod field {
         d[MOTION] = a.motion != b.motion;
         d[ABSOLUTE] = a.absolute != b.absolute;
         d[Z] = a.z != b.z;
+        d[SELECTED] = a.selected != b.selected;
+        d[FEED_MODE] = a.feed_mode != b.feed_mode;
+        d[PLANE] = a.plane != b.plane;
+        d[PATH_MODE] = a.path_mode != b.path_mode;
+        d[COOLANT] = a.coolant != b.coolant;
+        d[COMP] = a.comp != b.comp;
+        d[FRAMES] = a.frames != b.frames;
+        d[UNKNOWN] = a.unknown != b.unknown;
         d
     }
 }
@@ -135,6 +151,7 @@ impl<'p> Builder<'p> {
             state: Modal {
                 direction: 5,
                 absolute: true,
+                comp: 40,
                 ..Modal::default()
             },
             pos: [None; 3],
@@ -224,6 +241,9 @@ impl<'p> Builder<'p> {
             self.state.feed = Some(f);
             self.changed[field::FEED] = i + 1;
         }
+        if mv.f.is_some() {
+            self.state.unknown &= !unknown::FEED;
+        }
         if self.profile.passes.lines.contains(&(i + 1)) {
             let mark = self.mark(i, false, start, &before);
             self.pass_marks.push(mark);
@@ -242,6 +262,7 @@ impl<'p> Builder<'p> {
         let blocks = r.blocks();
         let plain = self.header_done
             && self.preamble_done
+            && self.t.first_cut.is_some()
             && self.state.absolute
             && !self.per_rev
             && self.modal_call.is_none()
@@ -284,6 +305,7 @@ impl<'p> Builder<'p> {
         }
         if let Some(f) = run.feed.last {
             self.state.feed = Some(f);
+            self.state.unknown &= !unknown::FEED;
         }
         let rapid = self.profile.timeline.rapid_mm_per_min;
         self.ticks = self.ticks.saturating_add(run.feed_ticks);
@@ -325,7 +347,33 @@ impl<'p> Builder<'p> {
             time: start,
             before: before.clone(),
             rpm: self.state.rpm(),
-            tool: self.state.tool.clone(),
+            tool: self
+                .state
+                .tool
+                .clone()
+                .or_else(|| self.state.selected.clone()),
+        }
+    }
+
+    /// What a block's frame commands leave active.
+    fn frames(&mut self, ops: u8) {
+        use super::frame;
+        use super::read::frame_op as op;
+        let f = &mut self.state.frames;
+        if ops & op::CLEAR != 0 {
+            *f &= !(frame::TRANSLATION | frame::ROTATION);
+        }
+        for (on, off, bit) in [
+            (op::TRANSLATE, 0, frame::TRANSLATION),
+            (op::ROTATE, 0, frame::ROTATION),
+            (op::TRANSFORM_ON, op::TRANSFORM_OFF, frame::TRANSFORMATION),
+            (op::SWIVEL_ON, op::SWIVEL_OFF, frame::SWIVEL),
+        ] {
+            if ops & on != 0 {
+                *f |= bit;
+            } else if ops & off != 0 {
+                *f &= !bit;
+            }
         }
     }
 
@@ -536,28 +584,45 @@ impl<'p> Builder<'p> {
         for &g in &s.offsets {
             self.offset(g, i);
         }
+        let setup = s.frame_ops != 0
+            || s.offsets
+                .iter()
+                .any(|g| matches!(g, 500 | 54..=57 | 505..=599));
+        if setup && self.t.first_cut.is_none() {
+            self.t.setup_end = i + 1;
+        }
+        self.frames(s.frame_ops);
         // Modal words first: they hold for this block's move.
         for g in s.g.iter() {
             match g {
                 0..=3 => self.state.motion = g,
                 90 => self.state.absolute = true,
                 91 => self.state.absolute = false,
-                94 => self.per_rev = false,
-                95 => self.per_rev = true,
+                93 | 94 | 95 => {
+                    self.per_rev = g == 95;
+                    self.state.feed_mode = Some(g);
+                }
+                17..=19 => self.state.plane = Some(g),
+                40..=42 => self.state.comp = g,
+                60 | 64 | 641..=645 => self.state.path_mode = Some(g),
                 _ => {}
             }
         }
         let dwell = s.g.contains(4);
+        self.state.unknown |= s.unknown;
         if let Some(f) = s.mv.f
             && !dwell
         {
             self.state.feed = Some(f);
+            self.state.unknown &= !unknown::FEED;
         }
         if let Some(v) = s.s {
             self.state.s = v;
+            self.state.unknown &= !unknown::S;
         }
         if let Some(d) = s.d {
             self.state.d = Some(d);
+            self.state.unknown &= !unknown::D;
         }
         let mut direction = None;
         for m in s.m.iter() {
@@ -565,6 +630,7 @@ impl<'p> Builder<'p> {
                 3..=5 => direction = Some(m),
                 6 => self.m6_seen = true,
                 2 | 30 => self.t.ends.push(i),
+                7 | 8 | 9 => self.state.coolant = Some(m),
                 _ => {}
             }
         }
@@ -576,7 +642,12 @@ impl<'p> Builder<'p> {
         }
         let tool_change = s.m.contains(6);
         if let Some(tool) = &s.tool {
-            self.state.tool = Some(tool.clone());
+            self.state.selected = Some(tool.clone());
+            self.state.unknown &= !unknown::TOOL;
+        }
+        if tool_change {
+            // M6 loads the selected tool (T alone only selects it, in a program that uses M6).
+            self.state.tool = self.state.selected.clone();
         }
         let rpm = self.state.rpm();
         if s.tool.is_some() {
@@ -853,6 +924,9 @@ impl<'p> Builder<'p> {
                 };
             }
         }
+        if self.t.first_cut.is_none() && moved && !g4 && self.state.motion != 0 {
+            self.t.first_cut = Some(i);
+        }
         let mut minutes = 0.0;
         if g4 {
             minutes += match (mv.f, revolutions) {
@@ -952,8 +1026,13 @@ impl<'p> Builder<'p> {
             .sort_by_key(|s| (s.block, !matches!(s.kind, SiteKind::PassStart { .. })));
         self.t.sites.dedup_by_key(|s| s.block);
         let mut pass = 0;
+        let t_loads = !self.m6_seen;
         for site in &mut self.t.sites {
             site.state_varies = self.varies.contains(&site.block);
+            // Without M6 in the program, T loads the tool at once.
+            if t_loads {
+                site.before.tool = site.before.selected.clone();
+            }
             match site.kind {
                 SiteKind::PassStart { .. } => pass = site.pass,
                 _ => site.pass = pass,
