@@ -19,7 +19,7 @@ use crate::model::DriftModel;
 use crate::syntax::Program;
 
 pub use plan::{Gate, GateKind, Plan, Predictor};
-pub use profile::{DEFAULT_PROFILE, Profile, ProfileError};
+pub use profile::{DEFAULT_PROFILE, ProbeKind, Profile, ProfileError};
 pub use timeline::{Moves, Timeline, parse_timed};
 
 use emit::{Emitter, Registers, SIGNATURE};
@@ -89,6 +89,11 @@ pub struct Summary {
     pub inexact_blocks: usize,
     /// Subprogram and cycle calls, whose time the plan does not count (`plan` lists them).
     pub untimed_calls: usize,
+    /// The control needs at least this many R-parameters (machine data MD28050 MM_NUM_R_PARAM): one more
+    /// than the highest the inserted blocks use.
+    pub r_parameters_needed: u32,
+    /// Stretches of the plan where the predicted change exceeds δ' or Δ with no place to measure.
+    pub warnings: Vec<String>,
 }
 
 /// A transformed program.
@@ -341,7 +346,9 @@ fn prepare_with<'p>(
             .collect()
     };
     for (gate, text) in plan.gates.iter().zip(texts) {
-        let needs_tool = gate.can_measure && !gate.tool_change_follows;
+        let needs_tool = profile.probe.kind == ProbeKind::SpindleProbe
+            && gate.can_measure
+            && !gate.tool_change_follows;
         if needs_tool && gate.before.tool.is_none() {
             return Err(TransformError::UnknownTool(gate.number));
         }
@@ -371,6 +378,8 @@ fn prepare_with<'p>(
             labels,
             inexact_blocks: timeline.inexact_blocks,
             untimed_calls: timeline.untimed_calls.len(),
+            r_parameters_needed: regs.all().last().map_or(0, |r| r + 1),
+            warnings: plan.warnings.clone(),
         },
         plan,
     })

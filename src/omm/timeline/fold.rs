@@ -57,6 +57,10 @@ pub(super) struct Builder<'p> {
     varies: BTreeSet<usize>,
     /// End of the last run of timed moves folded (its blocks in later chunks are skipped).
     run_end: usize,
+    /// Until the first cut: the first block after the setup so far, as a [`SiteKind::Start`] site.
+    start: Option<Site>,
+    /// When the last cut (feed move) ended, in ticks.
+    last_cut: u64,
 }
 
 /// A repeated section: its blocks, the start and end of its first run (min) and the state it starts in.
@@ -173,6 +177,8 @@ impl<'p> Builder<'p> {
             site_changes: Vec::new(),
             varies: BTreeSet::new(),
             run_end: 0,
+            start: None,
+            last_cut: 0,
         }
     }
 
@@ -229,6 +235,7 @@ impl<'p> Builder<'p> {
         let start = self.time();
         let blank = motion.is_none() && mv.axes.iter().all(Option::is_none);
         self.header_and_preamble(i, false, false, blank);
+        self.start_site(i, start);
         if let Some(g) = motion
             && g != self.state.motion
         {
@@ -251,6 +258,7 @@ impl<'p> Builder<'p> {
         }
         self.movement(i, start, &before, mv, false, None, false, false);
         self.modal_call_after(i, mv);
+        self.start_site_speed(i);
     }
 
     /// A run of moves the parser timed (see [`super::moves`]): what [`Builder::plain_move`] would make of its
@@ -309,7 +317,16 @@ impl<'p> Builder<'p> {
         }
         let rapid = self.profile.timeline.rapid_mm_per_min;
         self.ticks = self.ticks.saturating_add(run.feed_ticks);
-        for &length in r.rapids {
+        // Ticks add up in any order: the run's cut ends after its feed moves and the rapids before the
+        // last of them.
+        let (during, after) = r.rapids.split_at(r.rapids.len() - run.rapids_after_cut);
+        for &length in during {
+            self.add_minutes(length / rapid);
+        }
+        if run.cuts {
+            self.last_cut = self.ticks;
+        }
+        for &length in after {
             self.add_minutes(length / rapid);
         }
         for (p, end) in self.pos.iter_mut().zip(run.end_pos) {
@@ -345,6 +362,7 @@ impl<'p> Builder<'p> {
             block: i,
             tool_change,
             time: start,
+            idle: self.idle_since_cut(start),
             before: before.clone(),
             rpm: self.state.rpm(),
             tool: self
@@ -380,7 +398,8 @@ impl<'p> Builder<'p> {
     /// A subprogram or cycle runs at block `i`, `repeats` times: an archive subprogram adds its time, any
     /// other call is listed as not timed (`shown` is how the list names it).
     fn call(&mut self, i: usize, name: &str, shown: &str, repeats: Option<f64>) {
-        self.after_call = true;
+        // The swivel cycle's effect on the frames is followed (see `frames`).
+        self.after_call |= name != "CYCLE800";
         if !self.called.contains(name) {
             self.called.insert(name.to_string());
         }
@@ -495,6 +514,7 @@ impl<'p> Builder<'p> {
             before,
             rpm_after: rpm,
             state_varies: false,
+            idle_min: self.idle_since_cut(time_min),
         });
     }
 
@@ -570,6 +590,7 @@ impl<'p> Builder<'p> {
             s.declaration || s.kind_header,
             blank,
         );
+        self.start_site(i, start);
         for r in &s.r {
             match r {
                 Some(n) => {
@@ -598,7 +619,7 @@ impl<'p> Builder<'p> {
                 0..=3 => self.state.motion = g,
                 90 => self.state.absolute = true,
                 91 => self.state.absolute = false,
-                93 | 94 | 95 => {
+                93..=95 => {
                     self.per_rev = g == 95;
                     self.state.feed_mode = Some(g);
                 }
@@ -630,7 +651,7 @@ impl<'p> Builder<'p> {
                 3..=5 => direction = Some(m),
                 6 => self.m6_seen = true,
                 2 | 30 => self.t.ends.push(i),
-                7 | 8 | 9 => self.state.coolant = Some(m),
+                7..=9 => self.state.coolant = Some(m),
                 _ => {}
             }
         }
@@ -696,6 +717,43 @@ impl<'p> Builder<'p> {
             }
         }
         self.loops(i, s, kind, start);
+        self.start_site_speed(i);
+    }
+
+    /// Keeps block `i` as the start site while the setup is over and nothing has cut yet; a later setup
+    /// block (work offset, frame) makes the block after it the candidate instead.
+    fn start_site(&mut self, i: usize, time_min: f64) {
+        if self.t.first_cut.is_some() || !(self.header_done && self.preamble_done) {
+            return;
+        }
+        if self
+            .start
+            .as_ref()
+            .is_some_and(|s| s.block >= self.t.setup_end)
+        {
+            return;
+        }
+        // After a call the modal state is not known for sure (as for the other sites, see `call`).
+        if self.after_call {
+            self.varies.insert(i);
+        }
+        self.start = Some(Site {
+            block: i,
+            kind: SiteKind::Start,
+            time_min,
+            pass: 0,
+            before: self.state.clone(),
+            rpm_after: self.rpm,
+            state_varies: false,
+            idle_min: self.idle_since_cut(time_min),
+        });
+    }
+
+    /// The speed from the start site's block on.
+    fn start_site_speed(&mut self, i: usize) {
+        if let Some(site) = self.start.as_mut().filter(|s| s.block == i) {
+            site.rpm_after = self.rpm;
+        }
     }
 
     /// Loop statements: a loop opens after its statement; at its end (or at a section repeat statement)
@@ -911,6 +969,7 @@ impl<'p> Builder<'p> {
                 before: before.clone(),
                 rpm_after: rpm,
                 state_varies: false,
+                idle_min: self.idle_since_cut(start),
             });
         }
         let from = self.pos;
@@ -972,6 +1031,14 @@ impl<'p> Builder<'p> {
             self.changed[field::Z] = i + 1;
         }
         self.add_minutes(minutes);
+        if moved && !g4 && self.state.motion != 0 {
+            self.last_cut = self.ticks;
+        }
+    }
+
+    /// Minutes from the end of the last cut to `at_min`.
+    fn idle_since_cut(&self, at_min: f64) -> f64 {
+        (at_min - self.last_cut as f64 / TICKS_PER_MIN).max(0.0)
     }
 
     /// The time so far (min).
@@ -1018,7 +1085,12 @@ impl<'p> Builder<'p> {
                 before: m.before,
                 rpm_after: m.rpm,
                 state_varies: false,
+                idle_min: m.idle,
             });
+        }
+        // The start site only counts once it is known to come after the setup.
+        if let Some(site) = self.start.take().filter(|s| s.block >= self.t.setup_end) {
+            self.t.sites.push(site);
         }
         // One site per block: a pass start wins over a speed change or retract at the same block.
         self.t
@@ -1047,6 +1119,7 @@ struct PassMark {
     block: usize,
     tool_change: bool,
     time: f64,
+    idle: f64,
     before: Modal,
     rpm: f64,
     tool: Option<Arc<str>>,

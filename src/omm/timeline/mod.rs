@@ -107,6 +107,8 @@ impl Modal {
             Some("a circle (G2/G3) is the modal motion")
         } else if self.unknown & unknown::TOOL != 0 {
             Some("the tool is set by an expression")
+        } else if self.d == Some(0) {
+            Some("D0 is active: heights are the spindle's, not the tool tip's")
         } else if self.unknown & unknown::D != 0 {
             Some("the D number is set by an expression")
         } else if self.unknown & unknown::S != 0 && self.rpm() > 0.0 {
@@ -130,6 +132,9 @@ pub enum SiteKind {
     Retract { first_in_loop: bool },
     /// The spindle speed changes at this block.
     SpeedChange,
+    /// The first block after the program's own setup (declarations, work offset, frames) and before its
+    /// first cut: where a reference measurement can go when no other site lies between the two.
+    Start,
 }
 
 /// A block before which driftloop may insert a gate, with the state the program is in there.
@@ -143,6 +148,9 @@ pub struct Site {
     pub pass: usize,
     /// The state before the block.
     pub before: Modal,
+    /// Minutes from the end of the last cut (feed move) before the block to its start: the part drifts
+    /// in that time without being cut.
+    pub idle_min: f64,
     /// Spindle speed from this block on (rpm).
     pub rpm_after: f64,
     /// The block is in the body of a loop (or a repeated section) whose later runs reach it in another modal
