@@ -15,6 +15,7 @@ mod parse;
 mod plan;
 mod positioning;
 mod predict;
+mod profiles;
 mod render;
 mod run;
 mod sensors;
@@ -119,6 +120,8 @@ enum Command {
     Positioning(positioning::Args),
     /// Measure parse + print throughput and peak memory on a generated 100 MB program.
     Bench(bench::Args),
+    /// List the machine profiles shipped inside the binary, or print one to adapt.
+    Profiles(profiles::Args),
 }
 
 /// Entry point of the binary.
@@ -138,6 +141,7 @@ pub fn main() -> ExitCode {
         Command::SimulateData(args) => simulate::run(args, &cli.global),
         Command::Transform(args) => transform::run(args, &cli.global),
         Command::Plan(args) => plan::run(args, &cli.global),
+        Command::Profiles(args) => profiles::run(args, &cli.global),
     };
     match result {
         Ok(code) => code,

@@ -15,8 +15,8 @@ use crate::model::speed_grid::SpeedGrid;
 
 use super::loops::{Loop, site_runs};
 use super::nc::number;
-use super::profile::{Axis, Position, ProbeKind, Profile};
-use super::timeline::{Modal, Site, SiteKind, Timeline};
+use super::profile::{Axis, MeasureFrame, Position, ProbeKind, Profile};
+use super::timeline::{self, Modal, Site, SiteKind, Timeline};
 
 /// What a gate does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -340,10 +340,30 @@ pub fn measurement_min(profile: &Profile) -> f64 {
         / 60.0
 }
 
+/// Why a program gets no plan.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PlanError {
+    #[error("the program moves no axis and calls no subprogram: there is nothing to compensate")]
+    NothingToCompensate,
+    #[error("{0}")]
+    NoReference(String),
+    /// The model cannot be predicted in NC with this profile.
+    #[error("{0}")]
+    Model(String),
+}
+
+/// Why the probe cannot measure in this state: a programmable translation would move a probe point given
+/// in work coordinates, and the zero and later readings would not compare.
+fn frame_blocks(site: &Site, profile: &Profile) -> Option<&'static str> {
+    (profile.position.frame == MeasureFrame::Work
+        && site.before.frames & timeline::frame::TRANSLATION != 0)
+        .then_some("a programmable translation (TRANS/ATRANS) is active and would move the probe point")
+}
+
 /// Why a site cannot carry the reference measurement with this profile's probe; `None` when it can.
 fn unfit_for_reference(site: &Site, profile: &Profile) -> Option<&'static str> {
     let tool_change_follows = matches!(site.kind, SiteKind::PassStart { tool_change: true });
-    if let Some(why) = site.before.unfit() {
+    if let Some(why) = site.before.unfit().or_else(|| frame_blocks(site, profile)) {
         return Some(why);
     }
     if site.state_varies {
@@ -366,7 +386,10 @@ fn unfit_for_reference(site: &Site, profile: &Profile) -> Option<&'static str> {
 
 /// The site of the reference measurement: the first fit one after the program's own setup (declarations,
 /// work offset, frames) and not after its first cut; else the first fit pass start.
-fn reference_site(timeline: &Timeline, profile: &Profile) -> Result<usize, String> {
+fn reference_site(timeline: &Timeline, profile: &Profile) -> Result<usize, PlanError> {
+    if !timeline.moves {
+        return Err(PlanError::NothingToCompensate);
+    }
     let from = timeline.setup_end.max(timeline.preamble_end);
     let to = timeline.first_cut.unwrap_or(usize::MAX);
     let mut unfit: Option<(usize, &str)> = None;
@@ -400,12 +423,12 @@ fn reference_site(timeline: &Timeline, profile: &Profile) -> Result<usize, Strin
     }
     if profile.probe.kind == ProbeKind::SpindleProbe {
         message.push_str(
-            "; with a tool setter or gauge set [probe] kind = \"tool-setter\" or \"gauge\" (no tool change), or mark a pass after a tool change ([passes] marker / lines)",
+            "; for a program that never changes tools measure with the tool in the spindle (`--profile tool-setter`, `grinder-gauge` or `lathe-setter`, or [probe] kind = \"tool-setter\" or \"gauge\" in your profile; `driftloop profiles` lists them), or add the tool change T=\"NAME\" M6 before the first cut",
         );
     } else {
         message.push_str("; mark a pass at a safe place ([passes] marker / lines)");
     }
-    Err(message)
+    Err(PlanError::NoReference(message))
 }
 
 /// Why a gate here cannot measure, or `None` when it can: the place must be fit, its state the same on
@@ -422,7 +445,11 @@ fn unfit_for_measuring(
             "its modal state is not known for sure (later runs of a loop reach it in another state, or a subprogram or cycle ran before it)",
         );
     }
-    if let Some(why) = site.before.not_restorable() {
+    if let Some(why) = site
+        .before
+        .not_restorable()
+        .or_else(|| frame_blocks(site, profile))
+    {
         return Some(why);
     }
     match profile.probe.kind {
@@ -436,11 +463,15 @@ fn unfit_for_measuring(
     }
 }
 
-pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Result<Plan, String> {
+pub fn plan(
+    timeline: &Timeline,
+    model: &DriftModel,
+    profile: &Profile,
+) -> Result<Plan, PlanError> {
     // The plan cannot know the inputs ahead: they are taken to stay at their value at the zero.
-    let mut p = Predictor::new(model, &profile.log.inputs, &profile.position)?;
+    let mut p = Predictor::new(model, &profile.log.inputs, &profile.position)
+        .map_err(PlanError::Model)?;
     let limit = profile.limits.working_limit_um();
-    let tolerance = profile.limits.tolerance_um;
     let first = reference_site(timeline, profile)?;
     let reference_tool = timeline.sites[first].before.tool.clone();
     let per_measurement = measurement_min(profile);
@@ -459,22 +490,16 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
     let mut rpm = 0.0;
     let mut at_last_measurement = 0.0;
     let mut max: f64 = 0.0;
-    let mut warnings = Vec::new();
-    // The last place that could measure: its line and the prediction there.
-    let mut last_chance = (timeline.sites[first].block + 1, 0.0);
-    let mut gap = |at: &str, line: usize, predicted: f64, last: (usize, f64)| {
-        let change = (predicted - last.1).abs();
-        if change > limit {
-            let what = if change > tolerance {
-                format!("more than the tolerance Δ = {} µm", number(tolerance))
-            } else {
-                format!("more than δ' = {} µm", number(limit))
-            };
-            warnings.push(format!(
-                "the model predicts a change of {change:.1} µm between line {} and {at} {line}, {what}, with no place to measure in between: the error of parts cut there is not watched; add a safe place (a retract, a pass marker) in between",
-                last.0
-            ));
-        }
+    let mut watch = Watch {
+        chance: (
+            format!("line {}", timeline.sites[first].block + 1),
+            runs.sites[start].1,
+            0.0,
+        ),
+        cut: None,
+        limit,
+        tolerance: profile.limits.tolerance_um,
+        warnings: Vec::new(),
     };
     for (n, &(k, time)) in runs.sites[start..].iter().enumerate() {
         let site = &timeline.sites[k];
@@ -490,7 +515,14 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
         }
         // The program's own update uses the real time, measurements included, at the speed set last.
         p.set_rpm(rpm);
-        p.advance(time - last_time + pending);
+        let cut_end = time - site.idle_min;
+        if cut_end > last_time {
+            p.advance(cut_end - last_time + pending);
+            watch.cut = Some((cut_end, p.drift()));
+            p.advance(time - cut_end);
+        } else {
+            p.advance(time - last_time + pending);
+        }
         last_time = time;
         pending = 0.0;
         let predicted = p.drift();
@@ -512,12 +544,15 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
         let (kind, can_measure) = match site.kind {
             _ if reference => (GateKind::Reference, true),
             SiteKind::PassStart { .. } => (GateKind::PassStart, restorable),
-            SiteKind::Retract { .. } => (GateKind::Extra, restorable),
-            SiteKind::SpeedChange | SiteKind::Start => (GateKind::Update, false),
+            SiteKind::Retract { .. } | SiteKind::Stop | SiteKind::Dressing => {
+                (GateKind::Extra, restorable)
+            }
+            // Where the spindle stops the tool is out of the cut.
+            SiteKind::SpeedChange => (GateKind::Update, restorable && site.rpm_after == 0.0),
+            SiteKind::Start => (GateKind::Update, false),
         };
         if can_measure && !reference {
-            gap("line", site.block + 1, predicted, last_chance);
-            last_chance = (site.block + 1, predicted);
+            watch.chance(format!("line {}", site.block + 1), time, predicted);
         }
         let measure = kind == GateKind::Reference
             || (can_measure
@@ -564,13 +599,19 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
         gate.measurements += usize::from(measure);
     }
     p.set_rpm(rpm);
-    p.advance(timeline.total_min - last_time + pending);
+    let cut_end = timeline.last_cut_min;
+    if cut_end > last_time {
+        p.advance(cut_end - last_time + pending);
+        watch.cut = Some((cut_end, p.drift()));
+        p.advance(timeline.total_min - cut_end);
+    } else {
+        p.advance(timeline.total_min - last_time + pending);
+    }
     max = max.max(p.drift().abs());
-    gap(
-        "the program's end at line",
-        timeline.unit_end.max(1),
+    watch.chance(
+        "the program's end".to_string(),
+        timeline.total_min,
         p.drift(),
-        last_chance,
     );
     let gates: Vec<Gate> = gates
         .into_iter()
@@ -593,8 +634,44 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
         total_min: super::timeline::on_tick(timeline.total_min + shift),
         loops: timeline.loops.clone(),
         every_run_planned: runs.complete,
-        warnings,
+        warnings: watch.warnings,
     })
+}
+
+/// The stretches of cutting between two places that can measure: where the predicted drift changes by
+/// more than δ' while cutting, parts are cut that no measurement watches.
+struct Watch {
+    /// The last place that could measure: line, time, prediction.
+    chance: (String, f64, f64),
+    /// The end of the last cut since then: time, prediction.
+    cut: Option<(f64, f64)>,
+    limit: f64,
+    tolerance: f64,
+    warnings: Vec<String>,
+}
+
+impl Watch {
+    /// A place that can measure (or the program's end): warns when the cut since the last one drifted
+    /// too far, and starts the next stretch here.
+    fn chance(&mut self, at: String, time: f64, predicted: f64) {
+        let (from, from_time, from_pred) = &self.chance;
+        if let Some((cut_time, cut_pred)) = self.cut.take()
+            && cut_time > *from_time
+        {
+            let change = (cut_pred - from_pred).abs();
+            if change > self.limit {
+                let what = if change > self.tolerance {
+                    format!("more than the tolerance Δ = {} µm", number(self.tolerance))
+                } else {
+                    format!("more than δ' = {} µm", number(self.limit))
+                };
+                self.warnings.push(format!(
+                    "the model predicts a change of {change:.1} µm while cutting between {from} and {at}, {what}, with no place to measure in between: the error of the parts cut there is not watched; add a safe place (a retract, a pass marker) in between"
+                ));
+            }
+        }
+        self.chance = (at, time, predicted);
+    }
 }
 
 #[cfg(test)]

@@ -9,6 +9,35 @@ use serde::{Deserialize, Serialize};
 /// The profile shipped inside the binary (fixtures/omm/blum-tc50.toml), used when `--profile` is absent.
 pub const DEFAULT_PROFILE: &str = include_str!("../../fixtures/omm/blum-tc50.toml");
 
+/// The profiles shipped inside the binary: name (what `--profile` takes), when to use it, the TOML.
+pub const BUILTIN: &[(&str, &str, &str)] = &[
+    (
+        "blum-tc50",
+        "machining centre, touch probe loaded by a tool change, base surface along Z (the default)",
+        DEFAULT_PROFILE,
+    ),
+    (
+        "siemens-cycle978",
+        "machining centre, touch probe with the Siemens measuring cycle CYCLE978",
+        include_str!("../../fixtures/omm/siemens-cycle978.toml"),
+    ),
+    (
+        "tool-setter",
+        "machining centre, tool setter on the table measured with the cutting tool: no tool change (single-tool programs)",
+        include_str!("../../fixtures/omm/tool-setter.toml"),
+    ),
+    (
+        "grinder-gauge",
+        "cylindrical grinder, in-process gauge on the infeed axis X (diameters): nothing moves, gates at retracts, stops, dressing",
+        include_str!("../../fixtures/omm/grinder-gauge.toml"),
+    ),
+    (
+        "lathe-setter",
+        "lathe with a turret and a tool-setter arm, X in diameters: no tool change",
+        include_str!("../../fixtures/omm/lathe-setter.toml"),
+    ),
+];
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Profile {
@@ -236,6 +265,9 @@ pub struct Passes {
     pub marker: String,
     pub lines: Vec<usize>,
     pub extra_gates: bool,
+    /// Dressing cycles or subprograms (names as called): the block after a call is a place to measure.
+    #[serde(default)]
+    pub dressing: Vec<String>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -281,6 +313,23 @@ impl Profile {
                 message,
             })?;
         Ok(profile)
+    }
+
+    /// A builtin profile by name ([`BUILTIN`]).
+    pub fn builtin(name: &str) -> Option<Profile> {
+        BUILTIN.iter().find(|(n, _, _)| *n == name).map(|(n, _, text)| {
+            Profile::from_toml(text, n).expect("the shipped profiles are valid (a test checks it)")
+        })
+    }
+
+    /// The profile in the file `path`, or the builtin profile of that name when no such file exists.
+    pub fn read_or_builtin(path: &Path) -> Result<Profile, ProfileError> {
+        if !path.exists()
+            && let Some(p) = path.to_str().and_then(Profile::builtin)
+        {
+            return Ok(p);
+        }
+        Profile::read(path)
     }
 
     pub fn read(path: &Path) -> Result<Profile, ProfileError> {
@@ -440,6 +489,24 @@ impl Profile {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_builtin_profile_is_valid_and_named_by_its_kind() {
+        for (name, _, text) in BUILTIN {
+            let p = Profile::from_toml(text, name).unwrap_or_else(|e| panic!("{name}: {e}"));
+            let kind = match *name {
+                "tool-setter" | "lathe-setter" => ProbeKind::ToolSetter,
+                "grinder-gauge" => ProbeKind::Gauge,
+                _ => ProbeKind::SpindleProbe,
+            };
+            assert_eq!(p.probe.kind, kind, "{name}");
+            assert!(Profile::builtin(name).is_some());
+        }
+        let lathe = Profile::builtin("lathe-setter").unwrap();
+        assert_eq!(lathe.position.retract_axis, Axis::X);
+        assert!(lathe.position.diameter && lathe.probe.tool_change == ToolChange::T);
+        assert!(Profile::builtin("no-such").is_none());
+    }
 
     #[test]
     fn shipped_profiles_are_valid() {

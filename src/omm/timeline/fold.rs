@@ -28,6 +28,8 @@ pub(super) struct Builder<'p> {
     /// A subprogram called at this block changed the spindle speed: the next block gets a speed-change site,
     /// so that the program's prediction takes the new speed there.
     speed_site_after: Option<usize>,
+    /// A stop or dressing call at this block: the next block gets a site of that kind.
+    safe_after: Option<(usize, SiteKind)>,
     t: Timeline,
     state: Modal,
     pos: [Option<f64>; 3],
@@ -148,6 +150,7 @@ impl<'p> Builder<'p> {
             modal_call: None,
             called: BTreeSet::new(),
             speed_site_after: None,
+            safe_after: None,
             t: Timeline {
                 speeds: vec![(0.0, 0.0)],
                 ..Timeline::default()
@@ -227,6 +230,9 @@ impl<'p> Builder<'p> {
         if self.speed_site_after.is_some() {
             self.speed_site_after_call(i);
         }
+        if self.safe_after.is_some() {
+            self.safe_site_after(i);
+        }
         let before = if self.last_was_z_retract || !self.profile.passes.lines.is_empty() {
             self.state.clone()
         } else {
@@ -275,6 +281,7 @@ impl<'p> Builder<'p> {
             && !self.per_rev
             && self.modal_call.is_none()
             && self.speed_site_after.is_none()
+            && self.safe_after.is_none()
             && !(self.last_was_z_retract && run.first_could_retract)
             // Pass lines are 1-based.
             && !self
@@ -316,6 +323,7 @@ impl<'p> Builder<'p> {
             self.state.unknown &= !unknown::FEED;
         }
         let rapid = self.profile.timeline.rapid_mm_per_min;
+        self.t.moves = true;
         self.ticks = self.ticks.saturating_add(run.feed_ticks);
         // Ticks add up in any order: the run's cut ends after its feed moves and the rapids before the
         // last of them.
@@ -400,6 +408,7 @@ impl<'p> Builder<'p> {
     fn call(&mut self, i: usize, name: &str, shown: &str, repeats: Option<f64>) {
         // The swivel cycle's effect on the frames is followed (see `frames`).
         self.after_call |= name != "CYCLE800";
+        self.t.moves = true;
         if !self.called.contains(name) {
             self.called.insert(name.to_string());
         }
@@ -527,6 +536,23 @@ impl<'p> Builder<'p> {
         }
     }
 
+    /// The site a stop or dressing call before block `i` asked for.
+    fn safe_site_after(&mut self, i: usize) {
+        if let Some((_, kind)) = self.safe_after.take_if(|(at, _)| *at < i) {
+            self.note_site(i);
+            self.t.sites.push(Site {
+                block: i,
+                kind,
+                time_min: self.time(),
+                pass: 0,
+                before: self.state.clone(),
+                rpm_after: self.rpm,
+                idle_min: self.idle_since_cut(self.time()),
+                state_varies: false,
+            });
+        }
+    }
+
     /// A settable work offset selected at block `i` (noted at its first selection).
     fn offset(&mut self, g: u32, i: usize) {
         if matches!(g, 54..=57 | 505..=599) && !self.t.offsets.iter().any(|(o, _)| *o == g) {
@@ -547,8 +573,15 @@ impl<'p> Builder<'p> {
 
     pub(super) fn block(&mut self, i: usize, s: &Scan, kind: BlockKind) {
         self.speed_site_after_call(i);
+        self.safe_site_after(i);
         if let Some(name) = &s.call {
             self.call(i, name, name, s.repeats);
+            if self.profile.passes.dressing.iter().any(|d| d.eq_ignore_ascii_case(name)) {
+                self.safe_after = Some((i, SiteKind::Dressing));
+            }
+        }
+        if s.m.iter().any(|m| m <= 1) {
+            self.safe_after = Some((i, SiteKind::Stop));
         }
         // Changes matter only inside a loop body or a section that may be repeated.
         let tracked =
@@ -578,7 +611,8 @@ impl<'p> Builder<'p> {
             Modal::default()
         };
         let start = self.time();
-        let blank = s.g.is_empty()
+        let blank = !s.statement
+            && s.g.is_empty()
             && s.mv.axes.iter().all(Option::is_none)
             && s.m.is_empty()
             && s.tool.is_none()
@@ -613,6 +647,7 @@ impl<'p> Builder<'p> {
             self.t.setup_end = i + 1;
         }
         self.frames(s.frame_ops);
+        self.t.moves |= s.other_axes;
         // Modal words first: they hold for this block's move.
         for g in s.g.iter() {
             match g {
@@ -947,6 +982,8 @@ impl<'p> Builder<'p> {
     ) {
         let rpm = self.state.rpm();
         let moved = mv.axes.iter().any(Option::is_some);
+        // Axes written as expressions move too, by an amount the timeline does not know.
+        let moves_somehow = moved || inexact;
         // A dwell right after the retract is as clear of the part as the next rapid, and a gate before it is
         // the only one a long dwell can have.
         let dwell = g4 && !moved;
@@ -983,7 +1020,8 @@ impl<'p> Builder<'p> {
                 };
             }
         }
-        if self.t.first_cut.is_none() && moved && !g4 && self.state.motion != 0 {
+        self.t.moves |= moves_somehow;
+        if self.t.first_cut.is_none() && moves_somehow && !g4 && self.state.motion != 0 {
             self.t.first_cut = Some(i);
         }
         let mut minutes = 0.0;
@@ -1031,7 +1069,7 @@ impl<'p> Builder<'p> {
             self.changed[field::Z] = i + 1;
         }
         self.add_minutes(minutes);
-        if moved && !g4 && self.state.motion != 0 {
+        if moves_somehow && !g4 && self.state.motion != 0 {
             self.last_cut = self.ticks;
         }
     }
@@ -1053,6 +1091,7 @@ impl<'p> Builder<'p> {
     pub(super) fn finish(mut self) -> Timeline {
         let total = self.time();
         self.t.total_min = total;
+        self.t.last_cut_min = self.last_cut as f64 / TICKS_PER_MIN;
         // Without M6 in the program the T word changes the tool.
         let mut starts = self.pass_marks;
         if !self.m6_seen && self.profile.passes.tool_change {

@@ -101,8 +101,6 @@ impl Modal {
     pub fn not_restorable(&self) -> Option<&'static str> {
         if let Some(why) = self.unfit() {
             Some(why)
-        } else if self.frames & frame::TRANSLATION != 0 {
-            Some("a programmable translation (TRANS/ATRANS) is active")
         } else if self.motion >= 2 {
             Some("a circle (G2/G3) is the modal motion")
         } else if self.unknown & unknown::TOOL != 0 {
@@ -132,6 +130,10 @@ pub enum SiteKind {
     Retract { first_in_loop: bool },
     /// The spindle speed changes at this block.
     SpeedChange,
+    /// The block after a programmed stop (M0, M1): the program waits there, the tool clear of the part.
+    Stop,
+    /// The block after a call of a dressing cycle the profile names: the wheel is off the part.
+    Dressing,
     /// The first block after the program's own setup (declarations, work offset, frames) and before its
     /// first cut: where a reference measurement can go when no other site lies between the two.
     Start,
@@ -210,6 +212,10 @@ pub struct Timeline {
     pub unit_end: usize,
     /// First block that moves at feed (G1, G2, G3): the first cut.
     pub first_cut: Option<usize>,
+    /// When the last cut ended (min from the start).
+    pub last_cut_min: f64,
+    /// The program moves an axis, or calls a subprogram or cycle that may.
+    pub moves: bool,
     /// One past the last block before the first cut that selects a work offset or changes frames or
     /// transformations: the reference measurement goes after the program's own setup.
     pub setup_end: usize,

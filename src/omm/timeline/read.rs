@@ -43,6 +43,11 @@ pub(super) struct Scan {
     pub(super) frame_ops: u8,
     /// Fields the block sets by an expression ([`super::unknown`] bits).
     pub(super) unknown: u8,
+    /// The block holds a statement the timeline does not read (a variable assignment, a control
+    /// statement, a call): it ends the declarations at the top.
+    pub(super) statement: bool,
+    /// The block moves an axis other than X, Y, Z (a rotary axis, say).
+    pub(super) other_axes: bool,
 }
 
 /// Bits of [`Scan::frame_ops`].
@@ -191,7 +196,8 @@ impl Scan {
             && self.call.is_none()
             && self.modal_call.is_none()
             && self.frame_ops == 0
-            && self.unknown == 0;
+            && self.unknown == 0
+            && !self.statement;
         if !only_moves {
             return None;
         }
@@ -256,6 +262,18 @@ pub(super) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
     let mut s = Scan {
         kind_header: block.kind == BlockKind::Header,
         label: f.label.clone(),
+        statement: block.root.significant().any(|n| {
+            !matches!(
+                n.kind,
+                NodeKind::Comment
+                    | NodeKind::BlockNumber
+                    | NodeKind::Def
+                    | NodeKind::Proc
+                    | NodeKind::Extern
+                    | NodeKind::Define
+                    | NodeKind::Header
+            )
+        }),
         ..Scan::default()
     };
     for v in &f.variables {
@@ -268,7 +286,10 @@ pub(super) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
             "X" => 0,
             "Y" => 1,
             "Z" => 2,
-            _ => continue,
+            _ => {
+                s.other_axes = true;
+                continue;
+            }
         };
         match (&a.value, a.mode) {
             (Value::Number(v), AxisMode::Modal | AxisMode::Ac) => {
