@@ -188,17 +188,21 @@ fn refusals_are_clear() {
     .unwrap_err()
     .to_string();
     assert!(archive.contains("PC-format archive"), "{archive}");
-    let computed = run(b"T1 M6\nS1000 M3\nR[R1+1]=5\nM30\n", &profile)
+    let computed = run(b"T1 M6\nS1000 M3\nR[R1+1]=5\nG1 X10 F100\nM30\n", &profile)
         .unwrap_err()
         .to_string();
     assert!(
         computed.contains("line 3 indexes R-parameters"),
         "{computed}"
     );
-    let other = run(b"G55\nT1 M6\nS1000 M3\nM30\n", &profile)
+    let other = run(b"G55\nT1 M6\nS1000 M3\nG1 X10 F100\nM30\n", &profile)
         .unwrap_err()
         .to_string();
     assert!(other.contains("selects G55 (line 1)"), "{other}");
+    let still = run(b"T1 M6\nS1000 M3\nM30\n", &profile)
+        .unwrap_err()
+        .to_string();
+    assert!(still.contains("moves no axis"), "{still}");
     // A spindle probe cannot be swapped for a tool nobody named; the message says what to set.
     let no_tool = run(b"G54\nS1000 M3\nG1 X10 F100\nM30\n", &profile)
         .unwrap_err()

@@ -95,11 +95,8 @@ fn every_gate_is_measured_and_logged_with_the_ambient_input() {
     assert!(rows.last().unwrap()[5] > rows[0][5] + 1.0);
     // Measured drift follows the truth: the rows are real readings, not placeholders.
     assert!(rows.iter().any(|r| r[2] > 10.0), "{rows:?}");
-    // A speed change cannot measure: its row carries the new speed and no reading.
-    assert!(
-        rows.iter().any(|r| r[2].is_nan() && r[1] == 0.0),
-        "{rows:?}"
-    );
+    // A gate that cannot measure (the update at the spindle start) logs its row without a reading.
+    assert!(rows.iter().any(|r| r[2].is_nan()), "{rows:?}");
 }
 
 #[test]

@@ -339,7 +339,10 @@ fn transform_one(
         .map_err(|e| Refusal::new(e.reason(), e))?
         .into_edits();
     if strict && let Some(w) = summary.warnings.first() {
-        return Err(Refusal::new("plan warnings (--strict)", format!("--strict: {w}")));
+        return Err(Refusal::new(
+            "plan warnings (--strict)",
+            format!("--strict: {w}"),
+        ));
     }
     Ok(Outcome {
         program,

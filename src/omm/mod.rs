@@ -313,8 +313,8 @@ fn prepare_with<'p>(
     }
     let predictor = Predictor::new(model.model, &profile.log.inputs, &profile.position)
         .map_err(TransformError::Other)?;
-    let regs =
-        Registers::allocate(profile, &predictor, &timeline.used_r).map_err(TransformError::Other)?;
+    let regs = Registers::allocate(profile, &predictor, &timeline.used_r)
+        .map_err(TransformError::Other)?;
     let label_prefix = ["DL", "DLOMM", "DRIFTLOOP"]
         .into_iter()
         .find(|p| !timeline.labels.iter().any(|l| l.starts_with(p)))

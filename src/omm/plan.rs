@@ -357,7 +357,9 @@ pub enum PlanError {
 fn frame_blocks(site: &Site, profile: &Profile) -> Option<&'static str> {
     (profile.position.frame == MeasureFrame::Work
         && site.before.frames & timeline::frame::TRANSLATION != 0)
-        .then_some("a programmable translation (TRANS/ATRANS) is active and would move the probe point")
+        .then_some(
+            "a programmable translation (TRANS/ATRANS) is active and would move the probe point",
+        )
 }
 
 /// Why a site cannot carry the reference measurement with this profile's probe; `None` when it can.
@@ -440,6 +442,10 @@ fn unfit_for_measuring(
     reference_tool: Option<&Arc<str>>,
 ) -> Option<&'static str> {
     let tool_change_follows = matches!(site.kind, SiteKind::PassStart { tool_change: true });
+    // A gauge moves nothing and restores nothing: only the place must be fit.
+    if profile.probe.kind == ProbeKind::Gauge {
+        return site.before.unfit();
+    }
     if site.state_varies {
         return Some(
             "its modal state is not known for sure (later runs of a loop reach it in another state, or a subprogram or cycle ran before it)",
@@ -463,14 +469,10 @@ fn unfit_for_measuring(
     }
 }
 
-pub fn plan(
-    timeline: &Timeline,
-    model: &DriftModel,
-    profile: &Profile,
-) -> Result<Plan, PlanError> {
+pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Result<Plan, PlanError> {
     // The plan cannot know the inputs ahead: they are taken to stay at their value at the zero.
-    let mut p = Predictor::new(model, &profile.log.inputs, &profile.position)
-        .map_err(PlanError::Model)?;
+    let mut p =
+        Predictor::new(model, &profile.log.inputs, &profile.position).map_err(PlanError::Model)?;
     let limit = profile.limits.working_limit_um();
     let first = reference_site(timeline, profile)?;
     let reference_tool = timeline.sites[first].before.tool.clone();

@@ -317,9 +317,13 @@ impl Profile {
 
     /// A builtin profile by name ([`BUILTIN`]).
     pub fn builtin(name: &str) -> Option<Profile> {
-        BUILTIN.iter().find(|(n, _, _)| *n == name).map(|(n, _, text)| {
-            Profile::from_toml(text, n).expect("the shipped profiles are valid (a test checks it)")
-        })
+        BUILTIN
+            .iter()
+            .find(|(n, _, _)| *n == name)
+            .map(|(n, _, text)| {
+                Profile::from_toml(text, n)
+                    .expect("the shipped profiles are valid (a test checks it)")
+            })
     }
 
     /// The profile in the file `path`, or the builtin profile of that name when no such file exists.

@@ -576,7 +576,13 @@ impl<'p> Builder<'p> {
         self.safe_site_after(i);
         if let Some(name) = &s.call {
             self.call(i, name, name, s.repeats);
-            if self.profile.passes.dressing.iter().any(|d| d.eq_ignore_ascii_case(name)) {
+            if self
+                .profile
+                .passes
+                .dressing
+                .iter()
+                .any(|d| d.eq_ignore_ascii_case(name))
+            {
                 self.safe_after = Some((i, SiteKind::Dressing));
             }
         }
@@ -612,6 +618,7 @@ impl<'p> Builder<'p> {
         };
         let start = self.time();
         let blank = !s.statement
+            && !s.inexact
             && s.g.is_empty()
             && s.mv.axes.iter().all(Option::is_none)
             && s.m.is_empty()

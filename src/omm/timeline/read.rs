@@ -262,17 +262,23 @@ pub(super) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
     let mut s = Scan {
         kind_header: block.kind == BlockKind::Header,
         label: f.label.clone(),
-        statement: block.root.significant().any(|n| {
-            !matches!(
-                n.kind,
-                NodeKind::Comment
-                    | NodeKind::BlockNumber
-                    | NodeKind::Def
-                    | NodeKind::Proc
-                    | NodeKind::Extern
-                    | NodeKind::Define
-                    | NodeKind::Header
-            )
+        statement: block.root.significant().any(|n| match n.kind {
+            NodeKind::Comment
+            | NodeKind::BlockNumber
+            | NodeKind::Def
+            | NodeKind::Proc
+            | NodeKind::Extern
+            | NodeKind::Define
+            | NodeKind::Header
+            | NodeKind::Word => false,
+            // `CR=5`, `X=R1`: an address with a value, read like a word.
+            NodeKind::Assign => !n.children.first().is_some_and(|t| {
+                let name = block.text(t);
+                t.kind == NodeKind::Var
+                    && name.len() <= 2
+                    && name.iter().all(u8::is_ascii_alphabetic)
+            }),
+            _ => true,
         }),
         ..Scan::default()
     };

@@ -1,0 +1,461 @@
+//! What every inserted gate must do for the operator at the machine: each hazard of the safety review on a
+//! program that shows it — the tool and its preselection given back, the return path above the part, no gate
+//! under a swivel, transformation, rotated frame or cutter compensation, the modal state restored, the work
+//! offset restored before an alarm, the scrap decision against the correction in force at the last cut —
+//! plus golden files of the gates around a preselected tool, a swivel, G41 and G95.
+
+use std::path::PathBuf;
+
+use driftloop::model::DriftModel;
+use driftloop::omm::emit::MARK;
+use driftloop::omm::{ModelRef, Profile, TransformError, transform};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn model() -> DriftModel {
+    DriftModel::read(&root().join("fixtures/omm/model.toml")).expect("model fixture")
+}
+
+/// The default profile, measuring at every gate that can: every gate shows its measuring blocks.
+fn measuring_profile() -> Profile {
+    let mut p = Profile::default_profile();
+    p.log.measure_every_gate = true;
+    p
+}
+
+fn transformed(src: &str, profile: &Profile, model: &DriftModel) -> Result<String, TransformError> {
+    let program = driftloop::parse(src.as_bytes());
+    let m = ModelRef {
+        model,
+        sha256: "0123456789abcdef",
+    };
+    let t = transform(&program, m, profile, false)?;
+    Ok(String::from_utf8(t.bytes).unwrap())
+}
+
+fn out(src: &str) -> String {
+    transformed(src, &measuring_profile(), &model()).expect("transforms")
+}
+
+fn inserted(line: &str) -> bool {
+    line.ends_with(MARK)
+}
+
+/// The lines of the program's own between which (exclusive) the output has inserted blocks, by the first
+/// words of the original lines.
+fn gates_between(out: &str, from: &str, to: &str) -> usize {
+    let lines: Vec<&str> = out.lines().collect();
+    let a = lines.iter().position(|l| l.starts_with(from)).expect(from);
+    let b = a
+        + 1
+        + lines[a + 1..]
+            .iter()
+            .position(|l| l.starts_with(to))
+            .expect(to);
+    lines[a + 1..b].iter().filter(|l| inserted(l)).count()
+}
+
+/// The inserted blocks right before the original line starting with `before`.
+fn gate_before<'a>(out: &'a str, before: &str) -> Vec<&'a str> {
+    let lines: Vec<&str> = out.lines().collect();
+    let at = lines
+        .iter()
+        .position(|l| l.starts_with(before))
+        .expect(before);
+    let start = lines[..at]
+        .iter()
+        .rposition(|l| !inserted(l))
+        .map_or(0, |k| k + 1);
+    lines[start..at]
+        .iter()
+        .map(|l| l.trim_end_matches(MARK).trim_end())
+        .collect()
+}
+
+fn index(gate: &[&str], pred: impl Fn(&str) -> bool, what: &str) -> usize {
+    gate.iter()
+        .position(|l| pred(l))
+        .unwrap_or_else(|| panic!("no {what} in\n{}", gate.join("\n")))
+}
+
+fn rindex(gate: &[&str], pred: impl Fn(&str) -> bool, what: &str) -> usize {
+    gate.iter()
+        .rposition(|l| pred(l))
+        .unwrap_or_else(|| panic!("no {what} in\n{}", gate.join("\n")))
+}
+
+/// A part cut with one tool, the next one preselected early, retracts between the cuts.
+const PRESELECTED: &str = "\
+G17 G90 G94 G54
+T=\"ROUGH\" M6
+D2
+T=\"FINISH\"
+S5000 M3 M8
+G0 X0 Y0 Z50
+G0 Z2
+G1 Z-5 F200
+G1 X400 F200
+G1 Y300
+G1 X0
+G1 Y0
+G0 Z50
+G0 X10 Y10
+G1 Z-5 F200
+G1 X400 F150
+G0 Z50
+M5 M9
+M6
+D1
+S6000 M3
+G0 X0 Y0 Z10
+G1 Z-6 F300
+G1 X400
+G0 Z50
+M30
+";
+
+#[test]
+fn the_tool_and_its_preselection_are_given_back_and_the_program_ends_without_the_probe() {
+    let o = out(PRESELECTED);
+    let gate = gate_before(&o, "G0 X10 Y10");
+    let probe = index(&gate, |l| l == "T=\"BLUM_TC50\" M6", "probe change");
+    let back = index(&gate, |l| l == "T=\"ROUGH\" M6", "cutting tool back");
+    let preselect = index(&gate, |l| l == "T=\"FINISH\"", "preselection again");
+    let d = index(&gate, |l| l == "D2", "D number");
+    assert!(probe < back && back < preselect && preselect < d);
+    // The program's bare M6 later loads FINISH: the last T before it is the program's preselection.
+    let lines: Vec<&str> = o.lines().collect();
+    let m6 = lines.iter().position(|l| *l == "M6").unwrap();
+    let last_t = lines[..m6]
+        .iter()
+        .rev()
+        .find(|l| l.starts_with("T="))
+        .unwrap();
+    assert_eq!(last_t.trim_end_matches(MARK).trim_end(), "T=\"FINISH\"");
+    // Nowhere is the probe left in the spindle: every probe change is followed by a change back, or by the
+    // program's own tool change.
+    let mut probe_in = false;
+    for l in &lines {
+        if l.starts_with("T=\"BLUM_TC50\" M6") {
+            probe_in = true;
+        } else if l.contains("M6") {
+            probe_in = false;
+        }
+        if l.starts_with("M30") && !inserted(l) {
+            assert!(
+                !probe_in,
+                "the program would end with the probe in the spindle"
+            );
+        }
+    }
+}
+
+#[test]
+fn the_gate_travels_above_the_part_and_comes_back_down_where_the_program_was() {
+    let o = out(PRESELECTED);
+    let gate = gate_before(&o, "G0 X10 Y10");
+    let save = index(&gate, |l| l.contains("=$AA_IW[X]"), "position saved");
+    let up = index(&gate, |l| l.starts_with("G0 G90 Z=R"), "retract");
+    let change = index(&gate, |l| l.contains("BLUM_TC50"), "probe change");
+    let across = index(&gate, |l| l == "X0 Y0", "travel to the probe point");
+    let down = index(&gate, |l| l == "Z10", "descent to the start point");
+    let cycle = index(&gate, |l| l.starts_with("BL9700("), "probe cycle");
+    assert!(save < up && up < change && change < across && across < down && down < cycle);
+    // Before any XY travel the tool is up at the travel height, and it goes down only at the end.
+    let back_up = rindex(
+        &gate,
+        |l| l.starts_with("G0 G90 Z=R"),
+        "retract before the way back",
+    );
+    let back_across = index(&gate, |l| l.starts_with("X=R"), "travel back");
+    let back_down = rindex(&gate, |l| l.starts_with("Z=R"), "descent back");
+    assert!(cycle < back_up && back_up < back_across && back_across < back_down);
+    // The travel height is the clearance height or the tool's own, never lower.
+    let height = gate[up].trim_start_matches("G0 G90 Z=");
+    assert!(
+        gate.contains(&format!("IF {height}<100").as_str()),
+        "{gate:#?}"
+    );
+    for l in &gate[up..back_down] {
+        let moves_across = l.starts_with('X') || l.contains(" X") || l.contains(" Y");
+        assert!(
+            !moves_across || l.starts_with("X=R") || *l == "X0 Y0",
+            "travel at an unknown height: {l}"
+        );
+    }
+}
+
+#[test]
+fn the_modal_state_is_given_back() {
+    // G18 plane, feed per revolution, incremental dimensions, continuous path, coolant on.
+    let src = "\
+G18 G95 G64 G90 G54
+T=\"TURN\" M6
+D1
+S800 M4 M8
+G0 X50 Z5
+G1 Z-20 F0.2
+G0 Z50
+G91
+; PASS 2
+G0 X10
+G90
+M30
+";
+    let o = out(src);
+    let gate = gate_before(&o, "; PASS 2");
+    let coolant_off = index(&gate, |l| l == "M9", "coolant off");
+    let probe = index(&gate, |l| l.contains("BLUM_TC50"), "probe change");
+    assert!(coolant_off < probe);
+    assert!(gate.contains(&"S800 M4"), "{gate:#?}");
+    assert!(gate.contains(&"M8"), "{gate:#?}");
+    assert_eq!(*gate.last().unwrap(), "G54");
+    let modal = index(&gate, |l| l.starts_with("G18 "), "modal line");
+    assert_eq!(gate[modal], "G18 G95 G64 G0 G91 F0.2");
+}
+
+#[test]
+fn no_gate_under_a_swivel_a_transformation_a_rotated_frame_or_cutter_compensation() {
+    let src = "\
+G17 G90 G94 G54
+T=\"MILL\" M6
+D1
+S6000 M3
+G0 X0 Y0 Z50
+CYCLE800(1,\"TABLE\",0,57,0,0,0,0,30,0,0,0,0,1,,1)
+G0 Z5
+G1 Z-1 F500
+G1 X100 S4000
+G0 Z50
+G0 X10
+CYCLE800()
+G0 Z50
+TRAORI
+G0 Z5
+G1 X100 F500
+G0 Z50
+G0 X10
+TRAFOOF
+ROT Z30
+G0 Z50
+G0 X10 S3000
+ROT
+G41 D1
+G1 X0 Y0 F500
+G1 X50 S2000
+G0 Z50
+G0 X10
+G40
+M5
+M30
+";
+    let o = out(src);
+    assert_eq!(gates_between(&o, "CYCLE800(1", "CYCLE800()"), 0, "{o}");
+    assert_eq!(gates_between(&o, "TRAORI", "TRAFOOF"), 0, "{o}");
+    assert_eq!(gates_between(&o, "ROT Z30", "ROT"), 0, "{o}");
+    assert_eq!(gates_between(&o, "G41", "G40"), 0, "{o}");
+    // After each of them is switched off, gates come back.
+    assert!(gates_between(&o, "G40", "M30") > 0, "{o}");
+}
+
+#[test]
+fn every_alarm_restores_the_work_offset_first() {
+    let o = out(PRESELECTED);
+    let lines: Vec<&str> = o.lines().collect();
+    let mut alarms = 0;
+    for (k, l) in lines.iter().enumerate() {
+        if !l.starts_with("SETAL(") {
+            continue;
+        }
+        alarms += 1;
+        // Restore, re-select, message, alarm: SETAL stops the interpreter, nothing after it runs.
+        let before: Vec<&str> = lines[k - 3..k]
+            .iter()
+            .map(|l| l.trim_end_matches(MARK).trim_end())
+            .collect();
+        assert!(
+            before[0].starts_with("$P_UIFR[1,Z,TR]=R") && !before[0].contains('+'),
+            "{before:#?}"
+        );
+        assert_eq!(before[1], "G54");
+        assert!(before[2].starts_with("MSG(\"driftloop: "), "{before:#?}");
+    }
+    assert!(alarms >= 4, "{alarms}");
+}
+
+#[test]
+fn the_default_r_parameters_fit_the_default_machine_data_and_the_summary_says_how_many_it_needs() {
+    let program = driftloop::parse(PRESELECTED.as_bytes());
+    let model = model();
+    let m = ModelRef {
+        model: &model,
+        sha256: "0123456789abcdef",
+    };
+    let t = transform(&program, m, &Profile::default_profile(), false).unwrap();
+    let highest = *t.summary.r_parameters.last().unwrap();
+    assert!(
+        t.summary.r_parameters[0] >= 50 && highest <= 99,
+        "{:?}",
+        t.summary.r_parameters
+    );
+    assert_eq!(t.summary.r_parameters_needed, highest + 1);
+}
+
+#[test]
+fn a_program_that_never_changes_tools_is_refused_with_a_spindle_probe_and_measured_with_a_tool_setter()
+ {
+    let src = "G54\nS3000 M3\nG0 X0 Y0 Z5\nG1 Z-1 F200\nG1 X100\nG0 Z50\nG0 X0\nG1 Z-2\nG1 X100\nG0 Z50\nM30\n";
+    let err = transformed(src, &Profile::default_profile(), &model()).unwrap_err();
+    assert!(err.to_string().contains("--profile tool-setter"), "{err}");
+    let setter = Profile::builtin("tool-setter").unwrap();
+    let o = transformed(src, &setter, &model()).unwrap();
+    // No tool change anywhere in the gates; the setter is reached in machine coordinates.
+    assert!(!o.lines().any(|l| inserted(l) && l.contains("M6")), "{o}");
+    assert!(
+        o.contains("SUPA X-250 Y-20 ;DL") && o.contains("SUPA Z-300 ;DL"),
+        "{o}"
+    );
+    assert!(o.contains("DL_SETTER(3,-310) ;DL"), "{o}");
+    // The zero comes before the first cut.
+    let zero = o.find("DL_SETTER(").unwrap();
+    assert!(zero < o.find("G1 Z-1").unwrap());
+}
+
+#[test]
+fn a_grinder_gate_moves_nothing_and_corrects_x_by_half_the_diameter_change() {
+    let src = "\
+G18 G90 G95 G54 DIAMON
+S1500 M3
+G0 X60 Z5
+; PASS roughing
+G1 X41 F0.05
+G0 X60
+DRESS
+G0 X45
+G1 X40.2 F0.02
+G0 X60
+M30
+";
+    let mut gauge = Profile::builtin("grinder-gauge").unwrap();
+    gauge.log.measure_every_gate = true;
+    let o = transformed(src, &gauge, &model()).unwrap();
+    for l in o.lines().filter(|l| inserted(l)) {
+        let moves = l.starts_with("G0 ") || l.starts_with("X") || l.starts_with("Z=");
+        assert!(!moves, "a gauge gate moves: {l}");
+    }
+    assert!(o.contains("DL_GAUGE(1,40) ;DL"), "{o}");
+    // The diameter reading halves into the drift; the X offset is written as a radius.
+    assert!(
+        o.lines().any(|l| l.contains(")/2+R") && l.ends_with(MARK)),
+        "{o}"
+    );
+    assert!(o.contains("$P_UIFR[1,X,TR]=R"), "{o}");
+    // The dressing call is a place to measure.
+    let gate = gate_before(&o, "G0 X45");
+    assert!(gate.iter().any(|l| l.starts_with("DL_GAUGE(")), "{gate:#?}");
+}
+
+/// A virtual machine whose Z drift is the model itself, probing a surface at machine Z −100.
+fn run_on_truth(transformed: &str, model: &DriftModel) -> driftloop::vm::Run {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("truth.toml"), model.to_toml()).unwrap();
+    let machine = "[probe]\nsurface_mm = -100\n[offsets]\nG54 = { Z = -100.0 }\n[models]\nZ = { file = \"truth.toml\" }\n";
+    let (cfg, spec) =
+        driftloop::vm::parse_machine_file(machine, dir.path(), driftloop::vm::Config::default())
+            .unwrap();
+    let mut m = spec.build(1);
+    driftloop::vm::run_source("part.mpf", transformed.as_bytes(), None, &cfg, &mut m).unwrap()
+}
+
+/// One mode of 30 µm at 4000 rpm with τ = 20 min: the truth and the model alike.
+fn heating_model() -> DriftModel {
+    DriftModel::from_modes(
+        "drift_z_um",
+        vec![1000.0, 4000.0],
+        &[(20.0, vec![7.5, 30.0])],
+        0.0,
+    )
+}
+
+fn scrap_alarms(run: &driftloop::vm::Run) -> usize {
+    run.alarms.iter().filter(|a| a.number == 65001).count()
+}
+
+#[test]
+fn drift_during_a_pause_without_cutting_is_no_scrap_but_drift_during_a_long_cut_is() {
+    let model = heating_model();
+    // 25 min of spindle heating with the tool up (no cut), then the next pass: the part cut before the
+    // pause was cut with the right correction; the program must go on.
+    let pause = "\
+G17 G90 G94 G54
+T=\"MILL\" M6
+D1
+S4000 M3
+G0 X0 Y0 Z5
+G1 Z-1 F300
+G1 X50 F1200
+G0 Z50
+G4 F1500
+; PASS 2
+G0 X0 Y0 Z5
+G1 Z-1.5 F300
+G1 X50 F1200
+G0 Z50
+M30
+";
+    let profile = Profile::default_profile();
+    let o = transformed(pause, &profile, &model).unwrap();
+    let run = run_on_truth(&o, &model);
+    assert_eq!(scrap_alarms(&run), 0, "{:?}", run.alarms);
+    assert!(run.measurements.len() >= 2, "{:?}", run.measurements);
+    // 25 min of cutting in one feed move with the same correction: the part's error grows by ≈ 21 µm,
+    // more than Δ = 20 µm. The gate after it stops the program, and the plan warns beforehand.
+    let long_cut = pause.replace("G0 Z50\nG4 F1500\n", "G1 X50.001 F0.00004\nG0 Z50\n");
+    let program = driftloop::parse(long_cut.as_bytes());
+    let timeline = driftloop::omm::timeline::build(&program, &profile);
+    let plan = driftloop::omm::plan::plan(&timeline, &model, &profile).unwrap();
+    assert!(
+        plan.warnings.iter().any(|w| w.contains("while cutting")),
+        "{:?}",
+        plan.warnings
+    );
+    let o = transformed(&long_cut, &profile, &model).unwrap();
+    let run = run_on_truth(&o, &model);
+    assert_eq!(scrap_alarms(&run), 1, "{:?}", run.alarms);
+    // The alarm left the work offset as it was before the program.
+    let last = run.corrections.last().expect("the program corrected");
+    assert!((last.new_mm - -100.0).abs() < 1e-12, "{last:?}");
+}
+
+#[test]
+fn gates_around_a_preselected_tool_a_swivel_g41_and_g95() {
+    let swivel_g41_g95 = "\
+G17 G90 G94 G54
+T=\"MILL\" M6
+D1
+S6000 M3
+G0 X0 Y0 Z50
+CYCLE800(1,\"TABLE\",0,57,0,0,0,0,30,0,0,0,0,1,,1)
+G0 Z5
+G1 Z-1 F500
+G0 Z50
+G0 X10
+CYCLE800()
+G0 Z50
+G0 X20
+G41 D1
+G1 X0 Y0 F500
+G40
+G0 Z50
+G95
+G0 X30
+G1 Z-1 F0.1
+G0 Z50
+G0 X40
+M30
+";
+    insta::assert_snapshot!("preselected_tool", out(PRESELECTED));
+    insta::assert_snapshot!("swivel_g41_g95", out(swivel_g41_g95));
+}
