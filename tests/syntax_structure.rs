@@ -442,7 +442,7 @@ fn non_utf8_bytes_in_comments_and_strings() {
     let p = parse(&fixture("broken_bytes.mpf"));
     assert_eq!(
         errors(&p),
-        vec!["3:5 expected a word, assignment, call or keyword, found `\\xff10`"]
+        vec!["3:5 expected a word, assignment, call or keyword, found the non-ASCII byte 0xFF"]
     );
     assert_eq!(statement_kinds(&p, 2), vec![K::Word, K::Command, K::Error]);
 }

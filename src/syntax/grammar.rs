@@ -7,9 +7,10 @@ use nom::bytes::complete::tag;
 
 use super::keyword::{Kw, keyword};
 use super::lexeme::{
-    PErr, R, bit_literal, blanks, block_number_len, fail, ident, is_ident_char, signed_number,
-    skip_blanks, skip_level_len, string, sysvar_name, unsigned_number, word,
+    PErr, R, bit_literal, blanks, block_number_at, fail, ident, is_control, is_ident_char,
+    signed_number, skip_blanks, skip_level_len, string, sysvar_name, unsigned_number, word,
 };
+use super::odd_bytes::{ControlCharacters, name_odd_bytes, utf8_len};
 use super::program::{BlockKind, flag};
 use super::tree::{Node, NodeKind as K};
 use crate::diagnostic::Diagnostic;
@@ -23,8 +24,13 @@ pub(crate) struct ParsedBlock {
 }
 
 /// Parses the block whose parsable content is `content` (the BOM of line 1 excluded) and whose terminator is
-/// `terminator`.
-pub(crate) fn parse_block(src: &[u8], content: Span, terminator: Span) -> ParsedBlock {
+/// `terminator`. From `filler` on, `src` holds only DOS end-of-file filler (see [`super::odd_bytes::eof_filler`]).
+pub(crate) fn parse_block(
+    src: &[u8],
+    content: Span,
+    terminator: Span,
+    filler: usize,
+) -> ParsedBlock {
     let line = content.slice(src);
     let cx = Cx {
         base: content.start,
@@ -39,7 +45,10 @@ pub(crate) fn parse_block(src: &[u8], content: Span, terminator: Span) -> Parsed
     cx.block_body(line, &mut children, &mut diagnostics);
     children.push(Node::leaf(K::Newline, terminator));
     let tree = Node::with_children(K::Block, children);
-    let (kind, flags) = classify(src, &tree);
+    if line.iter().any(|&b| is_control(b)) {
+        ControlCharacters::new(src, filler).report(&tree, &mut diagnostics);
+    }
+    let (kind, flags) = classify(src, &tree, &mut diagnostics);
     ParsedBlock {
         tree,
         diagnostics,
@@ -48,11 +57,13 @@ pub(crate) fn parse_block(src: &[u8], content: Span, terminator: Span) -> Parsed
     }
 }
 
-/// The block's control role and flags, from its statements.
-fn classify(src: &[u8], tree: &Node) -> (BlockKind, u8) {
+/// The block's control role and flags, from its statements. A second control statement in the block (`ELSE
+/// IF …`) is reported: a block has one role, as a block has one control statement on the control.
+fn classify(src: &[u8], tree: &Node, diags: &mut Vec<Diagnostic>) -> (BlockKind, u8) {
     let mut kind = BlockKind::Plain;
     let mut flags = 0;
     let mut block_if = false;
+    let mut roles: Vec<(BlockKind, Span)> = Vec::new();
     for n in tree.significant() {
         let role = match n.kind {
             K::Header => Some(BlockKind::Header),
@@ -94,13 +105,28 @@ fn classify(src: &[u8], tree: &Node) -> (BlockKind, u8) {
             }
             _ => None,
         };
+        if let Some(role) = role {
+            roles.push((role, n.span));
+        }
         if let (Some(role), BlockKind::Plain) = (role, kind) {
             kind = role;
         }
     }
-    // `IF cond GOTOF label` is a conditional jump, not the start of an IF … ENDIF.
-    if block_if && kind == BlockKind::If && flags & flag::JUMP != 0 {
+    // `IF cond GOTOF label` is a conditional jump, not the start of an IF … ENDIF (several may share a block).
+    let jumps_only = flags & flag::JUMP != 0 && roles.iter().all(|r| r.0 == BlockKind::If);
+    if block_if && kind == BlockKind::If && jumps_only {
         kind = BlockKind::Plain;
+    } else if let [(first, _), (second, span), ..] = roles[..] {
+        let (first, second) = (first.keyword(), second.keyword());
+        diags.push(
+            Diagnostic::error(
+                span,
+                format!(
+                    "{second} after {first} in the same block: a block holds one control statement"
+                ),
+            )
+            .with_help(format!("put {second} on a line of its own")),
+        );
     }
     (kind, flags)
 }
@@ -112,12 +138,14 @@ struct Cx {
     depth: std::cell::Cell<usize>,
 }
 
-/// Deepest nesting of parentheses, calls, indices and prefix operators: keeps hostile input (a line of 100 000
-/// `(`) from exhausting the stack. Real programs stay far below it.
-const MAX_DEPTH: usize = 64;
+/// Deepest expression: parentheses, calls, indices and prefix operators each count one level, and so does
+/// each binary operator in a row (it wraps the tree once more). Keeps hostile input (a line of 100 000 `(`,
+/// `1+1+…` with 200 000 terms) from exhausting the stack of the parser and of everything that walks the tree
+/// (the tree is at most about twice as deep). A block of the control's 512 characters stays below it.
+pub(crate) const MAX_DEPTH: usize = 256;
 
-/// Expression levels from loosest to tightest binding (Sinumerik "priority of operations", reversed).
-const LEVELS: usize = 10;
+/// What a parse failure beyond [`MAX_DEPTH`] expected; the diagnostic words it on its own.
+const TOO_DEEP: &str = "a less deeply nested expression";
 
 impl Cx {
     fn pos(&self, i: &[u8]) -> usize {
@@ -264,11 +292,29 @@ impl Cx {
         if !comment.is_empty() {
             out.push(self.leaf(K::Comment, comment, &[]));
         }
+        let start = self.pos(at);
+        if e.expected == TOO_DEEP {
+            let span = Span::new(start, start + utf8_len(at));
+            diags.push(
+                Diagnostic::error(
+                    span,
+                    format!("expression nested deeper than {MAX_DEPTH} levels"),
+                )
+                .with_help("split it over several assignments (the control takes 512 characters per block)"),
+            );
+            return;
+        }
         let expected = if e.expected.is_empty() {
             "a word, assignment, call or keyword"
         } else {
             e.expected
         };
+        if let Some((len, what, help)) = name_odd_bytes(at) {
+            let span = Span::new(start, start + len);
+            let message = format!("expected {expected}, found {what}");
+            diags.push(Diagnostic::error(span, message).with_help(help));
+            return;
+        }
         let found = match at.first() {
             None => "end of line".to_string(),
             Some(_) => {
@@ -280,7 +326,7 @@ impl Cx {
                 format!("`{}`", at[..n].escape_ascii())
             }
         };
-        let span = Span::new(self.pos(at), self.pos(at) + char_len(at));
+        let span = Span::new(start, start + utf8_len(at));
         let help = if at.first() == Some(&b'(') && i.first() == Some(&b'(') {
             "`( … )` is not a comment in Sinumerik programs; start comments with `;`"
         } else if at.first() == Some(&b'"') {
@@ -293,14 +339,24 @@ impl Cx {
         );
     }
 
-    /// `N10` or `:10` at the start of a block.
+    /// `N10`, `N 10` or `:10` at the start of a block.
     fn block_number<'a>(&self, i: &'a [u8]) -> Option<(&'a [u8], Node)> {
-        let rest = &i[block_number_len(i)?..];
-        let parts = vec![
-            self.leaf(K::Address, i, &i[1..]),
-            self.leaf(K::Number, &i[1..], rest),
-        ];
-        Some((rest, Node::with_children(K::BlockNumber, parts)))
+        let (digits, end) = block_number_at(i)?;
+        Some((
+            &i[end..],
+            self.address_and_number(K::BlockNumber, i, digits, end),
+        ))
+    }
+
+    /// A node of `kind` from the address letter at the start of `i`, the blanks up to `value` (if any) and
+    /// the number from there to `end`.
+    fn address_and_number(&self, kind: K, i: &[u8], value: usize, end: usize) -> Node {
+        let mut parts = vec![self.leaf(K::Address, i, &i[1..])];
+        if value > 1 {
+            parts.push(self.leaf(K::Trivia, &i[1..], &i[value..]));
+        }
+        parts.push(self.leaf(K::Number, &i[value..], &i[end..]));
+        Node::with_children(kind, parts)
     }
 
     /// `NAME:` (not a keyword, not `NAME:=`).
@@ -317,13 +373,8 @@ impl Cx {
     }
 
     fn statement<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
-        if let Ok((rest, (letter, _))) = word(i) {
-            let number = &i[letter.len()..];
-            let parts = vec![
-                self.leaf(K::Address, i, number),
-                self.leaf(K::Number, number, rest),
-            ];
-            return Ok((rest, Node::with_children(K::Word, parts)));
+        if let Some((value, end)) = word(i) {
+            return Ok((&i[end..], self.address_and_number(K::Word, i, value, end)));
         }
         if i.first() == Some(&b'$') {
             return self.assignment(i);
@@ -502,8 +553,15 @@ impl Cx {
             if keyword(name) != Some(Kw::Goto) {
                 return fail(j, "a GOTO after the CASE value");
             }
-            let (rest, goto) = self.keyword_statement(Kw::Goto, j, after)?;
-            arm.push(goto);
+            // The target is a name, number or string, not an expression: in `GOTO LBL1-2 GOTO LBL2` the
+            // `-2` is the next arm's value.
+            let mut goto = vec![self.leaf(K::Keyword, j, after)];
+            let t = self.ws(after, &mut goto);
+            let (rest, target) = self
+                .nested(t, |cx| cx.primary(t))
+                .map_err(|_| expected_at(t, "a jump target"))?;
+            goto.push(target);
+            arm.push(Node::with_children(K::Goto, goto));
             parts.push(Node::with_children(K::CaseArm, arm));
             i = rest;
         }
@@ -817,32 +875,44 @@ impl Cx {
         self.nested(i, |cx| cx.binary(i, 0))
     }
 
-    /// Runs `parse` one nesting level deeper, failing beyond [`MAX_DEPTH`].
+    /// Runs `parse` one level deeper, failing beyond [`MAX_DEPTH`].
     fn nested<'a>(&self, i: &'a [u8], parse: impl FnOnce(&Self) -> R<'a, Node>) -> R<'a, Node> {
-        if self.depth.get() >= MAX_DEPTH {
-            return fail(i, "a less deeply nested expression");
+        let depth = self.depth.get();
+        if depth >= MAX_DEPTH {
+            return fail(i, TOO_DEEP);
         }
-        self.depth.set(self.depth.get() + 1);
+        self.depth.set(depth + 1);
         let result = parse(self);
-        self.depth.set(self.depth.get() - 1);
+        self.depth.set(depth);
         result
     }
 
+    /// The operand at `i` and the operators of `level` or tighter after it (precedence climbing: the
+    /// recursion goes one level deeper only where a tighter operator follows). Each operator in a row wraps
+    /// the tree once more, so it counts as one level of depth.
     fn binary<'a>(&self, i: &'a [u8], level: usize) -> R<'a, Node> {
-        if level == LEVELS {
-            return self.unary(i);
-        }
-        let (mut i, mut lhs) = self.binary(i, level + 1)?;
+        let depth = self.depth.get();
+        let result = self.operations(i, level);
+        self.depth.set(depth);
+        result
+    }
+
+    fn operations<'a>(&self, i: &'a [u8], level: usize) -> R<'a, Node> {
+        let (mut i, mut lhs) = self.unary(i)?;
         loop {
             let mut parts = Vec::new();
             let j = self.ws(i, &mut parts);
-            let Some((len, op_kind)) = operator(level, j) else {
+            let Some((op_level, len, op_kind)) = operator(j).filter(|op| op.0 >= level) else {
                 return Ok((i, lhs));
             };
+            if self.depth.get() >= MAX_DEPTH {
+                return fail(j, TOO_DEEP);
+            }
+            self.depth.set(self.depth.get() + 1);
             let j = self.take(op_kind, j, len, &mut parts);
             let j = self.ws(j, &mut parts);
             let (rest, rhs) = self
-                .binary(j, level + 1)
+                .binary(j, op_level + 1)
                 .map_err(|e| relabel(e, j, "an operand"))?;
             parts.insert(0, lhs);
             parts.push(rhs);
@@ -854,6 +924,8 @@ impl Cx {
     fn unary<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
         let op = match i.first() {
             Some(b'-' | b'+') => Some((1, K::Punct)),
+            // `<<R1`: the value as a string (a concatenation with nothing before it).
+            Some(b'<') if i.starts_with(b"<<") => Some((2, K::Punct)),
             _ => match ident(i) {
                 Ok((rest, name)) if keyword(name) == Some(Kw::Not) => {
                     Some((i.len() - rest.len(), K::Keyword))
@@ -917,32 +989,37 @@ impl Cx {
     }
 }
 
-/// The operator of `level` at the start of `i`: its length and leaf kind.
-fn operator(level: usize, i: &[u8]) -> Option<(usize, K)> {
-    let sym = |ops: &[&str]| {
-        ops.iter()
-            .find(|op| i.starts_with(op.as_bytes()))
-            .map(|op| (op.len(), K::Punct))
-    };
-    let word = |kws: &[Kw]| match ident(i) {
-        Ok((rest, name)) if keyword(name).is_some_and(|k| kws.contains(&k)) => {
-            Some((i.len() - rest.len(), K::Keyword))
-        }
-        _ => None,
-    };
-    match level {
-        0 if i.starts_with(b"<<") => None,
-        0 => sym(&["==", "<>", "<=", ">=", "<", ">"]),
-        1 => sym(&["<<"]),
-        2 => word(&[Kw::Or]),
-        3 => word(&[Kw::Xor]),
-        4 => word(&[Kw::And]),
-        5 => word(&[Kw::BOr]),
-        6 => word(&[Kw::BXor]),
-        7 => word(&[Kw::BAnd]),
-        8 => sym(&["+", "-"]),
-        _ => sym(&["*", "/", ":"]).or_else(|| word(&[Kw::Div, Kw::Mod])),
+/// The binary operator at the start of `i`: its level (0 binds loosest), length and leaf kind.
+fn operator(i: &[u8]) -> Option<(usize, usize, K)> {
+    const SYMBOLS: &[(&str, usize)] = &[
+        ("<<", 1),
+        ("==", 0),
+        ("<>", 0),
+        ("<=", 0),
+        (">=", 0),
+        ("<", 0),
+        (">", 0),
+        ("+", 8),
+        ("-", 8),
+        ("*", 9),
+        ("/", 9),
+        (":", 9),
+    ];
+    if let Some(&(op, level)) = SYMBOLS.iter().find(|(op, _)| i.starts_with(op.as_bytes())) {
+        return Some((level, op.len(), K::Punct));
     }
+    let (rest, name) = ident(i).ok()?;
+    let level = match keyword(name)? {
+        Kw::Or => 2,
+        Kw::Xor => 3,
+        Kw::And => 4,
+        Kw::BOr => 5,
+        Kw::BXor => 6,
+        Kw::BAnd => 7,
+        Kw::Div | Kw::Mod => 9,
+        _ => return None,
+    };
+    Some((level, i.len() - rest.len(), K::Keyword))
 }
 
 /// Whether the next word (after blanks) is the keyword `kw`.
@@ -982,7 +1059,7 @@ fn expected_at(i: &[u8], expected: &'static str) -> nom::Err<PErr> {
 /// Names what was expected where a failure happened right at `at` (deeper failures keep their own words).
 fn relabel(e: nom::Err<PErr>, at: &[u8], expected: &'static str) -> nom::Err<PErr> {
     e.map(|e| {
-        if e.rest >= at.len() || e.expected.is_empty() {
+        if e.expected != TOO_DEEP && (e.rest >= at.len() || e.expected.is_empty()) {
             PErr {
                 rest: e.rest.min(at.len()),
                 expected,
@@ -991,23 +1068,6 @@ fn relabel(e: nom::Err<PErr>, at: &[u8], expected: &'static str) -> nom::Err<PEr
             e
         }
     })
-}
-
-/// Length of the character at the start of `i`: a whole UTF-8 sequence when the bytes form one (so spans
-/// never split a character of a UTF-8 file), else one byte (Latin-1, GBK, broken bytes); 0 at the end.
-fn char_len(i: &[u8]) -> usize {
-    let n = match i.first() {
-        None => return 0,
-        Some(0xC0..=0xDF) => 2,
-        Some(0xE0..=0xEF) => 3,
-        Some(0xF0..=0xF7) => 4,
-        Some(_) => 1,
-    };
-    if i.len() >= n && std::str::from_utf8(&i[..n]).is_ok() {
-        n
-    } else {
-        1
-    }
 }
 
 /// Offset of the first `;` outside a string (or the length).

@@ -5,6 +5,7 @@ mod fast;
 mod grammar;
 mod keyword;
 mod lexeme;
+mod odd_bytes;
 mod program;
 mod tree;
 
