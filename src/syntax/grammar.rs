@@ -64,8 +64,14 @@ fn classify(src: &[u8], tree: &Node, diags: &mut Vec<Diagnostic>) -> (BlockKind,
     let mut flags = 0;
     let mut block_if = false;
     let mut roles: Vec<(BlockKind, Span)> = Vec::new();
+    // `WHEN cond DO action ELSE action`: one ELSE after a synchronized action's DO is the action's.
+    let mut action_else = false;
     for n in tree.significant() {
         let role = match n.kind {
+            K::SyncCondition => {
+                action_else = true;
+                None
+            }
             K::Header => Some(BlockKind::Header),
             K::Label => {
                 flags |= flag::LABEL;
@@ -104,6 +110,13 @@ fn classify(src: &[u8], tree: &Node, diags: &mut Vec<Diagnostic>) -> (BlockKind,
                     })
             }
             _ => None,
+        };
+        let role = match role {
+            Some(BlockKind::Else) if action_else => {
+                action_else = false;
+                None
+            }
+            role => role,
         };
         if let Some(role) = role {
             roles.push((role, n.span));
@@ -553,13 +566,13 @@ impl Cx {
             if keyword(name) != Some(Kw::Goto) {
                 return fail(j, "a GOTO after the CASE value");
             }
-            // The target is a name, number or string, not an expression: in `GOTO LBL1-2 GOTO LBL2` the
-            // `-2` is the next arm's value.
+            // The target is a name, number or string, or strings joined with `<<`, not any expression: in
+            // `GOTO LBL1-2 GOTO LBL2` the `-2` is the next arm's value.
             let mut goto = vec![self.leaf(K::Keyword, j, after)];
             let t = self.ws(after, &mut goto);
             let (rest, target) = self
-                .nested(t, |cx| cx.primary(t))
-                .map_err(|_| expected_at(t, "a jump target"))?;
+                .nested(t, |cx| cx.binary(t, 0, JOINED))
+                .map_err(|e| relabel(e, t, "a jump target"))?;
             goto.push(target);
             arm.push(Node::with_children(K::Goto, goto));
             parts.push(Node::with_children(K::CaseArm, arm));
@@ -872,7 +885,7 @@ impl Cx {
     }
 
     fn expr<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
-        self.nested(i, |cx| cx.binary(i, 0))
+        self.nested(i, |cx| cx.binary(i, 0, EXPRESSION))
     }
 
     /// Runs `parse` one level deeper, failing beyond [`MAX_DEPTH`].
@@ -890,35 +903,42 @@ impl Cx {
     /// The operand at `i` and the operators of `level` or tighter after it (precedence climbing: the
     /// recursion goes one level deeper only where a tighter operator follows). Each operator in a row wraps
     /// the tree once more, so it counts as one level of depth.
-    fn binary<'a>(&self, i: &'a [u8], level: usize) -> R<'a, Node> {
+    fn binary<'a>(&self, i: &'a [u8], level: usize, ops: Operators) -> R<'a, Node> {
         let depth = self.depth.get();
-        let result = self.operations(i, level);
+        let result = self.operations(i, level, ops);
         self.depth.set(depth);
         result
     }
 
-    fn operations<'a>(&self, i: &'a [u8], level: usize) -> R<'a, Node> {
-        let (mut i, mut lhs) = self.unary(i)?;
+    fn operations<'a>(&self, i: &'a [u8], level: usize, ops: Operators) -> R<'a, Node> {
+        let (mut i, mut lhs) = (ops.operand)(self, i)?;
         loop {
             let mut parts = Vec::new();
             let j = self.ws(i, &mut parts);
-            let Some((op_level, len, op_kind)) = operator(j).filter(|op| op.0 >= level) else {
+            let Some((op_level, len, op_kind)) = (ops.at)(j).filter(|op| op.0 >= level) else {
                 return Ok((i, lhs));
             };
-            if self.depth.get() >= MAX_DEPTH {
-                return fail(j, TOO_DEEP);
-            }
-            self.depth.set(self.depth.get() + 1);
+            let j = self.deeper(j)?;
             let j = self.take(op_kind, j, len, &mut parts);
             let j = self.ws(j, &mut parts);
             let (rest, rhs) = self
-                .binary(j, op_level + 1)
+                .binary(j, op_level + 1, ops)
                 .map_err(|e| relabel(e, j, "an operand"))?;
             parts.insert(0, lhs);
             parts.push(rhs);
             lhs = Node::with_children(K::Binary, parts);
             i = rest;
         }
+    }
+
+    /// Counts one more level of depth (an operator in a row), failing beyond [`MAX_DEPTH`].
+    fn deeper<'a>(&self, i: &'a [u8]) -> Result<&'a [u8], nom::Err<PErr>> {
+        let depth = self.depth.get();
+        if depth >= MAX_DEPTH {
+            return Err(expected_at(i, TOO_DEEP));
+        }
+        self.depth.set(depth + 1);
+        Ok(i)
     }
 
     fn unary<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
@@ -946,51 +966,92 @@ impl Cx {
         Ok((rest, Node::with_children(K::Unary, parts)))
     }
 
+    /// An operand. Each form has its own function, so that the frames on the recursion through nested
+    /// parentheses and calls stay small (unoptimised builds give a function one slot per local of every arm).
     fn primary<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
         match i.first() {
-            Some(b'(') => {
-                let mut parts = Vec::new();
-                let j = self.take(K::Punct, i, 1, &mut parts);
-                let j = self.ws(j, &mut parts);
-                let (j, inner) = self.expr(j)?;
-                parts.push(inner);
-                let (rest, ()) = self.punct(j, ")", "`)`", &mut parts)?;
-                Ok((rest, Node::with_children(K::Paren, parts)))
-            }
-            Some(b'0'..=b'9' | b'.') => {
-                let (rest, _) = unsigned_number(i).map_err(|_| expected_at(i, "a number"))?;
-                Ok((rest, self.leaf(K::Number, i, rest)))
-            }
-            Some(b'"') => {
-                let (rest, _) = string(i).map_err(|_| expected_at(i, "a closed string"))?;
-                Ok((rest, self.leaf(K::Str, i, rest)))
-            }
-            Some(b'\'') => {
-                let (rest, _) =
-                    bit_literal(i).map_err(|_| expected_at(i, "a bit literal 'H…' or 'B…'"))?;
-                Ok((rest, self.leaf(K::BitLiteral, i, rest)))
-            }
+            Some(b'(') => self.paren(i),
             Some(b'$') => self.var_ref(i),
-            _ => {
-                let (after, name) = ident(i).map_err(|_| expected_at(i, "an operand"))?;
-                if keyword(name).is_some_and(Kw::is_reserved) {
-                    return fail(i, "an operand");
-                }
-                if skip_blanks(after).first() == Some(&b'(') {
-                    let mut parts = vec![self.leaf(K::Name, i, after)];
-                    let after = self.ws(after, &mut parts);
-                    let (rest, args) = self.args(after)?;
-                    parts.push(args);
-                    return Ok((rest, Node::with_children(K::FnCall, parts)));
-                }
-                self.var_ref(i)
-            }
+            Some(b'0'..=b'9' | b'.' | b'"' | b'\'') => self.literal(i),
+            _ => self.named(i),
         }
+    }
+
+    fn paren<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
+        let mut parts = Vec::new();
+        let j = self.take(K::Punct, i, 1, &mut parts);
+        let j = self.ws(j, &mut parts);
+        let (j, inner) = self.expr(j)?;
+        parts.push(inner);
+        let (rest, ()) = self.punct(j, ")", "`)`", &mut parts)?;
+        Ok((rest, Node::with_children(K::Paren, parts)))
+    }
+
+    /// A number, string or bit literal.
+    fn literal<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
+        let (rest, kind) = match i[0] {
+            b'"' => (
+                string(i).map_err(|_| expected_at(i, "a closed string"))?.0,
+                K::Str,
+            ),
+            b'\'' => (
+                bit_literal(i)
+                    .map_err(|_| expected_at(i, "a bit literal 'H…' or 'B…'"))?
+                    .0,
+                K::BitLiteral,
+            ),
+            _ => (
+                unsigned_number(i)
+                    .map_err(|_| expected_at(i, "a number"))?
+                    .0,
+                K::Number,
+            ),
+        };
+        Ok((rest, self.leaf(kind, i, rest)))
+    }
+
+    /// A function call, variable, axis or constant.
+    fn named<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
+        let (after, name) = ident(i).map_err(|_| expected_at(i, "an operand"))?;
+        if keyword(name).is_some_and(Kw::is_reserved) {
+            return fail(i, "an operand");
+        }
+        if skip_blanks(after).first() != Some(&b'(') {
+            return self.var_ref(i);
+        }
+        let mut parts = vec![self.leaf(K::Name, i, after)];
+        let after = self.ws(after, &mut parts);
+        let (rest, args) = self.args(after)?;
+        parts.push(args);
+        Ok((rest, Node::with_children(K::FnCall, parts)))
     }
 }
 
-/// The binary operator at the start of `i`: its level (0 binds loosest), length and leaf kind.
-fn operator(i: &[u8]) -> Option<(usize, usize, K)> {
+/// A binary operator: its level (0 binds loosest), length and leaf kind.
+type Op = (usize, usize, K);
+
+/// The binary operators an expression takes and its operands.
+#[derive(Clone, Copy)]
+struct Operators {
+    /// The operator at the start of the input.
+    at: fn(&[u8]) -> Option<Op>,
+    operand: for<'a> fn(&Cx, &'a [u8]) -> R<'a, Node>,
+}
+
+/// Every operator, with prefix operators on the operands.
+const EXPRESSION: Operators = Operators {
+    at: operator,
+    operand: Cx::unary,
+};
+
+/// `<<` alone between plain operands: a CASE arm's jump target (`"LBL"<<R1`).
+const JOINED: Operators = Operators {
+    at: |i| i.starts_with(b"<<").then_some((1, 2, K::Punct)),
+    operand: Cx::primary,
+};
+
+/// The binary operator at the start of `i`.
+fn operator(i: &[u8]) -> Option<Op> {
     const SYMBOLS: &[(&str, usize)] = &[
         ("<<", 1),
         ("==", 0),
