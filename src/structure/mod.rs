@@ -9,7 +9,7 @@ pub use jumps::{JumpTarget, Search, Targets};
 
 use crate::diagnostic::Diagnostic;
 use crate::source::Span;
-use crate::syntax::{BlockKind, NodeKind, Program, flag};
+use crate::syntax::{BlockKind, NodeKind, Program, control_statements, flag};
 
 /// The analysed structure of a program.
 #[derive(Debug, Clone, Default)]
@@ -166,19 +166,10 @@ fn unclosed(program: &Program, opener: usize, stopped_at: usize) -> Diagnostic {
 /// Span of the block's control keyword (the whole line if it has none).
 fn keyword_span(program: &Program, i: usize) -> Span {
     let block = program.block(i);
-    let control = block.root.significant().find(|n| {
-        matches!(
-            n.kind,
-            NodeKind::If
-                | NodeKind::ControlKeyword
-                | NodeKind::While
-                | NodeKind::Until
-                | NodeKind::For
-                | NodeKind::Repeat
-        )
-    });
-    control
-        .and_then(|n| n.find(NodeKind::Keyword))
+    let statements = control_statements(program.source(), &block.root);
+    statements
+        .first()
+        .and_then(|(_, n)| n.find(NodeKind::Keyword))
         .map_or(program.content_span(i), |k| k.span)
 }
 

@@ -60,11 +60,41 @@ pub(crate) fn parse_block(
 /// The block's control role and flags, from its statements. A second control statement in the block (`ELSE
 /// IF …`) is reported: a block has one role, as a block has one control statement on the control.
 fn classify(src: &[u8], tree: &Node, diags: &mut Vec<Diagnostic>) -> (BlockKind, u8) {
-    let mut kind = BlockKind::Plain;
     let mut flags = 0;
-    let mut block_if = false;
-    let mut roles: Vec<(BlockKind, Span)> = Vec::new();
-    // `WHEN cond DO action ELSE action`: one ELSE after a synchronized action's DO is the action's.
+    for n in tree.significant() {
+        flags |= match n.kind {
+            K::Label => flag::LABEL,
+            K::Goto | K::Case => flag::JUMP,
+            K::Repeat if n.find(K::Name).is_some() => flag::JUMP,
+            K::Error => flag::ERROR,
+            _ => 0,
+        };
+    }
+    let roles = control_statements(src, tree);
+    let kind = roles.first().map_or(BlockKind::Plain, |r| r.0);
+    // `IF cond GOTOF label` is a conditional jump, not the start of an IF … ENDIF (several may share a block).
+    if flags & flag::JUMP != 0 && roles.iter().all(|r| r.0 == BlockKind::If) {
+        return (BlockKind::Plain, flags);
+    }
+    if let [(first, _), (second, node), ..] = roles[..] {
+        let (first, second) = (first.keyword(), second.keyword());
+        diags.push(
+            Diagnostic::error(
+                node.span,
+                format!(
+                    "{second} after {first} in the same block: a block holds one control statement"
+                ),
+            )
+            .with_help(format!("put {second} on a line of its own")),
+        );
+    }
+    (kind, flags)
+}
+
+/// The statements of a block that give it a control role (IF, ELSE, WHILE, a `%` header …), in order; the
+/// first decides the role. In `WHEN cond DO action ELSE action` the ELSE is the synchronized action's.
+pub(crate) fn control_statements<'n>(src: &[u8], tree: &'n Node) -> Vec<(BlockKind, &'n Node)> {
+    let mut roles = Vec::new();
     let mut action_else = false;
     for n in tree.significant() {
         let role = match n.kind {
@@ -73,33 +103,18 @@ fn classify(src: &[u8], tree: &Node, diags: &mut Vec<Diagnostic>) -> (BlockKind,
                 None
             }
             K::Header => Some(BlockKind::Header),
-            K::Label => {
-                flags |= flag::LABEL;
-                None
-            }
-            K::Goto | K::Case => {
-                flags |= flag::JUMP;
-                None
-            }
-            K::Repeat if n.find(K::Name).is_some() => {
-                flags |= flag::JUMP;
-                None
-            }
-            K::Repeat => Some(BlockKind::Repeat),
-            K::Error => {
-                flags |= flag::ERROR;
-                None
-            }
-            K::If => {
-                block_if = true;
-                Some(BlockKind::If)
-            }
+            K::Repeat if n.find(K::Name).is_none() => Some(BlockKind::Repeat),
+            K::If => Some(BlockKind::If),
             K::While => Some(BlockKind::While),
             K::Until => Some(BlockKind::Until),
             K::For => Some(BlockKind::For),
             K::ControlKeyword => {
                 n.find(K::Keyword)
                     .and_then(|k| match keyword(k.span.slice(src)) {
+                        Some(Kw::Else) if action_else => {
+                            action_else = false;
+                            None
+                        }
                         Some(Kw::Else) => Some(BlockKind::Else),
                         Some(Kw::EndIf) => Some(BlockKind::EndIf),
                         Some(Kw::EndWhile) => Some(BlockKind::EndWhile),
@@ -111,37 +126,11 @@ fn classify(src: &[u8], tree: &Node, diags: &mut Vec<Diagnostic>) -> (BlockKind,
             }
             _ => None,
         };
-        let role = match role {
-            Some(BlockKind::Else) if action_else => {
-                action_else = false;
-                None
-            }
-            role => role,
-        };
         if let Some(role) = role {
-            roles.push((role, n.span));
-        }
-        if let (Some(role), BlockKind::Plain) = (role, kind) {
-            kind = role;
+            roles.push((role, n));
         }
     }
-    // `IF cond GOTOF label` is a conditional jump, not the start of an IF … ENDIF (several may share a block).
-    let jumps_only = flags & flag::JUMP != 0 && roles.iter().all(|r| r.0 == BlockKind::If);
-    if block_if && kind == BlockKind::If && jumps_only {
-        kind = BlockKind::Plain;
-    } else if let [(first, _), (second, span), ..] = roles[..] {
-        let (first, second) = (first.keyword(), second.keyword());
-        diags.push(
-            Diagnostic::error(
-                span,
-                format!(
-                    "{second} after {first} in the same block: a block holds one control statement"
-                ),
-            )
-            .with_help(format!("put {second} on a line of its own")),
-        );
-    }
-    (kind, flags)
+    roles
 }
 
 /// Turns suffixes of the block's content into absolute spans, and bounds expression nesting.
