@@ -273,42 +273,56 @@ pub(super) fn resolve_jumps(
                 ));
             }
         }
-        if let Some((start, start_span)) = section.first() {
-            let end = section.get(1);
-            let (first, last) = targets.section(i, start, end.map(|e| e.0.as_str()), unit);
-            out.jumps.push(super::Jump {
-                from: i,
-                target: start.clone(),
-                to: first,
-            });
-            if first.is_none() {
-                out.diagnostics
-                    .push(not_defined("REPEAT", start, *start_span));
-            }
-            if let (Some(first), Some((end, end_span))) = (first, end) {
-                out.jumps.push(super::Jump {
-                    from: i,
-                    target: end.clone(),
-                    to: last,
-                });
-                let defined = targets.blocks(&JumpTarget::Label(end.clone()), unit);
-                match (last, defined.first()) {
-                    (Some(_), _) => {}
-                    (None, Some(&at)) => out.diagnostics.push(
-                        Diagnostic::error(
-                            *end_span,
-                            format!(
-                                "REPEAT's end label {end} is not after {start} (line {})",
-                                first + 1
-                            ),
-                        )
-                        .with_help("the section runs from the start label down to the end label")
-                        .with_related(program.content_span(at), format!("{end} is defined here")),
-                    ),
-                    (None, None) => out.diagnostics.push(not_defined("REPEAT", end, *end_span)),
-                }
-            }
-        }
+        resolve_section(program, unit, targets, i, &section, out);
+    }
+}
+
+/// The labels of `REPEAT start [end]` / `REPEATB start` (`names`) at block `i`.
+fn resolve_section(
+    program: &Program,
+    unit: &Range<usize>,
+    targets: &Targets,
+    i: usize,
+    names: &[(String, Span)],
+    out: &mut Structure,
+) {
+    let Some((start, start_span)) = names.first() else {
+        return;
+    };
+    let end = names.get(1);
+    let (first, last) = targets.section(i, start, end.map(|e| e.0.as_str()), unit);
+    out.jumps.push(super::Jump {
+        from: i,
+        target: start.clone(),
+        to: first,
+    });
+    if first.is_none() {
+        out.diagnostics.push(not_defined("REPEAT", start, *start_span));
+    }
+    let Some((end, end_span)) = end else {
+        return;
+    };
+    out.jumps.push(super::Jump {
+        from: i,
+        target: end.clone(),
+        to: last,
+    });
+    let defined = targets.blocks(&JumpTarget::Label(end.clone()), unit);
+    match (first, last, defined.first()) {
+        (_, None, None) => out.diagnostics.push(not_defined("REPEAT", end, *end_span)),
+        (Some(first), None, Some(&at)) => out.diagnostics.push(
+            Diagnostic::error(
+                *end_span,
+                format!(
+                    "REPEAT's end label {end} is not after {start} (line {})",
+                    first + 1
+                ),
+            )
+            .with_help("the section runs from the start label down to the end label")
+            .with_related(program.content_span(at), format!("{end} is defined here")),
+        ),
+        // Found, or the start label is missing (reported above).
+        _ => {}
     }
 }
 

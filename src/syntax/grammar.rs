@@ -475,7 +475,10 @@ impl Cx {
                 parts.push(to);
                 (rest, K::For)
             }
-            Kw::Repeat => (self.repeat_labels(after, &mut parts), K::Repeat),
+            Kw::Repeat => {
+                let single = i[..i.len() - after.len()].eq_ignore_ascii_case(b"REPEATB");
+                (self.repeat_labels(after, single, &mut parts)?, K::Repeat)
+            }
             Kw::Case => (self.case(after, &mut parts)?.0, K::Case),
             Kw::Goto => {
                 let j = self.ws(after, &mut parts);
@@ -503,9 +506,16 @@ impl Cx {
         Ok((rest, Node::with_children(kind, parts)))
     }
 
-    /// `REPEAT` alone opens a loop; `REPEAT a [b]` repeats a section (`P=n` follows as an assignment).
-    fn repeat_labels<'a>(&self, mut i: &'a [u8], parts: &mut Vec<Node>) -> &'a [u8] {
-        for _ in 0..2 {
+    /// `REPEAT` alone opens a loop; `REPEAT a [b]` repeats a section, `REPEATB a` (`single`) the labelled block
+    /// (`P=n` follows as an assignment).
+    fn repeat_labels<'a>(
+        &self,
+        mut i: &'a [u8],
+        single: bool,
+        parts: &mut Vec<Node>,
+    ) -> Result<&'a [u8], nom::Err<PErr>> {
+        let mut names = 0;
+        loop {
             let mut trivia = Vec::new();
             let j = self.ws(i, &mut trivia);
             match ident(j) {
@@ -514,14 +524,22 @@ impl Cx {
                         && skip_blanks(rest).first() != Some(&b'=')
                         && !matches!(rest.first(), Some(b'(' | b'[')) =>
                 {
+                    if names == if single { 1 } else { 2 } {
+                        let expected = if single {
+                            "`P=` or the end of the block (REPEATB takes one label)"
+                        } else {
+                            "`P=` or the end of the block (REPEAT takes two labels)"
+                        };
+                        return Err(expected_at(j, expected));
+                    }
                     parts.append(&mut trivia);
                     parts.push(self.leaf(K::Name, j, rest));
                     i = rest;
+                    names += 1;
                 }
-                _ => break,
+                _ => return Ok(i),
             }
         }
-        i
     }
 
     /// `CASE expr OF { (const | DEFAULT) GOTOx target }`.
