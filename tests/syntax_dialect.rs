@@ -4,9 +4,11 @@
 
 mod syntax_support;
 
+use driftloop::syntax::{Decimal, Words, parse_owned_with};
 use driftloop::views::{BlockFacts, Value, facts};
 use driftloop::{BlockKind, LineIndex, NodeKind as K, Program, Severity, analyze, parse};
-use syntax_support::{errors, find_in, fixture, statement_kinds, text};
+use proptest::prelude::*;
+use syntax_support::{errors, find_in, fixture, resolved_jumps, statement_kinds, text};
 
 /// (line, severity, message) of every diagnostic.
 fn diagnostics(p: &Program) -> Vec<(usize, Severity, String)> {
@@ -105,19 +107,9 @@ fn the_dialect_fixture_parses_with_warnings_only() {
         vec![("BACK", 6), ("AHEAD", 8), ("BACK", 10), ("AHEAD", 12)],
         "every definition"
     );
-    let jumps: Vec<(usize, &str, Option<usize>)> = s
-        .jumps
-        .iter()
-        .map(|j| (j.from, j.target.as_str(), j.to))
-        .collect();
     assert_eq!(
-        jumps,
-        vec![
-            (7, "AHEAD", Some(8)),
-            (9, "BACK", Some(6)),
-            (11, "AHEAD", Some(12)),
-            (11, "AHEAD", Some(12)),
-        ],
+        resolved_jumps(&p),
+        ["7 AHEAD 8", "9 BACK 6", "11 AHEAD 12", "11 AHEAD 12"],
         "GOTOF to the next AHEAD, GOTOB to the nearest BACK before it (the computed target is the \
          dry run's to resolve)"
     );
@@ -252,4 +244,58 @@ fn a_block_holds_one_control_statement() {
         vec!["1:41 ELSE on line 1 has no matching IF"],
         "one ELSE belongs to the synchronized action, the second to no IF"
     );
+}
+
+/// The words the fast recogniser hands to a reader (the timeline's path), as letter and value.
+#[derive(Default)]
+struct Heard(Vec<(u8, Option<f64>)>);
+
+impl Words for Heard {
+    type Number = Decimal;
+    fn skip_level(&mut self) {}
+    fn word(&mut self, letter: u8, number: &Decimal) {
+        self.0.push((letter, number.value()));
+    }
+    fn comment(&mut self) {}
+    fn end_line(&mut self) {}
+    fn other_line(&mut self, _: Option<&[u8]>) {
+        self.0.push((b'?', None));
+    }
+}
+
+fn heard(src: &str) -> Vec<(u8, Option<f64>)> {
+    let (_, pieces) = parse_owned_with(src.as_bytes().to_vec(), Heard::default);
+    pieces.into_iter().flat_map(|(_, h)| h.0).collect()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    /// `X 10` is `X10` for the grammar, the views and the fast recogniser alike.
+    #[test]
+    fn blanks_after_an_address_letter_change_nothing(
+        words in prop::collection::vec(
+            (
+                prop::sample::select(&b"GXYZABCFSTMDHIJKLPEgxyz"[..]),
+                -99_999i32..99_999,
+                0u32..4,
+                prop::sample::select(&[" ", "  ", "\t", "&", " \t "][..]),
+            ),
+            1..8,
+        )
+    ) {
+        let (mut packed, mut spaced) = (String::new(), String::new());
+        for (letter, value, scale, blank) in words {
+            let v = f64::from(value) / 10f64.powi(scale as i32);
+            packed += &format!("{}{v} ", letter as char);
+            spaced += &format!("{}{blank}{v} ", letter as char);
+        }
+        let (p, s) = (parse(packed.as_bytes()), parse(spaced.as_bytes()));
+        prop_assert!(s.diagnostics().is_empty(), "{spaced}: {:?}", s.diagnostics());
+        prop_assert_eq!(statement_kinds(&s, 0), statement_kinds(&p, 0));
+        prop_assert_eq!(values(&facts(&s.block(0))), values(&facts(&p.block(0))));
+        let spaced_words = heard(&spaced);
+        prop_assert!(!spaced_words.contains(&(b'?', None)), "the fast path takes {spaced}");
+        prop_assert_eq!(spaced_words, heard(&packed));
+    }
 }

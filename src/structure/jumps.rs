@@ -297,7 +297,8 @@ fn resolve_section(
         to: first,
     });
     if first.is_none() {
-        out.diagnostics.push(not_defined("REPEAT", start, *start_span));
+        out.diagnostics
+            .push(not_defined("REPEAT", start, *start_span));
     }
     let Some((end, end_span)) = end else {
         return;

@@ -144,7 +144,7 @@ struct Cx {
 /// each binary operator in a row (it wraps the tree once more). Keeps hostile input (a line of 100 000 `(`,
 /// `1+1+…` with 200 000 terms) from exhausting the stack of the parser and of everything that walks the tree
 /// (the tree is at most about twice as deep). A block of the control's 512 characters stays below it.
-pub(crate) const MAX_DEPTH: usize = 256;
+const MAX_DEPTH: usize = 256;
 
 /// What a parse failure beyond [`MAX_DEPTH`] expected; the diagnostic words it on its own.
 const TOO_DEEP: &str = "a less deeply nested expression";
@@ -514,7 +514,7 @@ impl Cx {
         single: bool,
         parts: &mut Vec<Node>,
     ) -> Result<&'a [u8], nom::Err<PErr>> {
-        let mut names = 0;
+        let (mut names, most) = (0, if single { 1 } else { 2 });
         loop {
             let mut trivia = Vec::new();
             let j = self.ws(i, &mut trivia);
@@ -524,7 +524,7 @@ impl Cx {
                         && skip_blanks(rest).first() != Some(&b'=')
                         && !matches!(rest.first(), Some(b'(' | b'[')) =>
                 {
-                    if names == if single { 1 } else { 2 } {
+                    if names == most {
                         let expected = if single {
                             "`P=` or the end of the block (REPEATB takes one label)"
                         } else {
