@@ -327,8 +327,9 @@ pub fn facts(block: &Block<'_>) -> BlockFacts {
     for node in block.root.significant() {
         match node.kind {
             NodeKind::BlockNumber => {
-                f.block_number = std::str::from_utf8(block.text(&node.children[1]))
-                    .ok()
+                f.block_number = node
+                    .address_and_number()
+                    .and_then(|(_, digits)| std::str::from_utf8(block.text(digits)).ok())
                     .and_then(|t| t.parse().ok());
             }
             NodeKind::Label => f.label = node.find(NodeKind::Name).map(|n| upper(block.text(n))),
@@ -350,8 +351,10 @@ pub fn facts(block: &Block<'_>) -> BlockFacts {
 }
 
 fn word_facts(block: &Block<'_>, node: &Node, f: &mut BlockFacts) {
-    let letter = block.text(&node.children[0])[0].to_ascii_uppercase();
-    let num = &node.children[1];
+    let Some((address, num)) = node.address_and_number() else {
+        return;
+    };
+    let letter = block.text(address)[0].to_ascii_uppercase();
     let value = value_of(block, num);
     let av = AddressValue {
         extension: None,

@@ -140,6 +140,22 @@ const FRAGMENTS: &[&[u8]] = &[
     b"\xFF\xFE",
     b"\xEF\xBB\xBF",
     b"\x1A",
+    b"\x7F",
+    b"X 10",
+    b"N 20",
+    b"G 1",
+    b"Y -2.5",
+    b"L 100 P 2",
+    b"\xA3\xBB",
+    b"\xA3\xBA",
+    b"\xEF\xBC\x9B",
+    b"\xE3\x80\x80",
+    b"CASE R1 OF-1 GOTOF L1-2 GOTOF \"L\"<<R1",
+    b"<<R1",
+    b"WHEN R1>0 DO R2=1 ELSE R2=0",
+    b"REPEATB L1 L2",
+    b"ELSE IF R1>2",
+    b"LBL1: X1",
 ];
 
 const SEPARATORS: &[&[u8]] = &[b" ", b"", b"  ", b"\t", b"&", b" ; tail"];

@@ -17,10 +17,28 @@ fn errors_fixture_reports_each_problem_once_at_its_place() {
             "8:11 expected `)`, found end of line",
             "9:12 expected a word, assignment, call or keyword, found `)`",
             "10:5 ENDFOR on line 10 has no matching FOR",
-            "12:1 label DUP is defined twice",
         ]
     );
     assert!(p.has_errors());
+    let index = LineIndex::new(p.source());
+    let warnings: Vec<(usize, &str, Vec<&str>)> = p
+        .diagnostics()
+        .iter()
+        .filter(|d| d.severity == Severity::Warning)
+        .map(|d| {
+            let notes = d.related.iter().map(|r| r.1.as_str()).collect();
+            (index.line_col(d.span.start).0, d.message.as_str(), notes)
+        })
+        .collect();
+    assert_eq!(
+        warnings,
+        vec![(
+            12,
+            "label DUP is defined again",
+            vec!["first defined on line 11"]
+        )],
+        "the control accepts a label twice: a warning, not an error"
+    );
 }
 
 #[test]

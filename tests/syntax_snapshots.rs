@@ -54,3 +54,4 @@ snapshot!(syntax_errors, "errors.mpf");
 snapshot!(syntax_jumps, "jumps.mpf");
 snapshot!(syntax_archive, "archive.arc");
 snapshot!(syntax_declarations, "declarations.spf");
+snapshot!(syntax_dialect, "dialect.mpf");

@@ -53,6 +53,74 @@ fn jumps_search_in_their_direction() {
     );
 }
 
+/// A label defined twice: each jump lands on the nearest one in its direction, in the dry run as in the
+/// structure check (both resolve through `structure::Targets`).
+#[test]
+fn duplicate_labels_take_the_nearest_in_the_search_direction() {
+    let src = b"N10 R1=0 R2=0 R3=0
+TOP: R1=R1+1          ; the first TOP
+N20 GOTOF TOP         ; the next TOP, not the one before
+N30 R2=100
+TOP: R2=R2+1          ; the second TOP
+N40 IF R2<3 GOTOB TOP ; the nearest TOP before: the second (R1 stays 1)
+N50 GOTO MID          ; forward first
+MID: R3=R3+1
+N60 IF R3==1 GOTOB MID
+N70 GOTOF END_
+MID: R3=100
+END_: X=R1 Y=R2 Z=R3
+M30
+";
+    let program = driftloop::parse(src);
+    assert!(!program.has_errors(), "labels defined twice are no error");
+    let checked: Vec<(usize, Option<usize>)> = driftloop::analyze(&program)
+        .jumps
+        .iter()
+        .map(|j| (j.from, j.to))
+        .collect();
+    assert_eq!(
+        checked,
+        vec![
+            (2, Some(4)),
+            (5, Some(4)),
+            (6, Some(7)),
+            (8, Some(7)),
+            (9, Some(11))
+        ]
+    );
+    let r = run_source(
+        "dup.mpf",
+        src,
+        None,
+        &Config::default(),
+        &mut SimpleMachine::cold(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(last_machine(&r), [1.0, 3.0, 2.0]);
+    let lines: Vec<usize> = r.trace.iter().map(|t| t.line).collect();
+    assert!(!lines.contains(&4) && !lines.contains(&11), "{lines:?}");
+}
+
+#[test]
+fn a_jump_without_a_target_in_its_direction_stops_with_alarm_14080() {
+    let src = b"AHEAD: X1\nGOTOF AHEAD\nM30\n";
+    let program = driftloop::parse(src);
+    assert_eq!(
+        program.diagnostics()[0].message,
+        "GOTOF searches forward, but AHEAD is on line 1"
+    );
+    let err = run_source(
+        "miss.mpf",
+        src,
+        None,
+        &Config::default(),
+        &mut SimpleMachine::cold(),
+    )
+    .expect_err("the dry run stops");
+    assert_eq!(err.line, 2);
+    assert!(err.message.contains("alarm 14080"), "{err}");
+}
+
 #[test]
 fn subprograms_with_parameters_repetitions_save_and_var() {
     let r = run(

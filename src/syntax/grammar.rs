@@ -7,9 +7,10 @@ use nom::bytes::complete::tag;
 
 use super::keyword::{Kw, keyword};
 use super::lexeme::{
-    PErr, R, bit_literal, blanks, block_number_len, fail, ident, is_ident_char, signed_number,
-    skip_blanks, skip_level_len, string, sysvar_name, unsigned_number, word,
+    PErr, R, bit_literal, blanks, block_number_at, fail, ident, is_control, is_ident_char,
+    signed_number, skip_blanks, skip_level_len, string, sysvar_name, unsigned_number, word,
 };
+use super::odd_bytes::{ControlCharacters, name_odd_bytes, utf8_len};
 use super::program::{BlockKind, flag};
 use super::tree::{Node, NodeKind as K};
 use crate::diagnostic::Diagnostic;
@@ -23,8 +24,13 @@ pub(crate) struct ParsedBlock {
 }
 
 /// Parses the block whose parsable content is `content` (the BOM of line 1 excluded) and whose terminator is
-/// `terminator`.
-pub(crate) fn parse_block(src: &[u8], content: Span, terminator: Span) -> ParsedBlock {
+/// `terminator`. From `filler` on, `src` holds only DOS end-of-file filler (see [`super::odd_bytes::eof_filler`]).
+pub(crate) fn parse_block(
+    src: &[u8],
+    content: Span,
+    terminator: Span,
+    filler: usize,
+) -> ParsedBlock {
     let line = content.slice(src);
     let cx = Cx {
         base: content.start,
@@ -39,7 +45,10 @@ pub(crate) fn parse_block(src: &[u8], content: Span, terminator: Span) -> Parsed
     cx.block_body(line, &mut children, &mut diagnostics);
     children.push(Node::leaf(K::Newline, terminator));
     let tree = Node::with_children(K::Block, children);
-    let (kind, flags) = classify(src, &tree);
+    if line.iter().any(|&b| is_control(b)) {
+        ControlCharacters::new(src, filler).report(&tree, &mut diagnostics);
+    }
+    let (kind, flags) = classify(src, &tree, &mut diagnostics);
     ParsedBlock {
         tree,
         diagnostics,
@@ -48,41 +57,64 @@ pub(crate) fn parse_block(src: &[u8], content: Span, terminator: Span) -> Parsed
     }
 }
 
-/// The block's control role and flags, from its statements.
-fn classify(src: &[u8], tree: &Node) -> (BlockKind, u8) {
-    let mut kind = BlockKind::Plain;
+/// The block's control role and flags, from its statements. A second control statement in the block (`ELSE
+/// IF …`) is reported: a block has one role, as a block has one control statement on the control.
+fn classify(src: &[u8], tree: &Node, diags: &mut Vec<Diagnostic>) -> (BlockKind, u8) {
     let mut flags = 0;
-    let mut block_if = false;
+    for n in tree.significant() {
+        flags |= match n.kind {
+            K::Label => flag::LABEL,
+            K::Goto | K::Case => flag::JUMP,
+            K::Repeat if n.find(K::Name).is_some() => flag::JUMP,
+            K::Error => flag::ERROR,
+            _ => 0,
+        };
+    }
+    let roles = control_statements(src, tree);
+    let kind = roles.first().map_or(BlockKind::Plain, |r| r.0);
+    // `IF cond GOTOF label` is a conditional jump, not the start of an IF … ENDIF (several may share a block).
+    if flags & flag::JUMP != 0 && roles.iter().all(|r| r.0 == BlockKind::If) {
+        return (BlockKind::Plain, flags);
+    }
+    if let [(first, _), (second, node), ..] = roles[..] {
+        let (first, second) = (first.keyword(), second.keyword());
+        diags.push(
+            Diagnostic::error(
+                node.span,
+                format!(
+                    "{second} after {first} in the same block: a block holds one control statement"
+                ),
+            )
+            .with_help(format!("put {second} on a line of its own")),
+        );
+    }
+    (kind, flags)
+}
+
+/// The statements of a block that give it a control role (IF, ELSE, WHILE, a `%` header …), in order; the
+/// first decides the role. In `WHEN cond DO action ELSE action` the ELSE is the synchronized action's.
+pub(crate) fn control_statements<'n>(src: &[u8], tree: &'n Node) -> Vec<(BlockKind, &'n Node)> {
+    let mut roles = Vec::new();
+    let mut action_else = false;
     for n in tree.significant() {
         let role = match n.kind {
+            K::SyncCondition => {
+                action_else = true;
+                None
+            }
             K::Header => Some(BlockKind::Header),
-            K::Label => {
-                flags |= flag::LABEL;
-                None
-            }
-            K::Goto | K::Case => {
-                flags |= flag::JUMP;
-                None
-            }
-            K::Repeat if n.find(K::Name).is_some() => {
-                flags |= flag::JUMP;
-                None
-            }
-            K::Repeat => Some(BlockKind::Repeat),
-            K::Error => {
-                flags |= flag::ERROR;
-                None
-            }
-            K::If => {
-                block_if = true;
-                Some(BlockKind::If)
-            }
+            K::Repeat if n.find(K::Name).is_none() => Some(BlockKind::Repeat),
+            K::If => Some(BlockKind::If),
             K::While => Some(BlockKind::While),
             K::Until => Some(BlockKind::Until),
             K::For => Some(BlockKind::For),
             K::ControlKeyword => {
                 n.find(K::Keyword)
                     .and_then(|k| match keyword(k.span.slice(src)) {
+                        Some(Kw::Else) if action_else => {
+                            action_else = false;
+                            None
+                        }
                         Some(Kw::Else) => Some(BlockKind::Else),
                         Some(Kw::EndIf) => Some(BlockKind::EndIf),
                         Some(Kw::EndWhile) => Some(BlockKind::EndWhile),
@@ -94,15 +126,11 @@ fn classify(src: &[u8], tree: &Node) -> (BlockKind, u8) {
             }
             _ => None,
         };
-        if let (Some(role), BlockKind::Plain) = (role, kind) {
-            kind = role;
+        if let Some(role) = role {
+            roles.push((role, n));
         }
     }
-    // `IF cond GOTOF label` is a conditional jump, not the start of an IF … ENDIF.
-    if block_if && kind == BlockKind::If && flags & flag::JUMP != 0 {
-        kind = BlockKind::Plain;
-    }
-    (kind, flags)
+    roles
 }
 
 /// Turns suffixes of the block's content into absolute spans, and bounds expression nesting.
@@ -112,12 +140,14 @@ struct Cx {
     depth: std::cell::Cell<usize>,
 }
 
-/// Deepest nesting of parentheses, calls, indices and prefix operators: keeps hostile input (a line of 100 000
-/// `(`) from exhausting the stack. Real programs stay far below it.
-const MAX_DEPTH: usize = 64;
+/// Deepest expression: parentheses, calls, indices and prefix operators each count one level, and so does
+/// each binary operator in a row (it wraps the tree once more). Keeps hostile input (a line of 100 000 `(`,
+/// `1+1+…` with 200 000 terms) from exhausting the stack of the parser and of everything that walks the tree
+/// (the tree is at most about twice as deep). A block of the control's 512 characters stays below it.
+const MAX_DEPTH: usize = 256;
 
-/// Expression levels from loosest to tightest binding (Sinumerik "priority of operations", reversed).
-const LEVELS: usize = 10;
+/// What a parse failure beyond [`MAX_DEPTH`] expected; the diagnostic words it on its own.
+const TOO_DEEP: &str = "a less deeply nested expression";
 
 impl Cx {
     fn pos(&self, i: &[u8]) -> usize {
@@ -264,11 +294,29 @@ impl Cx {
         if !comment.is_empty() {
             out.push(self.leaf(K::Comment, comment, &[]));
         }
+        let start = self.pos(at);
+        if e.expected == TOO_DEEP {
+            let span = Span::new(start, start + utf8_len(at));
+            diags.push(
+                Diagnostic::error(
+                    span,
+                    format!("expression nested deeper than {MAX_DEPTH} levels"),
+                )
+                .with_help("split it over several assignments (the control takes 512 characters per block)"),
+            );
+            return;
+        }
         let expected = if e.expected.is_empty() {
             "a word, assignment, call or keyword"
         } else {
             e.expected
         };
+        if let Some((len, what, help)) = name_odd_bytes(at) {
+            let span = Span::new(start, start + len);
+            let message = format!("expected {expected}, found {what}");
+            diags.push(Diagnostic::error(span, message).with_help(help));
+            return;
+        }
         let found = match at.first() {
             None => "end of line".to_string(),
             Some(_) => {
@@ -280,7 +328,7 @@ impl Cx {
                 format!("`{}`", at[..n].escape_ascii())
             }
         };
-        let span = Span::new(self.pos(at), self.pos(at) + char_len(at));
+        let span = Span::new(start, start + utf8_len(at));
         let help = if at.first() == Some(&b'(') && i.first() == Some(&b'(') {
             "`( … )` is not a comment in Sinumerik programs; start comments with `;`"
         } else if at.first() == Some(&b'"') {
@@ -293,14 +341,24 @@ impl Cx {
         );
     }
 
-    /// `N10` or `:10` at the start of a block.
+    /// `N10`, `N 10` or `:10` at the start of a block.
     fn block_number<'a>(&self, i: &'a [u8]) -> Option<(&'a [u8], Node)> {
-        let rest = &i[block_number_len(i)?..];
-        let parts = vec![
-            self.leaf(K::Address, i, &i[1..]),
-            self.leaf(K::Number, &i[1..], rest),
-        ];
-        Some((rest, Node::with_children(K::BlockNumber, parts)))
+        let (digits, end) = block_number_at(i)?;
+        Some((
+            &i[end..],
+            self.address_and_number(K::BlockNumber, i, digits, end),
+        ))
+    }
+
+    /// A node of `kind` from the address letter at the start of `i`, the blanks up to `value` (if any) and
+    /// the number from there to `end`.
+    fn address_and_number(&self, kind: K, i: &[u8], value: usize, end: usize) -> Node {
+        let mut parts = vec![self.leaf(K::Address, i, &i[1..])];
+        if value > 1 {
+            parts.push(self.leaf(K::Trivia, &i[1..], &i[value..]));
+        }
+        parts.push(self.leaf(K::Number, &i[value..], &i[end..]));
+        Node::with_children(kind, parts)
     }
 
     /// `NAME:` (not a keyword, not `NAME:=`).
@@ -317,13 +375,8 @@ impl Cx {
     }
 
     fn statement<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
-        if let Ok((rest, (letter, _))) = word(i) {
-            let number = &i[letter.len()..];
-            let parts = vec![
-                self.leaf(K::Address, i, number),
-                self.leaf(K::Number, number, rest),
-            ];
-            return Ok((rest, Node::with_children(K::Word, parts)));
+        if let Some((value, end)) = word(i) {
+            return Ok((&i[end..], self.address_and_number(K::Word, i, value, end)));
         }
         if i.first() == Some(&b'$') {
             return self.assignment(i);
@@ -422,7 +475,10 @@ impl Cx {
                 parts.push(to);
                 (rest, K::For)
             }
-            Kw::Repeat => (self.repeat_labels(after, &mut parts), K::Repeat),
+            Kw::Repeat => {
+                let single = i[..i.len() - after.len()].eq_ignore_ascii_case(b"REPEATB");
+                (self.repeat_labels(after, single, &mut parts)?, K::Repeat)
+            }
             Kw::Case => (self.case(after, &mut parts)?.0, K::Case),
             Kw::Goto => {
                 let j = self.ws(after, &mut parts);
@@ -450,9 +506,16 @@ impl Cx {
         Ok((rest, Node::with_children(kind, parts)))
     }
 
-    /// `REPEAT` alone opens a loop; `REPEAT a [b]` repeats a section (`P=n` follows as an assignment).
-    fn repeat_labels<'a>(&self, mut i: &'a [u8], parts: &mut Vec<Node>) -> &'a [u8] {
-        for _ in 0..2 {
+    /// `REPEAT` alone opens a loop; `REPEAT a [b]` repeats a section, `REPEATB a` (`single`) the labelled block
+    /// (`P=n` follows as an assignment).
+    fn repeat_labels<'a>(
+        &self,
+        mut i: &'a [u8],
+        single: bool,
+        parts: &mut Vec<Node>,
+    ) -> Result<&'a [u8], nom::Err<PErr>> {
+        let (mut names, most) = (0, if single { 1 } else { 2 });
+        loop {
             let mut trivia = Vec::new();
             let j = self.ws(i, &mut trivia);
             match ident(j) {
@@ -461,14 +524,22 @@ impl Cx {
                         && skip_blanks(rest).first() != Some(&b'=')
                         && !matches!(rest.first(), Some(b'(' | b'[')) =>
                 {
+                    if names == most {
+                        let expected = if single {
+                            "`P=` or the end of the block (REPEATB takes one label)"
+                        } else {
+                            "`P=` or the end of the block (REPEAT takes two labels)"
+                        };
+                        return Err(expected_at(j, expected));
+                    }
                     parts.append(&mut trivia);
                     parts.push(self.leaf(K::Name, j, rest));
                     i = rest;
+                    names += 1;
                 }
-                _ => break,
+                _ => return Ok(i),
             }
         }
-        i
     }
 
     /// `CASE expr OF { (const | DEFAULT) GOTOx target }`.
@@ -502,8 +573,15 @@ impl Cx {
             if keyword(name) != Some(Kw::Goto) {
                 return fail(j, "a GOTO after the CASE value");
             }
-            let (rest, goto) = self.keyword_statement(Kw::Goto, j, after)?;
-            arm.push(goto);
+            // The target is a name, number or string, or strings joined with `<<`, not any expression: in
+            // `GOTO LBL1-2 GOTO LBL2` the `-2` is the next arm's value.
+            let mut goto = vec![self.leaf(K::Keyword, j, after)];
+            let t = self.ws(after, &mut goto);
+            let (rest, target) = self
+                .nested(t, |cx| cx.binary(t, 0, JOINED))
+                .map_err(|e| relabel(e, t, "a jump target"))?;
+            goto.push(target);
+            arm.push(Node::with_children(K::Goto, goto));
             parts.push(Node::with_children(K::CaseArm, arm));
             i = rest;
         }
@@ -814,35 +892,44 @@ impl Cx {
     }
 
     fn expr<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
-        self.nested(i, |cx| cx.binary(i, 0))
+        self.nested(i, |cx| cx.binary(i, 0, EXPRESSION))
     }
 
-    /// Runs `parse` one nesting level deeper, failing beyond [`MAX_DEPTH`].
+    /// Runs `parse` one level deeper, failing beyond [`MAX_DEPTH`].
     fn nested<'a>(&self, i: &'a [u8], parse: impl FnOnce(&Self) -> R<'a, Node>) -> R<'a, Node> {
-        if self.depth.get() >= MAX_DEPTH {
-            return fail(i, "a less deeply nested expression");
+        let depth = self.depth.get();
+        if depth >= MAX_DEPTH {
+            return fail(i, TOO_DEEP);
         }
-        self.depth.set(self.depth.get() + 1);
+        self.depth.set(depth + 1);
         let result = parse(self);
-        self.depth.set(self.depth.get() - 1);
+        self.depth.set(depth);
         result
     }
 
-    fn binary<'a>(&self, i: &'a [u8], level: usize) -> R<'a, Node> {
-        if level == LEVELS {
-            return self.unary(i);
-        }
-        let (mut i, mut lhs) = self.binary(i, level + 1)?;
+    /// The operand at `i` and the operators of `level` or tighter after it (precedence climbing: the
+    /// recursion goes one level deeper only where a tighter operator follows). Each operator in a row wraps
+    /// the tree once more, so it counts as one level of depth.
+    fn binary<'a>(&self, i: &'a [u8], level: usize, ops: Operators) -> R<'a, Node> {
+        let depth = self.depth.get();
+        let result = self.operations(i, level, ops);
+        self.depth.set(depth);
+        result
+    }
+
+    fn operations<'a>(&self, i: &'a [u8], level: usize, ops: Operators) -> R<'a, Node> {
+        let (mut i, mut lhs) = (ops.operand)(self, i)?;
         loop {
             let mut parts = Vec::new();
             let j = self.ws(i, &mut parts);
-            let Some((len, op_kind)) = operator(level, j) else {
+            let Some((op_level, len, op_kind)) = (ops.at)(j).filter(|op| op.0 >= level) else {
                 return Ok((i, lhs));
             };
+            let j = self.deeper(j)?;
             let j = self.take(op_kind, j, len, &mut parts);
             let j = self.ws(j, &mut parts);
             let (rest, rhs) = self
-                .binary(j, level + 1)
+                .binary(j, op_level + 1, ops)
                 .map_err(|e| relabel(e, j, "an operand"))?;
             parts.insert(0, lhs);
             parts.push(rhs);
@@ -851,9 +938,21 @@ impl Cx {
         }
     }
 
+    /// Counts one more level of depth (an operator in a row), failing beyond [`MAX_DEPTH`].
+    fn deeper<'a>(&self, i: &'a [u8]) -> Result<&'a [u8], nom::Err<PErr>> {
+        let depth = self.depth.get();
+        if depth >= MAX_DEPTH {
+            return Err(expected_at(i, TOO_DEEP));
+        }
+        self.depth.set(depth + 1);
+        Ok(i)
+    }
+
     fn unary<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
         let op = match i.first() {
             Some(b'-' | b'+') => Some((1, K::Punct)),
+            // `<<R1`: the value as a string (a concatenation with nothing before it).
+            Some(b'<') if i.starts_with(b"<<") => Some((2, K::Punct)),
             _ => match ident(i) {
                 Ok((rest, name)) if keyword(name) == Some(Kw::Not) => {
                     Some((i.len() - rest.len(), K::Keyword))
@@ -874,75 +973,121 @@ impl Cx {
         Ok((rest, Node::with_children(K::Unary, parts)))
     }
 
+    /// An operand. Each form has its own function, so that the frames on the recursion through nested
+    /// parentheses and calls stay small (unoptimised builds give a function one slot per local of every arm).
     fn primary<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
         match i.first() {
-            Some(b'(') => {
-                let mut parts = Vec::new();
-                let j = self.take(K::Punct, i, 1, &mut parts);
-                let j = self.ws(j, &mut parts);
-                let (j, inner) = self.expr(j)?;
-                parts.push(inner);
-                let (rest, ()) = self.punct(j, ")", "`)`", &mut parts)?;
-                Ok((rest, Node::with_children(K::Paren, parts)))
-            }
-            Some(b'0'..=b'9' | b'.') => {
-                let (rest, _) = unsigned_number(i).map_err(|_| expected_at(i, "a number"))?;
-                Ok((rest, self.leaf(K::Number, i, rest)))
-            }
-            Some(b'"') => {
-                let (rest, _) = string(i).map_err(|_| expected_at(i, "a closed string"))?;
-                Ok((rest, self.leaf(K::Str, i, rest)))
-            }
-            Some(b'\'') => {
-                let (rest, _) =
-                    bit_literal(i).map_err(|_| expected_at(i, "a bit literal 'H…' or 'B…'"))?;
-                Ok((rest, self.leaf(K::BitLiteral, i, rest)))
-            }
+            Some(b'(') => self.paren(i),
             Some(b'$') => self.var_ref(i),
-            _ => {
-                let (after, name) = ident(i).map_err(|_| expected_at(i, "an operand"))?;
-                if keyword(name).is_some_and(Kw::is_reserved) {
-                    return fail(i, "an operand");
-                }
-                if skip_blanks(after).first() == Some(&b'(') {
-                    let mut parts = vec![self.leaf(K::Name, i, after)];
-                    let after = self.ws(after, &mut parts);
-                    let (rest, args) = self.args(after)?;
-                    parts.push(args);
-                    return Ok((rest, Node::with_children(K::FnCall, parts)));
-                }
-                self.var_ref(i)
-            }
+            Some(b'0'..=b'9' | b'.' | b'"' | b'\'') => self.literal(i),
+            _ => self.named(i),
         }
+    }
+
+    fn paren<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
+        let mut parts = Vec::new();
+        let j = self.take(K::Punct, i, 1, &mut parts);
+        let j = self.ws(j, &mut parts);
+        let (j, inner) = self.expr(j)?;
+        parts.push(inner);
+        let (rest, ()) = self.punct(j, ")", "`)`", &mut parts)?;
+        Ok((rest, Node::with_children(K::Paren, parts)))
+    }
+
+    /// A number, string or bit literal.
+    fn literal<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
+        let (rest, kind) = match i[0] {
+            b'"' => (
+                string(i).map_err(|_| expected_at(i, "a closed string"))?.0,
+                K::Str,
+            ),
+            b'\'' => (
+                bit_literal(i)
+                    .map_err(|_| expected_at(i, "a bit literal 'H…' or 'B…'"))?
+                    .0,
+                K::BitLiteral,
+            ),
+            _ => (
+                unsigned_number(i)
+                    .map_err(|_| expected_at(i, "a number"))?
+                    .0,
+                K::Number,
+            ),
+        };
+        Ok((rest, self.leaf(kind, i, rest)))
+    }
+
+    /// A function call, variable, axis or constant.
+    fn named<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
+        let (after, name) = ident(i).map_err(|_| expected_at(i, "an operand"))?;
+        if keyword(name).is_some_and(Kw::is_reserved) {
+            return fail(i, "an operand");
+        }
+        if skip_blanks(after).first() != Some(&b'(') {
+            return self.var_ref(i);
+        }
+        let mut parts = vec![self.leaf(K::Name, i, after)];
+        let after = self.ws(after, &mut parts);
+        let (rest, args) = self.args(after)?;
+        parts.push(args);
+        Ok((rest, Node::with_children(K::FnCall, parts)))
     }
 }
 
-/// The operator of `level` at the start of `i`: its length and leaf kind.
-fn operator(level: usize, i: &[u8]) -> Option<(usize, K)> {
-    let sym = |ops: &[&str]| {
-        ops.iter()
-            .find(|op| i.starts_with(op.as_bytes()))
-            .map(|op| (op.len(), K::Punct))
-    };
-    let word = |kws: &[Kw]| match ident(i) {
-        Ok((rest, name)) if keyword(name).is_some_and(|k| kws.contains(&k)) => {
-            Some((i.len() - rest.len(), K::Keyword))
-        }
-        _ => None,
-    };
-    match level {
-        0 if i.starts_with(b"<<") => None,
-        0 => sym(&["==", "<>", "<=", ">=", "<", ">"]),
-        1 => sym(&["<<"]),
-        2 => word(&[Kw::Or]),
-        3 => word(&[Kw::Xor]),
-        4 => word(&[Kw::And]),
-        5 => word(&[Kw::BOr]),
-        6 => word(&[Kw::BXor]),
-        7 => word(&[Kw::BAnd]),
-        8 => sym(&["+", "-"]),
-        _ => sym(&["*", "/", ":"]).or_else(|| word(&[Kw::Div, Kw::Mod])),
+/// A binary operator: its level (0 binds loosest), length and leaf kind.
+type Op = (usize, usize, K);
+
+/// The binary operators an expression takes and its operands.
+#[derive(Clone, Copy)]
+struct Operators {
+    /// The operator at the start of the input.
+    at: fn(&[u8]) -> Option<Op>,
+    operand: for<'a> fn(&Cx, &'a [u8]) -> R<'a, Node>,
+}
+
+/// Every operator, with prefix operators on the operands.
+const EXPRESSION: Operators = Operators {
+    at: operator,
+    operand: Cx::unary,
+};
+
+/// `<<` alone between plain operands: a CASE arm's jump target (`"LBL"<<R1`).
+const JOINED: Operators = Operators {
+    at: |i| i.starts_with(b"<<").then_some((1, 2, K::Punct)),
+    operand: Cx::primary,
+};
+
+/// The binary operator at the start of `i`.
+fn operator(i: &[u8]) -> Option<Op> {
+    const SYMBOLS: &[(&str, usize)] = &[
+        ("<<", 1),
+        ("==", 0),
+        ("<>", 0),
+        ("<=", 0),
+        (">=", 0),
+        ("<", 0),
+        (">", 0),
+        ("+", 8),
+        ("-", 8),
+        ("*", 9),
+        ("/", 9),
+        (":", 9),
+    ];
+    if let Some(&(op, level)) = SYMBOLS.iter().find(|(op, _)| i.starts_with(op.as_bytes())) {
+        return Some((level, op.len(), K::Punct));
     }
+    let (rest, name) = ident(i).ok()?;
+    let level = match keyword(name)? {
+        Kw::Or => 2,
+        Kw::Xor => 3,
+        Kw::And => 4,
+        Kw::BOr => 5,
+        Kw::BXor => 6,
+        Kw::BAnd => 7,
+        Kw::Div | Kw::Mod => 9,
+        _ => return None,
+    };
+    Some((level, i.len() - rest.len(), K::Keyword))
 }
 
 /// Whether the next word (after blanks) is the keyword `kw`.
@@ -982,7 +1127,7 @@ fn expected_at(i: &[u8], expected: &'static str) -> nom::Err<PErr> {
 /// Names what was expected where a failure happened right at `at` (deeper failures keep their own words).
 fn relabel(e: nom::Err<PErr>, at: &[u8], expected: &'static str) -> nom::Err<PErr> {
     e.map(|e| {
-        if e.rest >= at.len() || e.expected.is_empty() {
+        if e.expected != TOO_DEEP && (e.rest >= at.len() || e.expected.is_empty()) {
             PErr {
                 rest: e.rest.min(at.len()),
                 expected,
@@ -991,23 +1136,6 @@ fn relabel(e: nom::Err<PErr>, at: &[u8], expected: &'static str) -> nom::Err<PEr
             e
         }
     })
-}
-
-/// Length of the character at the start of `i`: a whole UTF-8 sequence when the bytes form one (so spans
-/// never split a character of a UTF-8 file), else one byte (Latin-1, GBK, broken bytes); 0 at the end.
-fn char_len(i: &[u8]) -> usize {
-    let n = match i.first() {
-        None => return 0,
-        Some(0xC0..=0xDF) => 2,
-        Some(0xE0..=0xEF) => 3,
-        Some(0xF0..=0xF7) => 4,
-        Some(_) => 1,
-    };
-    if i.len() >= n && std::str::from_utf8(&i[..n]).is_ok() {
-        n
-    } else {
-        1
-    }
 }
 
 /// Offset of the first `;` outside a string (or the length).

@@ -51,18 +51,36 @@ pub(crate) fn is_blank(b: u8) -> bool {
     matches!(b, b' ' | b'\t' | b'&' | 0x0b | 0x0c)
 }
 
+/// The DOS end-of-file byte (Ctrl-Z) that old transfer software writes after the last block.
+pub(crate) const DOS_EOF: u8 = 0x1a;
+
+/// A control character other than a blank or a line end: the control reads it as a blank (Programming
+/// Manual, character set: "non-printable special characters are treated like blanks"). The grammar keeps
+/// it as trivia and says so; the fast recogniser leaves such lines to the grammar.
+#[inline]
+pub(crate) fn is_control(b: u8) -> bool {
+    (b < 0x20 && !is_blank(b) && b != b'\n' && b != b'\r') || b == 0x7f
+}
+
+/// Trivia between tokens: blanks and control characters.
+#[inline]
+pub(crate) fn is_trivia(b: u8) -> bool {
+    is_blank(b) || is_control(b)
+}
+
 pub(crate) fn is_ident_char(b: u8) -> bool {
     b.is_ascii_alphanumeric() || b == b'_'
 }
 
 pub(crate) fn blanks(i: &[u8]) -> R<'_, &[u8]> {
-    take_while1(is_blank).parse(i)
+    take_while1(is_trivia).parse(i)
 }
 
+/// `i` after its leading trivia.
 #[inline]
 pub(crate) fn skip_blanks(i: &[u8]) -> &[u8] {
     let mut n = 0;
-    while n < i.len() && is_blank(i[n]) {
+    while n < i.len() && is_trivia(i[n]) {
         n += 1;
     }
     &i[n..]
@@ -184,7 +202,7 @@ pub(crate) fn signed_number(i: &[u8]) -> R<'_, &[u8]> {
     lexeme(i, number_end(i, 0, true), "a number")
 }
 
-/// End of the address letter and number starting at `s[k]` (`G1`, `X-3.2`, `F.5`) and where the blanks
+/// End of the address letter and number starting at `s[k]` (`G1`, `X-3.2`, `F.5`, `X 10`) and where the blanks
 /// after it end, or None when the name goes on (`X1_A`), is indexed or called (`R1[`, `L1(`, `L340 (`) or
 /// assigned (`X1=5` is an assignment to axis `X1`).
 #[inline(always)]
@@ -198,7 +216,7 @@ pub(crate) fn word_end_with(s: &[u8], k: usize, d: &mut impl Digits) -> Option<(
     if k >= s.len() || !s[k].is_ascii_alphabetic() {
         return None;
     }
-    let end = number_end_with(s, k + 1, true, d)?;
+    let end = number_end_with(s, value_start(s, k), true, d)?;
     if matches!(s.get(end), Some(b'_' | b'[')) {
         return None;
     }
@@ -213,17 +231,20 @@ pub(crate) fn word_end_with(s: &[u8], k: usize, d: &mut impl Digits) -> Option<(
     }
 }
 
-/// Length of the word at the start of `i`.
-pub(crate) fn scan_word(i: &[u8]) -> Option<usize> {
-    word_end(i, 0).map(|(end, _)| end)
+/// Where the value of the address letter at `s[k]` starts: right after it, or after the blanks that part
+/// them (`X 10`, `S 1000`: the control reads it as `X10`; CAM post-processors and hand edits write it).
+#[inline(always)]
+fn value_start(s: &[u8], k: usize) -> usize {
+    let mut v = k + 1;
+    while v < s.len() && is_blank(s[v]) {
+        v += 1;
+    }
+    v
 }
 
-/// A word as (letter, number).
-pub(crate) fn word(i: &[u8]) -> R<'_, (&[u8], &[u8])> {
-    match scan_word(i) {
-        Some(end) => Ok((&i[end..], (&i[..1], &i[1..end]))),
-        None => fail(i, "a word"),
-    }
+/// A word at the start of `i` as where its value starts (after the letter and any blanks) and where it ends.
+pub(crate) fn word(i: &[u8]) -> Option<(usize, usize)> {
+    word_end(i, 0).map(|(end, _)| (value_start(i, 0), end))
 }
 
 /// Length of a skip level at the start of `i`: `/` or `/0` … `/9` (0 if none).
@@ -235,23 +256,28 @@ pub(crate) fn skip_level_len(i: &[u8]) -> usize {
     }
 }
 
-/// Length of a block number at the start of `i`: `N10` (a word with digits only) or `:10`.
-pub(crate) fn block_number_len(i: &[u8]) -> Option<usize> {
+/// A block number at the start of `i` — `N10`, `N 10` (a word with digits only) or `:10` — as where its
+/// digits start and where it ends.
+pub(crate) fn block_number_at(i: &[u8]) -> Option<(usize, usize)> {
     match i.first()? {
-        b'N' | b'n' => scan_word(i).filter(|&end| i[1..end].iter().all(u8::is_ascii_digit)),
+        b'N' | b'n' => {
+            word(i).filter(|&(digits, end)| i[digits..end].iter().all(u8::is_ascii_digit))
+        }
         b':' => {
             let end = 1 + i[1..].iter().take_while(|b| b.is_ascii_digit()).count();
-            (end > 1 && !i.get(end).is_some_and(|&b| is_ident_char(b))).then_some(end)
+            (end > 1 && !i.get(end).is_some_and(|&b| is_ident_char(b))).then_some((1, end))
         }
         _ => None,
     }
 }
 
-/// The block number (`N10`, `:10`) a line starts with, after blanks and a skip level.
-pub(crate) fn leading_block_number(line: &[u8]) -> Option<&[u8]> {
+/// The number of the block number (`N10`, `N 10`, `:10`) a line starts with, after blanks and a skip level;
+/// `None` also for a number beyond `u64`, which no jump can name.
+pub(crate) fn leading_block_number(line: &[u8]) -> Option<u64> {
     let i = skip_blanks(line);
     let i = skip_blanks(&i[skip_level_len(i)..]);
-    block_number_len(i).map(|end| &i[..end])
+    let (digits, end) = block_number_at(i)?;
+    std::str::from_utf8(&i[digits..end]).ok()?.parse().ok()
 }
 
 /// `"…"`: any bytes but the quote; strings cannot span lines.
@@ -280,23 +306,32 @@ mod tests {
 
     #[test]
     fn words_stop_where_names_assignments_and_calls_begin() {
+        assert_eq!(word(b"X-3.2 Y"), Some((1, 5)));
+        assert_eq!(word(b"G1X10"), Some((1, 2)));
         assert_eq!(
-            word(b"X-3.2 Y").unwrap(),
-            (&b" Y"[..], (&b"X"[..], &b"-3.2"[..]))
+            word(b"X 10 Y"),
+            Some((2, 4)),
+            "blanks part letter and value"
         );
-        assert_eq!(word(b"G1X10").unwrap().0, b"X10");
-        assert!(word(b"X1=5").is_err());
-        assert!(word(b"X1 = 5").is_err());
-        assert!(word(b"R1[2]").is_err());
-        assert!(word(b"CYCLE800(").is_err());
-        assert!(word(b"T1_X").is_err());
-        assert_eq!(word(b"X1==2").unwrap().0, b"==2");
+        assert_eq!(word(b"Y\t-2.5"), Some((2, 6)));
+        assert_eq!(word(b"X1=5"), None);
+        assert_eq!(word(b"X1 = 5"), None);
+        assert_eq!(word(b"X 1=5"), None);
+        assert_eq!(word(b"R1[2]"), None);
+        assert_eq!(word(b"CYCLE800("), None);
+        assert_eq!(word(b"T1_X"), None);
+        assert_eq!(word(b"IF R1>0"), None, "a keyword is not a word");
+        assert_eq!(word(b"X =5"), None);
+        assert_eq!(word(b"X - 5"), None, "the sign belongs to the number");
+        assert_eq!(word(b"X1==2"), Some((1, 2)));
     }
 
     #[test]
     fn block_numbers_after_blanks_and_skip_levels() {
-        assert_eq!(leading_block_number(b"  /3 N100 G1"), Some(&b"N100"[..]));
-        assert_eq!(leading_block_number(b":20 X1"), Some(&b":20"[..]));
+        assert_eq!(leading_block_number(b"  /3 N100 G1"), Some(100));
+        assert_eq!(leading_block_number(b":20 X1"), Some(20));
+        assert_eq!(leading_block_number(b"N 30 X1"), Some(30));
+        assert_eq!(leading_block_number(b"n0040"), Some(40));
         assert_eq!(
             leading_block_number(b"N1.5 X1"),
             None,
@@ -308,8 +343,20 @@ mod tests {
             "an assignment, not a block number"
         );
         assert_eq!(leading_block_number(b":2A"), None);
+        assert_eq!(leading_block_number(b"N99999999999999999999999"), None);
+        assert_eq!(block_number_at(b"N 10"), Some((2, 4)));
         assert_eq!(skip_level_len(b"/"), 1);
         assert_eq!(skip_level_len(b"/7 N1"), 2);
+    }
+
+    #[test]
+    fn control_characters_are_trivia_but_not_blanks() {
+        assert!(is_trivia(DOS_EOF) && is_control(DOS_EOF) && !is_blank(DOS_EOF));
+        assert!(is_trivia(0) && is_trivia(0x7f));
+        for b in [b'\n', b'\r', b' ', b'\t', b'&', b'A', 0x80, 0xa3] {
+            assert!(!is_control(b), "{b:#x}");
+        }
+        assert_eq!(skip_blanks(b" \x1a\x00 X1"), b"X1");
     }
 
     #[test]

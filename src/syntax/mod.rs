@@ -5,11 +5,13 @@ mod fast;
 mod grammar;
 mod keyword;
 mod lexeme;
+mod odd_bytes;
 mod program;
 mod tree;
 
 pub use decimal::{Decimal, decimal_prefix};
 pub use fast::Words;
+pub(crate) use grammar::control_statements;
 pub use lexeme::Digits;
 pub(crate) use lexeme::{leading_block_number, word_end_with};
 pub use program::flag;

@@ -8,6 +8,7 @@ use serde::ser::{SerializeStruct, Serializer};
 
 use super::fast::{self, Words};
 use super::grammar;
+use super::odd_bytes::eof_filler;
 use super::tree::{Node, NodeJson, NodeKind};
 use crate::diagnostic::{Diagnostic, Severity};
 use crate::source::{RawLine, Span};
@@ -36,6 +37,27 @@ pub enum BlockKind {
     Until,
     Loop,
     EndLoop,
+}
+
+impl BlockKind {
+    /// The control keyword of the role (`IF`, `ENDWHILE` …; "a header" for a header, empty for a plain block).
+    pub fn keyword(self) -> &'static str {
+        match self {
+            BlockKind::If => "IF",
+            BlockKind::Else => "ELSE",
+            BlockKind::EndIf => "ENDIF",
+            BlockKind::While => "WHILE",
+            BlockKind::EndWhile => "ENDWHILE",
+            BlockKind::For => "FOR",
+            BlockKind::EndFor => "ENDFOR",
+            BlockKind::Repeat => "REPEAT",
+            BlockKind::Until => "UNTIL",
+            BlockKind::Loop => "LOOP",
+            BlockKind::EndLoop => "ENDLOOP",
+            BlockKind::Header => "a header",
+            BlockKind::Plain => "",
+        }
+    }
 }
 
 /// Per-block flags, as bits (see [`Program::block_flags`]).
@@ -176,10 +198,11 @@ struct Chunk<W> {
     words: W,
 }
 
+/// Parses the blocks of `src[start..end]`; `filler` is where the end-of-file filler of `src` starts.
 fn parse_chunk<W: Words>(
     src: &[u8],
-    start: usize,
-    end: usize,
+    (start, end): (usize, usize),
+    filler: usize,
     mut in_text_section: bool,
     mut words: W,
 ) -> Chunk<W> {
@@ -205,7 +228,7 @@ fn parse_chunk<W: Words>(
             words.other_line(None);
             (BlockKind::Plain, flag::TEXT)
         } else {
-            let parsed = grammar::parse_block(src, content, line.terminator());
+            let parsed = grammar::parse_block(src, content, line.terminator(), filler);
             let clean = parsed.kind == BlockKind::Plain
                 && parsed.flags == 0
                 && parsed.diagnostics.is_empty();
@@ -267,8 +290,9 @@ fn parse_blocks<W: Words + Send>(
     }
     cuts.push(src.len());
     let ranges: Vec<(usize, usize)> = cuts.windows(2).map(|w| (w[0], w[1])).collect();
+    let filler = eof_filler(src);
     let piece =
-        |&(start, end): &(usize, usize), open: bool| parse_chunk(src, start, end, open, words());
+        |&range: &(usize, usize), open: bool| parse_chunk(src, range, filler, open, words());
     let mut chunks: Vec<Chunk<W>> = if ranges.len() > 2 {
         ranges.par_iter().map(|r| piece(r, false)).collect()
     } else {
@@ -415,7 +439,9 @@ impl Program {
                 content_end: content.end,
                 end: full.end,
             };
-            grammar::parse_block(&self.src, line_content(&self.src, &line), line.terminator()).tree
+            let content = line_content(&self.src, &line);
+            // The tree alone: where the filler starts only matters to the diagnostics.
+            grammar::parse_block(&self.src, content, line.terminator(), self.src.len()).tree
         };
         Block {
             src: &self.src,
@@ -516,12 +542,8 @@ pub fn line_syntax_errors(line: &[u8]) -> Vec<Diagnostic> {
     if fast::plain_block(line) {
         return Vec::new();
     }
-    grammar::parse_block(
-        line,
-        Span::new(0, line.len()),
-        Span::new(line.len(), line.len()),
-    )
-    .diagnostics
+    let end = Span::new(line.len(), line.len());
+    grammar::parse_block(line, Span::new(0, line.len()), end, line.len()).diagnostics
 }
 
 #[cfg(test)]

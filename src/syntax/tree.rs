@@ -194,6 +194,19 @@ impl Node {
         self.children.iter().find(|c| c.kind == kind)
     }
 
+    /// The address and number leaves of a `Word` or `BlockNumber` (blanks may stand between them: `X 10`).
+    pub fn address_and_number(&self) -> Option<(&Node, &Node)> {
+        let address = self
+            .children
+            .first()
+            .filter(|c| c.kind == NodeKind::Address)?;
+        let number = self
+            .children
+            .last()
+            .filter(|c| c.kind == NodeKind::Number)?;
+        Some((address, number))
+    }
+
     /// Indented text dump, one node per line, leaves with their bytes (escaped).
     pub fn dump(&self, src: &[u8], depth: usize, out: &mut String) {
         use std::fmt::Write;

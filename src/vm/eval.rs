@@ -80,6 +80,8 @@ impl Interp<'_> {
                     "+" => Ok(Value::Num(v.num()?)),
                     "NOT" => Ok(Value::Num(f64::from(!v.truth()?))),
                     "B_NOT" => Ok(Value::Num(!(v.num()? as i64) as f64)),
+                    // `<<R1`: the value as a string.
+                    "<<" => Ok(Value::Str(v.text())),
                     op => Err(format!("unknown operator {op}")),
                 }
             }

@@ -8,6 +8,8 @@ use std::ops::Deref;
 use std::path::PathBuf;
 use std::rc::Rc;
 
+pub use crate::structure::JumpTarget;
+use crate::structure::{Search, Targets};
 use crate::syntax::{BlockKind, Node, NodeKind, Program};
 
 /// One parsed file. Block trees are built when a block runs; only the first [`CACHED_TREES`] built are kept
@@ -20,7 +22,8 @@ pub struct Source {
     pub forward: HashMap<usize, usize>,
     /// Closer → its opener.
     pub backward: HashMap<usize, usize>,
-    pub labels: Vec<Option<String>>,
+    /// The blocks carrying each label and block number.
+    targets: Targets,
     pub numbers: Vec<Option<u64>>,
     /// Blocks holding a `PROC` statement.
     procs: Vec<usize>,
@@ -65,20 +68,22 @@ impl Source {
         }
         let src = program.source();
         let upper = |n: &Node| String::from_utf8_lossy(n.span.slice(src)).to_ascii_uppercase();
-        let mut labels = Vec::with_capacity(n);
+        let mut targets = Targets::default();
+        for (label, block) in structure.labels {
+            targets.add_label(label, block);
+        }
         let mut numbers = Vec::with_capacity(n);
         let mut procs = Vec::new();
         for block in program.blocks() {
             let root = &block.root;
-            labels.push(
-                root.find(NodeKind::Label)
-                    .and_then(|l| l.find(NodeKind::Name))
-                    .map(upper),
-            );
-            numbers.push(root.find(NodeKind::BlockNumber).and_then(|b| {
+            let number = root.find(NodeKind::BlockNumber).and_then(|b| {
                 b.find(NodeKind::Number)
                     .and_then(|d| upper(d).parse::<u64>().ok())
-            }));
+            });
+            if let Some(number) = number {
+                targets.add_number(number, block.index);
+            }
+            numbers.push(number);
             if root.find(NodeKind::Proc).is_some() {
                 procs.push(block.index);
             }
@@ -95,7 +100,7 @@ impl Source {
             program,
             forward,
             backward,
-            labels,
+            targets,
             numbers,
             procs,
             headers,
@@ -182,45 +187,20 @@ impl Unit {
         String::from_utf8_lossy(self.text(node)).to_ascii_uppercase()
     }
 
-    /// The block a jump lands on: forward searches after `from`, backward from `from` towards the start, both
-    /// forward first (GOTO, GOTOC). The nearest match in the search direction wins, as on the control.
-    pub fn search(
-        &self,
-        from: usize,
-        target: &JumpTarget,
-        forward: bool,
-        backward: bool,
-    ) -> Option<usize> {
-        let hit = |i: &usize| match target {
-            JumpTarget::Label(l) => self.labels[*i].as_deref() == Some(l.as_str()),
-            JumpTarget::Number(n) => self.numbers[*i] == Some(*n),
-        };
-        let ahead = if forward {
-            (from + 1..self.end).find(hit)
-        } else {
-            None
-        };
-        ahead.or_else(|| {
-            if backward {
-                (self.start..=from).rev().find(hit)
-            } else {
-                None
-            }
-        })
+    /// The block a jump from block `from` lands on (see [`Targets::destination`]).
+    pub fn search(&self, from: usize, target: &JumpTarget, search: Search) -> Option<usize> {
+        self.targets
+            .destination(search, from, target, &(self.start..self.end))
     }
-}
 
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum JumpTarget {
-    Label(String),
-    Number(u64),
-}
-
-impl std::fmt::Display for JumpTarget {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            JumpTarget::Label(l) => f.write_str(l),
-            JumpTarget::Number(n) => write!(f, "N{n}"),
-        }
+    /// The labelled blocks of a section repetition at block `at` (see [`Targets::section`]).
+    pub fn section_labels(
+        &self,
+        at: usize,
+        start: &str,
+        end: Option<&str>,
+    ) -> (Option<usize>, Option<usize>) {
+        self.targets
+            .section(at, start, end, &(self.start..self.end))
     }
 }

@@ -68,3 +68,15 @@ pub fn errors(program: &Program) -> Vec<String> {
         })
         .collect()
 }
+
+/// The structure check's resolved jumps as "from target to" (blocks 0-based, `-` for no landing block).
+pub fn resolved_jumps(program: &Program) -> Vec<String> {
+    driftloop::analyze(program)
+        .jumps
+        .into_iter()
+        .map(|j| {
+            let to = j.to.map_or("-".to_string(), |t| t.to_string());
+            format!("{} {} {to}", j.from, j.target)
+        })
+        .collect()
+}

@@ -713,8 +713,11 @@ fn tool_text<'a>(block: &'a Block<'_>, span: crate::Span) -> &'a [u8] {
 }
 
 fn word(block: &Block<'_>, node: &Node, s: &mut Scan) {
-    let letter = block.text(&node.children[0]).to_ascii_uppercase();
-    let value = std::str::from_utf8(block.text(&node.children[1]))
+    let Some((address, number)) = node.address_and_number() else {
+        return;
+    };
+    let letter = block.text(address).to_ascii_uppercase();
+    let value = std::str::from_utf8(block.text(number))
         .ok()
         .and_then(|t| t.parse::<f64>().ok());
     match (letter.as_slice(), value) {
@@ -726,7 +729,7 @@ fn word(block: &Block<'_>, node: &Node, s: &mut Scan) {
         // `L123 P3`: subprogram 123, run three times.
         (b"P", Some(p)) => s.repeats = Some(p),
         (b"L", Some(_)) => {
-            s.call = Some(String::from_utf8_lossy(block.text(node)).to_ascii_uppercase())
+            s.call = Some(format!("L{}", String::from_utf8_lossy(block.text(number))))
         }
         _ => {}
     }

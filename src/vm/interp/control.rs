@@ -1,6 +1,7 @@
 //! Control structures, jumps, CASE and section repetition.
 
 use super::*;
+use crate::structure::Search;
 
 impl Interp<'_> {
     pub(super) fn block(&mut self, u: &Rc<Unit>, i: usize) -> Result<Flow, String> {
@@ -103,25 +104,15 @@ impl Interp<'_> {
     }
 
     pub(super) fn jump_target(&self, u: &Unit, node: &Node) -> Result<JumpTarget, String> {
-        let as_number = |s: &str| {
-            s.strip_prefix('N')
-                .or_else(|| s.strip_prefix(':'))
-                .filter(|d| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit()))
-                .and_then(|d| d.parse().ok())
-        };
         match node.kind {
             NodeKind::Var if node.find(NodeKind::Index).is_none() => {
-                let name = u.upper(node);
-                Ok(as_number(&name).map_or(JumpTarget::Label(name), JumpTarget::Number))
+                Ok(JumpTarget::named(&u.upper(node)))
             }
             NodeKind::Number => Ok(JumpTarget::Number(
                 u.upper(node).parse().map_err(|_| "bad block number")?,
             )),
             _ => match self.eval(u, node)? {
-                Value::Str(s) => {
-                    let s = s.to_ascii_uppercase();
-                    Ok(as_number(&s).map_or(JumpTarget::Label(s), JumpTarget::Number))
-                }
+                Value::Str(s) => Ok(JumpTarget::named(&s)),
                 Value::Num(n) if n >= 0.0 && n.fract() == 0.0 => Ok(JumpTarget::Number(n as u64)),
                 Value::Num(n) => Err(format!("jump target {n} is not a block number")),
             },
@@ -132,17 +123,12 @@ impl Interp<'_> {
     pub(super) fn goto(&self, u: &Unit, i: usize, node: &Node) -> Result<Option<usize>, String> {
         let parts: Vec<&Node> = node.significant().collect();
         let keyword = u.upper(parts[0]);
-        if keyword == "GOTOS" {
-            // Restart happens only on a PLC request; without one the control carries on.
+        let Some(search) = Search::of_jump(&keyword) else {
+            // GOTOS: the restart happens only on a PLC request; without one the control carries on.
             return Ok(None);
-        }
-        let target = self.jump_target(u, parts.get(1).ok_or("jump without target")?)?;
-        let (fwd, back) = match keyword.as_str() {
-            "GOTOF" => (true, false),
-            "GOTOB" => (false, true),
-            _ => (true, true),
         };
-        match u.search(i, &target, fwd, back) {
+        let target = self.jump_target(u, parts.get(1).ok_or("jump without target")?)?;
+        match u.search(i, &target, search) {
             Some(to) => Ok(Some(to)),
             None if keyword == "GOTOC" => Ok(None),
             None => Err(format!(
@@ -152,7 +138,7 @@ impl Interp<'_> {
     }
 
     /// `REPEAT start [end]` (from the start label to the end label, or to the block before the REPEAT) and
-    /// `REPEATB label` (that one block). The start label is searched towards the beginning first.
+    /// `REPEATB label` (that one block); the labels are found as [`Unit::section_labels`] says.
     pub(super) fn section(
         &self,
         u: &Unit,
@@ -162,25 +148,15 @@ impl Interp<'_> {
         let parts: Vec<&Node> = node.significant().collect();
         let keyword = u.upper(parts[0]);
         let names: Vec<String> = parts[1..].iter().map(|n| u.upper(n)).collect();
-        let find = |name: &str, from: usize| {
-            let target = JumpTarget::Label(name.to_string());
-            u.search(from, &target, false, true)
-                .or_else(|| u.search(from, &target, true, false))
-                .ok_or_else(|| format!("{keyword}: label {name} not found (alarm 14080)"))
-        };
-        let start = find(
-            names.first().ok_or("REPEAT without a label")?,
-            i.saturating_sub(1),
-        )?;
-        let end = match (keyword.as_str(), names.get(1)) {
+        let first = names.first().ok_or("REPEAT without a label")?;
+        let end_name = names.get(1).filter(|_| keyword != "REPEATB");
+        let (start, end) = u.section_labels(i, first, end_name.map(String::as_str));
+        let start =
+            start.ok_or_else(|| format!("{keyword}: label {first} not found (alarm 14080)"))?;
+        let end = match (keyword.as_str(), end_name) {
             ("REPEATB", _) => start,
-            (_, Some(end)) => {
-                let target = JumpTarget::Label(end.clone());
-                u.search(start.saturating_sub(1), &target, true, false)
-                    .filter(|&e| e >= start)
-                    .ok_or_else(|| {
-                        format!("{keyword}: end label {end} not found after {}", names[0])
-                    })?
+            (_, Some(name)) => {
+                end.ok_or_else(|| format!("{keyword}: end label {name} not found after {first}"))?
             }
             (_, None) => i
                 .checked_sub(1)

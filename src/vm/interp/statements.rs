@@ -48,8 +48,9 @@ impl Interp<'_> {
     }
 
     pub(super) fn word(&mut self, u: &Unit, node: &Node, w: &mut Words) -> Result<(), String> {
-        let letter = u.upper(&node.children[0]);
-        let value = crate::vm::eval::parse_number(&u.upper(&node.children[1]))?;
+        let (address, number) = node.address_and_number().ok_or("malformed word")?;
+        let letter = u.upper(address);
+        let value = crate::vm::eval::parse_number(&u.upper(number))?;
         let whole = || {
             if value >= 0.0 && value.fract() == 0.0 {
                 Ok(value as u32)
