@@ -132,7 +132,7 @@ fn unsupported_constructs_and_runaway_loops_name_the_line() {
     let e = err("G1 X1 F100\nG33 Z-5 K1\n", &cfg);
     assert_eq!((e.line, e.file.as_str()), (2, "t.mpf"));
     assert!(e.message.contains("G33"), "{e}");
-    let e = err("ROT Z45\n", &cfg);
+    let e = err("ROT A45\n", &cfg);
     assert!(e.to_string().starts_with("t.mpf:1: ROT"), "{e}");
     let e = err("R1=1\nGOTOF NOWHERE\n", &cfg);
     assert!(e.message.contains("14080") && e.line == 2, "{e}");

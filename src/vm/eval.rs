@@ -194,17 +194,14 @@ impl Interp<'_> {
                 }
             }
             ("$AA_IM", [axis]) => m.machine[self.axis_arg(u, axis)?],
-            ("$AA_IW", [axis]) => {
-                let a = self.axis_arg(u, axis)?;
-                m.machine[a] - m.frames.offset(a)
-            }
+            ("$AA_IW", [axis]) => m.work_position(self.axis_arg(u, axis)?),
             ("$P_EP", [axis]) => m.local[self.axis_arg(u, axis)?],
             ("$P_UIFRNUM", []) => m.frames.selected as f64,
             ("$AN_POWERON_TIME" | "$AN_SETUP_TIME", []) => self.time_min,
             ("$AC_CYCLE_TIME" | "$AC_OPERATING_TIME", []) => self.time_min * 60.0,
             ("$P_F", []) => m.modal.feed.unwrap_or(0.0),
             ("$AA_S", [_] | []) => m.spindle_rpm(),
-            ("$P_TOOLNO", []) => m.tool_number,
+            ("$P_TOOLNO", []) => m.tool.as_ref().map_or(0.0, |t| t.number()),
             ("$A_INA", [n]) => {
                 let n = self.num(u, n)?;
                 self.machine_input(n as usize).ok_or_else(|| {

@@ -62,7 +62,7 @@ impl Interp<'_> {
             "M" => w.m.push(whole()?),
             "F" => w.feed = Some(value),
             "S" => w.s = Some(value),
-            "T" => w.tool = Some(value),
+            "T" => w.tool = Some(Tool::Number(value)),
             "D" => w.d = Some(value),
             "L" => w.call = Some((format!("L{}", whole()?), Vec::new(), Vec::new())),
             "P" => w.repeat = Some(whole()?),
@@ -118,11 +118,11 @@ impl Interp<'_> {
             "CR" => w.cr = Some(self.num(u, value)?),
             "T" => {
                 w.tool = Some(match self.eval(u, value)? {
-                    Value::Num(n) => n,
-                    // A tool named by string: the dry run knows no tool table, only that one was selected.
-                    Value::Str(_) => 0.0,
+                    Value::Num(n) => Tool::Number(n),
+                    Value::Str(name) => Tool::Name(name.into()),
                 })
             }
+            "RPL" => w.rpl = Some(self.num(u, value)?),
             "I" | "J" | "K" => w.centre[ijk(name)] = Some(self.centre_value(u, value)?),
             "M" => w.m.push(self.num(u, value)? as u32),
             "G" => {
