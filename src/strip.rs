@@ -30,63 +30,97 @@ pub fn is_inserted(content: &[u8]) -> bool {
     content.ends_with(MARK.as_bytes())
 }
 
-/// Removes the lines a transform inserted. A file without driftloop's header comes back unchanged.
-pub fn strip(src: &[u8]) -> Stripped {
+/// The lines a transform inserted, found without copying the program.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Inserted {
+    /// 0-based lines carrying the marker, ascending (empty when there is no header).
+    pub lines: Vec<usize>,
+    /// 0-based line of the `driftloop-omm` header comment.
+    pub header: Option<usize>,
+    /// Lines that end in the marker although the file has no header.
+    pub marked_without_header: usize,
+    /// The file ends in an inserted line without a line ending (the one before it was inserted too).
+    last_unterminated: bool,
+}
+
+/// Finds the lines a transform inserted.
+pub fn inserted(src: &[u8]) -> Inserted {
     let signature = SIGNATURE.as_bytes();
-    let mut removed = Vec::new();
+    let mut lines = Vec::new();
     let mut header = None;
     let mut last_unterminated = false;
     for (i, line) in raw_lines(src).enumerate() {
         let content = line.content().slice(src);
+        last_unterminated = false;
         if is_inserted(content) {
             if header.is_none() && memchr::memmem::find(content, signature).is_some() {
                 header = Some(i);
             }
-            removed.push(i);
+            lines.push(i);
             last_unterminated = line.end == line.content_end;
-        } else {
-            last_unterminated = false;
         }
     }
     if header.is_none() {
-        return Stripped {
-            bytes: src.to_vec(),
-            marked_without_header: removed.len(),
-            removed: Vec::new(),
-            header: None,
+        return Inserted {
+            marked_without_header: lines.len(),
+            lines: Vec::new(),
+            header,
+            last_unterminated: false,
         };
     }
-    let mut out = Vec::with_capacity(src.len());
-    let mut removed_iter = removed.iter().peekable();
+    Inserted {
+        lines,
+        header,
+        marked_without_header: 0,
+        last_unterminated,
+    }
+}
+
+/// The byte ranges of `src` that remain once the inserted lines are removed, in order.
+pub fn kept(src: &[u8], inserted: &Inserted) -> Vec<std::ops::Range<usize>> {
+    let mut out: Vec<std::ops::Range<usize>> = Vec::new();
+    let mut removed = inserted.lines.iter().peekable();
     // Length of the terminator of the last line kept: dropped again when the file ends in an inserted line
     // without one (the transform wrote that terminator before its lines).
     let mut kept_terminator = 0;
-    let mut run_start = None;
     for (i, line) in raw_lines(src).enumerate() {
-        if removed_iter.peek() == Some(&&i) {
-            removed_iter.next();
-            if let Some(start) = run_start.take() {
-                out.extend_from_slice(&src[start..line.start]);
-            }
+        if removed.next_if_eq(&&i).is_some() {
             if i == 0 && src.starts_with(BOM) {
-                out.extend_from_slice(BOM);
+                out.push(0..BOM.len());
             }
             continue;
         }
-        run_start.get_or_insert(line.start);
+        match out.last_mut() {
+            Some(run) if run.end == line.start => run.end = line.end,
+            _ => out.push(line.start..line.end),
+        }
         kept_terminator = line.end - line.content_end;
     }
-    if let Some(start) = run_start {
-        out.extend_from_slice(&src[start..]);
+    if inserted.last_unterminated
+        && let Some(run) = out.last_mut()
+    {
+        run.end -= kept_terminator.min(run.end - run.start);
     }
-    if last_unterminated {
-        out.truncate(out.len() - kept_terminator.min(out.len()));
-    }
+    out
+}
+
+/// Removes the lines a transform inserted. A file without driftloop's header comes back unchanged.
+pub fn strip(src: &[u8]) -> Stripped {
+    let found = inserted(src);
+    let bytes = if found.header.is_some() {
+        let mut bytes = Vec::with_capacity(src.len());
+        for run in kept(src, &found) {
+            bytes.extend_from_slice(&src[run]);
+        }
+        bytes
+    } else {
+        src.to_vec()
+    };
     Stripped {
-        bytes: out,
-        removed,
-        header,
-        marked_without_header: 0,
+        bytes,
+        removed: found.lines,
+        header: found.header,
+        marked_without_header: found.marked_without_header,
     }
 }
 

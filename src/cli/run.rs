@@ -165,7 +165,7 @@ fn audit(args: &Args, cfg: &Config, machine: MachineSpec) -> anyhow::Result<Exit
         dir,
         ..AuditSettings::from_profile(&profile)
     };
-    let found = vm::audit::audit(&original, &transformed, &settings, cfg)?;
+    let found = vm::audit::audit_owned(original, transformed, &settings, cfg)?;
     match args.format {
         Format::Human => print!("{}", found.human(&program_name)),
         Format::Json => println!("{}", serde_json::to_string_pretty(&found)?),

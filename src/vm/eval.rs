@@ -36,11 +36,14 @@ pub fn index_nodes(index: &Node) -> Vec<&Node> {
         .collect()
 }
 
+/// A number as written: digits, point, and the exponent `EX` (`1.5EX3`), any case.
 pub fn parse_number(text: &str) -> Result<f64, String> {
-    text.to_ascii_uppercase()
-        .replace("EX", "E")
-        .parse()
-        .map_err(|_| format!("`{text}` is not a number"))
+    let parsed = if text.bytes().any(|b| b.eq_ignore_ascii_case(&b'x')) {
+        text.to_ascii_uppercase().replace("EX", "E").parse()
+    } else {
+        text.parse()
+    };
+    parsed.map_err(|_| format!("`{text}` is not a number"))
 }
 
 fn deg(f: fn(f64) -> f64) -> impl Fn(f64) -> f64 {
@@ -50,7 +53,9 @@ fn deg(f: fn(f64) -> f64) -> impl Fn(f64) -> f64 {
 impl Interp<'_> {
     pub(super) fn eval(&self, u: &Unit, n: &Node) -> Result<Value, String> {
         match n.kind {
-            NodeKind::Number => Ok(Value::Num(parse_number(&u.upper(n))?)),
+            NodeKind::Number => Ok(Value::Num(parse_number(&String::from_utf8_lossy(
+                u.text(n),
+            ))?)),
             NodeKind::Str => {
                 let t = u.text(n);
                 Ok(Value::Str(

@@ -3,15 +3,17 @@
 //! subprograms can be called from the others.
 
 use std::cell::RefCell;
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 use std::ops::Deref;
 use std::path::PathBuf;
 use std::rc::Rc;
 
-use crate::syntax::{BlockKind, Node, NodeKind, Program};
+use crate::syntax::{BlockKind, Node, NodeKind, Program, flag};
 
 /// One parsed file. Block trees are built when a block runs; only the first [`CACHED_TREES`] built are kept
-/// (loop bodies run again without re-parsing), so a long CAM program costs its source plus a few bytes per block.
+/// (loop bodies run again without re-parsing), so a long CAM program costs its source plus a few bytes per block:
+/// labels and `PROC` blocks are found through the parser's block flags and a text search, N numbers are read
+/// when a jump searches for one.
 pub struct Source {
     /// The file's name as shown in messages.
     pub file: Rc<str>,
@@ -20,8 +22,8 @@ pub struct Source {
     pub forward: HashMap<usize, usize>,
     /// Closer → its opener.
     pub backward: HashMap<usize, usize>,
-    pub labels: Vec<Option<String>>,
-    pub numbers: Vec<Option<u64>>,
+    /// Upper-cased label of each block that has one.
+    labels: BTreeMap<usize, String>,
     /// Blocks holding a `PROC` statement.
     procs: Vec<usize>,
     /// Upper-cased `%` header lines and their blocks.
@@ -56,7 +58,6 @@ impl Deref for Unit {
 impl Source {
     fn new(file: Rc<str>, program: Program) -> Self {
         let structure = crate::structure::analyze(&program);
-        let n = program.block_count();
         let mut forward = HashMap::new();
         let mut backward = HashMap::new();
         for &(open, close) in &structure.pairs {
@@ -65,27 +66,35 @@ impl Source {
         }
         let src = program.source();
         let upper = |n: &Node| String::from_utf8_lossy(n.span.slice(src)).to_ascii_uppercase();
-        let mut labels = Vec::with_capacity(n);
-        let mut numbers = Vec::with_capacity(n);
-        let mut procs = Vec::new();
-        for block in program.blocks() {
-            let root = &block.root;
-            labels.push(
-                root.find(NodeKind::Label)
-                    .and_then(|l| l.find(NodeKind::Name))
-                    .map(upper),
-            );
-            numbers.push(root.find(NodeKind::BlockNumber).and_then(|b| {
-                b.find(NodeKind::Number)
-                    .and_then(|d| upper(d).parse::<u64>().ok())
-            }));
-            if root.find(NodeKind::Proc).is_some() {
-                procs.push(block.index);
+        let labels = (0..program.block_count())
+            .filter(|&i| program.block_flags(i) & flag::LABEL != 0)
+            .filter_map(|i| {
+                let root = program.block(i).root;
+                let label = root
+                    .find(NodeKind::Label)?
+                    .find(NodeKind::Name)
+                    .map(upper)?;
+                Some((i, label))
+            })
+            .collect();
+        // PROC is rare: only blocks whose text holds the word (any case) are parsed to be sure.
+        let mut procs: Vec<usize> = Vec::new();
+        for at in memchr::memchr2_iter(b'P', b'p', src) {
+            if !src[at..]
+                .get(..4)
+                .is_some_and(|w| w.eq_ignore_ascii_case(b"PROC"))
+            {
+                continue;
+            }
+            let i = program.block_at(at);
+            if procs.last() != Some(&i) && program.block(i).root.find(NodeKind::Proc).is_some() {
+                procs.push(i);
             }
         }
-        let headers = (0..n)
-            .filter(|&i| program.block_kind(i) == BlockKind::Header)
-            .map(|i| {
+        let headers = program
+            .header_blocks()
+            .iter()
+            .map(|&i| {
                 let text = program.content_span(i).slice(src);
                 (String::from_utf8_lossy(text).trim().to_ascii_uppercase(), i)
             })
@@ -96,11 +105,24 @@ impl Source {
             forward,
             backward,
             labels,
-            numbers,
             procs,
             headers,
             trees: RefCell::new(HashMap::new()),
         }
+    }
+
+    /// The N number of block `i`, if it has one.
+    pub fn number(&self, i: usize) -> Option<u64> {
+        let root = self.root(i);
+        let n = root.find(NodeKind::BlockNumber)?.find(NodeKind::Number)?;
+        String::from_utf8_lossy(n.span.slice(self.program.source()))
+            .parse()
+            .ok()
+    }
+
+    /// The upper-cased label of block `i`, if it has one.
+    pub fn label(&self, i: usize) -> Option<&str> {
+        self.labels.get(&i).map(String::as_str)
     }
 
     /// The syntax tree of block `i`.
@@ -192,8 +214,8 @@ impl Unit {
         backward: bool,
     ) -> Option<usize> {
         let hit = |i: &usize| match target {
-            JumpTarget::Label(l) => self.labels[*i].as_deref() == Some(l.as_str()),
-            JumpTarget::Number(n) => self.numbers[*i] == Some(*n),
+            JumpTarget::Label(l) => self.label(*i) == Some(l.as_str()),
+            JumpTarget::Number(n) => self.number(*i) == Some(*n),
         };
         let ahead = if forward {
             (from + 1..self.end).find(hit)

@@ -97,29 +97,32 @@ struct Watch {
 }
 
 pub(super) fn run(
-    original: &[u8],
-    transformed: &[u8],
+    original: Vec<u8>,
+    transformed: Vec<u8>,
     settings: &AuditSettings,
     cfg: &Config,
 ) -> Result<Audit, VmError> {
     let mut audit = Audit::default();
-    let stripped = crate::strip::strip(transformed);
-    if let Some(finding) = changed_line(&stripped, original) {
+    let found = crate::strip::inserted(&transformed);
+    if let Some(finding) = changed_line(&transformed, &found, &original) {
         audit.add(finding);
         return Ok(audit);
     }
     let t_unit = Unit::new(
         settings.transformed_name.clone(),
         None,
-        crate::parse(transformed),
+        crate::parse_owned(transformed),
     );
-    let o_unit = Unit::new(settings.original_name.clone(), None, crate::parse(original));
+    let o_unit = Unit::new(
+        settings.original_name.clone(),
+        None,
+        crate::parse_owned(original),
+    );
     let lines = Lines {
-        inserted: stripped.removed,
+        inserted: found.lines,
         main: t_unit.source.clone(),
     };
     let o_main = o_unit.source.clone();
-    drop(stripped.bytes);
     let (mut t_machine, mut o_machine) = (
         settings.machine.build(settings.seed),
         settings.machine.build(settings.seed),
@@ -144,28 +147,34 @@ pub(super) fn run(
     Ok(audit)
 }
 
-/// The first line where the transformed program without its inserted lines differs from the original.
-fn changed_line(stripped: &crate::strip::Stripped, original: &[u8]) -> Option<Finding> {
-    if stripped.bytes == original {
-        return None;
+/// The first line where the transformed program without its inserted lines differs from the original,
+/// compared without building that program.
+fn changed_line(
+    transformed: &[u8],
+    found: &crate::strip::Inserted,
+    original: &[u8],
+) -> Option<Finding> {
+    let mut pos = 0;
+    let mut differs_at = None;
+    for run in crate::strip::kept(transformed, found) {
+        let part = &transformed[run];
+        let theirs = &original[pos.min(original.len())..];
+        if !theirs.starts_with(part) {
+            differs_at = Some(pos + part.iter().zip(theirs).take_while(|(a, b)| a == b).count());
+            break;
+        }
+        pos += part.len();
     }
-    let lines = |src: &[u8]| -> Vec<(usize, usize)> {
-        crate::source::raw_lines(src)
-            .map(|l| (l.start, l.end))
-            .collect()
-    };
-    let (ours, theirs) = (lines(&stripped.bytes), lines(original));
-    let differs = |k: usize| match (ours.get(k), theirs.get(k)) {
-        (Some(a), Some(b)) => stripped.bytes[a.0..a.1] != original[b.0..b.1],
-        (None, None) => false,
-        _ => true,
-    };
-    let k = (0..ours.len().max(theirs.len()))
-        .find(|&k| differs(k))
-        .unwrap_or(0);
+    if differs_at.is_none() && pos != original.len() {
+        differs_at = Some(pos);
+    }
+    let at = differs_at?;
+    let k = crate::source::raw_lines(original)
+        .take_while(|l| l.end <= at)
+        .count();
     // The transformed line of original line k: each inserted line at or before it moves it down one.
     let mut line = k;
-    for &r in &stripped.removed {
+    for &r in &found.lines {
         if r > line {
             break;
         }

@@ -227,5 +227,15 @@ pub fn audit(
     settings: &AuditSettings,
     cfg: &Config,
 ) -> Result<Audit, VmError> {
+    audit_owned(original.to_vec(), transformed.to_vec(), settings, cfg)
+}
+
+/// [`audit`] taking the programs' bytes over, so a large program is not held twice.
+pub fn audit_owned(
+    original: Vec<u8>,
+    transformed: Vec<u8>,
+    settings: &AuditSettings,
+    cfg: &Config,
+) -> Result<Audit, VmError> {
     lockstep::run(original, transformed, settings, &settings.vm_config(cfg))
 }

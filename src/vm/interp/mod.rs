@@ -480,7 +480,7 @@ impl<'m> Interp<'m> {
         self.run.trace.push(TraceRow {
             file: u.name.clone(),
             line: i + 1,
-            block_number: u.numbers[i],
+            block_number: u.number(i),
             time_min: self.time_min,
             spindle_rpm: self.motion.spindle_rpm(),
             programmed: self.motion.local.clone(),

@@ -49,7 +49,8 @@ impl Interp<'_> {
 
     pub(super) fn word(&mut self, u: &Unit, node: &Node, w: &mut Words) -> Result<(), String> {
         let letter = u.upper(&node.children[0]);
-        let value = crate::vm::eval::parse_number(&u.upper(&node.children[1]))?;
+        let value =
+            crate::vm::eval::parse_number(&String::from_utf8_lossy(u.text(&node.children[1])))?;
         let whole = || {
             if value >= 0.0 && value.fract() == 0.0 {
                 Ok(value as u32)
