@@ -42,6 +42,17 @@ fn messages(a: &Audit) -> String {
         .join("\n")
 }
 
+/// Audits fixture `name`, checks its findings' kinds and lines and that their messages say each of `says`.
+fn expect(name: &str, expected: &[(Kind, usize)], says: &[&str]) -> Audit {
+    let a = audited(name);
+    assert_eq!(found(&a), expected, "{name}");
+    let m = messages(&a);
+    for text in says {
+        assert!(m.contains(text), "{name}: {m}");
+    }
+    a
+}
+
 #[test]
 fn clean_counterparts_have_no_finding() {
     for name in [
@@ -66,106 +77,115 @@ fn clean_counterparts_have_no_finding() {
 
 #[test]
 fn xy_travel_below_the_clearance_plane() {
-    let a = audited("xy_below_clearance");
-    assert_eq!(found(&a), [(Kind::XyBelowClearance, 19)]);
-    assert!(messages(&a).contains("at Z20 below the clearance plane Z100"));
+    expect(
+        "xy_below_clearance",
+        &[(Kind::XyBelowClearance, 19)],
+        &["at Z20 below the clearance plane Z100"],
+    );
 }
 
 #[test]
 fn a_move_out_of_the_probe_point_that_is_not_straight_up() {
-    let a = audited("probe_exit");
-    assert_eq!(found(&a), [(Kind::XyBelowClearance, 24)]);
-    assert!(messages(&a).contains("not straight up the tool axis"));
+    expect(
+        "probe_exit",
+        &[(Kind::XyBelowClearance, 24)],
+        &["not straight up the tool axis"],
+    );
 }
 
 #[test]
 fn the_probe_left_in_the_spindle() {
-    let a = audited("tool_state");
     // At the gate's resume point, and again before M30 (the end block restores the offset only).
-    assert_eq!(found(&a), [(Kind::ToolState, 35), (Kind::ToolState, 44)]);
-    assert!(messages(&a).contains("spindle tool T=\"BLUM_TC50\" here, T1 in the original"));
+    expect(
+        "tool_state",
+        &[(Kind::ToolState, 35), (Kind::ToolState, 44)],
+        &["spindle tool T=\"BLUM_TC50\" here, T1 in the original"],
+    );
 }
 
 #[test]
 fn a_preselected_tool_the_gate_replaces() {
-    let a = audited("tool_preselected");
-    assert_eq!(found(&a), [(Kind::ToolState, 37), (Kind::ToolState, 49)]);
-    let m = messages(&a);
-    assert!(
-        m.contains("preselected tool (the next M6 loads it) T1 here, T5 in the original"),
-        "{m}"
-    );
-    // The bare M6 after the gate then loads T1 instead of T5: at the end the wrong tool is in the spindle.
-    assert!(
-        m.contains("spindle tool T1 here, T5 in the original"),
-        "{m}"
+    expect(
+        "tool_preselected",
+        &[(Kind::ToolState, 37), (Kind::ToolState, 49)],
+        &[
+            "preselected tool (the next M6 loads it) T1 here, T5 in the original",
+            // The bare M6 after the gate then loads T1 instead of T5: at the end the wrong tool is in the
+            // spindle.
+            "spindle tool T1 here, T5 in the original",
+        ],
     );
 }
 
 #[test]
 fn probing_under_a_swivel_and_under_cutter_compensation() {
-    let a = audited("measure_swivel");
+    // STOPRE, probe call, STOPRE, offset write.
     let lines = [14, 23, 24, 30].map(|l| (Kind::MeasureUnderTransform, l));
-    assert_eq!(found(&a), lines, "STOPRE, probe call, STOPRE, offset write");
-    assert!(messages(&a).contains("swivel CYCLE800 A0 B30 C0"));
-    let a = audited("measure_g41");
-    assert_eq!(found(&a), lines);
-    assert!(messages(&a).contains("cutter radius compensation G41"));
+    expect("measure_swivel", &lines, &["swivel CYCLE800 A0 B30 C0"]);
+    expect("measure_g41", &lines, &["cutter radius compensation G41"]);
 }
 
 #[test]
 fn coolant_and_feed_type_not_restored() {
-    let a = audited("modal_coolant");
-    assert_eq!(found(&a), [(Kind::ModalNotRestored, 36)]);
-    assert!(messages(&a).contains("coolant off (M9) here, M8 in the original"));
-    let a = audited("modal_g95");
-    assert_eq!(
-        found(&a),
-        [(Kind::ModalNotRestored, 36), (Kind::ModalNotRestored, 45)]
+    expect(
+        "modal_coolant",
+        &[(Kind::ModalNotRestored, 36)],
+        &["coolant off (M9) here, M8 in the original"],
     );
-    let m = messages(&a);
-    assert!(m.contains("feed type G94 here, G95 in the original"), "{m}");
-    assert!(m.contains("feed F2000 here, F0.1 in the original"), "{m}");
+    expect(
+        "modal_g95",
+        &[(Kind::ModalNotRestored, 36), (Kind::ModalNotRestored, 45)],
+        &[
+            "feed type G94 here, G95 in the original",
+            "feed F2000 here, F0.1 in the original",
+        ],
+    );
 }
 
 #[test]
 fn position_not_brought_back() {
-    let a = audited("position");
-    assert_eq!(found(&a), [(Kind::PositionNotRestored, 35)]);
-    assert!(messages(&a).contains("X 0 here, 80 in the original; Y 0 here, 50 in the original"));
+    expect(
+        "position",
+        &[(Kind::PositionNotRestored, 35)],
+        &["X 0 here, 80 in the original; Y 0 here, 50 in the original"],
+    );
 }
 
 #[test]
 fn stopre_inside_a_continuous_path_contour() {
-    let a = audited("stopre_contour");
-    assert_eq!(found(&a), [(Kind::StopreInContour, 12)]);
-    assert!(messages(&a).contains("(G64)"));
+    expect("stopre_contour", &[(Kind::StopreInContour, 12)], &["(G64)"]);
 }
 
 #[test]
 fn an_alarm_that_leaves_the_work_offset_shifted() {
-    let a = audited("offset_abort");
-    assert_eq!(found(&a), [(Kind::OffsetLeftOnAbort, 29)]);
+    let a = expect(
+        "offset_abort",
+        &[(Kind::OffsetLeftOnAbort, 29)],
+        &["alarm 65000 stops the program with $P_UIFR[1,Z,TR] = NaN mm"],
+    );
     assert_eq!(
         a.findings[0].times, 2,
         "both the NaN and the 1e6 probe reach it"
     );
-    assert!(messages(&a).contains("alarm 65000 stops the program with $P_UIFR[1,Z,TR] = NaN mm"));
 }
 
 #[test]
 fn a_faulty_probe_value_that_reaches_the_offset() {
-    let a = audited("fault_offset");
-    assert_eq!(found(&a), [(Kind::FaultReachesOffset, 29)]);
-    assert!(messages(&a).contains("a probe that returns NaN"));
+    expect(
+        "fault_offset",
+        &[(Kind::FaultReachesOffset, 29)],
+        &["a probe that returns NaN"],
+    );
 }
 
 #[test]
 fn the_original_cuts_where_the_probe_touches() {
-    let a = audited("probe_machined");
-    assert_eq!(found(&a), [(Kind::ProbeInMachinedVolume, 10)]);
+    let a = expect(
+        "probe_machined",
+        &[(Kind::ProbeInMachinedVolume, 10)],
+        &["[position] x, y"],
+    );
     assert_eq!(a.findings[0].original_line, Some(9));
-    assert!(messages(&a).contains("[position] x, y"));
     // The cut runs along Y2, 2 mm from the probe point: a margin below that lets it pass.
     let narrow = AuditSettings {
         probe_margin_mm: 1.5,
@@ -176,11 +196,10 @@ fn the_original_cuts_where_the_probe_touches() {
 
 #[test]
 fn an_inserted_jump_over_an_original_block() {
-    let a = audited("flow_changed");
-    assert_eq!(found(&a), [(Kind::FlowChanged, 15)]);
-    assert!(
-        messages(&a)
-            .contains("runs original line 12 next where the original runs original line 11")
+    expect(
+        "flow_changed",
+        &[(Kind::FlowChanged, 15)],
+        &["runs original line 12 next where the original runs original line 11"],
     );
 }
 

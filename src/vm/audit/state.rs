@@ -120,49 +120,39 @@ pub(super) fn positions(t: &State, o: &State, axes: &[String]) -> Vec<Difference
 /// compensation, inch, transformation, swivel, frames (all but the corrected entry).
 pub(super) fn modal(t: &State, o: &State, s: &AuditSettings, axes: &[String]) -> Vec<Difference> {
     let (tm, om) = (&t.modal, &o.modal);
-    let mut v = Vec::new();
-    let mut text = |what: &str, a: String, b: String| {
-        if a != b {
-            v.push(item(what, a, b));
-        }
-    };
-    text("coolant", coolant(t), coolant(o));
-    text(
-        "feed type",
-        format!("G{}", tm.feed_mode.g()),
-        format!("G{}", om.feed_mode.g()),
-    );
-    text("dimensions", g90(tm.absolute), g90(om.absolute));
-    text("plane", plane(&tm.plane), plane(&om.plane));
-    text(
-        "path mode",
-        format!("G{}", tm.path),
-        format!("G{}", om.path),
-    );
-    text(
-        "exact stop window",
-        format!("G{}", tm.exact_stop),
-        format!("G{}", om.exact_stop),
-    );
-    text("motion", motion(tm.motion), motion(om.motion));
-    text("spindle", spindle(t), spindle(o));
-    text(
-        "cutter compensation",
-        format!("G{}", tm.compensation),
-        format!("G{}", om.compensation),
-    );
-    text(
-        "units",
-        inch(tm.inch, tm.inch_feed),
-        inch(om.inch, om.inch_feed),
-    );
-    text("transformation", transformation(t), transformation(o));
-    text("swivel", swivel(t), swivel(o));
-    text(
-        "rotation/scale/mirror",
-        linear(&t.frames.linear),
-        linear(&o.frames.linear),
-    );
+    let g = |n: u32| format!("G{n}");
+    let items = [
+        ("coolant", coolant(t), coolant(o)),
+        ("feed type", g(tm.feed_mode.g()), g(om.feed_mode.g())),
+        ("dimensions", g90(tm.absolute), g90(om.absolute)),
+        ("plane", plane(&tm.plane), plane(&om.plane)),
+        ("path mode", g(tm.path), g(om.path)),
+        ("exact stop window", g(tm.exact_stop), g(om.exact_stop)),
+        ("motion", motion(tm.motion), motion(om.motion)),
+        ("spindle", spindle(t), spindle(o)),
+        (
+            "cutter compensation",
+            g(tm.compensation),
+            g(om.compensation),
+        ),
+        (
+            "units",
+            inch(tm.inch, tm.inch_feed),
+            inch(om.inch, om.inch_feed),
+        ),
+        ("transformation", transformation(t), transformation(o)),
+        ("swivel", swivel(t), swivel(o)),
+        (
+            "rotation/scale/mirror",
+            linear(&t.frames.linear),
+            linear(&o.frames.linear),
+        ),
+    ];
+    let mut v: Vec<Difference> = items
+        .into_iter()
+        .filter(|(_, here, original)| here != original)
+        .map(|(what, here, original)| item(what, here, original))
+        .collect();
     let feed = |f: Option<f64>| f.map_or_else(|| "none".to_string(), |f| format!("F{}", num(f)));
     let feeds_differ = match (tm.feed, om.feed) {
         (Some(a), Some(b)) => differ(a, b),
