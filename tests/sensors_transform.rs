@@ -97,9 +97,9 @@ fn a_position_model_is_evaluated_at_the_measuring_position() {
     let gain: f64 = out
         .lines()
         .find_map(|l| {
-            l.split_once("=")?
-                .1
-                .strip_suffix("*($A_INA[1]-R905) ; a1_c ;DL")
+            let (_, rest) = l.split_once("=")?;
+            let (gain, read) = rest.split_once("*($A_INA[1]-R")?;
+            read.ends_with(") ; a1_c ;DL").then_some(gain)
         })
         .expect("a gate reads a1_c")
         .parse()

@@ -150,7 +150,8 @@ fn crlf_and_latin1_keep_their_bytes() {
 
 #[test]
 fn r_parameters_in_the_free_range_are_moved_around() {
-    let profile = Profile::default_profile();
+    let mut profile = Profile::default_profile();
+    (profile.registers.r_first, profile.registers.r_last) = (900, 989);
     let t = run(&fixture("r_in_free_range.mpf"), &profile).unwrap();
     for own in [900, 901, 902, 950] {
         assert!(!t.summary.r_parameters.contains(&own));
@@ -198,10 +199,17 @@ fn refusals_are_clear() {
         .unwrap_err()
         .to_string();
     assert!(other.contains("selects G55 (line 1)"), "{other}");
-    let no_pass = run(b"S1000 M3\nG1 X10 F100\nM30\n", &profile)
+    // A spindle probe cannot be swapped for a tool nobody named; the message says what to set.
+    let no_tool = run(b"G54\nS1000 M3\nG1 X10 F100\nM30\n", &profile)
         .unwrap_err()
         .to_string();
-    assert!(no_pass.contains("no pass found"), "{no_pass}");
+    assert!(
+        no_tool.contains("no place for the reference measurement")
+            && no_tool.contains("line 2")
+            && no_tool.contains("tool in the spindle is not known")
+            && no_tool.contains("kind = \"tool-setter\""),
+        "{no_tool}"
+    );
 }
 
 #[test]

@@ -15,6 +15,7 @@ mod parse;
 mod plan;
 mod positioning;
 mod predict;
+mod profiles;
 mod render;
 mod run;
 mod sensors;
@@ -122,6 +123,8 @@ enum Command {
     Positioning(positioning::Args),
     /// Measure parse + print throughput and peak memory on a generated 100 MB program.
     Bench(bench::Args),
+    /// List the machine profiles shipped inside the binary, or print one to adapt.
+    Profiles(profiles::Args),
 }
 
 /// Entry point of the binary.
@@ -142,6 +145,7 @@ pub fn main() -> ExitCode {
         Command::Transform(args) => transform::run(args, &cli.global),
         Command::Strip(args) => strip::run(args, &cli.global),
         Command::Plan(args) => plan::run(args, &cli.global),
+        Command::Profiles(args) => profiles::run(args, &cli.global),
     };
     match result {
         Ok(code) => code,

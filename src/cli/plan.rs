@@ -57,6 +57,13 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             return Ok(ExitCode::from(2));
         }
     };
+    for w in &plan.warnings {
+        eprintln!("warning: {name}: {w}");
+    }
+    if args.setup.strict && !plan.warnings.is_empty() {
+        eprintln!("error: {name}: --strict refuses a plan with warnings");
+        return Ok(ExitCode::from(2));
+    }
     let unforeseen = model.signals();
     if !unforeseen.is_empty() {
         eprintln!(

@@ -55,14 +55,19 @@ pub struct Setup {
     /// The drift model file (`driftloop fit` writes it).
     #[arg(long, value_name = "MODEL.toml")]
     pub model: PathBuf,
-    /// The machine profile; the shipped Blum TC50 / G54 profile when absent.
-    #[arg(long, value_name = "MACHINE.toml")]
+    /// The machine profile: a TOML file, or the name of a builtin profile (`driftloop profiles` lists
+    /// them: blum-tc50, siemens-cycle978, tool-setter, grinder-gauge, lathe-setter); blum-tc50 when absent.
+    #[arg(long, value_name = "MACHINE.toml|NAME")]
     pub profile: Option<PathBuf>,
     /// Folder holding the control's subprograms: a call of one (`NAME.SPF`, `NAME.MPF`, `_N_NAME_SPF`, any
     /// case) adds its time to the plan and the R-parameters it uses are left alone; repeatable, after the
     /// profile's own `subprograms`.
     #[arg(long = "subprograms", value_name = "DIR")]
     pub subprogram_dirs: Vec<PathBuf>,
+    /// Refuse a program whose plan has a stretch where the predicted change exceeds δ' (or Δ) with no place
+    /// to measure in between (without it, such stretches are warnings).
+    #[arg(long)]
+    pub strict: bool,
 }
 
 impl Setup {
@@ -78,7 +83,7 @@ impl Setup {
             .map(|b| format!("{b:02x}"))
             .collect();
         let mut profile = match &self.profile {
-            Some(path) => Profile::read(path)?,
+            Some(path) => Profile::read_or_builtin(path)?,
             None => Profile::default_profile(),
         };
         let dirs = &mut profile.timeline.subprograms;
@@ -125,12 +130,29 @@ impl Outcome {
     }
 }
 
+/// Why a program was not transformed: the kind (what the batch summary counts) and the message.
+struct Refusal {
+    reason: &'static str,
+    message: String,
+}
+
+impl Refusal {
+    fn new(reason: &'static str, message: impl ToString) -> Refusal {
+        Refusal {
+            reason,
+            message: message.to_string(),
+        }
+    }
+}
+
 #[derive(Serialize)]
 struct JsonFile<'a> {
     path: String,
     output: Option<String>,
     #[serde(skip_serializing_if = "Option::is_none")]
     error: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    reason: Option<&'static str>,
     #[serde(skip_serializing_if = "Option::is_none")]
     changed: Option<bool>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -141,10 +163,17 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     let (model, sha, profile) = args.setup.load()?;
     let jobs = jobs(&args)?;
     let progress = Progress::new(jobs.len());
-    let results: Vec<Result<Outcome, String>> = jobs
+    let results: Vec<Result<Outcome, Refusal>> = jobs
         .par_iter()
         .map(|job| {
-            let r = transform_one(&job.input, &model, &sha, &profile, args.force);
+            let r = transform_one(
+                &job.input,
+                &model,
+                &sha,
+                &profile,
+                args.force,
+                args.setup.strict,
+            );
             progress.tick();
             r
         })
@@ -165,11 +194,12 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         };
         match result {
             Err(e) => {
-                writeln!(stderr, "error: {path}: {e}")?;
+                writeln!(stderr, "error: {path}: {}", e.message)?;
                 json.push(JsonFile {
                     path,
                     output,
-                    error: Some(e.clone()),
+                    error: Some(e.message.clone()),
+                    reason: Some(e.reason),
                     changed: None,
                     summary: None,
                 });
@@ -187,14 +217,19 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 changed += usize::from(differs);
                 if args.format == Format::Human {
                     let s = &o.summary;
+                    for w in &s.warnings {
+                        writeln!(stderr, "warning: {path}: {w}")?;
+                    }
                     writeln!(
                         stderr,
-                        "{path}: {} passes, {} gates, {} measurements planned, {} blocks inserted, predicted drift up to {:.1} µm{}{}",
+                        "{path}: {} passes, {} gates, {} measurements planned, {} blocks inserted, predicted drift up to {:.1} µm, R-parameters up to R{} (MD28050 MM_NUM_R_PARAM ≥ {}){}{}",
                         s.passes,
                         s.gates,
                         s.measurements_planned,
                         s.blocks_inserted,
                         s.predicted_max_drift_um,
+                        s.r_parameters_needed.saturating_sub(1),
+                        s.r_parameters_needed,
                         match s.untimed_calls {
                             0 => String::new(),
                             n => format!(
@@ -212,6 +247,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                     path,
                     output,
                     error: None,
+                    reason: None,
                     changed: args.check.then_some(differs),
                     summary: Some(&o.summary),
                 });
@@ -230,6 +266,9 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         }
         Ok(())
     };
+    if jobs.len() > 1 && args.format == Format::Human {
+        write_coverage(&mut stderr, &results)?;
+    }
     if refused > 0 && !args.keep_going {
         emit_json(&json)?;
         writeln!(
@@ -267,9 +306,14 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     if refused > 0 {
         writeln!(
             io::stderr(),
-            "{refused} of {} program(s) refused; the other {} written",
+            "{refused} of {} program(s) refused; the other {} {}",
             jobs.len(),
-            outcomes.len()
+            outcomes.len(),
+            if args.check || args.diff {
+                "checked"
+            } else {
+                "written"
+            }
         )?;
         return Ok(ExitCode::from(2));
     }
@@ -286,13 +330,17 @@ fn transform_one(
     sha: &str,
     profile: &Profile,
     force: bool,
-) -> Result<Outcome, String> {
-    let bytes = input.read().map_err(|e| e.to_string())?;
+    strict: bool,
+) -> Result<Outcome, Refusal> {
+    let bytes = input.read().map_err(|e| Refusal::new("unreadable", e))?;
     let (program, moves) = omm::parse_timed(bytes);
     let model = ModelRef { model, sha256: sha };
     let (edits, summary) = omm::prepare_timed(&program, &moves, model, profile, force)
-        .map_err(|e| e.to_string())?
+        .map_err(|e| Refusal::new(e.reason(), e))?
         .into_edits();
+    if strict && let Some(w) = summary.warnings.first() {
+        return Err(Refusal::new("plan warnings (--strict)", format!("--strict: {w}")));
+    }
     Ok(Outcome {
         program,
         edits,
@@ -300,12 +348,58 @@ fn transform_one(
     })
 }
 
+/// The batch's count: how many programs transform, and the refusals by kind.
+fn write_coverage(w: &mut impl Write, results: &[Result<Outcome, Refusal>]) -> io::Result<()> {
+    let mut reasons: std::collections::BTreeMap<&str, usize> = Default::default();
+    for e in results.iter().filter_map(|r| r.as_ref().err()) {
+        *reasons.entry(e.reason).or_default() += 1;
+    }
+    let ok = results.len() - reasons.values().sum::<usize>();
+    write!(
+        w,
+        "{ok} of {} programs transform ({:.1} %)",
+        results.len(),
+        100.0 * ok as f64 / results.len() as f64
+    )?;
+    if !reasons.is_empty() {
+        let list: Vec<String> = reasons.iter().map(|(r, n)| format!("{r}: {n}")).collect();
+        write!(w, "; refused: {}", list.join(", "))?;
+    }
+    writeln!(w)
+}
+
+/// Subprograms and definition files: a directory's are timed through the main programs that call them
+/// (`--subprograms`), not transformed themselves.
+fn is_subprogram(input: &Input) -> bool {
+    let Input::File(path) = input else {
+        return false;
+    };
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("spf") || e.eq_ignore_ascii_case("def"))
+}
+
 /// Pairs every input with its output according to the options.
 fn jobs(args: &Args) -> anyhow::Result<Vec<Job>> {
     let mut jobs = Vec::new();
     let several = args.paths.len() > 1 || args.paths.iter().any(|p| p.is_dir());
     for root in &args.paths {
-        for input in walk::expand(std::slice::from_ref(root))? {
+        let walked = walk::expand(std::slice::from_ref(root))?;
+        let skipped = if root.is_dir() {
+            walked.iter().filter(|i| is_subprogram(i)).count()
+        } else {
+            0
+        };
+        if skipped > 0 {
+            eprintln!(
+                "note: {}: {skipped} subprogram file(s) (.spf, .def) not transformed: gates go into the main programs, which time the subprograms they call (--subprograms DIR)",
+                root.display()
+            );
+        }
+        for input in walked
+            .into_iter()
+            .filter(|i| !(root.is_dir() && is_subprogram(i)))
+        {
             let target = if args.diff {
                 Target::None
             } else if args.in_place {

@@ -7,7 +7,7 @@ use std::collections::BTreeSet;
 
 use super::nc::number;
 use super::plan::{Gate, GateKind, Predictor};
-use super::profile::{OffsetMethod, Profile, TimerUnit};
+use super::profile::{Axis, MeasureFrame, OffsetMethod, ProbeKind, Profile, TimerUnit, ToolChange};
 use super::timeline::Modal;
 
 /// Comment every inserted block ends with.
@@ -23,6 +23,9 @@ pub struct Registers {
     t0: u32,
     t_last: u32,
     dt: u32,
+    /// The part of `dt` until the last cut, and the prediction there.
+    dt_cut: u32,
+    pred_cut: u32,
     x: Vec<u32>,
     g: Vec<u32>,
     /// Per analog input of the model: lag state, target, value at the zero.
@@ -48,6 +51,9 @@ pub struct Registers {
     value: u32,
     mean: u32,
     delta: u32,
+    /// The position the gate left the program at, one per profile axis, and the height it travels at.
+    saved: Vec<u32>,
+    height: u32,
     saved_result: Option<u32>,
 }
 
@@ -63,7 +69,8 @@ impl Registers {
         let save = result_r.is_some_and(|n| used.contains(&n));
         let (modes, inputs) = (predictor.taus().len(), predictor.inputs().len());
         let statics = predictor.statics().len();
-        let needed = 19 + 2 * modes + 3 * inputs + 2 * statics + usize::from(save);
+        let axes = profile.position.axes.len();
+        let needed = 22 + 2 * modes + 3 * inputs + 2 * statics + axes + usize::from(save);
         let free: Vec<u32> = (r.r_first..=r.r_last)
             .filter(|n| !used.contains(n) && Some(*n) != result_r)
             .take(needed)
@@ -81,6 +88,8 @@ impl Registers {
             t0: next(),
             t_last: next(),
             dt: next(),
+            dt_cut: next(),
+            pred_cut: next(),
             x: (0..modes).map(|_| next()).collect(),
             g: (0..modes).map(|_| next()).collect(),
             input_x: (0..inputs).map(|_| next()).collect(),
@@ -104,6 +113,8 @@ impl Registers {
             value: next(),
             mean: next(),
             delta: next(),
+            saved: (0..axes).map(|_| next()).collect(),
+            height: next(),
             saved_result: save.then(&mut next),
         })
     }
@@ -114,6 +125,8 @@ impl Registers {
             self.t0,
             self.t_last,
             self.dt,
+            self.dt_cut,
+            self.pred_cut,
             self.pred,
             self.pred_at_measurement,
             self.eps,
@@ -138,6 +151,8 @@ impl Registers {
         v.extend(&self.input_zero);
         v.extend(&self.static_v);
         v.extend(&self.static_zero);
+        v.extend(&self.saved);
+        v.push(self.height);
         v.extend(self.saved_result);
         v.sort_unstable();
         v
@@ -219,6 +234,15 @@ impl Emitter<'_> {
         v
     }
 
+    /// The correction register as the offset takes it: doubled for an offset kept in diameter.
+    fn offset_value(&self, reg: u32) -> String {
+        if self.profile.offset.diameter {
+            format!("2*{}", r(reg))
+        } else {
+            r(reg)
+        }
+    }
+
     /// Blocks that apply the correction `corr` and re-select the work offset.
     fn apply_correction(&self) -> Vec<String> {
         let axis = self.profile.position.axis.name();
@@ -229,11 +253,16 @@ impl Emitter<'_> {
                 "{}={}+{}",
                 self.frame_target(),
                 r(reg.base),
-                r(reg.corr)
+                self.offset_value(reg.corr)
             )),
-            OffsetMethod::Trans => v.push(format!("TRANS {axis}={}", r(reg.corr))),
+            OffsetMethod::Trans => v.push(format!("TRANS {axis}={}", self.offset_value(reg.corr))),
             OffsetMethod::Atrans => {
-                v.push(format!("ATRANS {axis}={}-{}", r(reg.corr), r(reg.applied)));
+                let change = if self.profile.offset.diameter {
+                    format!("2*({}-{})", r(reg.corr), r(reg.applied))
+                } else {
+                    format!("{}-{}", r(reg.corr), r(reg.applied))
+                };
+                v.push(format!("ATRANS {axis}={change}"));
             }
         }
         v.push(format!("{}={}", r(reg.applied), r(reg.corr)));
@@ -241,14 +270,13 @@ impl Emitter<'_> {
         v
     }
 
-    /// Stops the program for good: message, user alarm, offset restored, M0, then M30 should the operator
-    /// press start again.
+    /// Stops the program for good: the work offset back to its value before the program first — SETAL stops
+    /// the interpreter, so nothing after it runs, and the offset persists through a RESET — then message,
+    /// user alarm, and M0 / M30 should the control go on.
     fn abort(&self, message: &str, alarm: u32) -> Vec<String> {
-        let mut v = vec![
-            format!("MSG(\"{}\")", message.replace('"', "'")),
-            format!("SETAL({alarm})"),
-        ];
-        v.extend(self.restore_offset());
+        let mut v = self.restore_offset();
+        v.push(format!("MSG(\"{}\")", message.replace('"', "'")));
+        v.push(format!("SETAL({alarm})"));
         v.push("M0".into());
         v.push("M30".into());
         v
@@ -269,40 +297,65 @@ impl Emitter<'_> {
         v
     }
 
-    /// The exact state update of every mode over `dt`, then the targets for the speed from here on.
-    fn update_prediction(&self, rpm: f64) -> Vec<String> {
+    /// The exact state update of every mode and input lag over `dt`, then the targets for the speed and
+    /// inputs from here on. With `idle` (a gate that can measure, some minutes after the last cut) the
+    /// update goes in two steps and keeps the prediction at the cut in `pred_cut`: the same result, as the
+    /// update is exact for a constant target.
+    fn update_prediction(&self, rpm: f64, idle: Option<f64>) -> Vec<String> {
         let reg = &self.regs;
+        let lags: Vec<(u32, u32, f64)> = reg
+            .x
+            .iter()
+            .zip(&reg.g)
+            .zip(self.predictor.taus())
+            .map(|((x, g), tau)| (*x, *g, *tau))
+            .chain(
+                reg.input_x
+                    .iter()
+                    .zip(&reg.input_g)
+                    .zip(self.predictor.inputs())
+                    .map(|((x, g), term)| (*x, *g, term.tau_min)),
+            )
+            .collect();
+        let step = |dt: &str| -> Vec<String> {
+            lags.iter()
+                .map(|&(x, g, tau)| {
+                    format!(
+                        "{x}={g}+({x}-{g})*EXP(-{dt}/{tau})",
+                        x = r(x),
+                        g = r(g),
+                        tau = number(tau)
+                    )
+                })
+                .collect()
+        };
         let mut v = Vec::new();
-        for ((x, g), tau) in reg.x.iter().zip(&reg.g).zip(self.predictor.taus()) {
-            v.push(format!(
-                "{x}={g}+({x}-{g})*EXP(-{dt}/{tau})",
-                x = r(*x),
-                g = r(*g),
-                dt = r(reg.dt),
-                tau = number(*tau)
-            ));
+        match idle {
+            Some(idle) => {
+                let (dt, cut) = (r(reg.dt), r(reg.dt_cut));
+                v.push(format!("{cut}={dt}-{}", number(idle)));
+                v.push(format!("IF {cut}<0"));
+                v.push(format!("{cut}=0"));
+                v.push("ENDIF".into());
+                v.extend(step(&cut));
+                v.push(format!("{}={}", r(reg.pred_cut), self.prediction_sum()));
+                v.extend(step(&format!("({dt}-{cut})")));
+            }
+            None => v.extend(step(&r(reg.dt))),
         }
         v.extend(self.set_targets(rpm));
-        for (((x, g), zero), term) in reg
-            .input_x
+        // The input holds from here to the next gate, as a log row's inputs do.
+        for ((g, zero), term) in reg
+            .input_g
             .iter()
-            .zip(&reg.input_g)
             .zip(&reg.input_zero)
             .zip(self.predictor.inputs())
         {
             v.push(format!(
-                "{x}={g}+({x}-{g})*EXP(-{dt}/{tau})",
-                x = r(*x),
-                g = r(*g),
-                dt = r(reg.dt),
-                tau = number(term.tau_min)
-            ));
-            // The input holds from here to the next gate, as a log row's inputs do.
-            v.push(format!(
-                "{g}={}*($A_INA[{n}]-{zero}) ; {}",
+                "{}={}*($A_INA[{n}]-{zero}) ; {}",
+                r(*g),
                 Emitter::mm(term.gain_per_unit),
                 term.signal,
-                g = r(*g),
                 n = term.input,
                 zero = r(*zero)
             ));
@@ -323,6 +376,13 @@ impl Emitter<'_> {
                 zero = r(*zero)
             ));
         }
+        v.push(format!("{}={}", r(reg.pred), self.prediction_sum()));
+        v
+    }
+
+    /// The predicted drift from the states: modes, input lags, static inputs and the trend.
+    fn prediction_sum(&self) -> String {
+        let reg = &self.regs;
         let sum: Vec<String> = reg
             .x
             .iter()
@@ -331,16 +391,11 @@ impl Emitter<'_> {
             .map(|x| r(*x))
             .chain(self.trend())
             .collect();
-        v.push(format!(
-            "{}={}",
-            r(reg.pred),
-            if sum.is_empty() {
-                "0".into()
-            } else {
-                sum.join("+")
-            }
-        ));
-        v
+        if sum.is_empty() {
+            "0".into()
+        } else {
+            sum.join("+")
+        }
     }
 
     /// The `time_trend` term: µm per hour times the time since the zero.
@@ -371,17 +426,115 @@ impl Emitter<'_> {
             .collect()
     }
 
-    /// Probe into the spindle and to the start point of the probing move.
-    fn probe_in(&self) -> Vec<String> {
-        let p = self.profile;
+    /// Rapid along the tool axis to the travel height, in absolute work coordinates.
+    fn clear(&self) -> String {
+        format!(
+            "G0 G90 {}=R{}",
+            self.profile.position.retract_axis.name(),
+            self.regs.height
+        )
+    }
+
+    /// The axes a gate travels along at the clearance height: all but the retract axis.
+    fn travel_axes(&self) -> impl Iterator<Item = (usize, Axis)> + '_ {
+        let p = &self.profile.position;
+        p.axes
+            .iter()
+            .copied()
+            .enumerate()
+            .filter(move |(_, a)| *a != p.retract_axis)
+    }
+
+    /// The program's position (work coordinates), read after the gate's STOPRE: where the gate brings it
+    /// back, whatever loop run or expression led there; and the height to travel at: the clearance height,
+    /// or the program's own where that is higher (the tool never moves down to travel). Nothing when the
+    /// gate does not move the machine.
+    fn save_position(&self) -> Vec<String> {
+        let p = &self.profile.position;
+        if self.profile.probe.kind == ProbeKind::Gauge {
+            return Vec::new();
+        }
+        let saves: Vec<String> = p
+            .axes
+            .iter()
+            .zip(&self.regs.saved)
+            .map(|(a, reg)| format!("{}=$AA_IW[{}]", r(*reg), a.name()))
+            .collect();
+        let (h, clearance) = (r(self.regs.height), number(p.clearance));
         vec![
-            "M5".into(),
-            format!("T=\"{}\" M6", p.probe.tool),
-            format!("D{}", p.probe.tool_offset),
-            format!("G0 G90 Z{}", number(p.position.clearance_z)),
-            format!("X{} Y{}", number(p.position.x), number(p.position.y)),
-            format!("Z{}", number(p.position.z)),
+            saves.join(" "),
+            format!("{h}={}", r(self.regs.saved[self.retract_index()])),
+            format!("IF {h}<{clearance}"),
+            format!("{h}={clearance}"),
+            "ENDIF".into(),
         ]
+    }
+
+    /// Index of the retract axis in the profile's axes (and the saved position).
+    fn retract_index(&self) -> usize {
+        let p = &self.profile.position;
+        p.axes
+            .iter()
+            .position(|a| *a == p.retract_axis)
+            .expect("validated: the axes list the retract axis")
+    }
+
+    /// Travel at the clearance height to the probing start point, then along the tool axis to it.
+    fn to_start_point(&self) -> Vec<String> {
+        let p = &self.profile.position;
+        let coordinate = |a: Axis| match a {
+            Axis::X => p.x,
+            Axis::Y => p.y,
+            Axis::Z => p.z,
+        };
+        let supa = match p.frame {
+            MeasureFrame::Work => "",
+            MeasureFrame::Machine => "SUPA ",
+        };
+        let across: Vec<String> = self
+            .travel_axes()
+            .map(|(_, a)| format!("{}{}", a.name(), number(coordinate(a))))
+            .collect();
+        let mut v = Vec::new();
+        if !across.is_empty() {
+            v.push(format!("{supa}{}", across.join(" ")));
+        }
+        v.push(format!(
+            "{supa}{}{}",
+            p.retract_axis.name(),
+            number(coordinate(p.retract_axis))
+        ));
+        v
+    }
+
+    /// `T=<tool>` with or without M6, as the machine changes tools.
+    fn load(&self, tool: &str) -> String {
+        match self.profile.probe.tool_change {
+            ToolChange::M6 => format!("T={tool} M6"),
+            ToolChange::T => format!("T={tool}"),
+        }
+    }
+
+    /// From the program's position to the probing start point: up along the tool axis with the cutting
+    /// tool, spindle and coolant off, the probe in (spindle probe), across at the clearance height, down.
+    fn probe_in(&self, gate: &Gate) -> Vec<String> {
+        let p = self.profile;
+        let mut v = Vec::new();
+        if p.probe.kind == ProbeKind::Gauge {
+            return v;
+        }
+        v.push(self.clear());
+        v.push("M5".into());
+        if matches!(gate.before.coolant, Some(7 | 8)) {
+            v.push("M9".into());
+        }
+        if p.probe.kind == ProbeKind::SpindleProbe {
+            v.push(self.load(&format!("\"{}\"", p.probe.tool)));
+            v.push(format!("D{}", p.probe.tool_offset));
+            v.push(self.clear());
+        }
+        v.extend(self.to_start_point());
+        v
     }
 
     /// The measurement module: repeat the probing until N plausible values agree within the band; abort
@@ -449,11 +602,46 @@ impl Emitter<'_> {
         if let Some(s) = reg.saved_result {
             v.push(format!("{}={}", self.profile.probe.result, r(s)));
         }
-        v.push(format!(
-            "G0 G90 Z{}",
-            number(self.profile.position.clearance_z)
-        ));
+        if self.profile.probe.kind != ProbeKind::Gauge {
+            v.push(self.clear());
+        }
         v
+    }
+
+    /// The cycle's result units per mm of drift: 2 for a diameter.
+    fn result_factor(&self) -> &'static str {
+        if self.profile.position.diameter {
+            "2*"
+        } else {
+            ""
+        }
+    }
+
+    /// The result the prediction expects (NC expression): the zero plus the predicted drift, less the
+    /// correction in force when the measured point moves with the work offset.
+    fn expected(&self) -> String {
+        let reg = &self.regs;
+        let k = self.result_factor();
+        match self.profile.position.frame {
+            MeasureFrame::Work => {
+                format!("{}+{k}({}-{})", r(reg.zero), r(reg.pred), r(reg.applied))
+            }
+            MeasureFrame::Machine => format!("{}+{k}{}", r(reg.zero), r(reg.pred)),
+        }
+    }
+
+    /// The measured drift since the zero (mm), from the mean reading.
+    fn measured_drift(&self) -> String {
+        let reg = &self.regs;
+        let change = if self.profile.position.diameter {
+            format!("({}-{})/2", r(reg.mean), r(reg.zero))
+        } else {
+            format!("{}-{}", r(reg.mean), r(reg.zero))
+        };
+        match self.profile.position.frame {
+            MeasureFrame::Work => format!("{}={change}+{}", r(reg.delta), r(reg.applied)),
+            MeasureFrame::Machine => format!("{}={change}", r(reg.delta)),
+        }
     }
 
     /// One CSV line of the measurement log: time_min, spindle_rpm, drift (µm), pass, run. Without
@@ -486,37 +674,86 @@ impl Emitter<'_> {
         )
     }
 
-    /// The cutting tool back after measuring, spindle restarted, modal state as the program left it.
-    fn tool_back(&self, gate: &Gate) -> Vec<String> {
+    /// A log row, and a message when the control could not append it (full memory, no file access): the
+    /// part is not at risk, but the log misses a row.
+    fn log_checked(&self, rpm: f64, pass: usize, measured: bool) -> Vec<String> {
+        vec![
+            self.log(rpm, pass, measured),
+            format!("IF {}<>0", r(self.regs.write_error)),
+            format!(
+                "MSG(\"driftloop: {} not written (WRITE error \"<<{}<<\")\")",
+                self.profile.registers.log_file,
+                r(self.regs.write_error)
+            ),
+            "ENDIF".into(),
+        ]
+    }
+
+    /// After measuring: the cutting tool back (spindle probe) and its preselection, across at the clearance
+    /// height to where the program stood, spindle and coolant on, down along the tool axis, and the modal
+    /// state as the program left it. Before a tool change of the program's own only the preselection and
+    /// the modal state: the probe goes out with that change.
+    fn give_back(&self, gate: &Gate) -> Vec<String> {
         let b: &Modal = &gate.before;
+        let p = self.profile;
         let mut v = Vec::new();
-        if gate.tool_change_follows {
-            return v;
+        let preselection = b.selected.as_ref().filter(|s| b.tool.as_ref() != Some(*s));
+        if p.probe.kind == ProbeKind::SpindleProbe {
+            if gate.tool_change_follows {
+                // The program's M6 loads what it selected; the probe's T replaced that selection.
+                if let (ToolChange::M6, Some(sel)) = (p.probe.tool_change, &b.selected) {
+                    v.push(format!("T={sel}"));
+                }
+                v.extend(self.modal_back(b));
+                return v;
+            }
+            if let Some(tool) = &b.tool {
+                v.push(self.load(tool));
+            }
+            if let (ToolChange::M6, Some(sel)) = (p.probe.tool_change, preselection) {
+                v.push(format!("T={sel}"));
+            }
+            if let Some(d) = b.d {
+                v.push(format!("D{d}"));
+            }
+            v.push(self.clear());
         }
-        if let Some(tool) = &b.tool {
-            v.push(format!("T={tool} M6"));
+        if p.probe.kind != ProbeKind::Gauge {
+            let across: Vec<String> = self
+                .travel_axes()
+                .map(|(k, a)| format!("{}=R{}", a.name(), self.regs.saved[k]))
+                .collect();
+            if !across.is_empty() {
+                v.push(across.join(" "));
+            }
+            if b.rpm() > 0.0 {
+                v.push(format!("S{} M{}", number(b.s), b.direction));
+            }
+            if let Some(c @ (7 | 8)) = b.coolant {
+                v.push(format!("M{c}"));
+            }
+            v.push(format!(
+                "{}=R{}",
+                p.position.retract_axis.name(),
+                self.regs.saved[self.retract_index()]
+            ));
         }
-        if let Some(d) = b.d {
-            v.push(format!("D{d}"));
-        }
-        if b.rpm() > 0.0 {
-            v.push(format!("S{} M{}", number(b.s), b.direction));
-        }
-        let mut back = format!(
-            "G0 G90 Z{}",
-            number(b.z.unwrap_or(self.profile.position.clearance_z))
-        );
-        if let Some(f) = b.feed {
-            back.push_str(&format!(" F{}", number(f)));
-        }
-        v.push(back);
-        if b.motion == 1 {
-            v.push("G1".into());
-        }
-        if !b.absolute {
-            v.push("G91".into());
-        }
+        v.extend(self.modal_back(b));
         v
+    }
+
+    /// The modal G codes and feed the gate's moves and the cycle may have changed, as the program had them.
+    fn modal_back(&self, b: &Modal) -> Vec<String> {
+        let mut words = Vec::new();
+        for g in [b.plane, b.feed_mode, b.path_mode].into_iter().flatten() {
+            words.push(format!("G{g}"));
+        }
+        words.push(format!("G{}", b.motion));
+        words.push(if b.absolute { "G90" } else { "G91" }.to_string());
+        if let Some(f) = b.feed {
+            words.push(format!("F{}", number(f)));
+        }
+        vec![words.join(" ")]
     }
 
     fn describe(gate: &Gate, pass_tool: Option<&str>) -> String {
@@ -592,12 +829,13 @@ impl Emitter<'_> {
                 .collect::<String>()
         ));
         v.push(p.offset.select.clone());
-        v.extend(self.probe_in());
-        v.push("; driftloop stage 4: reference measurement of the base surface, the zero".into());
+        v.extend(self.save_position());
+        v.extend(self.probe_in(gate));
+        v.push("; driftloop stage 4: reference measurement, the zero".into());
         v.extend(self.measure(&number(p.position.nominal), &what));
         v.push(format!("{}={}", r(reg.zero), r(reg.mean)));
-        v.push(self.log(cut_rpm, gate.pass, true));
-        v.extend(self.tool_back(gate));
+        v.extend(self.log_checked(cut_rpm, gate.pass, true));
+        v.extend(self.give_back(gate));
         v.extend(self.set_targets(gate.rpm));
         Emitter::finish(v)
     }
@@ -614,7 +852,8 @@ impl Emitter<'_> {
             gate.planned()
         )];
         v.extend(self.read_timer());
-        v.extend(self.update_prediction(gate.rpm));
+        let idle = (gate.can_measure && gate.idle_min > 0.0).then_some(gate.idle_min);
+        v.extend(self.update_prediction(gate.rpm, idle));
         if gate.can_measure {
             let skip = format!("{}SKIP{}", self.label_prefix, gate.number);
             if !self.profile.log.measure_every_gate {
@@ -626,30 +865,29 @@ impl Emitter<'_> {
                 );
                 // Cycle_in machines on without measuring but still logs its row, without a reading.
                 v.push(cycle_in.clone());
-                v.push(self.log(gate.rpm, gate.pass, false));
+                v.extend(self.log_checked(gate.rpm, gate.pass, false));
                 v.push("ENDIF".into());
                 v.push(format!("{cycle_in} GOTOF {skip}"));
             }
-            v.extend(self.probe_in());
-            let expected = format!("{}+{}-{}", r(reg.zero), r(reg.pred), r(reg.corr));
-            v.extend(self.measure(&expected, &what));
+            v.extend(self.save_position());
+            v.extend(self.probe_in(gate));
+            v.extend(self.measure(&self.expected(), &what));
+            v.push(self.measured_drift());
+            // The error of the part cut since the last gate: the measured drift at its last cut (the
+            // drift since then without cutting, as the model predicts it, taken off) against the
+            // correction in force while it was cut.
+            let since_cut = match idle {
+                Some(_) => format!("-({}-{})", r(reg.pred), r(reg.pred_cut)),
+                None => String::new(),
+            };
             v.push(format!(
-                "{}={}-{}+{}",
+                "IF ABS({}{since_cut}-{})>{}",
                 r(reg.delta),
-                r(reg.mean),
-                r(reg.zero),
-                r(reg.corr)
-            ));
-            // The error a part cut now would carry: the measured drift against the correction the program
-            // applies from its prediction (δ_pr + ε of the last measurement). Not against the correction
-            // of the previous gate: the drift of a pause without cutting is no error of a part.
-            v.push(format!(
-                "IF ABS({}-{}-{})>{}",
-                r(reg.delta),
-                r(reg.pred),
-                r(reg.eps),
+                r(reg.applied),
                 Emitter::mm(l.tolerance_um)
             ));
+            // The scrap reading is logged before the stop, for the record and for `diagnose`.
+            v.extend(self.log_checked(gate.rpm, gate.pass, true));
             v.extend(self.abort(
                 &format!(
                     "driftloop: measured error beyond the tolerance {} um at {what}: part is scrap",
@@ -661,11 +899,11 @@ impl Emitter<'_> {
             v.push(format!("{}={}-{}", r(reg.eps), r(reg.delta), r(reg.pred)));
             v.push(format!("{}={}", r(reg.pred_at_measurement), r(reg.pred)));
             // The speed the prediction runs on from here (the targets above), as the unmeasured rows log it.
-            v.push(self.log(gate.rpm, gate.pass, true));
-            v.extend(self.tool_back(gate));
+            v.extend(self.log_checked(gate.rpm, gate.pass, true));
+            v.extend(self.give_back(gate));
             v.push(format!("{skip}:"));
         } else {
-            v.push(self.log(gate.rpm, gate.pass, false));
+            v.extend(self.log_checked(gate.rpm, gate.pass, false));
         }
         v.push(format!("{}={}+{}", r(reg.corr), r(reg.pred), r(reg.eps)));
         v.extend(self.apply_correction());

@@ -18,8 +18,8 @@ use crate::edit::{EditError, Editor, Edits};
 use crate::model::DriftModel;
 use crate::syntax::Program;
 
-pub use plan::{Gate, GateKind, Plan, Predictor};
-pub use profile::{DEFAULT_PROFILE, Profile, ProfileError};
+pub use plan::{Gate, GateKind, Plan, PlanError, Predictor};
+pub use profile::{DEFAULT_PROFILE, ProbeKind, Profile, ProfileError};
 pub use timeline::{Moves, Timeline, parse_timed};
 
 use emit::{Emitter, Registers, SIGNATURE};
@@ -64,14 +64,36 @@ pub enum TransformError {
         "a measurement at gate {0} would need to re-load the cutting tool, but no tool is known there"
     )]
     UnknownTool(usize),
+    #[error(transparent)]
+    Plan(#[from] PlanError),
     #[error("{0}")]
-    Plan(String),
+    Other(String),
     #[error(
         "an inserted block would be longer than the control's 512 characters (shorten the profile's texts): `{0}`"
     )]
     LongBlock(String),
     #[error("internal error: an inserted block does not parse: {0}")]
     Emit(#[from] EditError),
+}
+
+impl TransformError {
+    /// The kind of refusal, in a few words: what a batch report counts.
+    pub fn reason(&self) -> &'static str {
+        match self {
+            TransformError::ParseErrors(_) => "syntax errors",
+            TransformError::AlreadyTransformed(_) => "already transformed",
+            TransformError::PcArchive => "PC-format archive",
+            TransformError::ComputedR(_) => "R-parameters indexed by expressions",
+            TransformError::OtherOffset { .. } => "another work offset than the profile's",
+            TransformError::UnknownTool(_) => "tool not known at a gate",
+            TransformError::Plan(PlanError::NothingToCompensate) => "moves no axis",
+            TransformError::Plan(PlanError::NoReference(_)) => "no place for the reference",
+            TransformError::Plan(PlanError::Model(_)) => "model not predictable in NC",
+            TransformError::Other(_) => "profile or registers",
+            TransformError::LongBlock(_) => "block too long",
+            TransformError::Emit(_) => "internal error",
+        }
+    }
 }
 
 /// What the transform did to one program.
@@ -89,6 +111,11 @@ pub struct Summary {
     pub inexact_blocks: usize,
     /// Subprogram and cycle calls, whose time the plan does not count (`plan` lists them).
     pub untimed_calls: usize,
+    /// The control needs at least this many R-parameters (machine data MD28050 MM_NUM_R_PARAM): one more
+    /// than the highest the inserted blocks use.
+    pub r_parameters_needed: u32,
+    /// Stretches of the plan where the predicted change exceeds δ' or Δ with no place to measure.
+    pub warnings: Vec<String>,
 }
 
 /// A transformed program.
@@ -191,7 +218,7 @@ fn plan_with(
         Some(moves) => timeline::build_with_moves(program, moves, profile),
         None => timeline::build(program, profile),
     };
-    let plan = plan::plan(&timeline, model, profile).map_err(TransformError::Plan)?;
+    let plan = plan::plan(&timeline, model, profile)?;
     Ok((timeline, plan))
 }
 
@@ -285,15 +312,15 @@ fn prepare_with<'p>(
         });
     }
     let predictor = Predictor::new(model.model, &profile.log.inputs, &profile.position)
-        .map_err(TransformError::Plan)?;
+        .map_err(TransformError::Other)?;
     let regs =
-        Registers::allocate(profile, &predictor, &timeline.used_r).map_err(TransformError::Plan)?;
+        Registers::allocate(profile, &predictor, &timeline.used_r).map_err(TransformError::Other)?;
     let label_prefix = ["DL", "DLOMM", "DRIFTLOOP"]
         .into_iter()
         .find(|p| !timeline.labels.iter().any(|l| l.starts_with(p)))
         .map(str::to_string)
         .ok_or_else(|| {
-            TransformError::Plan("the program's labels use every prefix driftloop knows".into())
+            TransformError::Other("the program's labels use every prefix driftloop knows".into())
         })?;
     let emitter = Emitter {
         profile,
@@ -341,7 +368,9 @@ fn prepare_with<'p>(
             .collect()
     };
     for (gate, text) in plan.gates.iter().zip(texts) {
-        let needs_tool = gate.can_measure && !gate.tool_change_follows;
+        let needs_tool = profile.probe.kind == ProbeKind::SpindleProbe
+            && gate.can_measure
+            && !gate.tool_change_follows;
         if needs_tool && gate.before.tool.is_none() {
             return Err(TransformError::UnknownTool(gate.number));
         }
@@ -362,7 +391,8 @@ fn prepare_with<'p>(
         editor,
         summary: Summary {
             blocks_inserted: inserted,
-            passes: timeline.passes.len(),
+            // A program without marked passes is one pass from the zero on.
+            passes: timeline.passes.len().max(1),
             gates: plan.gates.len(),
             measurements_planned: plan.measurements,
             predicted_max_drift_um: plan.max_predicted_um,
@@ -371,6 +401,8 @@ fn prepare_with<'p>(
             labels,
             inexact_blocks: timeline.inexact_blocks,
             untimed_calls: timeline.untimed_calls.len(),
+            r_parameters_needed: regs.all().last().map_or(0, |r| r + 1),
+            warnings: plan.warnings.clone(),
         },
         plan,
     })

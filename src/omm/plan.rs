@@ -4,6 +4,7 @@
 //! is taken to start from rest there, as the model's runs do.
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 use serde::Serialize;
 
@@ -13,8 +14,9 @@ use crate::model::lag::step;
 use crate::model::speed_grid::SpeedGrid;
 
 use super::loops::{Loop, site_runs};
-use super::profile::{Axis, Position, Profile};
-use super::timeline::{Modal, SiteKind, Timeline};
+use super::nc::number;
+use super::profile::{Axis, MeasureFrame, Position, ProbeKind, Profile};
+use super::timeline::{self, Modal, Site, SiteKind, Timeline};
 
 /// What a gate does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -55,6 +57,9 @@ pub struct Gate {
     pub runs: usize,
     /// In how many of its runs the plan expects a measurement.
     pub measurements: usize,
+    /// Minutes from the end of the last cut before the gate to the gate: the scrap decision judges the
+    /// part by the drift at that cut, not by what the machine drifted since without cutting.
+    pub idle_min: f64,
     #[serde(skip)]
     pub before: Modal,
 }
@@ -83,6 +88,8 @@ pub struct Plan {
     /// False when a loop runs so often that the plan does not follow every run of its gates (their time
     /// is still counted).
     pub every_run_planned: bool,
+    /// Stretches where the predicted change exceeds δ' (or Δ) with no place to measure in between.
+    pub warnings: Vec<String>,
 }
 
 /// A lagged response to an analog input the control reads (`$A_INA[n]`): the model's `inputs` and its
@@ -333,20 +340,140 @@ pub fn measurement_min(profile: &Profile) -> f64 {
         / 60.0
 }
 
-pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Result<Plan, String> {
-    // The plan cannot know the inputs ahead: they are taken to stay at their value at the zero.
-    let mut p = Predictor::new(model, &profile.log.inputs, &profile.position)?;
-    let limit = profile.limits.working_limit_um();
-    let Some(first) = timeline
-        .sites
-        .iter()
-        .position(|s| matches!(s.kind, SiteKind::PassStart { .. }))
-    else {
-        return Err(
-            "no pass found: the program has no tool change (M6 or T) and no pass marker or line from the profile, so there is no place for the reference measurement before machining"
-                .into(),
+/// Why a program gets no plan.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PlanError {
+    #[error("the program moves no axis and calls no subprogram: there is nothing to compensate")]
+    NothingToCompensate,
+    #[error("{0}")]
+    NoReference(String),
+    /// The model cannot be predicted in NC with this profile.
+    #[error("{0}")]
+    Model(String),
+}
+
+/// Why the probe cannot measure in this state: a programmable translation would move a probe point given
+/// in work coordinates, and the zero and later readings would not compare.
+fn frame_blocks(site: &Site, profile: &Profile) -> Option<&'static str> {
+    (profile.position.frame == MeasureFrame::Work
+        && site.before.frames & timeline::frame::TRANSLATION != 0)
+        .then_some("a programmable translation (TRANS/ATRANS) is active and would move the probe point")
+}
+
+/// Why a site cannot carry the reference measurement with this profile's probe; `None` when it can.
+fn unfit_for_reference(site: &Site, profile: &Profile) -> Option<&'static str> {
+    let tool_change_follows = matches!(site.kind, SiteKind::PassStart { tool_change: true });
+    if let Some(why) = site.before.unfit().or_else(|| frame_blocks(site, profile)) {
+        return Some(why);
+    }
+    if site.state_varies {
+        return Some(
+            "its modal state is not known for sure (later runs of a loop reach it in another state, or a subprogram or cycle ran before it)",
         );
-    };
+    }
+    match profile.probe.kind {
+        ProbeKind::SpindleProbe if tool_change_follows => None,
+        ProbeKind::SpindleProbe if site.before.tool.is_none() => Some(
+            "the tool in the spindle is not known there (no tool change before it), so the probe could not be swapped for it again",
+        ),
+        ProbeKind::ToolSetter if tool_change_follows => {
+            Some("a tool change follows: the zero must be measured with the tool that cuts")
+        }
+        ProbeKind::Gauge => None,
+        _ => site.before.not_restorable(),
+    }
+}
+
+/// The site of the reference measurement: the first fit one after the program's own setup (declarations,
+/// work offset, frames) and not after its first cut; else the first fit pass start.
+fn reference_site(timeline: &Timeline, profile: &Profile) -> Result<usize, PlanError> {
+    if !timeline.moves {
+        return Err(PlanError::NothingToCompensate);
+    }
+    let from = timeline.setup_end.max(timeline.preamble_end);
+    let to = timeline.first_cut.unwrap_or(usize::MAX);
+    let mut unfit: Option<(usize, &str)> = None;
+    for (k, site) in timeline.sites.iter().enumerate() {
+        if site.block < from || site.block > to {
+            continue;
+        }
+        match unfit_for_reference(site, profile) {
+            None => return Ok(k),
+            Some(why) => {
+                unfit.get_or_insert((site.block, why));
+            }
+        }
+    }
+    if let Some(k) = timeline.sites.iter().position(|s| {
+        matches!(s.kind, SiteKind::PassStart { .. }) && unfit_for_reference(s, profile).is_none()
+    }) {
+        return Ok(k);
+    }
+    let cut = timeline
+        .first_cut
+        .map_or("the program's end".to_string(), |b| {
+            format!("line {}", b + 1)
+        });
+    let mut message = format!(
+        "no place for the reference measurement between the program's setup (line {}) and its first cut ({cut})",
+        from + 1
+    );
+    if let Some((block, why)) = unfit {
+        message.push_str(&format!(": at line {}, {why}", block + 1));
+    }
+    if profile.probe.kind == ProbeKind::SpindleProbe {
+        message.push_str(
+            "; for a program that never changes tools measure with the tool in the spindle (`--profile tool-setter`, `grinder-gauge` or `lathe-setter`, or [probe] kind = \"tool-setter\" or \"gauge\" in your profile; `driftloop profiles` lists them), or add the tool change T=\"NAME\" M6 before the first cut",
+        );
+    } else {
+        message.push_str("; mark a pass at a safe place ([passes] marker / lines)");
+    }
+    Err(PlanError::NoReference(message))
+}
+
+/// Why a gate here cannot measure, or `None` when it can: the place must be fit, its state the same on
+/// every run and restorable, and the probe must be able to give the tool back (a tool setter compares only
+/// readings of the tool the zero was measured with).
+fn unfit_for_measuring(
+    site: &Site,
+    profile: &Profile,
+    reference_tool: Option<&Arc<str>>,
+) -> Option<&'static str> {
+    let tool_change_follows = matches!(site.kind, SiteKind::PassStart { tool_change: true });
+    if site.state_varies {
+        return Some(
+            "its modal state is not known for sure (later runs of a loop reach it in another state, or a subprogram or cycle ran before it)",
+        );
+    }
+    if let Some(why) = site
+        .before
+        .not_restorable()
+        .or_else(|| frame_blocks(site, profile))
+    {
+        return Some(why);
+    }
+    match profile.probe.kind {
+        ProbeKind::SpindleProbe if !tool_change_follows && site.before.tool.is_none() => {
+            Some("the tool in the spindle is not known")
+        }
+        ProbeKind::ToolSetter if site.before.tool.as_ref() != reference_tool => {
+            Some("another tool than the one the zero was measured with is in the spindle")
+        }
+        _ => None,
+    }
+}
+
+pub fn plan(
+    timeline: &Timeline,
+    model: &DriftModel,
+    profile: &Profile,
+) -> Result<Plan, PlanError> {
+    // The plan cannot know the inputs ahead: they are taken to stay at their value at the zero.
+    let mut p = Predictor::new(model, &profile.log.inputs, &profile.position)
+        .map_err(PlanError::Model)?;
+    let limit = profile.limits.working_limit_um();
+    let first = reference_site(timeline, profile)?;
+    let reference_tool = timeline.sites[first].before.tool.clone();
     let per_measurement = measurement_min(profile);
     // The sites in the order the program runs them: a counted loop's body comes once per run.
     let runs = site_runs(timeline);
@@ -363,17 +490,44 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
     let mut rpm = 0.0;
     let mut at_last_measurement = 0.0;
     let mut max: f64 = 0.0;
+    let mut watch = Watch {
+        chance: (
+            format!("line {}", timeline.sites[first].block + 1),
+            runs.sites[start].1,
+            0.0,
+        ),
+        cut: None,
+        limit,
+        tolerance: profile.limits.tolerance_um,
+        warnings: Vec::new(),
+    };
     for (n, &(k, time)) in runs.sites[start..].iter().enumerate() {
         let site = &timeline.sites[k];
+        let reference = k == first;
+        // No inserted block where it would stop a contour or act on a tilted axis: the program's own
+        // prediction then runs on at the speed of its last gate, and so does the plan's.
+        let mid_cut = site.kind == SiteKind::SpeedChange
+            && site.before.motion != 0
+            && site.before.rpm() > 0.0
+            && site.rpm_after > 0.0;
+        if !reference && (site.before.unfit().is_some() || mid_cut) {
+            continue;
+        }
         // The program's own update uses the real time, measurements included, at the speed set last.
         p.set_rpm(rpm);
-        p.advance(time - last_time + pending);
+        let cut_end = time - site.idle_min;
+        if cut_end > last_time {
+            p.advance(cut_end - last_time + pending);
+            watch.cut = Some((cut_end, p.drift()));
+            p.advance(time - cut_end);
+        } else {
+            p.advance(time - last_time + pending);
+        }
         last_time = time;
         pending = 0.0;
         let predicted = p.drift();
         max = max.max(predicted.abs());
         visits[k] += 1;
-        let reference = k == first;
         // The zero is planned once; should its block lie in a loop body, its further runs are not planned.
         if reference && n > 0 {
             rpm = site.rpm_after;
@@ -386,15 +540,20 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
         } else {
             site.block
         };
-        let restorable = !site.state_varies
-            && site.before.motion < 2
-            && (tool_change_follows || site.before.tool.is_some());
+        let restorable = unfit_for_measuring(site, profile, reference_tool.as_ref()).is_none();
         let (kind, can_measure) = match site.kind {
             _ if reference => (GateKind::Reference, true),
             SiteKind::PassStart { .. } => (GateKind::PassStart, restorable),
-            SiteKind::Retract { .. } => (GateKind::Extra, restorable),
-            SiteKind::SpeedChange => (GateKind::Update, false),
+            SiteKind::Retract { .. } | SiteKind::Stop | SiteKind::Dressing => {
+                (GateKind::Extra, restorable)
+            }
+            // Where the spindle stops the tool is out of the cut.
+            SiteKind::SpeedChange => (GateKind::Update, restorable && site.rpm_after == 0.0),
+            SiteKind::Start => (GateKind::Update, false),
         };
+        if can_measure && !reference {
+            watch.chance(format!("line {}", site.block + 1), time, predicted);
+        }
         let measure = kind == GateKind::Reference
             || (can_measure
                 && (profile.log.measure_every_gate
@@ -424,7 +583,7 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
             number: 0,
             kind,
             block,
-            pass: site.pass,
+            pass: site.pass.max(1),
             time_min,
             rpm,
             predicted_um: predicted,
@@ -433,14 +592,27 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
             tool_change_follows,
             runs: 0,
             measurements: 0,
+            idle_min: site.idle_min,
             before: site.before.clone(),
         });
         gate.measure |= measure;
         gate.measurements += usize::from(measure);
     }
     p.set_rpm(rpm);
-    p.advance(timeline.total_min - last_time + pending);
+    let cut_end = timeline.last_cut_min;
+    if cut_end > last_time {
+        p.advance(cut_end - last_time + pending);
+        watch.cut = Some((cut_end, p.drift()));
+        p.advance(timeline.total_min - cut_end);
+    } else {
+        p.advance(timeline.total_min - last_time + pending);
+    }
     max = max.max(p.drift().abs());
+    watch.chance(
+        "the program's end".to_string(),
+        timeline.total_min,
+        p.drift(),
+    );
     let gates: Vec<Gate> = gates
         .into_iter()
         .enumerate()
@@ -462,7 +634,44 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
         total_min: super::timeline::on_tick(timeline.total_min + shift),
         loops: timeline.loops.clone(),
         every_run_planned: runs.complete,
+        warnings: watch.warnings,
     })
+}
+
+/// The stretches of cutting between two places that can measure: where the predicted drift changes by
+/// more than δ' while cutting, parts are cut that no measurement watches.
+struct Watch {
+    /// The last place that could measure: line, time, prediction.
+    chance: (String, f64, f64),
+    /// The end of the last cut since then: time, prediction.
+    cut: Option<(f64, f64)>,
+    limit: f64,
+    tolerance: f64,
+    warnings: Vec<String>,
+}
+
+impl Watch {
+    /// A place that can measure (or the program's end): warns when the cut since the last one drifted
+    /// too far, and starts the next stretch here.
+    fn chance(&mut self, at: String, time: f64, predicted: f64) {
+        let (from, from_time, from_pred) = &self.chance;
+        if let Some((cut_time, cut_pred)) = self.cut.take()
+            && cut_time > *from_time
+        {
+            let change = (cut_pred - from_pred).abs();
+            if change > self.limit {
+                let what = if change > self.tolerance {
+                    format!("more than the tolerance Δ = {} µm", number(self.tolerance))
+                } else {
+                    format!("more than δ' = {} µm", number(self.limit))
+                };
+                self.warnings.push(format!(
+                    "the model predicts a change of {change:.1} µm while cutting between {from} and {at}, {what}, with no place to measure in between: the error of the parts cut there is not watched; add a safe place (a retract, a pass marker) in between"
+                ));
+            }
+        }
+        self.chance = (at, time, predicted);
+    }
 }
 
 #[cfg(test)]
@@ -488,7 +697,11 @@ mod tests {
             x: 150.0,
             y: 40.0,
             z: 10.0,
-            clearance_z: 100.0,
+            clearance: 100.0,
+            frame: super::super::profile::MeasureFrame::Work,
+            axes: vec![Axis::X, Axis::Y, Axis::Z],
+            retract_axis: Axis::Z,
+            diameter: false,
             axis: Axis::Z,
             nominal: -5.0,
         }

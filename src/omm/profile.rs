@@ -9,6 +9,35 @@ use serde::{Deserialize, Serialize};
 /// The profile shipped inside the binary (fixtures/omm/blum-tc50.toml), used when `--profile` is absent.
 pub const DEFAULT_PROFILE: &str = include_str!("../../fixtures/omm/blum-tc50.toml");
 
+/// The profiles shipped inside the binary: name (what `--profile` takes), when to use it, the TOML.
+pub const BUILTIN: &[(&str, &str, &str)] = &[
+    (
+        "blum-tc50",
+        "machining centre, touch probe loaded by a tool change, base surface along Z (the default)",
+        DEFAULT_PROFILE,
+    ),
+    (
+        "siemens-cycle978",
+        "machining centre, touch probe with the Siemens measuring cycle CYCLE978",
+        include_str!("../../fixtures/omm/siemens-cycle978.toml"),
+    ),
+    (
+        "tool-setter",
+        "machining centre, tool setter on the table measured with the cutting tool: no tool change (single-tool programs)",
+        include_str!("../../fixtures/omm/tool-setter.toml"),
+    ),
+    (
+        "grinder-gauge",
+        "cylindrical grinder, in-process gauge on the infeed axis X (diameters): nothing moves, gates at retracts, stops, dressing",
+        include_str!("../../fixtures/omm/grinder-gauge.toml"),
+    ),
+    (
+        "lathe-setter",
+        "lathe with a turret and a tool-setter arm, X in diameters: no tool change",
+        include_str!("../../fixtures/omm/lathe-setter.toml"),
+    ),
+];
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Profile {
@@ -41,13 +70,61 @@ pub struct LogSettings {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Probe {
+    /// What measures the drift; decides whether a gate changes tools.
+    #[serde(default)]
+    pub kind: ProbeKind,
+    /// The probe's tool name (`spindle-probe` only).
+    #[serde(default)]
     pub tool: String,
+    #[serde(default = "one")]
     pub tool_offset: u32,
+    /// How the machine changes tools.
+    #[serde(default)]
+    pub tool_change: ToolChange,
     /// Call template; `{axis}` → 1/2/3, `{nominal}` → the base-surface nominal.
     pub cycle: String,
     /// Variable the cycle leaves the measured coordinate in (mm).
     pub result: String,
     pub measure_s: f64,
+}
+
+fn one() -> u32 {
+    1
+}
+
+/// What measures the drift.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ProbeKind {
+    /// A touch probe the gate loads into the spindle (tool change), then the cutting tool again.
+    #[default]
+    SpindleProbe,
+    /// A reference fixed on the machine (tool setter, laser, reference sphere) measured with the tool in
+    /// the spindle: no tool change; the gate travels to it and back.
+    ToolSetter,
+    /// An in-process gauge (grinders): read where the machine stands, nothing moves.
+    Gauge,
+}
+
+impl ProbeKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            ProbeKind::SpindleProbe => "spindle-probe",
+            ProbeKind::ToolSetter => "tool-setter",
+            ProbeKind::Gauge => "gauge",
+        }
+    }
+}
+
+/// How the machine changes tools.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ToolChange {
+    /// `T` selects (preselection), `M6` loads: machining centres with tool management.
+    #[default]
+    M6,
+    /// `T` loads at once: turrets, machines without M6.
+    T,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -56,9 +133,45 @@ pub struct Position {
     pub x: f64,
     pub y: f64,
     pub z: f64,
-    pub clearance_z: f64,
+    /// Height on the retract axis at which every travel happens (work coordinates).
+    #[serde(alias = "clearance_z")]
+    pub clearance: f64,
     pub axis: Axis,
     pub nominal: f64,
+    /// Coordinates of the start point: the corrected work offset, or the machine's (`SUPA`: a tool setter
+    /// fixed on the table).
+    #[serde(default)]
+    pub frame: MeasureFrame,
+    /// The geometry axes a gate saves and gives back (a lathe has no Y).
+    #[serde(default = "xyz")]
+    pub axes: Vec<Axis>,
+    /// The tool axis: a gate retracts along it to the clearance height before any other move.
+    #[serde(default = "z")]
+    pub retract_axis: Axis,
+    /// The cycle's result and the nominal are diameters (DIAMON on a lathe or grinder): the drift is half
+    /// their change.
+    #[serde(default)]
+    pub diameter: bool,
+}
+
+fn xyz() -> Vec<Axis> {
+    vec![Axis::X, Axis::Y, Axis::Z]
+}
+
+fn z() -> Axis {
+    Axis::Z
+}
+
+/// In which coordinates the start point is given, and so whether a measurement sees the correction.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MeasureFrame {
+    /// The corrected work offset: the measured value moves with the correction (a surface of the part or
+    /// fixture).
+    #[default]
+    Work,
+    /// Machine coordinates (SUPA): a reference fixed on the machine, which the correction does not move.
+    Machine,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -91,6 +204,10 @@ pub struct Offset {
     pub method: OffsetMethod,
     /// Index of the settable frame `$P_UIFR[frame, …]` (G54 = 1); used by the `frame` method.
     pub frame: u32,
+    /// The offset on the measured axis is written in diameter (a transverse axis whose work offsets the
+    /// machine data keep as diameters): twice the drift.
+    #[serde(default)]
+    pub diameter: bool,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -148,6 +265,9 @@ pub struct Passes {
     pub marker: String,
     pub lines: Vec<usize>,
     pub extra_gates: bool,
+    /// Dressing cycles or subprograms (names as called): the block after a call is a place to measure.
+    #[serde(default)]
+    pub dressing: Vec<String>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -193,6 +313,23 @@ impl Profile {
                 message,
             })?;
         Ok(profile)
+    }
+
+    /// A builtin profile by name ([`BUILTIN`]).
+    pub fn builtin(name: &str) -> Option<Profile> {
+        BUILTIN.iter().find(|(n, _, _)| *n == name).map(|(n, _, text)| {
+            Profile::from_toml(text, n).expect("the shipped profiles are valid (a test checks it)")
+        })
+    }
+
+    /// The profile in the file `path`, or the builtin profile of that name when no such file exists.
+    pub fn read_or_builtin(path: &Path) -> Result<Profile, ProfileError> {
+        if !path.exists()
+            && let Some(p) = path.to_str().and_then(Profile::builtin)
+        {
+            return Ok(p);
+        }
+        Profile::read(path)
     }
 
     pub fn read(path: &Path) -> Result<Profile, ProfileError> {
@@ -292,8 +429,36 @@ impl Profile {
                 self.offset.select
             ));
         }
-        if self.probe.tool.is_empty() || self.probe.tool.contains('"') {
-            return Err("probe.tool must be a tool name without quotes".into());
+        let tool = &self.probe.tool;
+        if self.probe.kind == ProbeKind::SpindleProbe && tool.is_empty() {
+            return Err(
+                "probe.tool must name the probe's tool (kind = \"spindle-probe\" loads it with a tool change)"
+                    .into(),
+            );
+        }
+        if tool.contains(['"', '\n', '\r', ';']) || tool.chars().any(char::is_control) {
+            return Err("probe.tool must be a tool name without quotes, `;` or line breaks".into());
+        }
+        let p = &self.position;
+        if p.axes.is_empty() || !p.axes.contains(&p.retract_axis) {
+            return Err(format!(
+                "position.axes {:?} must list the retract axis {}",
+                p.axes.iter().map(|a| a.name()).collect::<Vec<_>>(),
+                p.retract_axis.name()
+            ));
+        }
+        for (name, v) in [
+            ("position.x", p.x),
+            ("position.y", p.y),
+            ("position.z", p.z),
+            ("position.clearance", p.clearance),
+            ("position.nominal", p.nominal),
+        ] {
+            if !(v.is_finite() && v.abs() < 1e5) {
+                return Err(format!(
+                    "{name} must be a coordinate within ±100000 mm, not {v}"
+                ));
+            }
         }
         if self.probe.result.trim().is_empty() {
             return Err("probe.result must name the variable the cycle writes".into());
@@ -326,9 +491,29 @@ mod tests {
     use super::*;
 
     #[test]
+    fn every_builtin_profile_is_valid_and_named_by_its_kind() {
+        for (name, _, text) in BUILTIN {
+            let p = Profile::from_toml(text, name).unwrap_or_else(|e| panic!("{name}: {e}"));
+            let kind = match *name {
+                "tool-setter" | "lathe-setter" => ProbeKind::ToolSetter,
+                "grinder-gauge" => ProbeKind::Gauge,
+                _ => ProbeKind::SpindleProbe,
+            };
+            assert_eq!(p.probe.kind, kind, "{name}");
+            assert!(Profile::builtin(name).is_some());
+        }
+        let lathe = Profile::builtin("lathe-setter").unwrap();
+        assert_eq!(lathe.position.retract_axis, Axis::X);
+        assert!(lathe.position.diameter && lathe.probe.tool_change == ToolChange::T);
+        assert!(Profile::builtin("no-such").is_none());
+    }
+
+    #[test]
     fn shipped_profiles_are_valid() {
         let p = Profile::default_profile();
         assert_eq!(p.probe.result, "R2");
+        assert_eq!(p.probe.kind, ProbeKind::SpindleProbe);
+        assert_eq!(p.position.clearance, 100.0);
         assert_eq!(p.offset_g(), Some(54));
         assert_eq!(
             p.cycle_call(),

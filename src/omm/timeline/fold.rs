@@ -8,7 +8,7 @@ use crate::syntax::BlockKind;
 
 use super::moves::RunRef;
 use super::read::{Chunk, Move, Scan, head};
-use super::{Folders, Modal, Pass, Profile, Site, SiteKind, Timeline};
+use super::{Folders, Modal, Pass, Profile, Site, SiteKind, Timeline, unknown};
 use crate::omm::loops::{Bound, Count, Loop, LoopKind, for_runs};
 
 pub(super) struct Builder<'p> {
@@ -28,6 +28,8 @@ pub(super) struct Builder<'p> {
     /// A subprogram called at this block changed the spindle speed: the next block gets a speed-change site,
     /// so that the program's prediction takes the new speed there.
     speed_site_after: Option<usize>,
+    /// A stop or dressing call at this block: the next block gets a site of that kind.
+    safe_after: Option<(usize, SiteKind)>,
     t: Timeline,
     state: Modal,
     pos: [Option<f64>; 3],
@@ -57,6 +59,10 @@ pub(super) struct Builder<'p> {
     varies: BTreeSet<usize>,
     /// End of the last run of timed moves folded (its blocks in later chunks are skipped).
     run_end: usize,
+    /// Until the first cut: the first block after the setup so far, as a [`SiteKind::Start`] site.
+    start: Option<Site>,
+    /// When the last cut (feed move) ended, in ticks.
+    last_cut: u64,
 }
 
 /// A repeated section: its blocks, the start and end of its first run (min) and the state it starts in.
@@ -79,7 +85,7 @@ struct Label {
 mod field {
     use super::Modal;
 
-    pub const COUNT: usize = 8;
+    pub const COUNT: usize = 16;
     const TOOL: usize = 0;
     const D: usize = 1;
     const S: usize = 2;
@@ -88,6 +94,14 @@ mod field {
     pub const MOTION: usize = 5;
     const ABSOLUTE: usize = 6;
     pub const Z: usize = 7;
+    const SELECTED: usize = 8;
+    const FEED_MODE: usize = 9;
+    const PLANE: usize = 10;
+    const PATH_MODE: usize = 11;
+    const COOLANT: usize = 12;
+    const COMP: usize = 13;
+    const FRAMES: usize = 14;
+    const UNKNOWN: usize = 15;
 
     /// The fields in which two states differ.
     pub fn differ(a: &Modal, b: &Modal) -> [bool; COUNT] {
@@ -100,6 +114,14 @@ mod field {
         d[MOTION] = a.motion != b.motion;
         d[ABSOLUTE] = a.absolute != b.absolute;
         d[Z] = a.z != b.z;
+        d[SELECTED] = a.selected != b.selected;
+        d[FEED_MODE] = a.feed_mode != b.feed_mode;
+        d[PLANE] = a.plane != b.plane;
+        d[PATH_MODE] = a.path_mode != b.path_mode;
+        d[COOLANT] = a.coolant != b.coolant;
+        d[COMP] = a.comp != b.comp;
+        d[FRAMES] = a.frames != b.frames;
+        d[UNKNOWN] = a.unknown != b.unknown;
         d
     }
 }
@@ -128,6 +150,7 @@ impl<'p> Builder<'p> {
             modal_call: None,
             called: BTreeSet::new(),
             speed_site_after: None,
+            safe_after: None,
             t: Timeline {
                 speeds: vec![(0.0, 0.0)],
                 ..Timeline::default()
@@ -135,6 +158,7 @@ impl<'p> Builder<'p> {
             state: Modal {
                 direction: 5,
                 absolute: true,
+                comp: 40,
                 ..Modal::default()
             },
             pos: [None; 3],
@@ -156,6 +180,8 @@ impl<'p> Builder<'p> {
             site_changes: Vec::new(),
             varies: BTreeSet::new(),
             run_end: 0,
+            start: None,
+            last_cut: 0,
         }
     }
 
@@ -204,6 +230,9 @@ impl<'p> Builder<'p> {
         if self.speed_site_after.is_some() {
             self.speed_site_after_call(i);
         }
+        if self.safe_after.is_some() {
+            self.safe_site_after(i);
+        }
         let before = if self.last_was_z_retract || !self.profile.passes.lines.is_empty() {
             self.state.clone()
         } else {
@@ -212,6 +241,7 @@ impl<'p> Builder<'p> {
         let start = self.time();
         let blank = motion.is_none() && mv.axes.iter().all(Option::is_none);
         self.header_and_preamble(i, false, false, blank);
+        self.start_site(i, start);
         if let Some(g) = motion
             && g != self.state.motion
         {
@@ -224,6 +254,9 @@ impl<'p> Builder<'p> {
             self.state.feed = Some(f);
             self.changed[field::FEED] = i + 1;
         }
+        if mv.f.is_some() {
+            self.state.unknown &= !unknown::FEED;
+        }
         if self.profile.passes.lines.contains(&(i + 1)) {
             let mark = self.mark(i, false, start, &before);
             self.pass_marks.push(mark);
@@ -231,6 +264,7 @@ impl<'p> Builder<'p> {
         }
         self.movement(i, start, &before, mv, false, None, false, false);
         self.modal_call_after(i, mv);
+        self.start_site_speed(i);
     }
 
     /// A run of moves the parser timed (see [`super::moves`]): what [`Builder::plain_move`] would make of its
@@ -242,10 +276,12 @@ impl<'p> Builder<'p> {
         let blocks = r.blocks();
         let plain = self.header_done
             && self.preamble_done
+            && self.t.first_cut.is_some()
             && self.state.absolute
             && !self.per_rev
             && self.modal_call.is_none()
             && self.speed_site_after.is_none()
+            && self.safe_after.is_none()
             && !(self.last_was_z_retract && run.first_could_retract)
             // Pass lines are 1-based.
             && !self
@@ -284,10 +320,21 @@ impl<'p> Builder<'p> {
         }
         if let Some(f) = run.feed.last {
             self.state.feed = Some(f);
+            self.state.unknown &= !unknown::FEED;
         }
         let rapid = self.profile.timeline.rapid_mm_per_min;
+        self.t.moves = true;
         self.ticks = self.ticks.saturating_add(run.feed_ticks);
-        for &length in r.rapids {
+        // Ticks add up in any order: the run's cut ends after its feed moves and the rapids before the
+        // last of them.
+        let (during, after) = r.rapids.split_at(r.rapids.len() - run.rapids_after_cut);
+        for &length in during {
+            self.add_minutes(length / rapid);
+        }
+        if run.cuts {
+            self.last_cut = self.ticks;
+        }
+        for &length in after {
             self.add_minutes(length / rapid);
         }
         for (p, end) in self.pos.iter_mut().zip(run.end_pos) {
@@ -323,16 +370,45 @@ impl<'p> Builder<'p> {
             block: i,
             tool_change,
             time: start,
+            idle: self.idle_since_cut(start),
             before: before.clone(),
             rpm: self.state.rpm(),
-            tool: self.state.tool.clone(),
+            tool: self
+                .state
+                .tool
+                .clone()
+                .or_else(|| self.state.selected.clone()),
+        }
+    }
+
+    /// What a block's frame commands leave active.
+    fn frames(&mut self, ops: u8) {
+        use super::frame;
+        use super::read::frame_op as op;
+        let f = &mut self.state.frames;
+        if ops & op::CLEAR != 0 {
+            *f &= !(frame::TRANSLATION | frame::ROTATION);
+        }
+        for (on, off, bit) in [
+            (op::TRANSLATE, 0, frame::TRANSLATION),
+            (op::ROTATE, 0, frame::ROTATION),
+            (op::TRANSFORM_ON, op::TRANSFORM_OFF, frame::TRANSFORMATION),
+            (op::SWIVEL_ON, op::SWIVEL_OFF, frame::SWIVEL),
+        ] {
+            if ops & on != 0 {
+                *f |= bit;
+            } else if ops & off != 0 {
+                *f &= !bit;
+            }
         }
     }
 
     /// A subprogram or cycle runs at block `i`, `repeats` times: an archive subprogram adds its time, any
     /// other call is listed as not timed (`shown` is how the list names it).
     fn call(&mut self, i: usize, name: &str, shown: &str, repeats: Option<f64>) {
-        self.after_call = true;
+        // The swivel cycle's effect on the frames is followed (see `frames`).
+        self.after_call |= name != "CYCLE800";
+        self.t.moves = true;
         if !self.called.contains(name) {
             self.called.insert(name.to_string());
         }
@@ -447,6 +523,7 @@ impl<'p> Builder<'p> {
             before,
             rpm_after: rpm,
             state_varies: false,
+            idle_min: self.idle_since_cut(time_min),
         });
     }
 
@@ -456,6 +533,23 @@ impl<'p> Builder<'p> {
             self.speed_site_after = None;
             self.note_site(i);
             self.speed_site(i, self.time(), self.state.clone(), self.rpm);
+        }
+    }
+
+    /// The site a stop or dressing call before block `i` asked for.
+    fn safe_site_after(&mut self, i: usize) {
+        if let Some((_, kind)) = self.safe_after.take_if(|(at, _)| *at < i) {
+            self.note_site(i);
+            self.t.sites.push(Site {
+                block: i,
+                kind,
+                time_min: self.time(),
+                pass: 0,
+                before: self.state.clone(),
+                rpm_after: self.rpm,
+                idle_min: self.idle_since_cut(self.time()),
+                state_varies: false,
+            });
         }
     }
 
@@ -479,8 +573,15 @@ impl<'p> Builder<'p> {
 
     pub(super) fn block(&mut self, i: usize, s: &Scan, kind: BlockKind) {
         self.speed_site_after_call(i);
+        self.safe_site_after(i);
         if let Some(name) = &s.call {
             self.call(i, name, name, s.repeats);
+            if self.profile.passes.dressing.iter().any(|d| d.eq_ignore_ascii_case(name)) {
+                self.safe_after = Some((i, SiteKind::Dressing));
+            }
+        }
+        if s.m.iter().any(|m| m <= 1) {
+            self.safe_after = Some((i, SiteKind::Stop));
         }
         // Changes matter only inside a loop body or a section that may be repeated.
         let tracked =
@@ -510,7 +611,8 @@ impl<'p> Builder<'p> {
             Modal::default()
         };
         let start = self.time();
-        let blank = s.g.is_empty()
+        let blank = !s.statement
+            && s.g.is_empty()
             && s.mv.axes.iter().all(Option::is_none)
             && s.m.is_empty()
             && s.tool.is_none()
@@ -522,6 +624,7 @@ impl<'p> Builder<'p> {
             s.declaration || s.kind_header,
             blank,
         );
+        self.start_site(i, start);
         for r in &s.r {
             match r {
                 Some(n) => {
@@ -536,28 +639,46 @@ impl<'p> Builder<'p> {
         for &g in &s.offsets {
             self.offset(g, i);
         }
+        let setup = s.frame_ops != 0
+            || s.offsets
+                .iter()
+                .any(|g| matches!(g, 500 | 54..=57 | 505..=599));
+        if setup && self.t.first_cut.is_none() {
+            self.t.setup_end = i + 1;
+        }
+        self.frames(s.frame_ops);
+        self.t.moves |= s.other_axes;
         // Modal words first: they hold for this block's move.
         for g in s.g.iter() {
             match g {
                 0..=3 => self.state.motion = g,
                 90 => self.state.absolute = true,
                 91 => self.state.absolute = false,
-                94 => self.per_rev = false,
-                95 => self.per_rev = true,
+                93..=95 => {
+                    self.per_rev = g == 95;
+                    self.state.feed_mode = Some(g);
+                }
+                17..=19 => self.state.plane = Some(g),
+                40..=42 => self.state.comp = g,
+                60 | 64 | 641..=645 => self.state.path_mode = Some(g),
                 _ => {}
             }
         }
         let dwell = s.g.contains(4);
+        self.state.unknown |= s.unknown;
         if let Some(f) = s.mv.f
             && !dwell
         {
             self.state.feed = Some(f);
+            self.state.unknown &= !unknown::FEED;
         }
         if let Some(v) = s.s {
             self.state.s = v;
+            self.state.unknown &= !unknown::S;
         }
         if let Some(d) = s.d {
             self.state.d = Some(d);
+            self.state.unknown &= !unknown::D;
         }
         let mut direction = None;
         for m in s.m.iter() {
@@ -565,6 +686,7 @@ impl<'p> Builder<'p> {
                 3..=5 => direction = Some(m),
                 6 => self.m6_seen = true,
                 2 | 30 => self.t.ends.push(i),
+                7..=9 => self.state.coolant = Some(m),
                 _ => {}
             }
         }
@@ -576,7 +698,12 @@ impl<'p> Builder<'p> {
         }
         let tool_change = s.m.contains(6);
         if let Some(tool) = &s.tool {
-            self.state.tool = Some(tool.clone());
+            self.state.selected = Some(tool.clone());
+            self.state.unknown &= !unknown::TOOL;
+        }
+        if tool_change {
+            // M6 loads the selected tool (T alone only selects it, in a program that uses M6).
+            self.state.tool = self.state.selected.clone();
         }
         let rpm = self.state.rpm();
         if s.tool.is_some() {
@@ -625,6 +752,43 @@ impl<'p> Builder<'p> {
             }
         }
         self.loops(i, s, kind, start);
+        self.start_site_speed(i);
+    }
+
+    /// Keeps block `i` as the start site while the setup is over and nothing has cut yet; a later setup
+    /// block (work offset, frame) makes the block after it the candidate instead.
+    fn start_site(&mut self, i: usize, time_min: f64) {
+        if self.t.first_cut.is_some() || !(self.header_done && self.preamble_done) {
+            return;
+        }
+        if self
+            .start
+            .as_ref()
+            .is_some_and(|s| s.block >= self.t.setup_end)
+        {
+            return;
+        }
+        // After a call the modal state is not known for sure (as for the other sites, see `call`).
+        if self.after_call {
+            self.varies.insert(i);
+        }
+        self.start = Some(Site {
+            block: i,
+            kind: SiteKind::Start,
+            time_min,
+            pass: 0,
+            before: self.state.clone(),
+            rpm_after: self.rpm,
+            state_varies: false,
+            idle_min: self.idle_since_cut(time_min),
+        });
+    }
+
+    /// The speed from the start site's block on.
+    fn start_site_speed(&mut self, i: usize) {
+        if let Some(site) = self.start.as_mut().filter(|s| s.block == i) {
+            site.rpm_after = self.rpm;
+        }
     }
 
     /// Loop statements: a loop opens after its statement; at its end (or at a section repeat statement)
@@ -818,6 +982,8 @@ impl<'p> Builder<'p> {
     ) {
         let rpm = self.state.rpm();
         let moved = mv.axes.iter().any(Option::is_some);
+        // Axes written as expressions move too, by an amount the timeline does not know.
+        let moves_somehow = moved || inexact;
         // A dwell right after the retract is as clear of the part as the next rapid, and a gate before it is
         // the only one a long dwell can have.
         let dwell = g4 && !moved;
@@ -840,6 +1006,7 @@ impl<'p> Builder<'p> {
                 before: before.clone(),
                 rpm_after: rpm,
                 state_varies: false,
+                idle_min: self.idle_since_cut(start),
             });
         }
         let from = self.pos;
@@ -852,6 +1019,10 @@ impl<'p> Builder<'p> {
                     Some(from[k].unwrap_or(0.0) + v)
                 };
             }
+        }
+        self.t.moves |= moves_somehow;
+        if self.t.first_cut.is_none() && moves_somehow && !g4 && self.state.motion != 0 {
+            self.t.first_cut = Some(i);
         }
         let mut minutes = 0.0;
         if g4 {
@@ -898,6 +1069,14 @@ impl<'p> Builder<'p> {
             self.changed[field::Z] = i + 1;
         }
         self.add_minutes(minutes);
+        if moves_somehow && !g4 && self.state.motion != 0 {
+            self.last_cut = self.ticks;
+        }
+    }
+
+    /// Minutes from the end of the last cut to `at_min`.
+    fn idle_since_cut(&self, at_min: f64) -> f64 {
+        (at_min - self.last_cut as f64 / TICKS_PER_MIN).max(0.0)
     }
 
     /// The time so far (min).
@@ -912,6 +1091,7 @@ impl<'p> Builder<'p> {
     pub(super) fn finish(mut self) -> Timeline {
         let total = self.time();
         self.t.total_min = total;
+        self.t.last_cut_min = self.last_cut as f64 / TICKS_PER_MIN;
         // Without M6 in the program the T word changes the tool.
         let mut starts = self.pass_marks;
         if !self.m6_seen && self.profile.passes.tool_change {
@@ -944,7 +1124,12 @@ impl<'p> Builder<'p> {
                 before: m.before,
                 rpm_after: m.rpm,
                 state_varies: false,
+                idle_min: m.idle,
             });
+        }
+        // The start site only counts once it is known to come after the setup.
+        if let Some(site) = self.start.take().filter(|s| s.block >= self.t.setup_end) {
+            self.t.sites.push(site);
         }
         // One site per block: a pass start wins over a speed change or retract at the same block.
         self.t
@@ -952,8 +1137,13 @@ impl<'p> Builder<'p> {
             .sort_by_key(|s| (s.block, !matches!(s.kind, SiteKind::PassStart { .. })));
         self.t.sites.dedup_by_key(|s| s.block);
         let mut pass = 0;
+        let t_loads = !self.m6_seen;
         for site in &mut self.t.sites {
             site.state_varies = self.varies.contains(&site.block);
+            // Without M6 in the program, T loads the tool at once.
+            if t_loads {
+                site.before.tool = site.before.selected.clone();
+            }
             match site.kind {
                 SiteKind::PassStart { .. } => pass = site.pass,
                 _ => site.pass = pass,
@@ -968,6 +1158,7 @@ struct PassMark {
     block: usize,
     tool_change: bool,
     time: f64,
+    idle: f64,
     before: Modal,
     rpm: f64,
     tool: Option<Arc<str>>,

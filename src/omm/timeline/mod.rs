@@ -17,11 +17,14 @@ use super::loops::Loop;
 use super::profile::Profile;
 use super::subprograms::Folders;
 
-/// The modal state a gate must restore after it moved the machine.
+/// The modal state a gate must restore after it moved the machine, and what makes a place unfit for a gate.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Modal {
-    /// The tool as written after `T=` or `T` (`"DRILL 8.5"` with quotes, or `12`).
+    /// The tool in the spindle as written after `T=` or `T` (`"DRILL 8.5"` with quotes, or `12`).
     pub tool: Option<Arc<str>>,
+    /// The tool the last `T` selected: the preselection a later bare `M6` loads (equal to `tool` after a
+    /// change).
+    pub selected: Option<Arc<str>>,
     pub d: Option<u32>,
     /// Programmed spindle speed and direction (3, 4 or 5 = stopped).
     pub s: f64,
@@ -31,6 +34,41 @@ pub struct Modal {
     pub motion: u32,
     pub absolute: bool,
     pub z: Option<f64>,
+    /// G93 / G94 / G95 (G96 / G97 keep G95), when the program set it.
+    pub feed_mode: Option<u32>,
+    /// G17 / G18 / G19, when the program set it.
+    pub plane: Option<u32>,
+    /// Exact stop or continuous path: G60, G64, G641 … G645, when the program set it.
+    pub path_mode: Option<u32>,
+    /// M7 / M8 (on) or M9 (off), when the program set it.
+    pub coolant: Option<u32>,
+    /// Cutter radius compensation: 40, 41 or 42.
+    pub comp: u32,
+    /// Frames and transformations active ([`frame`] bits).
+    pub frames: u8,
+    /// Fields the program set by an expression the timeline cannot evaluate ([`unknown`] bits): a gate
+    /// cannot write them back.
+    pub unknown: u8,
+}
+
+/// Bits of [`Modal::frames`].
+pub mod frame {
+    /// A programmable translation (TRANS, ATRANS, CTRANS with values).
+    pub const TRANSLATION: u8 = 1;
+    /// A programmable rotation, scale or mirror (ROT, AROT, SCALE, MIRROR, … with values).
+    pub const ROTATION: u8 = 2;
+    /// A kinematic transformation: TRAORI, TRANSMIT, TRACYL, TRAANG.
+    pub const TRANSFORMATION: u8 = 4;
+    /// A swivelled plane: CYCLE800 with an angle.
+    pub const SWIVEL: u8 = 8;
+}
+
+/// Bits of [`Modal::unknown`].
+pub mod unknown {
+    pub const TOOL: u8 = 1;
+    pub const D: u8 = 2;
+    pub const S: u8 = 4;
+    pub const FEED: u8 = 8;
 }
 
 impl Modal {
@@ -40,6 +78,43 @@ impl Modal {
             self.s.abs()
         } else {
             0.0
+        }
+    }
+
+    /// Why no inserted block may run here (a STOPRE, a work-offset write or a move would spoil the
+    /// contour or move along a tilted axis); `None` when the place is fit.
+    pub fn unfit(&self) -> Option<&'static str> {
+        if matches!(self.comp, 41 | 42) {
+            Some("cutter radius compensation (G41/G42) is active")
+        } else if self.frames & frame::SWIVEL != 0 {
+            Some("a swivelled plane (CYCLE800) is active")
+        } else if self.frames & frame::TRANSFORMATION != 0 {
+            Some("a transformation (TRAORI, TRANSMIT, TRACYL) is active")
+        } else if self.frames & frame::ROTATION != 0 {
+            Some("a rotated, scaled or mirrored frame is active")
+        } else {
+            None
+        }
+    }
+
+    /// Why a gate here cannot measure and give the state back, beyond [`Modal::unfit`]; `None` when it can.
+    pub fn not_restorable(&self) -> Option<&'static str> {
+        if let Some(why) = self.unfit() {
+            Some(why)
+        } else if self.motion >= 2 {
+            Some("a circle (G2/G3) is the modal motion")
+        } else if self.unknown & unknown::TOOL != 0 {
+            Some("the tool is set by an expression")
+        } else if self.d == Some(0) {
+            Some("D0 is active: heights are the spindle's, not the tool tip's")
+        } else if self.unknown & unknown::D != 0 {
+            Some("the D number is set by an expression")
+        } else if self.unknown & unknown::S != 0 && self.rpm() > 0.0 {
+            Some("the spindle speed is set by an expression")
+        } else if self.unknown & unknown::FEED != 0 {
+            Some("the feed is set by an expression")
+        } else {
+            None
         }
     }
 }
@@ -55,6 +130,13 @@ pub enum SiteKind {
     Retract { first_in_loop: bool },
     /// The spindle speed changes at this block.
     SpeedChange,
+    /// The block after a programmed stop (M0, M1): the program waits there, the tool clear of the part.
+    Stop,
+    /// The block after a call of a dressing cycle the profile names: the wheel is off the part.
+    Dressing,
+    /// The first block after the program's own setup (declarations, work offset, frames) and before its
+    /// first cut: where a reference measurement can go when no other site lies between the two.
+    Start,
 }
 
 /// A block before which driftloop may insert a gate, with the state the program is in there.
@@ -68,6 +150,9 @@ pub struct Site {
     pub pass: usize,
     /// The state before the block.
     pub before: Modal,
+    /// Minutes from the end of the last cut (feed move) before the block to its start: the part drifts
+    /// in that time without being cut.
+    pub idle_min: f64,
     /// Spindle speed from this block on (rpm).
     pub rpm_after: f64,
     /// The block is in the body of a loop (or a repeated section) whose later runs reach it in another modal
@@ -125,6 +210,15 @@ pub struct Timeline {
     pub spindle_words: Vec<(f64, Option<f64>, Option<u32>)>,
     /// First block after the unit the timeline covers (the block count, unless the file is an archive).
     pub unit_end: usize,
+    /// First block that moves at feed (G1, G2, G3): the first cut.
+    pub first_cut: Option<usize>,
+    /// When the last cut ended (min from the start).
+    pub last_cut_min: f64,
+    /// The program moves an axis, or calls a subprogram or cycle that may.
+    pub moves: bool,
+    /// One past the last block before the first cut that selects a work offset or changes frames or
+    /// transformations: the reference measurement goes after the program's own setup.
+    pub setup_end: usize,
 }
 
 /// The timeline of the program's first unit: of the whole file, or of the main program of an archive. The

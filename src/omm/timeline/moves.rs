@@ -43,6 +43,9 @@ pub(super) struct Run {
     rapid_count: usize,
     /// The time of its feed moves (length / F), in the timeline's ticks.
     pub(super) feed_ticks: u64,
+    /// It has a feed move (a cut), and how many of its rapid moves come after the last one.
+    pub(super) cuts: bool,
+    pub(super) rapids_after_cut: usize,
     /// The first block is a rapid move without Z: a retract site if the block before it retracted.
     pub(super) first_could_retract: bool,
     pub(super) motion: Field<u32>,
@@ -381,6 +384,8 @@ impl Mover {
                 at: self.rapids.len(),
                 rapid_count: 0,
                 feed_ticks: 0,
+                cuts: false,
+                rapids_after_cut: 0,
                 first_could_retract: self.retract == UNKNOWN && rapid_xy,
                 motion: Field::none(),
                 feed: Field::none(),
@@ -404,8 +409,13 @@ impl Mover {
             Timed::Rapid(length) => {
                 self.rapids.push(length);
                 run.rapid_count += 1;
+                run.rapids_after_cut += 1;
             }
-            Timed::Feed(minutes) => run.feed_ticks = run.feed_ticks.saturating_add(ticks(minutes)),
+            Timed::Feed(minutes) => {
+                run.feed_ticks = run.feed_ticks.saturating_add(ticks(minutes));
+                run.cuts = true;
+                run.rapids_after_cut = 0;
+            }
         }
     }
 }

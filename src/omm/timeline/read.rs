@@ -6,6 +6,8 @@ use std::sync::Arc;
 use crate::syntax::{Block, BlockKind, Node, NodeKind, Program, decimal_prefix};
 use crate::views::{AxisMode, Value, VarName, WorkOffset, facts, is_predefined_command};
 
+use super::unknown;
+
 use crate::omm::loops::{Bound, Count};
 
 use super::moves::{Moves, RunRef};
@@ -37,6 +39,35 @@ pub(super) struct Scan {
     pub(super) modal_call: Option<Option<String>>,
     /// `P`: how often the call runs.
     pub(super) repeats: Option<f64>,
+    /// What the block does to frames and transformations ([`frame_op`] bits).
+    pub(super) frame_ops: u8,
+    /// Fields the block sets by an expression ([`super::unknown`] bits).
+    pub(super) unknown: u8,
+    /// The block holds a statement the timeline does not read (a variable assignment, a control
+    /// statement, a call): it ends the declarations at the top.
+    pub(super) statement: bool,
+    /// The block moves an axis other than X, Y, Z (a rotary axis, say).
+    pub(super) other_axes: bool,
+}
+
+/// Bits of [`Scan::frame_ops`].
+pub(super) mod frame_op {
+    /// TRANS, ATRANS, CTRANS with values.
+    pub const TRANSLATE: u8 = 1;
+    /// ROT, AROT, SCALE, MIRROR, … with values.
+    pub const ROTATE: u8 = 2;
+    /// TRANS, ROT, SCALE or MIRROR alone: the programmable frame is deleted.
+    pub const CLEAR: u8 = 4;
+    /// TRAORI, TRANSMIT, TRACYL, TRAANG.
+    pub const TRANSFORM_ON: u8 = 8;
+    /// TRAFOOF.
+    pub const TRANSFORM_OFF: u8 = 16;
+    /// CYCLE800 with an angle or an expression.
+    pub const SWIVEL_ON: u8 = 32;
+    /// CYCLE800() or CYCLE800 with every angle 0.
+    pub const SWIVEL_OFF: u8 = 64;
+    /// A write to a frame variable (`$P_UIFR[…]`, `$P_PFRAME`, …).
+    pub const WRITE: u8 = 128;
 }
 
 /// The words of a block a move needs: axes (value, written with AC), arc centre or radius, feed.
@@ -163,7 +194,10 @@ impl Scan {
             && self.r_set.is_empty()
             && self.count.is_none()
             && self.call.is_none()
-            && self.modal_call.is_none();
+            && self.modal_call.is_none()
+            && self.frame_ops == 0
+            && self.unknown == 0
+            && !self.statement;
         if !only_moves {
             return None;
         }
@@ -228,6 +262,18 @@ pub(super) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
     let mut s = Scan {
         kind_header: block.kind == BlockKind::Header,
         label: f.label.clone(),
+        statement: block.root.significant().any(|n| {
+            !matches!(
+                n.kind,
+                NodeKind::Comment
+                    | NodeKind::BlockNumber
+                    | NodeKind::Def
+                    | NodeKind::Proc
+                    | NodeKind::Extern
+                    | NodeKind::Define
+                    | NodeKind::Header
+            )
+        }),
         ..Scan::default()
     };
     for v in &f.variables {
@@ -240,7 +286,10 @@ pub(super) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
             "X" => 0,
             "Y" => 1,
             "Z" => 2,
-            _ => continue,
+            _ => {
+                s.other_axes = true;
+                continue;
+            }
         };
         match (&a.value, a.mode) {
             (Value::Number(v), AxisMode::Modal | AxisMode::Ac) => {
@@ -255,11 +304,17 @@ pub(super) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
         _ => None,
     };
     s.mv.f = f.feed.as_ref().and_then(|a| num(&a.value));
-    s.s = f
+    if f.feed.is_some() && s.mv.f.is_none() {
+        s.unknown |= unknown::FEED;
+    }
+    let speed = f
         .spindle_speeds
         .iter()
-        .find(|a| a.extension.is_none_or(|e| e == 1))
-        .and_then(|a| num(&a.value));
+        .find(|a| a.extension.is_none_or(|e| e == 1));
+    s.s = speed.and_then(|a| num(&a.value));
+    if speed.is_some() && s.s.is_none() {
+        s.unknown |= unknown::S;
+    }
     for v in f
         .m_codes
         .iter()
@@ -268,10 +323,14 @@ pub(super) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
     {
         s.m.push(v as u32);
     }
-    s.tool = f
-        .tools
-        .first()
-        .map(|a| Arc::from(String::from_utf8_lossy(tool_text(&block, a.span)).as_ref()));
+    if let Some(a) = f.tools.first() {
+        let text = tool_text(&block, a.span);
+        if is_tool_literal(text) {
+            s.tool = Some(Arc::from(String::from_utf8_lossy(text).as_ref()));
+        } else {
+            s.unknown |= unknown::TOOL;
+        }
+    }
     for &g in &f.g_codes {
         if !s.g.contains(g) {
             s.g.push(g);
@@ -295,12 +354,17 @@ pub(super) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
             NodeKind::Call => {
                 let name = String::from_utf8_lossy(block.text(&node.children[0]));
                 let name = name.to_ascii_uppercase();
+                s.frame_ops |= transformation_op(&name);
+                if name == "CYCLE800" {
+                    s.frame_ops |= swivel_op(&block, node);
+                }
                 if !TIMELESS_PROCEDURES.contains(&name.as_str()) {
                     s.call = Some(name);
                 }
             }
             NodeKind::Command => {
                 let name = String::from_utf8_lossy(block.text(node)).to_ascii_uppercase();
+                s.frame_ops |= transformation_op(&name) | frame_command_op(&name, &f, &block);
                 if !is_predefined_command(&name) {
                     s.call = Some(name);
                 }
@@ -313,7 +377,74 @@ pub(super) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
             _ => {}
         }
     }
+    if f.work_offsets
+        .iter()
+        .any(|w| matches!(w, WorkOffset::FrameWrite(_)))
+    {
+        s.frame_ops |= frame_op::WRITE;
+    }
+    // The axis words of a frame command are its values, not a move.
+    if s.frame_ops & (frame_op::TRANSLATE | frame_op::ROTATE) != 0 {
+        s.mv.axes = [None; 3];
+        s.inexact = false;
+    }
     s
+}
+
+/// A tool written as a name in quotes or a number: what a gate can write back as it is.
+fn is_tool_literal(text: &[u8]) -> bool {
+    let quoted = text.len() >= 2 && text[0] == b'"' && text[text.len() - 1] == b'"';
+    quoted || (!text.is_empty() && text.iter().all(u8::is_ascii_digit))
+}
+
+/// TRAORI, TRANSMIT, TRACYL, TRAANG switch a transformation on, TRAFOOF off.
+fn transformation_op(name: &str) -> u8 {
+    match name {
+        "TRAORI" | "TRANSMIT" | "TRACYL" | "TRAANG" => frame_op::TRANSFORM_ON,
+        "TRAFOOF" => frame_op::TRANSFORM_OFF,
+        _ => 0,
+    }
+}
+
+/// A frame command with its values (axis words, `RPL=`), or an absolute one alone, which deletes the
+/// programmable frame.
+fn frame_command_op(name: &str, f: &crate::views::BlockFacts, block: &Block<'_>) -> u8 {
+    let rpl = block.root.significant().any(|n| {
+        n.kind == NodeKind::Assign
+            && n.children
+                .first()
+                .is_some_and(|t| block.text(t).eq_ignore_ascii_case(b"RPL"))
+    });
+    let valued = !f.axes.is_empty() || rpl;
+    match name {
+        "TRANS" | "ATRANS" | "CTRANS" if valued => frame_op::TRANSLATE,
+        "ROT" | "AROT" | "CROT" | "ROTS" | "AROTS" | "CROTS" | "SCALE" | "ASCALE" | "CSCALE"
+        | "MIRROR" | "AMIRROR" | "CMIRROR"
+            if valued =>
+        {
+            frame_op::ROTATE
+        }
+        "TRANS" | "ROT" | "SCALE" | "MIRROR" => frame_op::CLEAR,
+        _ => 0,
+    }
+}
+
+/// `CYCLE800()` and a CYCLE800 whose every numeric argument from the fifth on (the swivel's offsets and
+/// angles) is 0 or empty end the swivel; any other call swivels (an expression counts as an angle).
+fn swivel_op(block: &Block<'_>, call: &Node) -> u8 {
+    let Some(args) = call.find(NodeKind::Args) else {
+        return frame_op::SWIVEL_OFF;
+    };
+    let args = crate::vm::arg_nodes(args);
+    let tilted = args.iter().skip(4).flatten().any(|a| {
+        // Strings (the swivel data record's name) and empty arguments do not tilt.
+        a.kind != NodeKind::Str && literal(block, a) != Some(0.0)
+    });
+    if tilted {
+        frame_op::SWIVEL_ON
+    } else {
+        frame_op::SWIVEL_OFF
+    }
 }
 
 /// Built-in procedures called like cycles that take no machine time: no note that they are not timed.
@@ -582,6 +713,7 @@ fn word(block: &Block<'_>, node: &Node, s: &mut Scan) {
         .and_then(|t| t.parse::<f64>().ok());
     match (letter.as_slice(), value) {
         (b"D", Some(d)) if d >= 0.0 && d.fract() == 0.0 => s.d = Some(d as u32),
+        (b"D", _) => s.unknown |= unknown::D,
         (b"I", Some(v)) => s.mv.centre[0] = Some(v),
         (b"J", Some(v)) => s.mv.centre[1] = Some(v),
         (b"K", Some(v)) => s.mv.centre[2] = Some(v),
@@ -614,6 +746,10 @@ fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
             }
         }
         b"CR" => s.mv.radius = v,
+        b"D" => match v {
+            Some(d) if d >= 0.0 && d.fract() == 0.0 => s.d = Some(d as u32),
+            _ => s.unknown |= unknown::D,
+        },
         b"I" => s.mv.centre[0] = v,
         b"J" => s.mv.centre[1] = v,
         b"K" => s.mv.centre[2] = v,
