@@ -90,7 +90,7 @@ fn original_profile_and_margin_are_taken_from_the_flags() {
     let profile = dir.path().join("low.toml");
     std::fs::write(
         &profile,
-        DEFAULT_PROFILE.replace("clearance_z = 100.0", "clearance_z = 20.0"),
+        DEFAULT_PROFILE.replace("clearance = 100.0", "clearance = 20.0"),
     )
     .unwrap();
     let xy = root.join(fixture("xy_below_clearance"));

@@ -80,7 +80,7 @@ fn xy_travel_below_the_clearance_plane() {
     expect(
         "xy_below_clearance",
         &[(Kind::XyBelowClearance, 19)],
-        &["at Z20 below the clearance plane Z100"],
+        &["travel from X80 Y50 to X0 Y0 at Z20 below the clearance height Z100"],
     );
 }
 

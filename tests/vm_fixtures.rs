@@ -552,3 +552,36 @@ fn swivels_and_transformations_run() {
     );
     assert_eq!(r.trace.len(), 10);
 }
+
+#[test]
+fn a_turret_loads_with_t_and_the_probe_reports_in_its_frame() {
+    let run_with = |cfg: &Config, src: &str| {
+        let mut machine = SimpleMachine::with_drift(|_, _, _| 10.0);
+        let r = run_source("t.mpf", src.as_bytes(), None, cfg, &mut machine).unwrap();
+        messages(&r)
+            .iter()
+            .map(|m| m.to_string())
+            .collect::<Vec<_>>()
+    };
+    let tools = "T3\nMSG(\"\"<<$P_TOOLNO)\nM6\nMSG(\"\"<<$P_TOOLNO)\n";
+    assert_eq!(run_with(&Config::default(), tools), ["0", "3"], "M6 loads");
+    let turret = Config {
+        tool_change_on_t: true,
+        ..Config::default()
+    };
+    assert_eq!(run_with(&turret, tools), ["3", "3"], "T loads at once");
+
+    let probe = "G54\nBL9700(1)\nMSG(\"\"<<R2)\n";
+    let at = |machine_frame, diameter| Config {
+        offsets: vec![(1, "Z".into(), -100.0)],
+        probe_surface_mm: -50.0,
+        probe_machine_frame: machine_frame,
+        probe_diameter: diameter,
+        ..Config::default()
+    };
+    // Work coordinates: the surface less the offset; machine coordinates: the surface; a diameter: twice the
+    // drift of 10 µm.
+    assert_eq!(run_with(&at(false, false), probe), ["50.01"]);
+    assert_eq!(run_with(&at(true, false), probe), ["-49.99"]);
+    assert_eq!(run_with(&at(true, true), probe), ["-49.98"]);
+}

@@ -8,6 +8,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 
 use super::{Format, Global};
+use crate::model::DriftModel;
 use crate::omm::Profile;
 use crate::vm::audit::AuditSettings;
 use crate::vm::{self, Config, End, MachineSpec};
@@ -44,9 +45,14 @@ pub struct Args {
     #[arg(long, value_name = "ORIGINAL", requires = "audit")]
     pub original: Option<PathBuf>,
     /// The machine profile the program was transformed with (clearance, probe tool and point, corrected
-    /// offset); the shipped default profile when absent.
+    /// offset): a file or a builtin's name (`driftloop profiles`); the shipped default profile when absent.
     #[arg(long, value_name = "P.toml", requires = "audit")]
     pub profile: Option<PathBuf>,
+    /// The drift model the program was transformed with: the machine then drifts as it predicts, so the
+    /// probe values agree with the program's predictions (without it the machine does not drift, and a
+    /// program whose model predicts more than the tolerance stops as scrap at its first measurement).
+    #[arg(long, value_name = "MODEL.toml", requires = "audit")]
+    pub model: Option<PathBuf>,
     /// A cutting move of the original this close to the probe point (mm, across the measured axis) touches it.
     #[arg(long, value_name = "MM", default_value_t = vm::audit::DEFAULT_PROBE_MARGIN_MM, requires = "audit")]
     pub probe_margin: f64,
@@ -133,7 +139,7 @@ fn audit(args: &Args, cfg: &Config, machine: MachineSpec) -> anyhow::Result<Exit
         None => crate::strip::strip(&transformed).bytes,
     };
     let profile = match &args.profile {
-        Some(path) => Profile::read(path)?,
+        Some(path) => Profile::read_or_builtin(path)?,
         None => Profile::default_profile(),
     };
     anyhow::ensure!(
@@ -153,7 +159,7 @@ fn audit(args: &Args, cfg: &Config, machine: MachineSpec) -> anyhow::Result<Exit
         Some(d) if d.as_os_str().is_empty() => Some(PathBuf::from(".")),
         d => d.map(Path::to_path_buf),
     };
-    let settings = AuditSettings {
+    let mut settings = AuditSettings {
         probe_margin_mm: args.probe_margin,
         machine,
         seed: args.seed,
@@ -165,6 +171,15 @@ fn audit(args: &Args, cfg: &Config, machine: MachineSpec) -> anyhow::Result<Exit
         dir,
         ..AuditSettings::from_profile(&profile)
     };
+    if let Some(path) = &args.model {
+        let model = DriftModel::read(path)?;
+        settings = settings.drifting_as(&model).map_err(|e| {
+            anyhow::anyhow!(
+                "{}: {e}; describe the machine with --machine (its [models] and [signals]) instead",
+                path.display()
+            )
+        })?;
+    }
     let found = vm::audit::audit_owned(original, transformed, &settings, cfg)?;
     match args.format {
         Format::Human => print!("{}", found.human(&program_name)),

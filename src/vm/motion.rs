@@ -254,6 +254,8 @@ pub struct State {
     pub machine: Vec<f64>,
     /// Bit i set once axis i has been programmed.
     pub moved: u64,
+    /// Bit i set while axis i stands where a move in machine coordinates (G53, SUPA) put it.
+    pub suppressed: u64,
     pub modal: Modal,
     pub frames: Frames,
     /// Programmed S (rpm) and rotation (3 = M3, 4 = M4, 0 = stopped).
@@ -276,6 +278,7 @@ impl State {
             local: vec![0.0; axes],
             machine: vec![0.0; axes],
             moved: 0,
+            suppressed: 0,
             modal: Modal {
                 motion: 0,
                 absolute: true,
@@ -330,16 +333,19 @@ impl State {
     }
 
     /// The programmed position on X, Y, Z in the coordinates of the settable work offset: through the
-    /// programmable frame (translation, rotation, scale, mirror); axes the machine lacks read 0.
+    /// programmable frame (translation, rotation, scale, mirror); an axis last moved in machine coordinates
+    /// (G53, SUPA) where that put it, less the offset. Axes the machine lacks read 0.
     pub fn work_geometry(&self) -> [f64; 3] {
         let f = &self.frames;
         let local = f.geo.map(|g| g.map_or(0.0, |a| self.local[a]));
         let linear = f.linear.unwrap_or(IDENTITY);
         let mut out = [0.0; 3];
         for (k, g) in f.geo.iter().enumerate() {
-            if let Some(a) = *g {
-                out[k] = f.trans[a] + (0..3).map(|j| linear[k][j] * local[j]).sum::<f64>();
-            }
+            out[k] = match *g {
+                None => 0.0,
+                Some(a) if self.suppressed & (1 << a) != 0 => self.machine[a] - f.active[a],
+                Some(a) => f.trans[a] + (0..3).map(|j| linear[k][j] * local[j]).sum::<f64>(),
+            };
         }
         out
     }

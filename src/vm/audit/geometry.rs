@@ -19,13 +19,14 @@ pub(super) fn plane_of(axis: usize) -> (usize, usize) {
     }
 }
 
-/// Whether a move goes straight up the tool axis (the infeed axis of its plane) and nowhere else.
-pub(super) fn straight_up(m: &Movement) -> bool {
-    let Some(axis) = m.plane[2] else {
-        return false;
-    };
-    (0..3).all(|k| k == axis || (m.to[k] - m.from[k]).abs() <= EPS)
-        && m.to[axis] > m.from[axis] + EPS
+/// Whether a move goes straight up the tool axis `axis` (0, 1, 2 for X, Y, Z) and nowhere else.
+pub(super) fn straight_up(m: &Movement, axis: usize) -> bool {
+    !moves_across(m, axis) && m.to[axis] > m.from[axis] + EPS
+}
+
+/// Whether a move changes a geometry axis other than `axis`.
+pub(super) fn moves_across(m: &Movement, axis: usize) -> bool {
+    (0..3).any(|k| k != axis && (m.to[k] - m.from[k]).abs() > EPS)
 }
 
 /// Whether a move passes within `margin` (across the measured axis `axis`) of `point` while at or below
@@ -165,8 +166,19 @@ mod tests {
 
     #[test]
     fn only_a_pure_rise_along_the_tool_axis_is_straight_up() {
-        assert!(straight_up(&line(0, [0.0, 0.0, 10.0], [0.0, 0.0, 100.0])));
-        assert!(!straight_up(&line(0, [0.0, 0.0, 10.0], [5.0, 0.0, 100.0])));
-        assert!(!straight_up(&line(0, [0.0, 0.0, 10.0], [0.0, 0.0, 5.0])));
+        assert!(straight_up(
+            &line(0, [0.0, 0.0, 10.0], [0.0, 0.0, 100.0]),
+            2
+        ));
+        assert!(!straight_up(
+            &line(0, [0.0, 0.0, 10.0], [5.0, 0.0, 100.0]),
+            2
+        ));
+        assert!(!straight_up(&line(0, [0.0, 0.0, 10.0], [0.0, 0.0, 5.0]), 2));
+        // A lathe retracts along X.
+        assert!(straight_up(
+            &line(0, [20.0, 0.0, 10.0], [60.0, 0.0, 10.0]),
+            0
+        ));
     }
 }

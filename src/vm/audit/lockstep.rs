@@ -8,7 +8,7 @@ use super::{Audit, AuditSettings, Finding, Kind, aborts, geometry};
 use crate::vm::VmError;
 use crate::vm::config::Config;
 use crate::vm::interp::{Done, Interp, Movement};
-use crate::vm::motion::SPLINE;
+use crate::vm::motion::{SPLINE, Tool};
 use crate::vm::report::End;
 use crate::vm::unit::{Source, Unit};
 
@@ -348,40 +348,45 @@ impl Runner<'_> {
         }
     }
 
-    /// X/Y travel below the clearance plane, and the move out of the probe point.
+    /// Travel across the tool axis below the clearance height, and the move out of the probe point.
     fn inserted_move(&mut self, at: &At, m: &Movement) {
         let s = self.settings;
-        let clearance = s.clearance_z - geometry::EPS;
-        let low = m.from[2].min(m.to[2]);
-        if moves_xy(m) && low < clearance {
+        let r = s.retract_axis;
+        let low = m.from[r].min(m.to[r]);
+        if geometry::moves_across(m, r) && low < s.clearance - geometry::EPS {
+            let across: Vec<usize> = (0..3).filter(|&k| k != r).collect();
+            let point = |p: [f64; 3]| {
+                across
+                    .iter()
+                    .map(|&k| format!("{}{}", AXES[k], num(p[k])))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            };
             self.add(at.finding(
                 Kind::XyBelowClearance,
                 format!(
-                    "X/Y travel from X{} Y{} to X{} Y{} at Z{} below the clearance plane Z{} ([position] \
-                     clearance_z)",
-                    num(m.from[0]),
-                    num(m.from[1]),
-                    num(m.to[0]),
-                    num(m.to[1]),
+                    "travel from {} to {} at {}{} below the clearance height {}{} ([position] clearance)",
+                    point(m.from),
+                    point(m.to),
+                    AXES[r],
                     num(low),
-                    num(s.clearance_z)
+                    AXES[r],
+                    num(s.clearance)
                 ),
             ));
         }
         if let Some(probe_line) = self.watch.at_probe.take()
-            && !geometry::straight_up(m)
+            && !geometry::straight_up(m, r)
         {
+            let point = |p: [f64; 3]| format!("X{} Y{} Z{}", num(p[0]), num(p[1]), num(p[2]));
             self.add(at.finding(
                 Kind::XyBelowClearance,
                 format!(
                     "the move out of the probe point (probe call at line {probe_line}) is not straight up the \
-                     tool axis: from X{} Y{} Z{} to X{} Y{} Z{}",
-                    num(m.from[0]),
-                    num(m.from[1]),
-                    num(m.from[2]),
-                    num(m.to[0]),
-                    num(m.to[1]),
-                    num(m.to[2])
+                     tool axis {}: from {} to {}",
+                    AXES[r],
+                    point(m.from),
+                    point(m.to)
                 ),
             ));
         }
@@ -430,8 +435,8 @@ impl Runner<'_> {
     /// that acts (moves, calls, changes the tool, stops): `before` and `after` that block. A tool or modal
     /// item the block sets itself before it can matter (a tool change, a G code, F or S of its own) differs
     /// before but not after: it is no hazard. A position difference is none when the block is a rapid that
-    /// ends where the original's does and travels in X/Y (if at all) at or above the clearance plane — the way
-    /// back the design allows.
+    /// ends where the original's does and travels across the tool axis (if at all) at or above the clearance
+    /// height — the way back the design allows — or a tool change, whose macro goes to the change position.
     fn report_resume(
         &mut self,
         at: &At,
@@ -456,12 +461,15 @@ impl Runner<'_> {
                 ));
             }
         }
-        let way_back = after[2].is_empty()
+        let (r, clearance) = (self.settings.retract_axis, self.settings.clearance);
+        let rapid_back = after[2].is_empty()
             && t_step.and_then(|d| d.movement.as_ref()).is_some_and(|m| {
                 m.motion == 0
-                    && (!moves_xy(m)
-                        || m.from[2].min(m.to[2]) >= self.settings.clearance_z - geometry::EPS)
+                    && (!geometry::moves_across(m, r)
+                        || m.from[r].min(m.to[r]) >= clearance - geometry::EPS)
             });
+        // A tool change takes the machine to the change position, wherever it stood.
+        let way_back = rapid_back || t_step.is_some_and(|d| d.tool_change);
         if !positions.is_empty() && !way_back {
             let texts: Vec<String> = positions.into_iter().map(|d| d.text).collect();
             self.add(at.finding(
@@ -488,7 +496,7 @@ impl Runner<'_> {
                     ),
                 ));
             }
-            self.watch.in_contour = feed && !geometry::straight_up(m);
+            self.watch.in_contour = feed && !geometry::straight_up(m, self.settings.retract_axis);
             self.watch.at_probe = None;
         }
         if t_step.tool_change {
@@ -496,27 +504,40 @@ impl Runner<'_> {
             self.watch.stopre = None;
         }
         let s = self.settings;
-        if let Some(m) = &o_step.movement
-            && !self.watch.machined
-            && is_feed(m.motion)
-            && o.motion.spindle_rpm() > 0.0
-            && geometry::touches(m, s.probe_point, s.axis, s.probe_margin_mm)
-        {
+        let (Some(m), Some(point)) = (&o_step.movement, s.probe_point) else {
+            return;
+        };
+        if self.watch.machined || !is_feed(m.motion) || o.motion.spindle_rpm() <= 0.0 {
+            return;
+        }
+        // A point on the machine table, in the work coordinates the original cuts in at this move.
+        let frames = &o.motion.frames;
+        let work = if s.probe_point_in_machine {
+            std::array::from_fn(|k| point[k] - frames.geo[k].map_or(0.0, |a| frames.offset(a)))
+        } else {
+            point
+        };
+        if geometry::touches(m, work, s.axis, s.probe_margin_mm) {
             self.watch.machined = true;
-            let axis = ["X", "Y", "Z"][s.axis];
             let (i, j) = geometry::plane_of(s.axis);
             let names = ["x", "y", "z"];
             self.add(at.finding(
                 Kind::ProbeInMachinedVolume,
                 format!(
-                    "this cutting move passes within {} mm of the probe point ({}{} {}{} at {axis}{}): the probe \
+                    "this cutting move passes within {} mm of the probe point ({}{} {}{} at {}{}{}): the probe \
                      would touch machined material; move it with [position] {}, {} in the profile",
                     num(s.probe_margin_mm),
-                    ["X", "Y", "Z"][i],
-                    num(s.probe_point[i]),
-                    ["X", "Y", "Z"][j],
-                    num(s.probe_point[j]),
-                    num(s.probe_point[s.axis]),
+                    AXES[i],
+                    num(point[i]),
+                    AXES[j],
+                    num(point[j]),
+                    AXES[s.axis],
+                    num(point[s.axis]),
+                    if s.probe_point_in_machine {
+                        ", machine coordinates"
+                    } else {
+                        ""
+                    },
                     names[i],
                     names[j]
                 ),
@@ -531,10 +552,10 @@ impl Runner<'_> {
             return;
         };
         if ts.tool != os.tool {
-            let probe = ts
-                .tool
-                .as_ref()
-                .is_some_and(|tool| matches!(tool, crate::vm::motion::Tool::Name(n) if **n == *self.settings.probe_tool));
+            let probe = match (&ts.tool, &self.settings.probe_tool) {
+                (Some(Tool::Name(name)), Some(probe)) => **name == **probe,
+                _ => false,
+            };
             self.add(at.finding(
                 Kind::ToolState,
                 format!(
@@ -595,9 +616,7 @@ fn acts(d: &Done) -> bool {
         || d.end.is_some()
 }
 
-fn moves_xy(m: &Movement) -> bool {
-    (m.to[0] - m.from[0]).abs() > geometry::EPS || (m.to[1] - m.from[1]).abs() > geometry::EPS
-}
+const AXES: [&str; 3] = ["X", "Y", "Z"];
 
 fn is_feed(motion: u32) -> bool {
     matches!(motion, 1..=3 | SPLINE)

@@ -34,18 +34,29 @@ use serde::Serialize;
 
 use super::VmError;
 use super::config::{Config, MachineSpec, ProbeTarget};
+use super::truth::ModelDrift;
+use crate::model::DriftModel;
 use crate::omm::Profile;
-use crate::omm::profile::OffsetMethod;
+use crate::omm::profile::{MeasureFrame, OffsetMethod, ProbeKind, ToolChange};
 
 /// What the audit needs to know about the inserted blocks' intent, from the machine profile.
 #[derive(Debug, Clone)]
 pub struct AuditSettings {
-    /// `position.clearance_z`: inside inserted blocks, X/Y travel happens at or above it (work Z, mm).
-    pub clearance_z: f64,
-    /// `probe.tool`: the probe's tool name (`T="NAME"`).
-    pub probe_tool: String,
-    /// `position.x`, `position.y` with the nominal on the measured axis: the point the probe touches (mm).
-    pub probe_point: [f64; 3],
+    /// `position.clearance` on `position.retract_axis` (0, 1, 2 for X, Y, Z): inside inserted blocks, travel
+    /// across that axis happens at or above it (work coordinates, mm).
+    pub clearance: f64,
+    pub retract_axis: usize,
+    /// `probe.tool`: the probe's tool name (`T="NAME"`), for a probe loaded into the spindle.
+    pub probe_tool: Option<String>,
+    /// `position.x`, `.y`, `.z` with the nominal on the measured axis: the point the probe touches (mm); `None`
+    /// for an in-process gauge, which does not move to a point.
+    pub probe_point: Option<[f64; 3]>,
+    /// The probe point is in machine coordinates (`position.frame = "machine"`: a reference on the table).
+    pub probe_point_in_machine: bool,
+    /// `position.nominal` and `position.diameter`: what the cycle reports when nothing drifts, and whether it
+    /// reports a diameter (twice the drift).
+    pub nominal: f64,
+    pub diameter: bool,
     /// `position.axis`: 0, 1, 2 for X, Y, Z.
     pub axis: usize,
     /// `offset.method` and `offset.frame`: the entry the correction writes, the one difference allowed.
@@ -54,15 +65,18 @@ pub struct AuditSettings {
     /// The probe cycle's upper-cased name and where it leaves its result.
     pub probe_cycle: String,
     pub probe_result: Option<ProbeTarget>,
+    /// `probe.tool_change = "t"`: T loads the tool at once (no M6).
+    pub tool_change_on_t: bool,
     /// `limits.tolerance_um`, `limits.plausibility_um`: the scrap-size drift of the abort runs lies between.
     pub tolerance_um: f64,
     pub plausibility_um: f64,
-    /// A cutting move of the original closer than this (mm, in the plane) to the probe point touches it.
+    /// A cutting move of the original closer than this (mm, across the measured axis) to the probe point
+    /// touches it.
     pub probe_margin_mm: f64,
     /// The machine both programs run on (drift, probe noise and faults); the default does not drift.
     pub machine: MachineSpec,
     pub seed: u64,
-    /// Names in messages and folders for subprograms (`None`: only `Config::subprogram_dirs`).
+    /// Names in messages and the folder subprograms are looked up in first.
     pub original_name: String,
     pub transformed_name: String,
     pub dir: Option<PathBuf>,
@@ -79,15 +93,22 @@ impl AuditSettings {
         point[axis] = p.nominal;
         let call = profile.cycle_call();
         let cycle = call.split('(').next().unwrap_or(&call).trim();
+        let probe = &profile.probe;
         AuditSettings {
-            clearance_z: p.clearance_z,
-            probe_tool: profile.probe.tool.clone(),
-            probe_point: point,
+            clearance: p.clearance,
+            retract_axis: p.retract_axis.number() as usize - 1,
+            probe_tool: (probe.kind == ProbeKind::SpindleProbe && !probe.tool.is_empty())
+                .then(|| probe.tool.clone()),
+            probe_point: (probe.kind != ProbeKind::Gauge).then_some(point),
+            probe_point_in_machine: p.frame == MeasureFrame::Machine,
+            nominal: p.nominal,
+            diameter: p.diameter,
             axis,
             method: profile.offset.method,
             frame: profile.offset.frame as usize,
             probe_cycle: cycle.to_ascii_uppercase(),
-            probe_result: ProbeTarget::parse(&profile.probe.result),
+            probe_result: ProbeTarget::parse(&probe.result),
+            tool_change_on_t: probe.tool_change == ToolChange::T,
             tolerance_um: profile.limits.tolerance_um,
             plausibility_um: profile.limits.plausibility_um,
             probe_margin_mm: DEFAULT_PROBE_MARGIN_MM,
@@ -99,7 +120,19 @@ impl AuditSettings {
         }
     }
 
-    /// The interpreter settings for both runs: `cfg` with the profile's probe cycle and result, no trace.
+    /// The machine drifts along the measured axis as `model` predicts for the program's own spindle
+    /// schedule, so the probe sees what the program's predictions expect and the clean run does not abort
+    /// as scrap. A model that takes other inputs (ambient temperature, sensors) needs their signals: give a
+    /// machine file instead.
+    pub fn drifting_as(mut self, model: &DriftModel) -> Result<AuditSettings, String> {
+        let truth = ModelDrift::new(model.clone(), 1.0, &BTreeMap::new())?;
+        let axis = ["X", "Y", "Z"][self.axis].to_string();
+        self.machine.models.insert(axis, truth);
+        Ok(self)
+    }
+
+    /// The interpreter settings for both runs: `cfg` with the profile's probe cycle, result, probed surface
+    /// (the nominal) and tool change, no trace.
     pub fn vm_config(&self, cfg: &Config) -> Config {
         let mut cfg = cfg.clone();
         cfg.trace = false;
@@ -109,7 +142,24 @@ impl AuditSettings {
         if let Some(target) = &self.probe_result {
             cfg.probe_result = target.clone();
         }
-        cfg.probe_axis = ["X", "Y", "Z"][self.axis].to_string();
+        let axis = ["X", "Y", "Z"][self.axis];
+        cfg.probe_axis = axis.to_string();
+        cfg.tool_change_on_t = self.tool_change_on_t;
+        // The probed surface where the profile says it is: the nominal, in machine coordinates or in those of
+        // the corrected work offset as it stands at the start.
+        cfg.probe_machine_frame = self.probe_point_in_machine;
+        cfg.probe_diameter = self.diameter;
+        let start_offset: f64 = cfg
+            .offsets
+            .iter()
+            .filter(|(frame, a, _)| *frame == self.frame && a == axis)
+            .map(|o| o.2)
+            .sum();
+        cfg.probe_surface_mm = if self.probe_point_in_machine {
+            self.nominal
+        } else {
+            self.nominal + start_offset
+        };
         cfg.subprogram_dirs.splice(0..0, self.dir.iter().cloned());
         cfg
     }
@@ -119,8 +169,8 @@ impl AuditSettings {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Kind {
-    /// X/Y travel in inserted blocks below the clearance plane, or a move out of the probe point that is not
-    /// straight up the tool axis.
+    /// Travel across the tool axis in inserted blocks below the clearance height (X/Y below Z on a milling
+    /// machine), or a move out of the probe point that is not straight up the tool axis.
     XyBelowClearance,
     /// Spindle tool, preselected tool or D number differ where the original resumes; a tool other than the
     /// original's in the spindle at the end.

@@ -70,6 +70,12 @@ impl Interp<'_> {
             }
         }
         if let Some(t) = w.tool.take() {
+            if self.cfg.tool_change_on_t {
+                self.passes.end_segment();
+                self.motion.tool = Some(t.clone());
+                self.done.tool_change = true;
+                self.time_min += self.cfg.tool_change_min;
+            }
             self.motion.preselected = Some(t);
         }
         if let Some(d) = w.d {
@@ -301,6 +307,11 @@ impl Interp<'_> {
             st.local[a] = if absolute { v } else { st.local[a] + v };
             st.machine[a] = st.local[a] + offset;
             st.moved |= 1 << a;
+            if suppress {
+                st.suppressed |= 1 << a;
+            } else {
+                st.suppressed &= !(1 << a);
+            }
             geometry_moved |= st.frames.geo.contains(&Some(a));
         }
         if geometry_moved && !suppress && st.frames.is_linear() {
@@ -429,7 +440,15 @@ impl Interp<'_> {
         let written = match result {
             // The probe triggers when the real tool tip (commanded − drift) reaches the surface, so the control
             // reads the surface plus the drift.
-            ProbeResult::Drift(d) => Some(self.cfg.probe_surface_mm - offset + d / 1000.0),
+            ProbeResult::Drift(d) => {
+                let frame = if self.cfg.probe_machine_frame {
+                    0.0
+                } else {
+                    offset
+                };
+                let scale = if self.cfg.probe_diameter { 2.0 } else { 1.0 };
+                Some(self.cfg.probe_surface_mm - frame + scale * d / 1000.0)
+            }
             ProbeResult::Raw(v) => Some(v),
             ProbeResult::Nothing => None,
         };
