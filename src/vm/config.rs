@@ -71,6 +71,9 @@ pub struct Config {
     pub max_blocks: u64,
     /// Keep a trace row per executed block.
     pub trace: bool,
+    /// Work out the passes and their machined error (the drift at every cutting move); off, a run only
+    /// follows the control's state (the audit).
+    pub passes: bool,
     /// `T` loads the tool at once (turrets; TOOL_CHANGE_MODE 0) instead of preselecting it for `M6`.
     pub tool_change_on_t: bool,
 }
@@ -95,6 +98,7 @@ impl Default for Config {
             trans_is_correction: false,
             max_blocks: 1_000_000,
             trace: true,
+            passes: true,
             tool_change_on_t: false,
         }
     }

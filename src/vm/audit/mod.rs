@@ -132,10 +132,11 @@ impl AuditSettings {
     }
 
     /// The interpreter settings for both runs: `cfg` with the profile's probe cycle, result, probed surface
-    /// (the nominal) and tool change, no trace.
+    /// (the nominal) and tool change, no trace and no passes.
     pub fn vm_config(&self, cfg: &Config) -> Config {
         let mut cfg = cfg.clone();
         cfg.trace = false;
+        cfg.passes = false;
         if !cfg.probe_cycles.contains(&self.probe_cycle) {
             cfg.probe_cycles.push(self.probe_cycle.clone());
         }

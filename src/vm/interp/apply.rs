@@ -393,6 +393,9 @@ impl Interp<'_> {
             self.passes.end_segment();
             return Ok(());
         }
+        if !self.cfg.passes {
+            return Ok(());
+        }
         let rpm = self.motion.spindle_rpm();
         let Some(z) = self.axis_index("Z") else {
             return Ok(());
