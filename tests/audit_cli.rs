@@ -165,3 +165,54 @@ fn a_construct_the_machine_cannot_run_exits_2() {
     let err = common::stderr(&out);
     assert!(err.contains("t.mpf:21: G33"), "{err}");
 }
+
+#[test]
+fn model_makes_the_machine_drift_as_predicted_and_profiles_go_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let model = root.join("fixtures/omm/model.toml");
+    let t = dir.path().join("stepped_t.mpf");
+    let out = run(&[
+        "transform",
+        "--model",
+        model.to_str().unwrap(),
+        root.join("fixtures/vm/stepped_surface.mpf")
+            .to_str()
+            .unwrap(),
+        "-o",
+        t.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", common::stderr(&out));
+    // The model predicts 30 µm by the second measurement: on a machine that does not drift that is scrap,
+    // and the comparison ends at the alarm.
+    let cold = String::from_utf8(run(&["run", "--audit", t.to_str().unwrap()]).stdout).unwrap();
+    assert!(cold.contains("note: line"), "{cold}");
+    let args = [
+        "run",
+        "--audit",
+        t.to_str().unwrap(),
+        "--model",
+        model.to_str().unwrap(),
+    ];
+    let drifting = String::from_utf8(run(&args).stdout).unwrap();
+    assert!(!drifting.contains("note:"), "{drifting}");
+
+    let out = run(&[
+        "run",
+        "--audit",
+        &fixture("clean"),
+        "--profile",
+        "tool-setter",
+    ]);
+    let text = String::from_utf8(out.stdout).unwrap();
+    // The tool setter's cycle is not BL9700 and it changes no tool: the probe the fixture loads is foreign.
+    assert!(text.contains("audit of"), "{text}");
+    let out = run(&[
+        "run",
+        "--audit",
+        &fixture("clean"),
+        "--profile",
+        "no-such-profile",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+}
