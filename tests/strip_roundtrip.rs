@@ -172,7 +172,7 @@ proptest! {
         if bom {
             x.extend_from_slice(b"\xEF\xBB\xBF");
         }
-        x.extend_from_slice(b"T1 M6\nS2000 M3\n");
+        x.extend_from_slice(b"T1 M6\nS2000 M3\nG0 X0 Y0 Z50\n");
         for &(p, e) in &picks {
             x.extend_from_slice(PIECES[p].as_bytes());
             x.extend_from_slice(endings[e]);
@@ -184,7 +184,7 @@ proptest! {
         }
         let (model, profile) = (model(), Profile::default_profile());
         let t = transformed(&x, &model, &profile);
-        prop_assert!(t.is_some(), "the tool change makes a pass: the transform accepts every such program");
+        prop_assert!(t.is_some(), "a tool change and a move: the transform accepts every such program");
         prop_assert_eq!(strip(&t.unwrap()).bytes, x);
     }
 }
