@@ -1,9 +1,13 @@
 //! Dry-run speed: a 100 000-block straight CAM-style program and a loop of 100 000 iterations (5 blocks each)
-//! on a model-free machine. Run with `cargo bench --bench vm`.
+//! on a model-free machine; and the safety audit of the CAM program as `transform` writes it (the original
+//! and the transformed program run side by side). Run with `cargo bench --bench vm`.
 
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use driftloop::model::DriftModel;
+use driftloop::omm::{ModelRef, Profile, transform};
+use driftloop::vm::audit::{AuditSettings, audit};
 use driftloop::vm::{Config, SimpleMachine, run_source};
 
 fn cam_program(blocks: usize) -> Vec<u8> {
@@ -36,6 +40,24 @@ fn bench(c: &mut Criterion) {
                 &mut SimpleMachine::cold(),
             );
             black_box(run.unwrap().time_min)
+        })
+    });
+    let model =
+        DriftModel::read(concat!(env!("CARGO_MANIFEST_DIR"), "/fixtures/omm/model.toml").as_ref())
+            .expect("the transform tests' model");
+    let profile = Profile::default_profile();
+    let reference = ModelRef {
+        model: &model,
+        sha256: "bench",
+    };
+    let transformed = transform(&driftloop::parse(&cam), reference, &profile, false)
+        .expect("the CAM program transforms")
+        .bytes;
+    let settings = AuditSettings::from_profile(&profile);
+    c.bench_function("audit 100k CAM blocks, transformed", |b| {
+        b.iter(|| {
+            let found = audit(black_box(&cam), black_box(&transformed), &settings, &cfg);
+            black_box(found.unwrap().transformed_blocks)
         })
     });
     c.bench_function("dry run 100k loop iterations", |b| {

@@ -17,6 +17,7 @@ pub mod sensors;
 #[path = "../tests/shared_data/mod.rs"]
 mod shared_data;
 pub mod source;
+pub mod strip;
 pub mod structure;
 pub mod syntax;
 pub mod views;

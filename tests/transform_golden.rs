@@ -188,11 +188,14 @@ fn refusals_are_clear() {
     .unwrap_err()
     .to_string();
     assert!(archive.contains("PC-format archive"), "{archive}");
-    let computed = run(b"T1 M6\nS1000 M3\nR[R1+1]=5\nG1 X10 F100\nM30\n", &profile)
-        .unwrap_err()
-        .to_string();
+    let computed = run(
+        b"G54\nT1 M6\nS1000 M3\nR[R1+1]=5\nG1 X10 F100\nM30\n",
+        &profile,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(
-        computed.contains("line 3 indexes R-parameters"),
+        computed.contains("line 4 indexes R-parameters"),
         "{computed}"
     );
     let other = run(b"G55\nT1 M6\nS1000 M3\nG1 X10 F100\nM30\n", &profile)

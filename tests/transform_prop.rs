@@ -45,7 +45,7 @@ fn model() -> DriftModel {
 
 fn program(picks: &[usize], crlf: bool) -> Vec<u8> {
     let eol = if crlf { "\r\n" } else { "\n" };
-    let mut text = format!("T1 M6{eol}S2000 M3{eol}");
+    let mut text = format!("G54{eol}T1 M6{eol}S2000 M3{eol}");
     for &p in picks {
         text.push_str(LINES[p]);
         text.push_str(eol);

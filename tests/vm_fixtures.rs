@@ -15,6 +15,18 @@ fn run(name: &str, cfg: &Config, machine: &mut SimpleMachine) -> Run {
     run_file(&fixture(name), cfg, machine).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// A program given as text, on a machine that does not drift.
+fn run_text(src: &str) -> Run {
+    run_source(
+        "t.mpf",
+        src.as_bytes(),
+        None,
+        &Config::default(),
+        &mut SimpleMachine::cold(),
+    )
+    .unwrap()
+}
+
 fn last_machine(run: &Run) -> Vec<f64> {
     run.trace.last().unwrap().machine[..3].to_vec()
 }
@@ -200,7 +212,7 @@ fn unsupported_constructs_and_runaway_loops_name_the_line() {
     let e = err("G1 X1 F100\nG33 Z-5 K1\n", &cfg);
     assert_eq!((e.line, e.file.as_str()), (2, "t.mpf"));
     assert!(e.message.contains("G33"), "{e}");
-    let e = err("ROT Z45\n", &cfg);
+    let e = err("ROT A45\n", &cfg);
     assert!(e.to_string().starts_with("t.mpf:1: ROT"), "{e}");
     let e = err("R1=1\nGOTOF NOWHERE\n", &cfg);
     assert!(e.message.contains("14080") && e.line == 2, "{e}");
@@ -509,17 +521,7 @@ fn archive_units_call_each_other() {
 
 #[test]
 fn feed_per_revolution_other_planes_and_inch() {
-    let time = |src: &str| {
-        run_source(
-            "t.mpf",
-            src.as_bytes(),
-            None,
-            &Config::default(),
-            &mut SimpleMachine::cold(),
-        )
-        .unwrap()
-        .time_min
-    };
+    let time = |src: &str| run_text(src).time_min;
     // G95: 0.1 mm/rev at 1000 rpm = 100 mm/min.
     assert!((time("S1000 M3\nG95 G1 X10 F0.1\nM30\n") - 0.1).abs() < 1e-12);
     // G18 half circle in Z-X around centre I10 (X) K0 (Z): radius 10.
@@ -560,4 +562,94 @@ fn auxiliary_functions_are_counted_not_skipped() {
         (r.time_min - 0.1).abs() < 1e-12,
         "G=1 selects linear interpolation"
     );
+}
+
+// Rotation, scale and mirror of the programmable frame place the geometry axes; inverse-time feed times a
+// block by its F; swivel cycles and transformations run (recorded, not modelled).
+
+fn assert_near(got: Vec<f64>, want: [f64; 3]) {
+    for k in 0..3 {
+        assert!((got[k] - want[k]).abs() < 1e-9, "{got:?} vs {want:?}");
+    }
+}
+
+/// Each program's machine X, Y, Z after its last block.
+fn assert_placed(cases: &[(&str, [f64; 3])]) {
+    for (src, want) in cases {
+        assert_near(last_machine(&run_text(src)), *want);
+    }
+}
+
+#[test]
+fn rot_turns_the_programmed_contour_about_the_origin() {
+    assert_placed(&[
+        ("ROT Z90\nG0 X10 Y0 Z5\n", [0.0, 10.0, 5.0]),
+        // RPL turns in the working plane: G18 turns about Y, from Z towards X.
+        ("G18\nROT RPL=90\nG0 X0 Y0 Z10\n", [10.0, 0.0, 0.0]),
+        // TRANS first, then the rotation about the shifted origin; ATRANS after it shifts along the turned axis.
+        ("TRANS X100\nAROT Z90\nG0 X10 Y0 Z0\n", [100.0, 10.0, 0.0]),
+        ("ROT Z90\nATRANS X5\nG0 X0 Y0 Z0\n", [0.0, 5.0, 0.0]),
+        // RPY: Z first, then the new Y. X programmed lands on -Z after Z90 then Y90.
+        ("ROT Z90 Y90\nG0 X10 Y0 Z0\n", [0.0, 0.0, -10.0]),
+        // A bare ROT deletes the programmable frame.
+        ("ROT Z90\nROT\nG0 X10 Y0 Z0\n", [10.0, 0.0, 0.0]),
+    ]);
+}
+
+#[test]
+fn scale_and_mirror_act_on_their_axes_and_chain() {
+    assert_placed(&[
+        ("SCALE X2 Y3\nG0 X1 Y1 Z1\n", [2.0, 3.0, 1.0]),
+        ("MIRROR X0\nG0 X4 Y1 Z1\n", [-4.0, 1.0, 1.0]),
+        ("MIRROR X0\nAMIRROR X0\nG0 X4 Y1 Z1\n", [4.0, 1.0, 1.0]),
+        // ATRANS after SCALE is scaled too.
+        ("SCALE X2\nATRANS X5\nG0 X0 Y0 Z0\n", [10.0, 0.0, 0.0]),
+    ]);
+}
+
+#[test]
+fn inverse_time_feed_takes_one_over_f_minutes() {
+    let r = run_text("G93 G1 X100 F4\nG1 X0 F0.5\n");
+    assert!((r.time_min - 2.25).abs() < 1e-9, "{}", r.time_min);
+}
+
+#[test]
+fn swivels_and_transformations_run() {
+    let r = run_text(
+        "CYCLE800(1,\"TC1\",0,57,0,0,0,30,0,0,0,0,0,-1,100,1)\nG0 X1\nCYCLE800()\nTRAORI\nG0 X2\nTRAFOOF\nTRACYL(40)\nTRAFOOF\nTRANSMIT\nTRAFOOF\n",
+    );
+    assert_eq!(r.trace.len(), 10);
+}
+
+#[test]
+fn a_turret_loads_with_t_and_the_probe_reports_in_its_frame() {
+    let run_with = |cfg: &Config, src: &str| {
+        let mut machine = SimpleMachine::with_drift(|_, _, _| 10.0);
+        let r = run_source("t.mpf", src.as_bytes(), None, cfg, &mut machine).unwrap();
+        messages(&r)
+            .iter()
+            .map(|m| m.to_string())
+            .collect::<Vec<_>>()
+    };
+    let tools = "T3\nMSG(\"\"<<$P_TOOLNO)\nM6\nMSG(\"\"<<$P_TOOLNO)\n";
+    assert_eq!(run_with(&Config::default(), tools), ["0", "3"], "M6 loads");
+    let turret = Config {
+        tool_change_on_t: true,
+        ..Config::default()
+    };
+    assert_eq!(run_with(&turret, tools), ["3", "3"], "T loads at once");
+
+    let probe = "G54\nBL9700(1)\nMSG(\"\"<<R2)\n";
+    let at = |machine_frame, diameter| Config {
+        offsets: vec![(1, "Z".into(), -100.0)],
+        probe_surface_mm: -50.0,
+        probe_machine_frame: machine_frame,
+        probe_diameter: diameter,
+        ..Config::default()
+    };
+    // Work coordinates: the surface less the offset; machine coordinates: the surface; a diameter: twice the
+    // drift of 10 µm.
+    assert_eq!(run_with(&at(false, false), probe), ["50.01"]);
+    assert_eq!(run_with(&at(true, false), probe), ["-49.99"]);
+    assert_eq!(run_with(&at(true, true), probe), ["-49.98"]);
 }

@@ -20,6 +20,7 @@ mod render;
 mod run;
 mod sensors;
 mod simulate;
+mod strip;
 mod transform;
 
 /// `-o` of the commands that make a model (`fit`, `sensors`): the model file to `path` and the report to
@@ -106,6 +107,8 @@ enum Command {
     Predict(predict::Args),
     /// Insert probe measurements, nested measuring loops and drift corrections into NC programs.
     Transform(transform::Args),
+    /// Remove the blocks `transform` inserted: the original program, byte for byte.
+    Strip(strip::Args),
     /// Print the timeline, predicted drift and planned measurements of a program.
     Plan(plan::Args),
     /// Dry run of an NC program on a virtual machine: time, passes, machined error, measurements.
@@ -140,6 +143,7 @@ pub fn main() -> ExitCode {
         Command::Diagnose(args) => diagnose::run(args, &cli.global),
         Command::SimulateData(args) => simulate::run(args, &cli.global),
         Command::Transform(args) => transform::run(args, &cli.global),
+        Command::Strip(args) => strip::run(args, &cli.global),
         Command::Plan(args) => plan::run(args, &cli.global),
         Command::Profiles(args) => profiles::run(args, &cli.global),
     };

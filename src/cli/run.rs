@@ -1,4 +1,5 @@
-//! `driftloop run`: dry run of an NC program on a virtual machine.
+//! `driftloop run`: dry run of an NC program on a virtual machine; with `--audit`, the transformed program
+//! run side by side with its original and checked for what the inserted blocks break.
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -7,6 +8,9 @@ use std::process::ExitCode;
 use anyhow::Context;
 
 use super::{Format, Global};
+use crate::model::DriftModel;
+use crate::omm::Profile;
+use crate::vm::audit::AuditSettings;
 use crate::vm::{self, Config, End, MachineSpec};
 
 #[derive(Debug, clap::Args)]
@@ -31,12 +35,31 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = Format::Human)]
     pub format: Format,
     /// Write the per-block trace (positions, time, spindle speed) as CSV to this file (`-`: stdout).
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, value_name = "FILE", conflicts_with = "audit")]
     pub trace: Option<PathBuf>,
+    /// Safety audit: PROGRAM is a transformed program; run it beside its original and report where the
+    /// inserted blocks leave the control in another state than the original would be in (exit 1).
+    #[arg(long)]
+    pub audit: bool,
+    /// The original program (default: PROGRAM without the lines ending in `;DL`).
+    #[arg(long, value_name = "ORIGINAL", requires = "audit")]
+    pub original: Option<PathBuf>,
+    /// The machine profile the program was transformed with (clearance, probe tool and point, corrected
+    /// offset): a file or a builtin's name (`driftloop profiles`); the shipped default profile when absent.
+    #[arg(long, value_name = "P.toml", requires = "audit")]
+    pub profile: Option<PathBuf>,
+    /// The drift model the program was transformed with: the machine then drifts as it predicts, so the
+    /// probe values agree with the program's predictions (without it the machine does not drift, and a
+    /// program whose model predicts more than the tolerance stops as scrap at its first measurement).
+    #[arg(long, value_name = "MODEL.toml", requires = "audit")]
+    pub model: Option<PathBuf>,
+    /// A cutting move of the original this close to the probe point (mm, across the measured axis) touches it.
+    #[arg(long, value_name = "MM", default_value_t = vm::audit::DEFAULT_PROBE_MARGIN_MM, requires = "audit")]
+    pub probe_margin: f64,
 }
 
 /// Exit 0 when the program ran to its end, 1 when an alarm stopped it, 2 for errors (unsupported construct,
-/// endless loop, unreadable files).
+/// endless loop, unreadable files). With `--audit`: 0 clean, 1 findings, 2 errors.
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     let mut cfg = Config {
         max_blocks: args.max_blocks,
@@ -51,7 +74,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         (cfg, spec) = vm::parse_machine_file(&text, dir, cfg)
             .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     }
-    cfg.subprogram_dirs = args.subprogram_dirs;
+    cfg.subprogram_dirs = args.subprogram_dirs.clone();
     if let Some(noise) = args.probe_noise {
         anyhow::ensure!(
             noise >= 0.0 && noise.is_finite(),
@@ -59,13 +82,18 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         );
         spec.noise_um = noise;
     }
+    if args.audit {
+        return audit(&args, &cfg, spec);
+    }
     let mut machine = spec.build(args.seed);
     let run = if args.program == Path::new("-") {
-        let mut src = Vec::new();
-        std::io::stdin()
-            .read_to_end(&mut src)
-            .context("cannot read stdin")?;
-        vm::run_source("<stdin>", &src, Some(Path::new(".")), &cfg, &mut machine)?
+        vm::run_source(
+            "<stdin>",
+            &read_stdin()?,
+            Some(Path::new(".")),
+            &cfg,
+            &mut machine,
+        )?
     } else {
         vm::run_file(&args.program, &cfg, &mut machine)?
     };
@@ -85,5 +113,81 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     Ok(match run.end {
         End::Alarm { .. } => ExitCode::from(1),
         _ => ExitCode::SUCCESS,
+    })
+}
+
+fn read_stdin() -> anyhow::Result<Vec<u8>> {
+    let mut src = Vec::new();
+    std::io::stdin()
+        .read_to_end(&mut src)
+        .context("cannot read stdin")?;
+    Ok(src)
+}
+
+/// `--audit`: exit 0 when clean, 1 with findings, 2 when the virtual machine cannot run a construct.
+fn audit(args: &Args, cfg: &Config, machine: MachineSpec) -> anyhow::Result<ExitCode> {
+    let read = |path: &Path| -> anyhow::Result<Vec<u8>> {
+        if path == Path::new("-") {
+            read_stdin()
+        } else {
+            std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))
+        }
+    };
+    let transformed = read(&args.program)?;
+    let original = match &args.original {
+        Some(path) => read(path)?,
+        None => crate::strip::strip(&transformed).bytes,
+    };
+    let profile = match &args.profile {
+        Some(path) => Profile::read_or_builtin(path)?,
+        None => Profile::default_profile(),
+    };
+    anyhow::ensure!(
+        args.probe_margin >= 0.0 && args.probe_margin.is_finite(),
+        "--probe-margin must be ≥ 0 mm"
+    );
+    let name = |path: &Path| {
+        if path == Path::new("-") {
+            "<stdin>".to_string()
+        } else {
+            path.display().to_string()
+        }
+    };
+    let program_name = name(&args.program);
+    let dir = match args.program.parent() {
+        _ if args.program == Path::new("-") => Some(PathBuf::from(".")),
+        Some(d) if d.as_os_str().is_empty() => Some(PathBuf::from(".")),
+        d => d.map(Path::to_path_buf),
+    };
+    let mut settings = AuditSettings {
+        probe_margin_mm: args.probe_margin,
+        machine,
+        seed: args.seed,
+        original_name: args
+            .original
+            .as_deref()
+            .map_or_else(|| format!("{program_name} without ;DL lines"), name),
+        transformed_name: program_name.clone(),
+        dir,
+        ..AuditSettings::from_profile(&profile)
+    };
+    if let Some(path) = &args.model {
+        let model = DriftModel::read(path)?;
+        settings = settings.drifting_as(&model).map_err(|e| {
+            anyhow::anyhow!(
+                "{}: {e}; describe the machine with --machine (its [models] and [signals]) instead",
+                path.display()
+            )
+        })?;
+    }
+    let found = vm::audit::audit_owned(original, transformed, &settings, cfg)?;
+    match args.format {
+        Format::Human => print!("{}", found.human(&program_name)),
+        Format::Json => println!("{}", serde_json::to_string_pretty(&found)?),
+    }
+    Ok(if found.findings.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
     })
 }

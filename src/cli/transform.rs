@@ -450,7 +450,7 @@ fn mirrored(out: &Path, root: &Path, input: &Input) -> anyhow::Result<PathBuf> {
 /// Writes the file `path` with `write` through a temporary file in the same directory and a rename. A device
 /// or pipe (`/dev/null`, a FIFO) is written directly, never replaced; a symbolic link keeps pointing where
 /// it did, and its target is replaced.
-fn write_atomic(
+pub(super) fn write_atomic(
     path: &Path,
     write: impl Fn(&mut std::fs::File) -> io::Result<()>,
 ) -> anyhow::Result<()> {

@@ -914,7 +914,8 @@ impl Emitter<'_> {
     pub fn end(&self) -> String {
         let mut v =
             vec!["; driftloop: work offset back to its value before the program".to_string()];
-        v.extend(self.restore_offset());
+        // The stored value only: the program ends here, and may not be running in the offset now.
+        v.extend(self.restore_offset().into_iter().take(1));
         Emitter::finish(v)
     }
 }

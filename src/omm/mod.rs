@@ -218,8 +218,30 @@ fn plan_with(
         Some(moves) => timeline::build_with_moves(program, moves, profile),
         None => timeline::build(program, profile),
     };
+    refusals(&timeline, profile)?;
     let plan = plan::plan(&timeline, model, profile)?;
     Ok((timeline, plan))
+}
+
+/// What the timeline shows that no plan can mend: R-parameters driftloop cannot prove free, another work
+/// offset than the profile corrects.
+fn refusals(timeline: &Timeline, profile: &Profile) -> Result<(), TransformError> {
+    let at = |line: usize| match timeline.found_in_call.get(&line) {
+        Some(name) => format!("line {line}, in subprogram {name} called there,"),
+        None => format!("line {line}"),
+    };
+    if let Some(&line) = timeline.computed_r_lines.first() {
+        return Err(TransformError::ComputedR(at(line)));
+    }
+    let wanted = profile.offset_g().expect("validated profile");
+    if let Some(&(g, line)) = timeline.offsets.iter().find(|(g, _)| *g != wanted) {
+        return Err(TransformError::OtherOffset {
+            found: format!("G{g}"),
+            at: at(line).trim_end_matches(',').to_string(),
+            profile: profile.offset.select.clone(),
+        });
+    }
+    Ok(())
 }
 
 /// Inserts the measurement and correction blocks into `program`.
@@ -296,21 +318,6 @@ fn prepare_with<'p>(
     );
     checked?;
     let (timeline, plan) = planned?;
-    let at = |line: usize| match timeline.found_in_call.get(&line) {
-        Some(name) => format!("line {line}, in subprogram {name} called there,"),
-        None => format!("line {line}"),
-    };
-    if let Some(&line) = timeline.computed_r_lines.first() {
-        return Err(TransformError::ComputedR(at(line)));
-    }
-    let wanted = profile.offset_g().expect("validated profile");
-    if let Some(&(g, line)) = timeline.offsets.iter().find(|(g, _)| *g != wanted) {
-        return Err(TransformError::OtherOffset {
-            found: format!("G{g}"),
-            at: at(line).trim_end_matches(',').to_string(),
-            profile: profile.offset.select.clone(),
-        });
-    }
     let predictor = Predictor::new(model.model, &profile.log.inputs, &profile.position)
         .map_err(TransformError::Other)?;
     let regs = Registers::allocate(profile, &predictor, &timeline.used_r)

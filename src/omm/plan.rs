@@ -362,10 +362,28 @@ fn frame_blocks(site: &Site, profile: &Profile) -> Option<&'static str> {
         )
 }
 
+/// Why no gate may go here for this profile: the place is unfit ([`Modal::unfit`]), or the work offset the
+/// gates correct and select again is not the one selected.
+fn unfit_for_gate(site: &Site, profile: &Profile) -> Option<&'static str> {
+    if let Some(why) = site.before.unfit() {
+        return Some(why);
+    }
+    let selected = match site.before.offset {
+        Some(g) => Some(g),
+        None if profile.offset.reset_selects => profile.offset_g(),
+        None => None,
+    };
+    (selected != profile.offset_g()).then_some(
+        "the profile's work offset is not selected there (a gate selects it again after correcting it, which would move every coordinate of a program that runs without it; where the control's reset selects it, set [offset] reset_selects = true)",
+    )
+}
+
+const TOOL_UNKNOWN: &str = "the tool in the spindle is not known there (no tool change before it), so the probe could not be swapped for it again";
+
 /// Why a site cannot carry the reference measurement with this profile's probe; `None` when it can.
 fn unfit_for_reference(site: &Site, profile: &Profile) -> Option<&'static str> {
     let tool_change_follows = matches!(site.kind, SiteKind::PassStart { tool_change: true });
-    if let Some(why) = site.before.unfit().or_else(|| frame_blocks(site, profile)) {
+    if let Some(why) = unfit_for_gate(site, profile).or_else(|| frame_blocks(site, profile)) {
         return Some(why);
     }
     if site.state_varies {
@@ -375,9 +393,7 @@ fn unfit_for_reference(site: &Site, profile: &Profile) -> Option<&'static str> {
     }
     match profile.probe.kind {
         ProbeKind::SpindleProbe if tool_change_follows => None,
-        ProbeKind::SpindleProbe if site.before.tool.is_none() => Some(
-            "the tool in the spindle is not known there (no tool change before it), so the probe could not be swapped for it again",
-        ),
+        ProbeKind::SpindleProbe if site.before.tool.is_none() => Some(TOOL_UNKNOWN),
         ProbeKind::ToolSetter if tool_change_follows => {
             Some("a tool change follows: the zero must be measured with the tool that cuts")
         }
@@ -420,14 +436,15 @@ fn reference_site(timeline: &Timeline, profile: &Profile) -> Result<usize, PlanE
         "no place for the reference measurement between the program's setup (line {}) and its first cut ({cut})",
         from + 1
     );
+    let tool_unknown = unfit.is_some_and(|(_, why)| why == TOOL_UNKNOWN);
     if let Some((block, why)) = unfit {
         message.push_str(&format!(": at line {}, {why}", block + 1));
     }
-    if profile.probe.kind == ProbeKind::SpindleProbe {
+    if tool_unknown {
         message.push_str(
             "; for a program that never changes tools measure with the tool in the spindle (`--profile tool-setter`, `grinder-gauge` or `lathe-setter`, or [probe] kind = \"tool-setter\" or \"gauge\" in your profile; `driftloop profiles` lists them), or add the tool change T=\"NAME\" M6 before the first cut",
         );
-    } else {
+    } else if unfit.is_none() {
         message.push_str("; mark a pass at a safe place ([passes] marker / lines)");
     }
     Err(PlanError::NoReference(message))
@@ -444,7 +461,7 @@ fn unfit_for_measuring(
     let tool_change_follows = matches!(site.kind, SiteKind::PassStart { tool_change: true });
     // A gauge moves nothing and restores nothing: only the place must be fit.
     if profile.probe.kind == ProbeKind::Gauge {
-        return site.before.unfit();
+        return unfit_for_gate(site, profile);
     }
     if site.state_varies {
         return Some(
@@ -512,7 +529,7 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
             && site.before.motion != 0
             && site.before.rpm() > 0.0
             && site.rpm_after > 0.0;
-        if !reference && (site.before.unfit().is_some() || mid_cut) {
+        if !reference && (unfit_for_gate(site, profile).is_some() || mid_cut) {
             continue;
         }
         // The program's own update uses the real time, measurements included, at the speed set last.

@@ -204,6 +204,12 @@ pub struct Offset {
     pub method: OffsetMethod,
     /// Index of the settable frame `$P_UIFR[frame, …]` (G54 = 1); used by the `frame` method.
     pub frame: u32,
+    /// The control's reset selects this work offset (MD20150 GCODE_RESET_VALUES): a program that selects
+    /// none runs in it, and gates may select it again. Off (the Siemens default resets to G500): a gate goes
+    /// only where the program has selected the offset itself, as selecting it would move every coordinate
+    /// of a program that runs without it.
+    #[serde(default)]
+    pub reset_selects: bool,
     /// The offset on the measured axis is written in diameter (a transverse axis whose work offsets the
     /// machine data keep as diameters): twice the drift.
     #[serde(default)]

@@ -10,6 +10,8 @@
 //! result = 2                # R[02] receives the measured position
 //! axis = "Z"
 //! surface_mm = 0.0          # machine coordinate of the probed surface
+//! machine_frame = false     # true: the cycle reports machine coordinates (a reference on the table)
+//! diameter = false          # true: the cycle reports a diameter (twice the drift)
 //! noise_um = 0.5
 //! faults = [{ call = 3, kind = "nan" }]
 //! [corrections]
@@ -52,6 +54,10 @@ pub struct Config {
     pub probe_axis: String,
     /// Machine coordinate of the surface the probe touches.
     pub probe_surface_mm: f64,
+    /// The cycle reports machine coordinates (a reference fixed on the table), not work coordinates.
+    pub probe_machine_frame: bool,
+    /// The cycle reports a diameter: the surface is a diameter and the drift counts twice.
+    pub probe_diameter: bool,
     /// Time one probe cycle takes.
     pub probe_min: f64,
     /// Settable work offsets at the start, `(frame number, axis, value)`: G54 is frame 1.
@@ -65,6 +71,11 @@ pub struct Config {
     pub max_blocks: u64,
     /// Keep a trace row per executed block.
     pub trace: bool,
+    /// Work out the passes and their machined error (the drift at every cutting move); off, a run only
+    /// follows the control's state (the audit).
+    pub passes: bool,
+    /// `T` loads the tool at once (turrets; TOOL_CHANGE_MODE 0) instead of preselecting it for `M6`.
+    pub tool_change_on_t: bool,
 }
 
 impl Default for Config {
@@ -79,12 +90,16 @@ impl Default for Config {
             probe_result: ProbeTarget::R(2),
             probe_axis: "Z".into(),
             probe_surface_mm: 0.0,
+            probe_machine_frame: false,
+            probe_diameter: false,
             probe_min: 0.05,
             offsets: Vec::new(),
             subprogram_dirs: Vec::new(),
             trans_is_correction: false,
             max_blocks: 1_000_000,
             trace: true,
+            passes: true,
+            tool_change_on_t: false,
         }
     }
 }
@@ -154,6 +169,8 @@ struct Probe {
     result: Option<ResultSpec>,
     axis: Option<String>,
     surface_mm: Option<f64>,
+    machine_frame: Option<bool>,
+    diameter: Option<bool>,
     noise_um: Option<f64>,
     #[serde(default)]
     faults: Vec<Fault>,
@@ -264,6 +281,8 @@ pub fn parse_machine_file(
     }
     cfg.probe_axis = p.axis.map_or(cfg.probe_axis, |a| a.to_ascii_uppercase());
     cfg.probe_surface_mm = p.surface_mm.unwrap_or(cfg.probe_surface_mm);
+    cfg.probe_machine_frame = p.machine_frame.unwrap_or(cfg.probe_machine_frame);
+    cfg.probe_diameter = p.diameter.unwrap_or(cfg.probe_diameter);
     cfg.trans_is_correction = file.corrections.include_trans;
     if let Some(axes) = file.axes {
         cfg.axes = axes.iter().map(|a| a.to_ascii_uppercase()).collect();

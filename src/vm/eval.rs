@@ -36,11 +36,14 @@ pub fn index_nodes(index: &Node) -> Vec<&Node> {
         .collect()
 }
 
+/// A number as written: digits, point, and the exponent `EX` (`1.5EX3`), any case.
 pub fn parse_number(text: &str) -> Result<f64, String> {
-    text.to_ascii_uppercase()
-        .replace("EX", "E")
-        .parse()
-        .map_err(|_| format!("`{text}` is not a number"))
+    let parsed = if text.bytes().any(|b| b.eq_ignore_ascii_case(&b'x')) {
+        text.to_ascii_uppercase().replace("EX", "E").parse()
+    } else {
+        text.parse()
+    };
+    parsed.map_err(|_| format!("`{text}` is not a number"))
 }
 
 fn deg(f: fn(f64) -> f64) -> impl Fn(f64) -> f64 {
@@ -50,7 +53,9 @@ fn deg(f: fn(f64) -> f64) -> impl Fn(f64) -> f64 {
 impl Interp<'_> {
     pub(super) fn eval(&self, u: &Unit, n: &Node) -> Result<Value, String> {
         match n.kind {
-            NodeKind::Number => Ok(Value::Num(parse_number(&u.upper(n))?)),
+            NodeKind::Number => Ok(Value::Num(parse_number(&String::from_utf8_lossy(
+                u.text(n),
+            ))?)),
             NodeKind::Str => {
                 let t = u.text(n);
                 Ok(Value::Str(
@@ -196,17 +201,14 @@ impl Interp<'_> {
                 }
             }
             ("$AA_IM", [axis]) => m.machine[self.axis_arg(u, axis)?],
-            ("$AA_IW", [axis]) => {
-                let a = self.axis_arg(u, axis)?;
-                m.machine[a] - m.frames.offset(a)
-            }
+            ("$AA_IW", [axis]) => m.work_position(self.axis_arg(u, axis)?),
             ("$P_EP", [axis]) => m.local[self.axis_arg(u, axis)?],
             ("$P_UIFRNUM", []) => m.frames.selected as f64,
             ("$AN_POWERON_TIME" | "$AN_SETUP_TIME", []) => self.time_min,
             ("$AC_CYCLE_TIME" | "$AC_OPERATING_TIME", []) => self.time_min * 60.0,
             ("$P_F", []) => m.modal.feed.unwrap_or(0.0),
             ("$AA_S", [_] | []) => m.spindle_rpm(),
-            ("$P_TOOLNO", []) => m.tool_number,
+            ("$P_TOOLNO", []) => m.tool.as_ref().map_or(0.0, |t| t.number()),
             ("$A_INA", [n]) => {
                 let n = self.num(u, n)?;
                 self.machine_input(n as usize).ok_or_else(|| {

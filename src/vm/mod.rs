@@ -16,6 +16,7 @@
 //! assert!((run.totals.max_abs_error_um - 0.15 * run.passes[0].start_min).abs() < 0.01);
 //! ```
 
+pub mod audit;
 mod config;
 mod eval;
 mod interp;

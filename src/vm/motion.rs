@@ -5,7 +5,12 @@
 //! plus programmable translation (TRANS / ATRANS). An axis that is not programmed does not move when a frame
 //! changes; its next incremental move traverses the change (MD42440 FRAME_OFFSET_INCR_PROG = 1, the default).
 //! A write to `$P_UIFR` changes the stored frame only: it acts once the work offset is selected again, as on
-//! the control.
+//! the control. Rotation, scaling and mirroring (ROT, SCALE, MIRROR and their additive forms) make the
+//! programmable frame a linear map of the geometry axes X, Y, Z; while one is active a move of any geometry
+//! axis places all three.
+
+use std::fmt;
+use std::rc::Rc;
 
 /// Number of settable frames, `$P_UIFR[0]` (G500) … `$P_UIFR[99]`.
 pub const FRAMES: usize = 100;
@@ -36,8 +41,40 @@ pub struct Frames {
     pub active: Vec<f64>,
     /// Programmable translation (TRANS / ATRANS).
     pub trans: Vec<f64>,
+    /// Rotation, scale and mirror of the programmable frame over the geometry axes (`None`: identity).
+    pub linear: Option<Matrix>,
+    /// Indices of the geometry axes X, Y, Z in the axis list.
+    pub geo: [Option<usize>; 3],
     /// Count the programmable translation as a correction too (for programs corrected through ATRANS).
     pub trans_is_correction: bool,
+}
+
+/// A 3 × 3 matrix over the geometry axes, rows and columns in the order X, Y, Z.
+pub type Matrix = [[f64; 3]; 3];
+
+pub const IDENTITY: Matrix = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+
+pub fn multiply(a: &Matrix, b: &Matrix) -> Matrix {
+    let mut m = [[0.0; 3]; 3];
+    for (r, row) in m.iter_mut().enumerate() {
+        for (c, v) in row.iter_mut().enumerate() {
+            *v = (0..3).map(|k| a[r][k] * b[k][c]).sum();
+        }
+    }
+    m
+}
+
+/// Rotation by `degrees` about geometry axis `k` (0 = X, 1 = Y, 2 = Z), counter-clockwise looking from the
+/// positive end of the axis.
+pub fn rotation(k: usize, degrees: f64) -> Matrix {
+    let (s, c) = degrees.to_radians().sin_cos();
+    let (i, j) = ((k + 1) % 3, (k + 2) % 3);
+    let mut m = IDENTITY;
+    m[i][i] = c;
+    m[i][j] = -s;
+    m[j][i] = s;
+    m[j][j] = c;
+    m
 }
 
 impl Frames {
@@ -49,8 +86,43 @@ impl Frames {
             selected: 0,
             active: vec![0.0; axes],
             trans: vec![0.0; axes],
+            linear: None,
+            geo: [None; 3],
             trans_is_correction: false,
         }
+    }
+
+    /// Deletes the programmable frame (what TRANS, ROT, SCALE, MIRROR do before they set their part).
+    pub fn reset_programmable(&mut self) {
+        self.trans.iter_mut().for_each(|t| *t = 0.0);
+        self.linear = None;
+    }
+
+    /// Adds a translation along `axis`, in the coordinate system the programmable frame has made so far
+    /// (ATRANS after ROT translates along the rotated axis, after SCALE by the scaled amount).
+    pub fn translate(&mut self, axis: usize, v: f64) {
+        let k = self.geo.iter().position(|g| *g == Some(axis));
+        match (k, &self.linear) {
+            (Some(k), Some(m)) => {
+                for (row, g) in m.iter().zip(self.geo) {
+                    if let Some(a) = g {
+                        self.trans[a] += row[k] * v;
+                    }
+                }
+            }
+            _ => self.trans[axis] += v,
+        }
+    }
+
+    /// Chains a rotation, scale or mirror onto the programmable frame.
+    pub fn compose(&mut self, m: &Matrix) {
+        let product = multiply(self.linear.as_ref().unwrap_or(&IDENTITY), m);
+        self.linear = (product != IDENTITY).then_some(product);
+    }
+
+    /// Whether a rotation, scale or mirror is active.
+    pub fn is_linear(&self) -> bool {
+        self.linear.is_some()
     }
 
     pub fn select(&mut self, n: usize) {
@@ -96,10 +168,73 @@ pub struct Modal {
     /// Plane axes (first, second, infeed) as indices into the axis list; G17 = X Y Z.
     pub plane: [Option<usize>; 3],
     pub feed: Option<f64>,
-    pub feed_per_rev: bool,
+    pub feed_mode: FeedMode,
     /// G70 / G700: lengths in inch (G700 also the feed).
     pub inch: bool,
     pub inch_feed: bool,
+    /// G group 10: 60 (exact stop), 64, 641 … 645 (continuous path).
+    pub path: u32,
+    /// G group 12: exact stop window 601, 602, 603.
+    pub exact_stop: u32,
+    /// Cutter radius compensation: 40, 41, 42.
+    pub compensation: u32,
+}
+
+/// Feed type (G group 15).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FeedMode {
+    /// G93: F is the reciprocal of the block's time in minutes.
+    InverseTime,
+    /// G94: mm/min.
+    PerMinute,
+    /// G95: mm per spindle revolution.
+    PerRevolution,
+}
+
+impl FeedMode {
+    pub fn g(self) -> u32 {
+        match self {
+            FeedMode::InverseTime => 93,
+            FeedMode::PerMinute => 94,
+            FeedMode::PerRevolution => 95,
+        }
+    }
+}
+
+/// A tool as the program names it: `T="NAME"` by name, `T12` / `T=12` by number.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Tool {
+    Number(f64),
+    Name(Rc<str>),
+}
+
+impl Tool {
+    /// `$P_TOOLNO`: the number; a named tool has none the dry run knows (no tool table).
+    pub fn number(&self) -> f64 {
+        match self {
+            Tool::Number(n) => *n,
+            Tool::Name(_) => 0.0,
+        }
+    }
+}
+
+impl fmt::Display for Tool {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Tool::Number(n) => write!(f, "T{}", super::value::format_number(*n)),
+            Tool::Name(name) => write!(f, "T=\"{name}\""),
+        }
+    }
+}
+
+/// A kinematic transformation (TRAORI, TRANSMIT, TRACYL) or a swivelled plane (CYCLE800): states the dry
+/// run records without modelling their geometry.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Kinematics {
+    /// The active transformation's command, until TRAFOOF.
+    pub transformation: Option<&'static str>,
+    /// The angles A, B, C of the last CYCLE800 with any non-zero angle, until CYCLE800() or zero angles.
+    pub swivel: Option<[f64; 3]>,
 }
 
 /// What `PROC … SAVE` restores on return: modal G codes and frames.
@@ -109,6 +244,7 @@ pub struct Saved {
     selected: usize,
     active: Vec<f64>,
     trans: Vec<f64>,
+    linear: Option<Matrix>,
 }
 
 /// Positions, modal state, spindle and tool of the virtual machine.
@@ -118,14 +254,22 @@ pub struct State {
     pub machine: Vec<f64>,
     /// Bit i set once axis i has been programmed.
     pub moved: u64,
+    /// Bit i set while axis i stands where a move in machine coordinates (G53, SUPA) put it.
+    pub suppressed: u64,
     pub modal: Modal,
     pub frames: Frames,
     /// Programmed S (rpm) and rotation (3 = M3, 4 = M4, 0 = stopped).
     pub s: f64,
     pub rotation: u32,
-    pub tool_number: f64,
-    pub pending_tool: Option<f64>,
+    /// The tool in the spindle and the one preselected by `T` (loaded by the next M6; it stays preselected
+    /// after the change, so a later bare M6 loads it again).
+    pub tool: Option<Tool>,
+    pub preselected: Option<Tool>,
     pub d: f64,
+    /// M7 (mist) and M8 (flood) coolant, both off after M9.
+    pub mist: bool,
+    pub flood: bool,
+    pub kinematics: Kinematics,
 }
 
 impl State {
@@ -134,26 +278,103 @@ impl State {
             local: vec![0.0; axes],
             machine: vec![0.0; axes],
             moved: 0,
+            suppressed: 0,
             modal: Modal {
                 motion: 0,
                 absolute: true,
                 plane: [Some(0), Some(1), Some(2)],
                 feed: None,
-                feed_per_rev: false,
+                feed_mode: FeedMode::PerMinute,
                 inch: false,
                 inch_feed: false,
+                path: 60,
+                exact_stop: 601,
+                compensation: 40,
             },
             frames: Frames::new(axes),
             s: 0.0,
             rotation: 0,
-            tool_number: 0.0,
-            pending_tool: None,
+            tool: None,
+            preselected: None,
             d: 0.0,
+            mist: false,
+            flood: false,
+            kinematics: Kinematics::default(),
+        }
+    }
+
+    /// The work position of `axis` (`$AA_IW`): the machine position less the active offsets; the programmed
+    /// one while a rotation, scale or mirror is active.
+    pub fn work_position(&self, axis: usize) -> f64 {
+        if self.frames.is_linear() {
+            self.local[axis]
+        } else {
+            self.machine[axis] - self.frames.offset(axis)
         }
     }
 
     pub fn spindle_rpm(&self) -> f64 {
         if self.rotation == 0 { 0.0 } else { self.s }
+    }
+
+    /// Places the geometry axes X, Y, Z through the programmable frame's rotation, scale and mirror.
+    pub fn place_geometry(&mut self) {
+        let Some(m) = self.frames.linear else {
+            return;
+        };
+        let geo = self.frames.geo;
+        let local = geo.map(|g| g.map_or(0.0, |a| self.local[a]));
+        for (row, g) in m.iter().zip(geo) {
+            if let Some(a) = g {
+                self.machine[a] =
+                    self.frames.offset(a) + (0..3).map(|k| row[k] * local[k]).sum::<f64>();
+            }
+        }
+    }
+
+    /// The programmed position on X, Y, Z in the coordinates of the settable work offset: through the
+    /// programmable frame (translation, rotation, scale, mirror); an axis last moved in machine coordinates
+    /// (G53, SUPA) where that put it, less the offset. Axes the machine lacks read 0.
+    pub fn work_geometry(&self) -> [f64; 3] {
+        let f = &self.frames;
+        let local = f.geo.map(|g| g.map_or(0.0, |a| self.local[a]));
+        let linear = f.linear.unwrap_or(IDENTITY);
+        let mut out = [0.0; 3];
+        for (k, g) in f.geo.iter().enumerate() {
+            out[k] = match *g {
+                None => 0.0,
+                Some(a) if self.suppressed & (1 << a) != 0 => self.machine[a] - f.active[a],
+                Some(a) => f.trans[a] + (0..3).map(|j| linear[k][j] * local[j]).sum::<f64>(),
+            };
+        }
+        out
+    }
+
+    /// The centre of an arc from `start` to `end` (programmed coordinates of the plane axes `plane`) in the
+    /// coordinates of [`State::work_geometry`]; `None` under a rotation, scale or mirror.
+    pub fn work_centre(
+        &self,
+        arc: &ArcSpec,
+        start: [f64; 2],
+        end: [f64; 2],
+        plane: [usize; 2],
+        start_local: &[f64],
+    ) -> Option<[f64; 3]> {
+        if self.frames.is_linear() {
+            return None;
+        }
+        let centre = arc_centre(arc, start, end)?;
+        let geo = self.frames.geo;
+        let mut out = [0.0; 3];
+        for (k, g) in geo.iter().enumerate() {
+            let Some(a) = *g else { continue };
+            out[k] = self.frames.trans[a]
+                + match plane.iter().position(|p| *p == a) {
+                    Some(j) => centre[j],
+                    None => start_local[a],
+                };
+        }
+        Some(out)
     }
 
     /// Snapshot for `PROC … SAVE`.
@@ -163,6 +384,7 @@ impl State {
             selected: self.frames.selected,
             active: self.frames.active.clone(),
             trans: self.frames.trans.clone(),
+            linear: self.frames.linear,
         }
     }
 
@@ -171,6 +393,7 @@ impl State {
         self.frames.selected = saved.selected;
         self.frames.active = saved.active;
         self.frames.trans = saved.trans;
+        self.frames.linear = saved.linear;
     }
 }
 
@@ -183,6 +406,35 @@ pub struct ArcSpec {
     pub centre: Option<[f64; 2]>,
     pub centre_absolute: bool,
     pub radius: Option<f64>,
+}
+
+/// The centre of an arc in the plane, from I/J (relative or absolute) or from CR= (positive: the arc of at
+/// most 180°, the centre to the right of the chord for G2, to the left for G3).
+pub fn arc_centre(arc: &ArcSpec, start: [f64; 2], end: [f64; 2]) -> Option<[f64; 2]> {
+    match (arc.centre, arc.radius) {
+        (Some(c), _) if arc.centre_absolute => Some(c),
+        (Some(c), _) => Some([start[0] + c[0], start[1] + c[1]]),
+        (None, Some(cr)) => {
+            let (dx, dy) = (end[0] - start[0], end[1] - start[1]);
+            let chord = dx.hypot(dy);
+            if chord == 0.0 {
+                return None;
+            }
+            let h = (cr * cr - chord * chord / 4.0).max(0.0).sqrt();
+            // Right of the direction of travel for a short clockwise arc; each of G3 and CR < 0 flips it.
+            let side = if arc.clockwise == (cr >= 0.0) {
+                1.0
+            } else {
+                -1.0
+            };
+            let (nx, ny) = (dy / chord * side, -dx / chord * side);
+            Some([
+                (start[0] + end[0]) / 2.0 + nx * h,
+                (start[1] + end[1]) / 2.0 + ny * h,
+            ])
+        }
+        (None, None) => None,
+    }
 }
 
 /// Arc length from `start` to `end` in the plane (2-D points), with `rise` along the infeed axis.
@@ -328,6 +580,69 @@ mod tests {
         );
         assert!(e.unwrap_err().contains("14040"));
         assert!(arc_length(&arc(true, None, None), [0.0; 2], [1.0, 0.0], 0.0).is_err());
+    }
+
+    #[test]
+    fn arc_centres_from_cr_lie_on_the_side_the_direction_and_sign_say() {
+        let arc = |clockwise, cr| ArcSpec {
+            clockwise,
+            centre: None,
+            centre_absolute: false,
+            radius: Some(cr),
+        };
+        let near = |c: Option<[f64; 2]>, x: f64, y: f64| {
+            let c = c.unwrap();
+            (c[0] - x).abs() < 1e-9 && (c[1] - y).abs() < 1e-9
+        };
+        // From (0,0) to (2,0) with radius √2: centre 1 below (clockwise, short) or above.
+        let r = 2f64.sqrt();
+        assert!(near(
+            arc_centre(&arc(true, r), [0.0, 0.0], [2.0, 0.0]),
+            1.0,
+            -1.0
+        ));
+        assert!(near(
+            arc_centre(&arc(true, -r), [0.0, 0.0], [2.0, 0.0]),
+            1.0,
+            1.0
+        ));
+        assert!(near(
+            arc_centre(&arc(false, r), [0.0, 0.0], [2.0, 0.0]),
+            1.0,
+            1.0
+        ));
+        assert!(near(
+            arc_centre(&arc(false, -r), [0.0, 0.0], [2.0, 0.0]),
+            1.0,
+            -1.0
+        ));
+        let ij = ArcSpec {
+            clockwise: true,
+            centre: Some([5.0, 1.0]),
+            centre_absolute: false,
+            radius: None,
+        };
+        assert!(near(arc_centre(&ij, [1.0, 1.0], [0.0, 0.0]), 6.0, 2.0));
+    }
+
+    #[test]
+    fn rotations_turn_counter_clockwise_and_compose() {
+        let rz = rotation(2, 90.0);
+        let x = [1.0, 0.0, 0.0];
+        let turned: Vec<f64> = (0..3)
+            .map(|r| (0..3).map(|k| rz[r][k] * x[k]).sum())
+            .collect();
+        assert!((turned[0]).abs() < 1e-12 && (turned[1] - 1.0).abs() < 1e-12);
+        let mut f = Frames::new(3);
+        f.geo = [Some(0), Some(1), Some(2)];
+        f.compose(&rz);
+        f.translate(0, 10.0);
+        assert!(
+            f.trans[0].abs() < 1e-12 && (f.trans[1] - 10.0).abs() < 1e-12,
+            "ATRANS along the turned X"
+        );
+        f.compose(&rotation(2, -90.0));
+        assert!(!f.is_linear(), "back to the identity");
     }
 
     #[test]

@@ -114,6 +114,29 @@ pub struct Run {
     pub trace: Vec<TraceRow>,
 }
 
+impl Run {
+    /// A run that has not started.
+    pub fn empty(axes: Vec<String>) -> Run {
+        Run {
+            program: String::new(),
+            end: End::EndOfProgram,
+            blocks_executed: 0,
+            time_min: 0.0,
+            axes,
+            passes: Vec::new(),
+            totals: Totals::default(),
+            measurements: Vec::new(),
+            corrections: Vec::new(),
+            alarms: Vec::new(),
+            messages: Vec::new(),
+            aux_functions: BTreeMap::new(),
+            files: BTreeMap::new(),
+            spindle: SpindleHistory::default(),
+            trace: Vec::new(),
+        }
+    }
+}
+
 impl Totals {
     pub fn of(passes: &[Pass]) -> Totals {
         let n = passes.len();

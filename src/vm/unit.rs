@@ -10,10 +10,12 @@ use std::rc::Rc;
 
 pub use crate::structure::JumpTarget;
 use crate::structure::{Search, Targets};
-use crate::syntax::{BlockKind, Node, NodeKind, Program};
+use crate::syntax::{BlockKind, Node, NodeKind, Program, flag};
 
 /// One parsed file. Block trees are built when a block runs; only the first [`CACHED_TREES`] built are kept
-/// (loop bodies run again without re-parsing), so a long CAM program costs its source plus a few bytes per block.
+/// (loop bodies run again without re-parsing), so a long CAM program costs its source plus a few bytes per block:
+/// labels and `PROC` blocks are found through the parser's block flags and a text search, N numbers are read
+/// when a jump searches for one.
 pub struct Source {
     /// The file's name as shown in messages.
     pub file: Rc<str>,
@@ -22,9 +24,11 @@ pub struct Source {
     pub forward: HashMap<usize, usize>,
     /// Closer → its opener.
     pub backward: HashMap<usize, usize>,
-    /// The blocks carrying each label and block number.
-    targets: Targets,
-    pub numbers: Vec<Option<u64>>,
+    /// The blocks carrying each label.
+    labels: Targets,
+    /// The blocks carrying each block number, read at the first jump to a number (most programs have
+    /// none, and a CAM program has millions of N words).
+    numbers: std::cell::OnceCell<Targets>,
     /// Blocks holding a `PROC` statement.
     procs: Vec<usize>,
     /// Upper-cased `%` header lines and their blocks.
@@ -59,7 +63,6 @@ impl Deref for Unit {
 impl Source {
     fn new(file: Rc<str>, program: Program) -> Self {
         let structure = crate::structure::analyze(&program);
-        let n = program.block_count();
         let mut forward = HashMap::new();
         let mut backward = HashMap::new();
         for &(open, close) in &structure.pairs {
@@ -68,29 +71,35 @@ impl Source {
         }
         let src = program.source();
         let upper = |n: &Node| String::from_utf8_lossy(n.span.slice(src)).to_ascii_uppercase();
-        let mut targets = Targets::default();
-        for (label, block) in structure.labels {
-            targets.add_label(label, block);
-        }
-        let mut numbers = Vec::with_capacity(n);
-        let mut procs = Vec::new();
-        for block in program.blocks() {
-            let root = &block.root;
-            let number = root.find(NodeKind::BlockNumber).and_then(|b| {
-                b.find(NodeKind::Number)
-                    .and_then(|d| upper(d).parse::<u64>().ok())
-            });
-            if let Some(number) = number {
-                targets.add_number(number, block.index);
-            }
-            numbers.push(number);
-            if root.find(NodeKind::Proc).is_some() {
-                procs.push(block.index);
+        let mut labels = Targets::default();
+        for i in (0..program.block_count()).filter(|&i| program.block_flags(i) & flag::LABEL != 0) {
+            let root = program.block(i).root;
+            if let Some(label) = root
+                .find(NodeKind::Label)
+                .and_then(|l| l.find(NodeKind::Name))
+                .map(upper)
+            {
+                labels.add_label(label, i);
             }
         }
-        let headers = (0..n)
-            .filter(|&i| program.block_kind(i) == BlockKind::Header)
-            .map(|i| {
+        // PROC is rare: only blocks whose text holds the word (any case) are parsed to be sure.
+        let mut procs: Vec<usize> = Vec::new();
+        for at in memchr::memchr2_iter(b'P', b'p', src) {
+            if !src[at..]
+                .get(..4)
+                .is_some_and(|w| w.eq_ignore_ascii_case(b"PROC"))
+            {
+                continue;
+            }
+            let i = program.block_at(at);
+            if procs.last() != Some(&i) && program.block(i).root.find(NodeKind::Proc).is_some() {
+                procs.push(i);
+            }
+        }
+        let headers = program
+            .header_blocks()
+            .iter()
+            .map(|&i| {
                 let text = program.content_span(i).slice(src);
                 (String::from_utf8_lossy(text).trim().to_ascii_uppercase(), i)
             })
@@ -100,12 +109,21 @@ impl Source {
             program,
             forward,
             backward,
-            targets,
-            numbers,
+            labels,
+            numbers: std::cell::OnceCell::new(),
             procs,
             headers,
             trees: RefCell::new(HashMap::new()),
         }
+    }
+
+    /// The N number of block `i`, if it has one.
+    pub fn number(&self, i: usize) -> Option<u64> {
+        let root = self.root(i);
+        let n = root.find(NodeKind::BlockNumber)?.find(NodeKind::Number)?;
+        String::from_utf8_lossy(n.span.slice(self.program.source()))
+            .parse()
+            .ok()
     }
 
     /// The syntax tree of block `i`.
@@ -189,8 +207,19 @@ impl Unit {
 
     /// The block a jump from block `from` lands on (see [`Targets::destination`]).
     pub fn search(&self, from: usize, target: &JumpTarget, search: Search) -> Option<usize> {
-        self.targets
-            .destination(search, from, target, &(self.start..self.end))
+        let targets = match target {
+            JumpTarget::Label(_) => &self.labels,
+            JumpTarget::Number(_) => self.numbers.get_or_init(|| {
+                let mut numbers = Targets::default();
+                for i in 0..self.program.block_count() {
+                    if let Some(n) = self.number(i) {
+                        numbers.add_number(n, i);
+                    }
+                }
+                numbers
+            }),
+        };
+        targets.destination(search, from, target, &(self.start..self.end))
     }
 
     /// The labelled blocks of a section repetition at block `at` (see [`Targets::section`]).
@@ -200,7 +229,6 @@ impl Unit {
         start: &str,
         end: Option<&str>,
     ) -> (Option<usize>, Option<usize>) {
-        self.targets
-            .section(at, start, end, &(self.start..self.end))
+        self.labels.section(at, start, end, &(self.start..self.end))
     }
 }

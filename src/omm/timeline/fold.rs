@@ -85,7 +85,7 @@ struct Label {
 mod field {
     use super::Modal;
 
-    pub const COUNT: usize = 16;
+    pub const COUNT: usize = 17;
     const TOOL: usize = 0;
     const D: usize = 1;
     const S: usize = 2;
@@ -102,6 +102,7 @@ mod field {
     const COMP: usize = 13;
     const FRAMES: usize = 14;
     const UNKNOWN: usize = 15;
+    const OFFSET: usize = 16;
 
     /// The fields in which two states differ.
     pub fn differ(a: &Modal, b: &Modal) -> [bool; COUNT] {
@@ -122,6 +123,7 @@ mod field {
         d[COMP] = a.comp != b.comp;
         d[FRAMES] = a.frames != b.frames;
         d[UNKNOWN] = a.unknown != b.unknown;
+        d[OFFSET] = a.offset != b.offset;
         d
     }
 }
@@ -653,6 +655,14 @@ impl<'p> Builder<'p> {
         if setup && self.t.first_cut.is_none() {
             self.t.setup_end = i + 1;
         }
+        if let Some(&g) = s
+            .offsets
+            .iter()
+            .rev()
+            .find(|g| matches!(g, 500 | 54..=57 | 505..=599))
+        {
+            self.state.offset = Some(g);
+        }
         self.frames(s.frame_ops);
         self.t.moves |= s.other_axes;
         // Modal words first: they hold for this block's move.
@@ -748,14 +758,16 @@ impl<'p> Builder<'p> {
             }
             if let Some(l) = &s.label {
                 let end = self.time();
-                self.label_times
-                    .entry(l.to_ascii_uppercase())
-                    .or_insert(Label {
+                // A label defined again: a REPEAT after it searches backward and finds this one.
+                self.label_times.insert(
+                    l.to_ascii_uppercase(),
+                    Label {
                         block: i,
                         start,
                         end,
                         state: prev,
-                    });
+                    },
+                );
             }
         }
         self.loops(i, s, kind, start);
@@ -1144,7 +1156,8 @@ impl<'p> Builder<'p> {
             .sort_by_key(|s| (s.block, !matches!(s.kind, SiteKind::PassStart { .. })));
         self.t.sites.dedup_by_key(|s| s.block);
         let mut pass = 0;
-        let t_loads = !self.m6_seen;
+        // A machine that changes tools with T loads at once; on one with M6, T only selects.
+        let t_loads = self.profile.probe.tool_change == super::super::profile::ToolChange::T;
         for site in &mut self.t.sites {
             site.state_varies = self.varies.contains(&site.block);
             // Without M6 in the program, T loads the tool at once.

@@ -44,6 +44,8 @@ pub struct Modal {
     pub coolant: Option<u32>,
     /// Cutter radius compensation: 40, 41 or 42.
     pub comp: u32,
+    /// The work offset selected (54 … 57, 505 … 599, or 500 for none), when the program selected one.
+    pub offset: Option<u32>,
     /// Frames and transformations active ([`frame`] bits).
     pub frames: u8,
     /// Fields the program set by an expression the timeline cannot evaluate ([`unknown`] bits): a gate

@@ -244,7 +244,7 @@ fn a_loop_of_millions_of_runs_is_timed_but_not_listed_run_by_run() {
 /// block in another state (the spindle speed set after it in the body), the site says so.
 #[test]
 fn sites_reached_in_another_state_by_later_runs_are_marked() {
-    let text = "T1 M6\nS1000 M3\nG0 X0 Y0 Z10\nFOR R1 = 1 TO 3\nG0 Z50\nG0 X10\nG1 Z-1 F100\nS2000 M3\nG1 X100\nG0 Z40\nG0 X0\nENDFOR\nM30\n";
+    let text = "G54\nT1 M6\nS1000 M3\nG0 X0 Y0 Z10\nFOR R1 = 1 TO 3\nG0 Z50\nG0 X10\nG1 Z-1 F100\nS2000 M3\nG1 X100\nG0 Z40\nG0 X0\nENDFOR\nM30\n";
     let t = timeline_of(text);
     let retracts: Vec<(usize, bool)> = t
         .sites
@@ -254,7 +254,7 @@ fn sites_reached_in_another_state_by_later_runs_are_marked() {
         .collect();
     // Before `G0 X10` the speed is 1000 rpm in the first run and 2000 in later ones; before `G0 X0` it
     // was set in the same run.
-    assert_eq!(retracts, [(5, true), (10, false)]);
+    assert_eq!(retracts, [(6, true), (11, false)]);
     let (_, plan) = crate::omm::plan_program(
         &crate::parse(text.as_bytes()),
         &crate::model::DriftModel::read(
@@ -266,7 +266,7 @@ fn sites_reached_in_another_state_by_later_runs_are_marked() {
         &Profile::default_profile(),
     )
     .unwrap();
-    let gate = plan.gates.iter().find(|g| g.block == 5).unwrap();
+    let gate = plan.gates.iter().find(|g| g.block == 6).unwrap();
     assert!(!gate.can_measure);
     // Without the speed change, and with the feed set before the loop: every run alike.
     let same = timeline_of(

@@ -17,11 +17,13 @@ impl Interp<'_> {
             match g {
                 0..=3 => modal.motion = g,
                 4 => dwell = true,
-                // Exact stop / continuous path: change corners, not the path length this dry run times.
-                9 | 60 | 64 | 601..=603 | 641..=645 => {}
+                // Exact stop / continuous path change corners, not the path length this dry run times.
+                9 => {}
+                60 | 64 | 641..=645 => modal.path = g,
+                601..=603 => modal.exact_stop = g,
                 17..=19 => modal.plane = planes[g as usize - 17],
                 // Cutter radius compensation moves the contour in the plane, never the depth.
-                40..=42 => {}
+                40..=42 => modal.compensation = g,
                 53 | 153 => suppress = true,
                 54..=57 => self.motion.frames.select(g as usize - 53),
                 505..=599 => self.motion.frames.select(g as usize - 500),
@@ -32,8 +34,9 @@ impl Interp<'_> {
                 }
                 90 => modal.absolute = true,
                 91 => modal.absolute = false,
-                94 => modal.feed_per_rev = false,
-                95 => modal.feed_per_rev = true,
+                93 => modal.feed_mode = FeedMode::InverseTime,
+                94 => modal.feed_mode = FeedMode::PerMinute,
+                95 => modal.feed_mode = FeedMode::PerRevolution,
                 _ => return Err(format!("G{g} is not supported by the dry run")),
             }
         }
@@ -66,12 +69,19 @@ impl Interp<'_> {
                 self.spindle.set(self.time_min, s);
             }
         }
-        if let Some(t) = w.tool {
-            self.motion.pending_tool = Some(t);
+        if let Some(t) = w.tool.take() {
+            if self.cfg.tool_change_on_t {
+                self.passes.end_segment();
+                self.motion.tool = Some(t.clone());
+                self.done.tool_change = true;
+                self.time_min += self.cfg.tool_change_min;
+            }
+            self.motion.preselected = Some(t);
         }
         if let Some(d) = w.d {
             self.motion.d = d;
         }
+        self.done.stopre = w.stopre;
         let mut end = None;
         for &m in &w.m {
             match m {
@@ -81,15 +91,30 @@ impl Interp<'_> {
                 }
                 6 => {
                     self.passes.end_segment();
-                    self.motion.tool_number = self.motion.pending_tool.take().unwrap_or(0.0);
+                    if let Some(t) = &self.motion.preselected {
+                        self.motion.tool = Some(t.clone());
+                    }
+                    // The new tool's first cutting edge unless the block selects one (MD20270
+                    // CUTTING_EDGE_DEFAULT = 1).
+                    self.motion.d = w.d.unwrap_or(1.0);
+                    self.done.tool_change = true;
                     self.time_min += self.cfg.tool_change_min;
                 }
                 5 | 0 | 1 | 2 | 30 | 17 => {}
+                7..=9 => {
+                    let st = &mut self.motion;
+                    (st.mist, st.flood) = match m {
+                        7 => (true, st.flood),
+                        8 => (st.mist, true),
+                        _ => (false, false),
+                    };
+                    self.aux(format!("M{m}"));
+                }
                 _ => self.aux(format!("M{m}")),
             }
         }
         if let Some(frame) = &w.frame_command {
-            self.frame_command(frame, &w.axes)?;
+            self.frame_command(frame, &w.axes, w.rpl)?;
         } else if !w.axes.is_empty() {
             self.travel(u, i, &w, suppress)?;
         }
@@ -115,8 +140,12 @@ impl Interp<'_> {
                     self.motion.rotation = 0;
                     self.spindle.set(self.time_min, 0.0);
                 }
-                0 | 1 => self.time_min += self.cfg.stop_min,
+                0 | 1 => {
+                    self.done.stop = Some(m);
+                    self.time_min += self.cfg.stop_min;
+                }
                 2 | 30 => {
+                    self.done.stop = Some(m);
                     end = Some(End::ProgramEnd {
                         code: format!("M{m}"),
                     })
@@ -126,6 +155,7 @@ impl Interp<'_> {
             }
         }
         if let Some((cycle, args)) = &w.probe {
+            self.done.probe = true;
             self.probe(u, i, cycle, args);
         }
         if let Some((number, text)) = w.alarm {
@@ -177,26 +207,81 @@ impl Interp<'_> {
         &mut self,
         name: &str,
         axes: &[(usize, Dim, f64)],
+        rpl: Option<f64>,
     ) -> Result<(), String> {
-        let f = &mut self.motion.frames;
-        match name {
-            "TRANS" | "ATRANS" => {
-                if name == "TRANS" {
-                    f.trans.iter_mut().for_each(|t| *t = 0.0);
-                }
+        let absolute = ABSOLUTE_FRAMES.contains(&name);
+        let part = if absolute { name } else { &name[1..] };
+        let linear = match part {
+            "TRANS" => None,
+            "ROT" => Some(self.rotation(name, axes, rpl)?),
+            "SCALE" | "MIRROR" => {
+                let mut m = IDENTITY;
                 for &(a, _, v) in axes {
-                    f.trans[a] += v;
+                    let k = self.geo_axis(a, name)?;
+                    m[k][k] = if part == "SCALE" { v } else { -1.0 };
                 }
-                Ok(())
+                Some(m)
             }
-            _ if ABSOLUTE_FRAMES.contains(&name) && axes.is_empty() => {
-                f.trans.iter_mut().for_each(|t| *t = 0.0);
-                Ok(())
-            }
-            _ => Err(format!(
-                "{name} with values is not supported (the dry run models translations only)"
-            )),
+            _ => return Err(format!("{name} is not a frame command")),
+        };
+        if rpl.is_some() && part != "ROT" {
+            return Err(format!("RPL= belongs to ROT / AROT, not to {name}"));
         }
+        let f = &mut self.motion.frames;
+        if absolute {
+            f.reset_programmable();
+        }
+        match linear {
+            Some(m) => f.compose(&m),
+            None => {
+                for &(a, _, v) in axes {
+                    f.translate(a, v);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Position of axis `a` among the geometry axes X, Y, Z (0, 1, 2), which alone rotate, scale and mirror.
+    fn geo_axis(&self, a: usize, command: &str) -> Result<usize, String> {
+        self.motion
+            .frames
+            .geo
+            .iter()
+            .position(|g| *g == Some(a))
+            .ok_or_else(|| {
+                format!(
+                    "{command} {}: only the geometry axes X, Y, Z rotate, scale and mirror in the dry run",
+                    self.cfg.axes[a]
+                )
+            })
+    }
+
+    /// The rotation of `ROT`/`AROT`: angles about the named geometry axes, applied Z, then Y', then X''
+    /// (RPY, MD10600 = 1), or `RPL=` about the infeed axis of the working plane.
+    fn rotation(
+        &self,
+        name: &str,
+        axes: &[(usize, Dim, f64)],
+        rpl: Option<f64>,
+    ) -> Result<Matrix, String> {
+        let mut angles = [0.0; 3];
+        for &(a, _, v) in axes {
+            angles[self.geo_axis(a, name)?] = v;
+        }
+        if let Some(angle) = rpl {
+            if angles.iter().any(|a| *a != 0.0) {
+                return Err(format!("{name} with both RPL= and axis angles"));
+            }
+            let infeed = self.motion.modal.plane[2]
+                .and_then(|a| self.motion.frames.geo.iter().position(|g| *g == Some(a)))
+                .ok_or("RPL= in a plane without an infeed geometry axis")?;
+            return Ok(rotation(infeed, angle));
+        }
+        Ok(multiply(
+            &multiply(&rotation(2, angles[2]), &rotation(1, angles[1])),
+            &rotation(0, angles[0]),
+        ))
     }
 
     /// Moves the programmed axes: geometry, time, and the cut it makes.
@@ -210,6 +295,8 @@ impl Interp<'_> {
         let st = &mut self.motion;
         let start_local = st.local.clone();
         let start_machine = st.machine.clone();
+        let from = st.work_geometry();
+        let mut geometry_moved = false;
         for &(a, dim, v) in &w.axes {
             let absolute = match dim {
                 Dim::Modal => st.modal.absolute,
@@ -220,8 +307,18 @@ impl Interp<'_> {
             st.local[a] = if absolute { v } else { st.local[a] + v };
             st.machine[a] = st.local[a] + offset;
             st.moved |= 1 << a;
+            if suppress {
+                st.suppressed |= 1 << a;
+            } else {
+                st.suppressed &= !(1 << a);
+            }
+            geometry_moved |= st.frames.geo.contains(&Some(a));
+        }
+        if geometry_moved && !suppress && st.frames.is_linear() {
+            st.place_geometry();
         }
         let motion = st.modal.motion;
+        let mut work_centre = None;
         let chord: f64 = start_machine
             .iter()
             .zip(&st.machine)
@@ -250,12 +347,10 @@ impl Interp<'_> {
                 radius: w.cr,
             };
             let rise = infeed.map_or(0.0, |k| st.local[k] - start_local[k]);
-            arc_length(
-                &arc,
-                [start_local[p], start_local[q]],
-                [st.local[p], st.local[q]],
-                rise,
-            )?
+            let (start, end) = ([start_local[p], start_local[q]], [st.local[p], st.local[q]]);
+            let length = arc_length(&arc, start, end, rise)?;
+            work_centre = st.work_centre(&arc, start, end, [p, q], &start_local);
+            length
         } else {
             chord
         };
@@ -267,24 +362,38 @@ impl Interp<'_> {
                 .feed
                 .or(self.cfg.default_feed_mm_min)
                 .ok_or("feed move without a programmed feed F (alarm 10860)")?;
-            let rate = if st.modal.feed_per_rev {
-                let rpm = st.spindle_rpm();
-                if rpm <= 0.0 {
-                    return Err("G95 feed per revolution with the spindle stopped".into());
-                }
-                feed * rpm
-            } else {
-                feed
-            };
-            if rate <= 0.0 {
-                return Err(format!("feed {rate} mm/min must be positive"));
+            if feed <= 0.0 {
+                return Err(format!("feed F{feed} must be positive"));
             }
-            length / rate
+            match st.modal.feed_mode {
+                FeedMode::PerMinute => length / feed,
+                FeedMode::PerRevolution => {
+                    let rpm = st.spindle_rpm();
+                    if rpm <= 0.0 {
+                        return Err("G95 feed per revolution with the spindle stopped".into());
+                    }
+                    length / (feed * rpm)
+                }
+                FeedMode::InverseTime => 1.0 / feed,
+            }
         };
+        self.done.movement = Some(Movement {
+            motion,
+            from,
+            to: st.work_geometry(),
+            centre: work_centre,
+            plane: st
+                .modal
+                .plane
+                .map(|a| a.and_then(|a| st.frames.geo.iter().position(|g| *g == Some(a)))),
+        });
         let t0 = self.time_min;
         self.time_min += minutes;
         if motion == 0 {
             self.passes.end_segment();
+            return Ok(());
+        }
+        if !self.cfg.passes {
             return Ok(());
         }
         let rpm = self.motion.spindle_rpm();
@@ -334,7 +443,15 @@ impl Interp<'_> {
         let written = match result {
             // The probe triggers when the real tool tip (commanded − drift) reaches the surface, so the control
             // reads the surface plus the drift.
-            ProbeResult::Drift(d) => Some(self.cfg.probe_surface_mm - offset + d / 1000.0),
+            ProbeResult::Drift(d) => {
+                let frame = if self.cfg.probe_machine_frame {
+                    0.0
+                } else {
+                    offset
+                };
+                let scale = if self.cfg.probe_diameter { 2.0 } else { 1.0 };
+                Some(self.cfg.probe_surface_mm - frame + scale * d / 1000.0)
+            }
             ProbeResult::Raw(v) => Some(v),
             ProbeResult::Nothing => None,
         };

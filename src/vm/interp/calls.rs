@@ -51,12 +51,15 @@ impl Interp<'_> {
                 content.push('\n');
                 self.store(u, status, Value::Num(0.0), w)?;
             }
-            // Master spindle 1 is the only spindle; CYCLE800() without values resets the swivel plane.
+            // Master spindle 1 is the only spindle.
             "SETMS"
                 if values
                     .iter()
                     .all(|v| v.as_ref().is_none_or(|v| *v == Value::Num(1.0))) => {}
-            "CYCLE800" if values.iter().all(Option::is_none) => {}
+            "CYCLE800" => self.motion.kinematics.swivel = swivel_angles(&values)?,
+            "TRAORI" | "TRANSMIT" | "TRACYL" => {
+                self.motion.kinematics.transformation = Some(transformation(&name))
+            }
             _ if self.cfg.probe_cycles.contains(&name) => {
                 let nums = values
                     .iter()
@@ -86,6 +89,11 @@ impl Interp<'_> {
         let name = u.upper(node);
         match name.as_str() {
             "RET" => w.ret = true,
+            "STOPRE" => w.stopre = true,
+            "TRAORI" | "TRANSMIT" | "TRACYL" => {
+                self.motion.kinematics.transformation = Some(transformation(&name))
+            }
+            "TRAFOOF" => self.motion.kinematics.transformation = None,
             "SUPA" => w.suppress_frames = true,
             "BSPLINE" | "ASPLINE" | "CSPLINE" => w.spline = true,
             "TRANS" | "ATRANS" | "ROT" | "AROT" | "SCALE" | "ASCALE" | "MIRROR" | "AMIRROR" => {
@@ -214,6 +222,29 @@ impl Interp<'_> {
             vars.insert(name, var);
         }
         Ok((vars, by_ref))
+    }
+}
+
+/// The swivel a CYCLE800 call leaves active: its angles A, B, C (parameters 8 to 10 of
+/// `CYCLE800(_FR, _TC, _ST, _MODE, _X0, _Y0, _Z0, _A, _B, _C, …)`), `None` when all are zero or absent
+/// (`CYCLE800()` resets the swivel).
+fn swivel_angles(values: &[Option<Value>]) -> Result<Option<[f64; 3]>, String> {
+    let mut angles = [0.0; 3];
+    for (k, angle) in angles.iter_mut().enumerate() {
+        if let Some(Some(v)) = values.get(7 + k) {
+            *angle = v
+                .num()
+                .map_err(|e| format!("CYCLE800 angle (parameter {}): {e}", 8 + k))?;
+        }
+    }
+    Ok(angles.iter().any(|a| *a != 0.0).then_some(angles))
+}
+
+fn transformation(name: &str) -> &'static str {
+    match name {
+        "TRAORI" => "TRAORI",
+        "TRANSMIT" => "TRANSMIT",
+        _ => "TRACYL",
     }
 }
 

@@ -8,7 +8,7 @@ mod calls;
 mod control;
 mod statements;
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 use std::path::PathBuf;
 use std::rc::Rc;
 
@@ -18,12 +18,16 @@ use super::VmError;
 use super::config::{Config, ProbeTarget};
 use super::eval::{R_COUNT, arg_nodes, index_nodes};
 use super::machine::{Machine, ProbeCall, ProbeResult, SpindleHistory};
-use super::motion::{ArcSpec, Dim, SPLINE, Saved, State, arc_length};
+use super::motion::{
+    ArcSpec, Dim, FeedMode, IDENTITY, Matrix, SPLINE, Saved, State, Tool, arc_length, multiply,
+    rotation,
+};
 use super::passes::{Cut, PassTracker};
 use super::report::{Alarm, At, Correction, End, Measurement, Message, Run, Totals, TraceRow};
 use super::unit::{JumpTarget, Unit};
 use super::value::{Value, VarType, Variable};
 
+#[derive(Clone)]
 pub(super) struct Frame {
     unit: Rc<Unit>,
     pc: usize,
@@ -82,8 +86,11 @@ struct Words {
     feed: Option<f64>,
     s: Option<f64>,
     m: Vec<u32>,
-    tool: Option<f64>,
+    tool: Option<Tool>,
     d: Option<f64>,
+    /// `RPL=`: rotation in the working plane (ROT / AROT).
+    rpl: Option<f64>,
+    stopre: bool,
     /// I, J, K (index 0..3) and whether given as AC().
     centre: [Option<(f64, bool)>; 3],
     cr: Option<f64>,
@@ -122,6 +129,41 @@ pub(super) struct Interp<'m> {
     loaded: HashMap<PathBuf, Rc<Unit>>,
     /// Units of archive files, by (file, first block).
     archive_units: HashMap<(usize, usize), Rc<Unit>>,
+    /// How the run ended, once it has.
+    ended: Option<End>,
+    /// What the block being executed did, for [`Interp::step`].
+    done: Done,
+}
+
+/// What one executed block did, as far as a caller watching the run block by block needs to know.
+#[derive(Debug, Clone, Default)]
+pub(in crate::vm) struct Done {
+    /// The move it made, if any.
+    pub movement: Option<Movement>,
+    pub stopre: bool,
+    /// It called a probe cycle.
+    pub probe: bool,
+    /// It changed the tool (M6).
+    pub tool_change: bool,
+    /// It called a subprogram.
+    pub call: bool,
+    /// M0, M1, M2 or M30.
+    pub stop: Option<u32>,
+    /// It ended the run (program end or alarm).
+    pub end: Option<End>,
+}
+
+/// A move: its motion mode and the geometry axes X, Y, Z before and after it, programmed positions in the
+/// coordinates of the settable work offset ([`State::work_geometry`]).
+#[derive(Debug, Clone, Copy)]
+pub(in crate::vm) struct Movement {
+    pub motion: u32,
+    pub from: [f64; 3],
+    pub to: [f64; 3],
+    /// Circles: centre in the same coordinates (its infeed coordinate is that of the start).
+    pub centre: Option<[f64; 3]>,
+    /// The working plane's axes (first, second, infeed) as positions among X, Y, Z.
+    pub plane: [Option<usize>; 3],
 }
 
 fn err_at(u: &Unit, i: usize, message: impl Into<String>) -> VmError {
@@ -143,6 +185,7 @@ impl<'m> Interp<'m> {
         }
         motion.frames.mark_initial();
         motion.frames.trans_is_correction = cfg.trans_is_correction;
+        motion.frames.geo = ["X", "Y", "Z"].map(|g| cfg.axes.iter().position(|a| a == g));
         Interp {
             cfg,
             machine,
@@ -159,30 +202,23 @@ impl<'m> Interp<'m> {
             time_min: 0.0,
             spindle: SpindleHistory::default(),
             passes: PassTracker::default(),
-            run: Run {
-                program: String::new(),
-                end: End::EndOfProgram,
-                blocks_executed: 0,
-                time_min: 0.0,
-                axes: cfg.axes.clone(),
-                passes: Vec::new(),
-                totals: Totals::default(),
-                measurements: Vec::new(),
-                corrections: Vec::new(),
-                alarms: Vec::new(),
-                messages: Vec::new(),
-                aux_functions: BTreeMap::new(),
-                files: BTreeMap::new(),
-                spindle: SpindleHistory::default(),
-                trace: Vec::new(),
-            },
+            run: Run::empty(cfg.axes.clone()),
             listings: HashMap::new(),
             loaded: HashMap::new(),
             archive_units: HashMap::new(),
+            ended: None,
+            done: Done::default(),
         }
     }
 
     pub(super) fn run(mut self, main: Unit) -> Result<Run, VmError> {
+        self.start(main)?;
+        while self.step()?.is_some() {}
+        Ok(self.finish())
+    }
+
+    /// Makes `main` the program to run.
+    pub(super) fn start(&mut self, main: Unit) -> Result<(), VmError> {
         self.run.program = main.name.to_string();
         let main = Rc::new(main);
         let (vars, _) = self
@@ -199,84 +235,165 @@ impl<'m> Interp<'m> {
             saved: None,
             write_back: Vec::new(),
         });
-        let limit = self.cfg.max_blocks + self.stack[0].unit.end as u64;
-        let end = loop {
-            let frame = self.stack.last().expect("a frame while running");
-            let (unit, pc) = (frame.unit.clone(), frame.pc);
-            if pc >= unit.end {
-                match self.ret() {
-                    Some(()) => continue,
-                    None => break End::EndOfProgram,
-                }
+        Ok(())
+    }
+
+    /// The block that runs next, after returning from subprograms that have run off their end; `None` once
+    /// the run has ended.
+    pub(super) fn peek(&mut self) -> Option<(Rc<Unit>, usize)> {
+        if self.ended.is_some() {
+            return None;
+        }
+        loop {
+            let frame = self.stack.last()?;
+            if frame.pc < frame.unit.end {
+                return Some((frame.unit.clone(), frame.pc));
             }
-            self.run.blocks_executed += 1;
-            if self.run.blocks_executed > limit {
-                return Err(err_at(
-                    &unit,
-                    pc,
-                    format!(
-                        "iteration limit reached: {limit} executed blocks ({} more than the program has; \
-                         endless loop?)",
-                        self.cfg.max_blocks
-                    ),
-                ));
+            if self.ret().is_none() {
+                self.ended = Some(End::EndOfProgram);
+                return None;
             }
-            let flow = self.block(&unit, pc).map_err(|e| err_at(&unit, pc, e))?;
-            self.trace(&unit, pc);
-            match flow {
-                Flow::Next => self.top().pc = self.next_block(pc),
-                Flow::Jump(to) => self.top().pc = to,
-                Flow::Call {
-                    unit: callee,
-                    args,
-                    refs,
-                    repeats,
-                } => {
-                    self.top().pc = pc + 1;
-                    let (vars, by_ref) = self
-                        .bind_params(&callee, &args)
-                        .map_err(|e| err_at(&unit, pc, e))?;
-                    let mut write_back = Vec::new();
-                    for (name, k) in by_ref {
-                        let target = refs.get(k).cloned().flatten().ok_or_else(|| {
-                            err_at(
-                                &unit,
-                                pc,
-                                format!("VAR parameter {name} needs a variable as argument"),
-                            )
-                        })?;
-                        write_back.push((name, target));
-                    }
-                    let saved = calls::proc_has_save(&callee).then(|| self.motion.save());
-                    self.stack.push(Frame {
-                        pc: callee.start,
-                        unit: callee,
-                        vars,
-                        for_ends: HashMap::new(),
-                        sections: Vec::new(),
-                        repeats_left: repeats.saturating_sub(1),
-                        args,
-                        saved,
-                        write_back,
-                    });
-                }
-                Flow::Return => {
-                    if self.ret().is_none() {
-                        break End::ProgramEnd { code: "M17".into() };
-                    }
-                }
-                Flow::End(end) => break end,
-            }
+        }
+    }
+
+    /// Executes the next block (the one [`Interp::peek`] names) and tells what it did; `None` once the run
+    /// has ended.
+    pub(super) fn step(&mut self) -> Result<Option<Done>, VmError> {
+        let Some((unit, pc)) = self.peek() else {
+            return Ok(None);
         };
+        self.run.blocks_executed += 1;
+        let limit = self.cfg.max_blocks + self.stack[0].unit.end as u64;
+        if self.run.blocks_executed > limit {
+            return Err(err_at(
+                &unit,
+                pc,
+                format!(
+                    "iteration limit reached: {limit} executed blocks ({} more than the program has; \
+                     endless loop?)",
+                    self.cfg.max_blocks
+                ),
+            ));
+        }
+        self.done = Done::default();
+        let flow = self.block(&unit, pc).map_err(|e| err_at(&unit, pc, e))?;
+        self.trace(&unit, pc);
+        match flow {
+            Flow::Next => self.top().pc = self.next_block(pc),
+            Flow::Jump(to) => self.top().pc = to,
+            Flow::Call {
+                unit: callee,
+                args,
+                refs,
+                repeats,
+            } => {
+                self.done.call = true;
+                self.top().pc = pc + 1;
+                let (vars, by_ref) = self
+                    .bind_params(&callee, &args)
+                    .map_err(|e| err_at(&unit, pc, e))?;
+                let mut write_back = Vec::new();
+                for (name, k) in by_ref {
+                    let target = refs.get(k).cloned().flatten().ok_or_else(|| {
+                        err_at(
+                            &unit,
+                            pc,
+                            format!("VAR parameter {name} needs a variable as argument"),
+                        )
+                    })?;
+                    write_back.push((name, target));
+                }
+                let saved = calls::proc_has_save(&callee).then(|| self.motion.save());
+                self.stack.push(Frame {
+                    pc: callee.start,
+                    unit: callee,
+                    vars,
+                    for_ends: HashMap::new(),
+                    sections: Vec::new(),
+                    repeats_left: repeats.saturating_sub(1),
+                    args,
+                    saved,
+                    write_back,
+                });
+            }
+            Flow::Return => {
+                if self.ret().is_none() {
+                    self.ended = Some(End::ProgramEnd { code: "M17".into() });
+                }
+            }
+            Flow::End(end) => self.ended = Some(end),
+        }
+        let mut done = std::mem::take(&mut self.done);
+        done.end = self.ended.clone();
+        Ok(Some(done))
+    }
+
+    /// The run's outcome (passes closed, the spindle stopped at the end).
+    pub(super) fn finish(mut self) -> Run {
         self.passes.end_segment();
         self.spindle.set(self.time_min, 0.0);
         let mut run = self.run;
-        run.end = end;
+        run.end = self.ended.unwrap_or(End::EndOfProgram);
         run.time_min = self.time_min;
         run.passes = self.passes.passes;
         run.totals = Totals::of(&run.passes);
         run.spindle = self.spindle;
-        Ok(run)
+        run
+    }
+
+    /// A copy of this run at this point that carries on against `machine`, as if the program had been run
+    /// on it from the start: to follow a branch (an abort) the run itself does not take. Its report starts
+    /// empty and its spindle schedule holds only the present speed.
+    pub(super) fn fork<'f>(&self, machine: &'f mut dyn Machine) -> Interp<'f>
+    where
+        'm: 'f,
+    {
+        let mut spindle = SpindleHistory::default();
+        spindle.set(self.time_min, self.motion.spindle_rpm());
+        Interp {
+            cfg: self.cfg,
+            machine,
+            r: self.r.clone(),
+            globals: self.globals.clone(),
+            stack: self.stack.clone(),
+            motion: self.motion.clone(),
+            time_min: self.time_min,
+            spindle,
+            passes: PassTracker::default(),
+            run: Run {
+                program: self.run.program.clone(),
+                blocks_executed: self.run.blocks_executed,
+                ..Run::empty(self.cfg.axes.clone())
+            },
+            listings: self.listings.clone(),
+            loaded: self.loaded.clone(),
+            archive_units: self.archive_units.clone(),
+            ended: self.ended.clone(),
+            done: Done::default(),
+        }
+    }
+
+    /// What the run has recorded so far (measurements, corrections, alarms, blocks executed).
+    pub(super) fn report(&self) -> &Run {
+        &self.run
+    }
+
+    /// How the run ended, once it has.
+    pub(super) fn ended(&self) -> Option<&End> {
+        self.ended.as_ref()
+    }
+
+    /// The machine's drift along `axis` now (µm).
+    pub(super) fn drift_now(&mut self, axis: &str) -> f64 {
+        self.machine.drift_um(axis, self.time_min, &self.spindle)
+    }
+
+    /// Whether block `i` of `u` calls one of the configured probe cycles.
+    pub(super) fn calls_probe(&self, u: &Unit, i: usize) -> bool {
+        u.root(i)
+            .significant()
+            .filter(|n| n.kind == NodeKind::Call)
+            .any(|n| self.cfg.probe_cycles.contains(&u.upper(&n.children[0])))
     }
 
     /// The block after `pc`, or the start of the next pass of a repeated section that ends at `pc`.
@@ -363,7 +480,7 @@ impl<'m> Interp<'m> {
         self.run.trace.push(TraceRow {
             file: u.name.clone(),
             line: i + 1,
-            block_number: u.numbers[i],
+            block_number: u.number(i),
             time_min: self.time_min,
             spindle_rpm: self.motion.spindle_rpm(),
             programmed: self.motion.local.clone(),

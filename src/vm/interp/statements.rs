@@ -50,7 +50,7 @@ impl Interp<'_> {
     pub(super) fn word(&mut self, u: &Unit, node: &Node, w: &mut Words) -> Result<(), String> {
         let (address, number) = node.address_and_number().ok_or("malformed word")?;
         let letter = u.upper(address);
-        let value = crate::vm::eval::parse_number(&u.upper(number))?;
+        let value = crate::vm::eval::parse_number(&String::from_utf8_lossy(u.text(number)))?;
         let whole = || {
             if value >= 0.0 && value.fract() == 0.0 {
                 Ok(value as u32)
@@ -63,7 +63,7 @@ impl Interp<'_> {
             "M" => w.m.push(whole()?),
             "F" => w.feed = Some(value),
             "S" => w.s = Some(value),
-            "T" => w.tool = Some(value),
+            "T" => w.tool = Some(Tool::Number(value)),
             "D" => w.d = Some(value),
             "L" => w.call = Some((format!("L{}", whole()?), Vec::new(), Vec::new())),
             "P" => w.repeat = Some(whole()?),
@@ -119,11 +119,11 @@ impl Interp<'_> {
             "CR" => w.cr = Some(self.num(u, value)?),
             "T" => {
                 w.tool = Some(match self.eval(u, value)? {
-                    Value::Num(n) => n,
-                    // A tool named by string: the dry run knows no tool table, only that one was selected.
-                    Value::Str(_) => 0.0,
+                    Value::Num(n) => Tool::Number(n),
+                    Value::Str(name) => Tool::Name(name.into()),
                 })
             }
+            "RPL" => w.rpl = Some(self.num(u, value)?),
             "I" | "J" | "K" => w.centre[ijk(name)] = Some(self.centre_value(u, value)?),
             "M" => w.m.push(self.num(u, value)? as u32),
             "G" => {

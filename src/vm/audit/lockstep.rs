@@ -1,0 +1,662 @@
+//! The two runs side by side: the transformed run executes its inserted blocks (checked as they go), then
+//! both execute the same original block; the states are compared where the original resumes and at the end.
+
+use std::rc::Rc;
+
+use super::state::{self, Correction, Difference};
+use super::{Audit, AuditSettings, Finding, Kind, aborts, geometry};
+use crate::vm::VmError;
+use crate::vm::config::Config;
+use crate::vm::interp::{Done, Interp, Movement};
+use crate::vm::motion::{SPLINE, Tool};
+use crate::vm::report::End;
+use crate::vm::unit::{Source, Unit};
+
+/// Which blocks of the transformed program were inserted, and which original block each other one is.
+pub(super) struct Lines {
+    /// 0-based inserted blocks, ascending.
+    inserted: Vec<usize>,
+    /// The transformed program's own file.
+    main: Rc<Source>,
+}
+
+/// A block as both runs can name it: a block of the original program (by its index there) or of a
+/// subprogram file (by file and index), or a block driftloop inserted.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) enum Key {
+    Inserted,
+    Main(usize),
+    Other(Rc<str>, usize),
+}
+
+impl Lines {
+    pub(super) fn key(&self, unit: &Unit, block: usize) -> Key {
+        if !Rc::ptr_eq(&unit.source, &self.main) {
+            return Key::Other(unit.source.file.clone(), block);
+        }
+        match self.inserted.binary_search(&block) {
+            Ok(_) => Key::Inserted,
+            Err(before) => Key::Main(block - before),
+        }
+    }
+}
+
+fn original_key(main: &Rc<Source>, unit: &Unit, block: usize) -> Key {
+    if Rc::ptr_eq(&unit.source, main) {
+        Key::Main(block)
+    } else {
+        Key::Other(unit.source.file.clone(), block)
+    }
+}
+
+/// Where a finding points: the transformed program's line (or a subprogram's) and the original line.
+#[derive(Debug, Clone)]
+pub(super) struct At {
+    pub line: usize,
+    pub file: Option<String>,
+    pub original_line: Option<usize>,
+}
+
+impl At {
+    pub(super) fn of(lines: &Lines, unit: &Unit, block: usize) -> At {
+        let main = Rc::ptr_eq(&unit.source, &lines.main);
+        At {
+            line: block + 1,
+            file: (!main).then(|| unit.name.to_string()),
+            original_line: match lines.key(unit, block) {
+                Key::Main(i) => Some(i + 1),
+                Key::Other(_, i) => Some(i + 1),
+                Key::Inserted => None,
+            },
+        }
+    }
+
+    pub(super) fn finding(&self, kind: Kind, message: String) -> Finding {
+        Finding {
+            kind,
+            line: self.line,
+            message,
+            original_line: self.original_line,
+            file: self.file.clone(),
+            times: 1,
+        }
+    }
+}
+
+/// What the checks remember from block to block of the transformed run.
+#[derive(Default)]
+struct Watch {
+    /// Line of the probe call the tool is still at (no move since).
+    at_probe: Option<usize>,
+    /// The last move was a feed move of the original that did not leave the contour upwards.
+    in_contour: bool,
+    /// An inserted STOPRE executed inside a continuous-path contour, waiting for the next original move.
+    stopre: Option<At>,
+    /// The probe point was found in the machined volume (reported once).
+    machined: bool,
+}
+
+pub(super) fn run(
+    original: Vec<u8>,
+    transformed: Vec<u8>,
+    settings: &AuditSettings,
+    cfg: &Config,
+) -> Result<Audit, VmError> {
+    let mut audit = Audit::default();
+    let found = crate::strip::inserted(&transformed);
+    if let Some(finding) = changed_line(&transformed, &found, &original) {
+        audit.add(finding);
+        return Ok(audit);
+    }
+    let t_unit = Unit::new(
+        settings.transformed_name.clone(),
+        None,
+        crate::parse_owned(transformed),
+    );
+    let o_unit = Unit::new(
+        settings.original_name.clone(),
+        None,
+        crate::parse_owned(original),
+    );
+    let lines = Lines {
+        inserted: found.lines,
+        main: t_unit.source.clone(),
+    };
+    let o_main = o_unit.source.clone();
+    let (mut t_machine, mut o_machine) = (
+        settings.machine.build(settings.seed),
+        settings.machine.build(settings.seed),
+    );
+    let mut t = Interp::new(cfg, &mut t_machine);
+    let mut o = Interp::new(cfg, &mut o_machine);
+    t.start(t_unit)?;
+    o.start(o_unit)?;
+    let mut runner = Runner {
+        settings,
+        lines,
+        o_main,
+        audit,
+        watch: Watch::default(),
+        last: None,
+        pending: None,
+    };
+    runner.lockstep(&mut t, &mut o)?;
+    let mut audit = runner.audit;
+    audit.transformed_blocks = t.report().blocks_executed;
+    audit.original_blocks = o.report().blocks_executed;
+    Ok(audit)
+}
+
+/// The first line where the transformed program without its inserted lines differs from the original,
+/// compared without building that program.
+fn changed_line(
+    transformed: &[u8],
+    found: &crate::strip::Inserted,
+    original: &[u8],
+) -> Option<Finding> {
+    let mut pos = 0;
+    let mut differs_at = None;
+    for run in crate::strip::kept(transformed, found) {
+        let part = &transformed[run];
+        let theirs = &original[pos.min(original.len())..];
+        if !theirs.starts_with(part) {
+            differs_at = Some(pos + part.iter().zip(theirs).take_while(|(a, b)| a == b).count());
+            break;
+        }
+        pos += part.len();
+    }
+    if differs_at.is_none() && pos != original.len() {
+        differs_at = Some(pos);
+    }
+    let at = differs_at?;
+    let k = crate::source::raw_lines(original)
+        .take_while(|l| l.end <= at)
+        .count();
+    // The transformed line of original line k: each inserted line at or before it moves it down one.
+    let mut line = k;
+    for &r in &found.lines {
+        if r > line {
+            break;
+        }
+        line += 1;
+    }
+    Some(Finding {
+        kind: Kind::OriginalChanged,
+        line: line + 1,
+        message: format!(
+            "without its ;DL lines the transformed program differs from the original at original line {}: a \
+             transform may only insert lines; nothing else was compared",
+            k + 1
+        ),
+        original_line: Some(k + 1),
+        file: None,
+        times: 1,
+    })
+}
+
+pub(super) struct Runner<'a> {
+    pub settings: &'a AuditSettings,
+    pub lines: Lines,
+    o_main: Rc<Source>,
+    pub audit: Audit,
+    watch: Watch,
+    /// The transformed run's last executed block, and whether it was an inserted one.
+    last: Option<(At, bool)>,
+    /// A resume point whose comparison waits for the first original block that acts.
+    pending: Option<At>,
+}
+
+impl Runner<'_> {
+    pub(super) fn add(&mut self, finding: Finding) {
+        self.audit.add(finding);
+    }
+
+    fn lockstep(&mut self, t: &mut Interp<'_>, o: &mut Interp<'_>) -> Result<(), VmError> {
+        loop {
+            let resumed = self.inserted_run(t, o)?;
+            let t_next = t.peek();
+            let o_next = o.peek();
+            let (t_unit, t_block) = match (t_next, o_next) {
+                (None, None) => {
+                    self.close_pending(t, o);
+                    self.at_end(t, o);
+                    return Ok(());
+                }
+                (None, Some((ou, ob))) => {
+                    self.close_pending(t, o);
+                    self.ended_early(&ou, ob);
+                    return Ok(());
+                }
+                (Some((tu, tb)), None) => {
+                    let at = At::of(&self.lines, &tu, tb);
+                    self.add(at.finding(
+                        Kind::FlowChanged,
+                        format!(
+                            "the transformed program runs on here while the original has ended ({})",
+                            describe_end(o.ended())
+                        ),
+                    ));
+                    return Ok(());
+                }
+                (Some((tu, tb)), Some((ou, ob))) => {
+                    let (tk, ok) = (self.lines.key(&tu, tb), original_key(&self.o_main, &ou, ob));
+                    if tk != ok {
+                        let at = At::of(&self.lines, &tu, tb);
+                        self.add(at.finding(
+                            Kind::FlowChanged,
+                            format!(
+                                "the transformed program runs {} next where the original runs {}: the inserted \
+                                 blocks changed the flow of the original's blocks; nothing after this was compared",
+                                describe_key(&tk),
+                                describe_key(&ok)
+                            ),
+                        ));
+                        return Ok(());
+                    }
+                    (tu, tb)
+                }
+            };
+            let at = At::of(&self.lines, &t_unit, t_block);
+            if resumed {
+                self.audit.resume_points += 1;
+                self.pending = Some(at.clone());
+            }
+            let before = self.pending.is_some().then(|| self.differences(t, o));
+            let t_step = t.step()?.expect("peeked");
+            let o_step = o.step()?.expect("peeked");
+            // A tool change takes both machines to the change position, wherever each stood before: from
+            // here on their positions are the same again (the virtual machine's M6 does not move).
+            if t_step.tool_change && o_step.tool_change {
+                t.motion.local.clone_from(&o.motion.local);
+                t.motion.machine.clone_from(&o.motion.machine);
+            }
+            if let Some(before) = before
+                && (acts(&t_step) || acts(&o_step))
+            {
+                let after = self.differences(t, o);
+                let resume = self.pending.take().expect("pending");
+                self.report_resume(&resume, before, &after, Some(&t_step));
+            }
+            self.original_step(&at, &t_step, &o_step, o);
+            self.last = Some((at, false));
+        }
+    }
+
+    /// Runs the transformed program's inserted blocks up to the next original block; `true` if it ran any.
+    fn inserted_run(&mut self, t: &mut Interp<'_>, o: &Interp<'_>) -> Result<bool, VmError> {
+        let mut ran = false;
+        let mut forked = false;
+        while let Some((unit, block)) = t.peek() {
+            if self.lines.key(&unit, block) != Key::Inserted {
+                break;
+            }
+            if !ran {
+                self.close_pending(t, o);
+            }
+            ran = true;
+            let at = At::of(&self.lines, &unit, block);
+            if !forked && t.calls_probe(&unit, block) {
+                forked = true;
+                aborts::follow(self, t, o)?;
+            }
+            let corrections = t.report().corrections.len();
+            let trans = t.motion.frames.trans.clone();
+            let step = t.step()?.expect("peeked");
+            let wrote_offset =
+                t.report().corrections.len() > corrections || t.motion.frames.trans != trans;
+            self.inserted_step(&at, &step, t, o, wrote_offset);
+            self.last = Some((at, true));
+        }
+        Ok(ran)
+    }
+
+    /// Checks one executed inserted block.
+    fn inserted_step(
+        &mut self,
+        at: &At,
+        step: &Done,
+        t: &Interp<'_>,
+        o: &Interp<'_>,
+        wrote_offset: bool,
+    ) {
+        let done = step;
+        if let Some(m) = &done.movement {
+            self.inserted_move(at, m);
+            self.watch.in_contour = false;
+            self.watch.stopre = None;
+        }
+        if done.tool_change {
+            self.watch.in_contour = false;
+        }
+        let what = match (done.probe, done.stopre, wrote_offset) {
+            (true, _, _) => Some("the probe cycle call"),
+            (_, true, _) => Some("STOPRE"),
+            (_, _, true) => Some("the work-offset write"),
+            _ => None,
+        };
+        if let Some(what) = what {
+            let active = state::transforms_active(&t.motion);
+            if !active.is_empty() {
+                self.add(at.finding(
+                    Kind::MeasureUnderTransform,
+                    format!("{what} runs while {} is active", active.join(", ")),
+                ));
+            }
+        }
+        if done.stopre && self.watch.in_contour && is_continuous(o.motion.modal.path) {
+            self.watch.stopre = Some(at.clone());
+        }
+        if done.probe {
+            self.watch.at_probe = Some(at.line);
+        }
+        if done.stop.is_some() || done.end.is_some() {
+            self.offset_on_stop(at, step, t, o);
+        }
+    }
+
+    /// Travel across the tool axis below the clearance height, and the move out of the probe point.
+    fn inserted_move(&mut self, at: &At, m: &Movement) {
+        let s = self.settings;
+        let r = s.retract_axis;
+        let low = m.from[r].min(m.to[r]);
+        if geometry::moves_across(m, r) && low < s.clearance - geometry::EPS {
+            let across: Vec<usize> = (0..3).filter(|&k| k != r).collect();
+            let point = |p: [f64; 3]| {
+                across
+                    .iter()
+                    .map(|&k| format!("{}{}", AXES[k], num(p[k])))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            };
+            self.add(at.finding(
+                Kind::XyBelowClearance,
+                format!(
+                    "travel from {} to {} at {}{} below the clearance height {}{} ([position] clearance)",
+                    point(m.from),
+                    point(m.to),
+                    AXES[r],
+                    num(low),
+                    AXES[r],
+                    num(s.clearance)
+                ),
+            ));
+        }
+        if let Some(probe_line) = self.watch.at_probe.take()
+            && !geometry::straight_up(m, r)
+        {
+            let point = |p: [f64; 3]| format!("X{} Y{} Z{}", num(p[0]), num(p[1]), num(p[2]));
+            self.add(at.finding(
+                Kind::XyBelowClearance,
+                format!(
+                    "the move out of the probe point (probe call at line {probe_line}) is not straight up the \
+                     tool axis {}: from {} to {}",
+                    AXES[r],
+                    point(m.from),
+                    point(m.to)
+                ),
+            ));
+        }
+    }
+
+    /// An inserted stop or alarm: the persistent corrected offset must be back where the original has it.
+    pub(super) fn offset_on_stop(&mut self, at: &At, step: &Done, t: &Interp<'_>, o: &Interp<'_>) {
+        let Some(entry) =
+            state::persistent_difference(&t.motion.frames, &o.motion.frames, &t.cfg.axes)
+        else {
+            return;
+        };
+        let what = match (&step.end, step.stop) {
+            (Some(End::Alarm { number }), _) => format!("alarm {number} stops the program"),
+            (_, Some(m)) => format!("M{m} stops the program"),
+            (Some(_), None) => "the program ends".to_string(),
+            (None, None) => return,
+        };
+        self.add(at.finding(
+            Kind::OffsetLeftOnAbort,
+            format!("{what} {}", describe_entry(&entry)),
+        ));
+    }
+
+    /// Tool state, modal state and positions of the two runs, item by item.
+    fn differences(&self, t: &Interp<'_>, o: &Interp<'_>) -> [Vec<Difference>; 3] {
+        let axes = &t.cfg.axes;
+        let (ts, os) = (&t.motion, &o.motion);
+        [
+            state::tools(ts, os),
+            state::modal(ts, os, self.settings, axes),
+            state::positions(ts, os, axes),
+        ]
+    }
+
+    /// A resume point whose original blocks did nothing before the next inserted ones or the end: its
+    /// differences are reported as they are.
+    fn close_pending(&mut self, t: &Interp<'_>, o: &Interp<'_>) {
+        if let Some(resume) = self.pending.take() {
+            let now = self.differences(t, o);
+            self.report_resume(&resume, now.clone(), &now, None);
+        }
+    }
+
+    /// Reports the differences where the original resumes, judged at the first original block after it
+    /// that acts (moves, calls, changes the tool, stops): `before` and `after` that block. A tool or modal
+    /// item the block sets itself before it can matter (a tool change, a G code, F or S of its own) differs
+    /// before but not after: it is no hazard. A position difference is none when the block is a rapid that
+    /// ends where the original's does and travels across the tool axis (if at all) at or above the clearance
+    /// height — the way back the design allows — or a tool change, whose macro goes to the change position.
+    fn report_resume(
+        &mut self,
+        at: &At,
+        before: [Vec<Difference>; 3],
+        after: &[Vec<Difference>; 3],
+        t_step: Option<&Done>,
+    ) {
+        let [tools, modal, positions] = before;
+        for (kind, before, after) in [
+            (Kind::ToolState, tools, &after[0]),
+            (Kind::ModalNotRestored, modal, &after[1]),
+        ] {
+            let lasting: Vec<String> = before
+                .into_iter()
+                .filter(|d| after.iter().any(|a| a.what == d.what))
+                .map(|d| d.text)
+                .collect();
+            if !lasting.is_empty() {
+                self.add(at.finding(
+                    kind,
+                    format!("where the original resumes: {}", lasting.join("; ")),
+                ));
+            }
+        }
+        let (r, clearance) = (self.settings.retract_axis, self.settings.clearance);
+        let rapid_back = after[2].is_empty()
+            && t_step.and_then(|d| d.movement.as_ref()).is_some_and(|m| {
+                m.motion == 0
+                    && (!geometry::moves_across(m, r)
+                        || m.from[r].min(m.to[r]) >= clearance - geometry::EPS)
+            });
+        // A tool change takes the machine to the change position, wherever it stood.
+        let way_back = rapid_back || t_step.is_some_and(|d| d.tool_change);
+        if !positions.is_empty() && !way_back {
+            let texts: Vec<String> = positions.into_iter().map(|d| d.text).collect();
+            self.add(at.finding(
+                Kind::PositionNotRestored,
+                format!("where the original resumes: {}", texts.join("; ")),
+            ));
+        }
+    }
+
+    /// Checks on a block both runs executed: the probe point against the original's cutting moves, and a
+    /// STOPRE waiting for the next move of the contour.
+    fn original_step(&mut self, at: &At, t_step: &Done, o_step: &Done, o: &Interp<'_>) {
+        if let Some(m) = &t_step.movement {
+            let feed = is_feed(m.motion);
+            if let Some(stopre) = self.watch.stopre.take()
+                && feed
+            {
+                self.add(stopre.finding(
+                    Kind::StopreInContour,
+                    format!(
+                        "STOPRE stops the path between two feed moves of a continuous-path contour (G{}): the \
+                         tool dwells on the contour until line {} moves on",
+                        o.motion.modal.path, at.line
+                    ),
+                ));
+            }
+            self.watch.in_contour = feed && !geometry::straight_up(m, self.settings.retract_axis);
+            self.watch.at_probe = None;
+        }
+        if t_step.tool_change {
+            self.watch.in_contour = false;
+            self.watch.stopre = None;
+        }
+        let s = self.settings;
+        let (Some(m), Some(point)) = (&o_step.movement, s.probe_point) else {
+            return;
+        };
+        if self.watch.machined || !is_feed(m.motion) || o.motion.spindle_rpm() <= 0.0 {
+            return;
+        }
+        // A point on the machine table, in the work coordinates the original cuts in at this move.
+        let frames = &o.motion.frames;
+        let work = if s.probe_point_in_machine {
+            std::array::from_fn(|k| point[k] - frames.geo[k].map_or(0.0, |a| frames.offset(a)))
+        } else {
+            point
+        };
+        if geometry::touches(m, work, s.axis, s.probe_margin_mm) {
+            self.watch.machined = true;
+            let (i, j) = geometry::plane_of(s.axis);
+            let names = ["x", "y", "z"];
+            self.add(at.finding(
+                Kind::ProbeInMachinedVolume,
+                format!(
+                    "this cutting move passes within {} mm of the probe point ({}{} {}{} at {}{}{}): the probe \
+                     would touch machined material; move it with [position] {}, {} in the profile",
+                    num(s.probe_margin_mm),
+                    AXES[i],
+                    num(point[i]),
+                    AXES[j],
+                    num(point[j]),
+                    AXES[s.axis],
+                    num(point[s.axis]),
+                    if s.probe_point_in_machine {
+                        ", machine coordinates"
+                    } else {
+                        ""
+                    },
+                    names[i],
+                    names[j]
+                ),
+            ));
+        }
+    }
+
+    /// Both programs ended: the tool in the spindle and the persistent offset.
+    fn at_end(&mut self, t: &Interp<'_>, o: &Interp<'_>) {
+        let (ts, os) = (&t.motion, &o.motion);
+        let Some((at, _)) = self.last.clone() else {
+            return;
+        };
+        if ts.tool != os.tool {
+            let probe = match (&ts.tool, &self.settings.probe_tool) {
+                (Some(Tool::Name(name)), Some(probe)) => **name == **probe,
+                _ => false,
+            };
+            self.add(at.finding(
+                Kind::ToolState,
+                format!(
+                    "at the end {} is in the spindle{}, the original leaves {}",
+                    state::tool_text(&ts.tool),
+                    if probe { " (the probe)" } else { "" },
+                    state::tool_text(&os.tool)
+                ),
+            ));
+        }
+        if let Some(entry) = state::persistent_difference(&ts.frames, &os.frames, &t.cfg.axes) {
+            self.add(at.finding(
+                Kind::OffsetLeftOnAbort,
+                format!("the program ends {}", describe_entry(&entry)),
+            ));
+        }
+    }
+
+    /// The transformed run ended while the original goes on: an abort in inserted blocks (the machine's
+    /// probe values led to one), or a flow change.
+    fn ended_early(&mut self, o_unit: &Unit, o_block: usize) {
+        let Some((at, inserted)) = self.last.clone() else {
+            return;
+        };
+        let continues = format!(
+            "{}line {}",
+            if Rc::ptr_eq(&o_unit.source, &self.o_main) {
+                String::new()
+            } else {
+                format!("{} ", o_unit.name)
+            },
+            o_block + 1
+        );
+        if inserted {
+            self.audit.stopped = Some(format!(
+                "line {} (inserted) ended the transformed program on this machine's probe values; the \
+                 original from {continues} on was not compared",
+                at.line
+            ));
+        } else {
+            self.add(at.finding(
+                Kind::FlowChanged,
+                format!(
+                    "the transformed program ended here while the original goes on at {continues}"
+                ),
+            ));
+        }
+    }
+}
+
+/// Whether a block does something the control state matters for.
+fn acts(d: &Done) -> bool {
+    d.movement.is_some()
+        || d.call
+        || d.tool_change
+        || d.probe
+        || d.stop.is_some()
+        || d.end.is_some()
+}
+
+const AXES: [&str; 3] = ["X", "Y", "Z"];
+
+fn is_feed(motion: u32) -> bool {
+    matches!(motion, 1..=3 | SPLINE)
+}
+
+fn is_continuous(path: u32) -> bool {
+    matches!(path, 64 | 641..=645)
+}
+
+pub(super) fn num(v: f64) -> String {
+    crate::omm::nc::number(v)
+}
+
+fn describe_key(key: &Key) -> String {
+    match key {
+        Key::Inserted => "an inserted block".into(),
+        Key::Main(i) => format!("original line {}", i + 1),
+        Key::Other(file, i) => format!("{file} line {}", i + 1),
+    }
+}
+
+fn describe_end(end: Option<&End>) -> String {
+    match end {
+        Some(End::ProgramEnd { code }) => code.clone(),
+        Some(End::Alarm { number }) => format!("alarm {number}"),
+        Some(End::EndOfProgram) | None => "end of text".into(),
+    }
+}
+
+fn describe_entry(c: &Correction) -> String {
+    format!(
+        "with {} = {} mm where the original has {} mm: the work offset stays shifted",
+        c.name(),
+        num(c.transformed),
+        num(c.original)
+    )
+}

@@ -1,0 +1,292 @@
+//! The safety audit: runs the original and the transformed program side by side on the virtual machine and
+//! reports where the blocks driftloop inserted (the lines ending in `;DL`) break the rule of design.md §6 —
+//! where the original program resumes, the control is in the state the original alone would have there.
+//!
+//! The two runs go in lockstep: the transformed run executes its inserted blocks, then both runs execute the
+//! same original block; the state is compared at each resume point (the first original block after inserted
+//! ones) and at the end. Memory does not grow with the program's length: only the two interpreters' states
+//! and the findings are kept. The abort paths the clean run does not take are followed on a copy of the
+//! transformed run, with a probe that returns NaN, a value orders of magnitude off, and a scrap-size drift.
+//!
+//! ```
+//! use driftloop::omm::Profile;
+//! use driftloop::vm::Config;
+//! use driftloop::vm::audit::{AuditSettings, Kind, audit};
+//! let original = b"T1 M6\nS1000 M3 M8\nG0 X50 Y50 Z5\nG1 Z-1 F100\nG1 X80\nG0 Z50\nM30\n";
+//! // An inserted block switches the coolant off and nothing switches it on again.
+//! let transformed = b"; driftloop-omm ;DL\nT1 M6\nS1000 M3 M8\nM9 ;DL\nG0 X50 Y50 Z5\nG1 Z-1 F100\nG1 X80\nG0 Z50\nM30\n";
+//! let settings = AuditSettings::from_profile(&Profile::default_profile());
+//! let found = audit(original, transformed, &settings, &Config::default()).unwrap();
+//! assert_eq!(found.findings[0].kind, Kind::ModalNotRestored);
+//! assert_eq!(found.findings[0].line, 5);
+//! ```
+
+mod aborts;
+mod geometry;
+mod lockstep;
+mod report;
+mod state;
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use serde::Serialize;
+
+use super::VmError;
+use super::config::{Config, MachineSpec, ProbeTarget};
+use super::truth::ModelDrift;
+use crate::model::DriftModel;
+use crate::omm::Profile;
+use crate::omm::profile::{MeasureFrame, OffsetMethod, ProbeKind, ToolChange};
+
+/// What the audit needs to know about the inserted blocks' intent, from the machine profile.
+#[derive(Debug, Clone)]
+pub struct AuditSettings {
+    /// `position.clearance` on `position.retract_axis` (0, 1, 2 for X, Y, Z): inside inserted blocks, travel
+    /// across that axis happens at or above it (work coordinates, mm).
+    pub clearance: f64,
+    pub retract_axis: usize,
+    /// `probe.tool`: the probe's tool name (`T="NAME"`), for a probe loaded into the spindle.
+    pub probe_tool: Option<String>,
+    /// `position.x`, `.y`, `.z` with the nominal on the measured axis: the point the probe touches (mm); `None`
+    /// for an in-process gauge, which does not move to a point.
+    pub probe_point: Option<[f64; 3]>,
+    /// The probe point is in machine coordinates (`position.frame = "machine"`: a reference on the table).
+    pub probe_point_in_machine: bool,
+    /// `position.nominal` and `position.diameter`: what the cycle reports when nothing drifts, and whether it
+    /// reports a diameter (twice the drift).
+    pub nominal: f64,
+    pub diameter: bool,
+    /// `position.axis`: 0, 1, 2 for X, Y, Z.
+    pub axis: usize,
+    /// `offset.method` and `offset.frame`: the entry the correction writes, the one difference allowed.
+    pub method: OffsetMethod,
+    pub frame: usize,
+    /// The probe cycle's upper-cased name and where it leaves its result.
+    pub probe_cycle: String,
+    pub probe_result: Option<ProbeTarget>,
+    /// `probe.tool_change = "t"`: T loads the tool at once (no M6).
+    pub tool_change_on_t: bool,
+    /// `limits.tolerance_um`, `limits.plausibility_um`: the scrap-size drift of the abort runs lies between.
+    pub tolerance_um: f64,
+    pub plausibility_um: f64,
+    /// A cutting move of the original closer than this (mm, across the measured axis) to the probe point
+    /// touches it.
+    pub probe_margin_mm: f64,
+    /// The machine both programs run on (drift, probe noise and faults); the default does not drift.
+    pub machine: MachineSpec,
+    pub seed: u64,
+    /// Names in messages and the folder subprograms are looked up in first.
+    pub original_name: String,
+    pub transformed_name: String,
+    pub dir: Option<PathBuf>,
+}
+
+/// `--probe-margin` default (mm).
+pub const DEFAULT_PROBE_MARGIN_MM: f64 = 5.0;
+
+impl AuditSettings {
+    pub fn from_profile(profile: &Profile) -> AuditSettings {
+        let p = &profile.position;
+        let axis = p.axis.number() as usize - 1;
+        let mut point = [p.x, p.y, p.z];
+        point[axis] = p.nominal;
+        let call = profile.cycle_call();
+        let cycle = call.split('(').next().unwrap_or(&call).trim();
+        let probe = &profile.probe;
+        AuditSettings {
+            clearance: p.clearance,
+            retract_axis: p.retract_axis.number() as usize - 1,
+            probe_tool: (probe.kind == ProbeKind::SpindleProbe && !probe.tool.is_empty())
+                .then(|| probe.tool.clone()),
+            probe_point: (probe.kind != ProbeKind::Gauge).then_some(point),
+            probe_point_in_machine: p.frame == MeasureFrame::Machine,
+            nominal: p.nominal,
+            diameter: p.diameter,
+            axis,
+            method: profile.offset.method,
+            frame: profile.offset.frame as usize,
+            probe_cycle: cycle.to_ascii_uppercase(),
+            probe_result: ProbeTarget::parse(&probe.result),
+            tool_change_on_t: probe.tool_change == ToolChange::T,
+            tolerance_um: profile.limits.tolerance_um,
+            plausibility_um: profile.limits.plausibility_um,
+            probe_margin_mm: DEFAULT_PROBE_MARGIN_MM,
+            machine: MachineSpec::default(),
+            seed: 1,
+            original_name: "original".into(),
+            transformed_name: "transformed".into(),
+            dir: None,
+        }
+    }
+
+    /// The machine drifts along the measured axis as `model` predicts for the program's own spindle
+    /// schedule, so the probe sees what the program's predictions expect and the clean run does not abort
+    /// as scrap. A model that takes other inputs (ambient temperature, sensors) needs their signals: give a
+    /// machine file instead.
+    pub fn drifting_as(mut self, model: &DriftModel) -> Result<AuditSettings, String> {
+        let truth = ModelDrift::new(model.clone(), 1.0, &BTreeMap::new())?;
+        let axis = ["X", "Y", "Z"][self.axis].to_string();
+        self.machine.models.insert(axis, truth);
+        Ok(self)
+    }
+
+    /// The interpreter settings for both runs: `cfg` with the profile's probe cycle, result, probed surface
+    /// (the nominal) and tool change, no trace and no passes.
+    pub fn vm_config(&self, cfg: &Config) -> Config {
+        let mut cfg = cfg.clone();
+        cfg.trace = false;
+        cfg.passes = false;
+        if !cfg.probe_cycles.contains(&self.probe_cycle) {
+            cfg.probe_cycles.push(self.probe_cycle.clone());
+        }
+        if let Some(target) = &self.probe_result {
+            cfg.probe_result = target.clone();
+        }
+        let axis = ["X", "Y", "Z"][self.axis];
+        cfg.probe_axis = axis.to_string();
+        cfg.tool_change_on_t = self.tool_change_on_t;
+        // The probed surface where the profile says it is: the nominal, in machine coordinates or in those of
+        // the corrected work offset as it stands at the start.
+        cfg.probe_machine_frame = self.probe_point_in_machine;
+        cfg.probe_diameter = self.diameter;
+        let start_offset: f64 = cfg
+            .offsets
+            .iter()
+            .filter(|(frame, a, _)| *frame == self.frame && a == axis)
+            .map(|o| o.2)
+            .sum();
+        cfg.probe_surface_mm = if self.probe_point_in_machine {
+            self.nominal
+        } else {
+            self.nominal + start_offset
+        };
+        cfg.subprogram_dirs.splice(0..0, self.dir.iter().cloned());
+        cfg
+    }
+}
+
+/// What a finding is about. The names (kebab-case) are stable: scripts and the transform key on them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Kind {
+    /// Travel across the tool axis in inserted blocks below the clearance height (X/Y below Z on a milling
+    /// machine), or a move out of the probe point that is not straight up the tool axis.
+    XyBelowClearance,
+    /// Spindle tool, preselected tool or D number differ where the original resumes; a tool other than the
+    /// original's in the spindle at the end.
+    ToolState,
+    /// Probing, STOPRE or a work-offset write under a rotation/scale/mirror frame, a swivel, a kinematic
+    /// transformation or cutter radius compensation.
+    MeasureUnderTransform,
+    /// Modal state differs where the original resumes (beyond the one corrected offset entry).
+    ModalNotRestored,
+    /// The programmed position of an axis the original has programmed differs where it resumes.
+    PositionNotRestored,
+    /// STOPRE inserted between two feed moves of a continuous-path contour.
+    StopreInContour,
+    /// The corrected persistent work offset is not back at its value when an inserted stop or alarm ends the
+    /// program, or at the end.
+    OffsetLeftOnAbort,
+    /// A probe value that is NaN or orders of magnitude off reaches the work offset: the abort path the
+    /// plausibility check should take is not taken.
+    FaultReachesOffset,
+    /// The original's cutting moves pass the probe point: the probe would touch machined material.
+    ProbeInMachinedVolume,
+    /// The original's blocks run in another order in the transformed program.
+    FlowChanged,
+    /// A line of the original is not in the transformed program as it was.
+    OriginalChanged,
+}
+
+impl Kind {
+    pub fn name(self) -> &'static str {
+        match self {
+            Kind::XyBelowClearance => "xy-below-clearance",
+            Kind::ToolState => "tool-state",
+            Kind::MeasureUnderTransform => "measure-under-transform",
+            Kind::ModalNotRestored => "modal-not-restored",
+            Kind::PositionNotRestored => "position-not-restored",
+            Kind::StopreInContour => "stopre-in-contour",
+            Kind::OffsetLeftOnAbort => "offset-left-on-abort",
+            Kind::FaultReachesOffset => "fault-reaches-offset",
+            Kind::ProbeInMachinedVolume => "probe-in-machined-volume",
+            Kind::FlowChanged => "flow-changed",
+            Kind::OriginalChanged => "original-changed",
+        }
+    }
+}
+
+/// One hazard, at a line of the transformed program.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Finding {
+    pub kind: Kind,
+    /// 1-based line of the transformed program (of `file` when the block is in a subprogram).
+    pub line: usize,
+    pub message: String,
+    /// The line of the original program it corresponds to, where there is one.
+    pub original_line: Option<usize>,
+    /// The subprogram file, when the block is not in the transformed program itself.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub file: Option<String>,
+    /// How often the run met it (a gate in a loop meets it on every pass); reported once.
+    pub times: usize,
+}
+
+/// The audit's result.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Audit {
+    /// In the order the runs met them.
+    pub findings: Vec<Finding>,
+    /// Findings per kind.
+    pub counts: BTreeMap<&'static str, usize>,
+    pub original_blocks: u64,
+    pub transformed_blocks: u64,
+    /// Points where the original resumed after inserted blocks.
+    pub resume_points: u64,
+    /// Abort paths followed with a faulty probe, and how many of them reached an abort.
+    pub abort_runs: u64,
+    pub aborts_reached: u64,
+    /// Why the comparison ended before both programs did (an alarm of the transformed program's own).
+    pub stopped: Option<String>,
+}
+
+impl Audit {
+    /// Records a finding, or counts it again when the same kind was found at the same line before.
+    fn add(&mut self, finding: Finding) {
+        let seen = self
+            .findings
+            .iter_mut()
+            .find(|f| f.kind == finding.kind && f.line == finding.line && f.file == finding.file);
+        match seen {
+            Some(f) => f.times += 1,
+            None => {
+                *self.counts.entry(finding.kind.name()).or_default() += 1;
+                self.findings.push(finding);
+            }
+        }
+    }
+}
+
+/// Audits `transformed` against `original` (which must be `transformed` without its `;DL` lines, or an
+/// `original-changed` finding says where it is not). Both run on `cfg` (with the profile's probe cycle and
+/// result, see [`AuditSettings::vm_config`]) against the settings' machine. An error is a construct the
+/// virtual machine cannot run; its message names the program and line.
+pub fn audit(
+    original: &[u8],
+    transformed: &[u8],
+    settings: &AuditSettings,
+    cfg: &Config,
+) -> Result<Audit, VmError> {
+    audit_owned(original.to_vec(), transformed.to_vec(), settings, cfg)
+}
+
+/// [`audit`] taking the programs' bytes over, so a large program is not held twice.
+pub fn audit_owned(
+    original: Vec<u8>,
+    transformed: Vec<u8>,
+    settings: &AuditSettings,
+    cfg: &Config,
+) -> Result<Audit, VmError> {
+    lockstep::run(original, transformed, settings, &settings.vm_config(cfg))
+}

@@ -1,0 +1,339 @@
+//! The control state of the two runs compared item by item. Each difference is one text: what, the
+//! transformed run's value, the original's.
+
+use super::AuditSettings;
+use super::lockstep::num;
+use crate::omm::profile::OffsetMethod;
+use crate::vm::motion::{FRAMES, Frames, IDENTITY, Matrix, State, Tool};
+
+/// Lengths closer than this are equal (mm); the correction itself is micrometres and is excluded by entry.
+const MM: f64 = 1e-6;
+
+/// NaN differs from every number (a faulty probe value written into an offset).
+fn differ(a: f64, b: f64) -> bool {
+    if a.is_nan() || b.is_nan() {
+        return a.is_nan() != b.is_nan();
+    }
+    (a - b).abs() > MM * (1.0 + a.abs().max(b.abs()) * 1e-9)
+}
+
+/// One item of the control state that differs between the runs.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Difference {
+    pub what: String,
+    pub text: String,
+}
+
+fn item(what: &str, here: String, original: String) -> Difference {
+    Difference {
+        what: what.to_string(),
+        text: format!("{what} {here} here, {original} in the original"),
+    }
+}
+
+pub(super) fn tool_text(tool: &Option<Tool>) -> String {
+    tool.as_ref()
+        .map_or_else(|| "no tool".to_string(), Tool::to_string)
+}
+
+/// Spindle tool, preselected tool, D number.
+pub(super) fn tools(t: &State, o: &State) -> Vec<Difference> {
+    let mut v = Vec::new();
+    if t.tool != o.tool {
+        v.push(item("spindle tool", tool_text(&t.tool), tool_text(&o.tool)));
+    }
+    if t.preselected != o.preselected {
+        v.push(item(
+            "preselected tool (the next M6 loads it)",
+            tool_text(&t.preselected),
+            tool_text(&o.preselected),
+        ));
+    }
+    if t.d != o.d {
+        v.push(item(
+            "cutting edge",
+            format!("D{}", num(t.d)),
+            format!("D{}", num(o.d)),
+        ));
+    }
+    v
+}
+
+fn coolant(s: &State) -> String {
+    match (s.mist, s.flood) {
+        (false, false) => "off (M9)".into(),
+        (true, false) => "M7".into(),
+        (false, true) => "M8".into(),
+        (true, true) => "M7 M8".into(),
+    }
+}
+
+fn spindle(s: &State) -> String {
+    let direction = match s.rotation {
+        0 => "M5".to_string(),
+        m => format!("M{m}"),
+    };
+    format!("S{} {direction}", num(s.s))
+}
+
+fn motion(m: u32) -> String {
+    match m {
+        crate::vm::motion::SPLINE => "spline".into(),
+        g => format!("G{g}"),
+    }
+}
+
+fn transformation(s: &State) -> String {
+    s.kinematics.transformation.unwrap_or("TRAFOOF").to_string()
+}
+
+fn swivel(s: &State) -> String {
+    match s.kinematics.swivel {
+        Some([a, b, c]) => format!("CYCLE800 A{} B{} C{}", num(a), num(b), num(c)),
+        None => "none".into(),
+    }
+}
+
+fn linear(m: &Option<Matrix>) -> String {
+    match m {
+        None => "none".into(),
+        Some(m) => {
+            let rows: Vec<String> = m
+                .iter()
+                .map(|r| r.iter().map(|v| num(*v)).collect::<Vec<_>>().join(" "))
+                .collect();
+            format!("[{}]", rows.join("; "))
+        }
+    }
+}
+
+/// The programmed position of every axis the original has programmed.
+pub(super) fn positions(t: &State, o: &State, axes: &[String]) -> Vec<Difference> {
+    axes.iter()
+        .enumerate()
+        .filter(|&(a, _)| o.moved & (1 << a) != 0 && differ(t.local[a], o.local[a]))
+        .map(|(a, name)| item(name, num(t.local[a]), num(o.local[a])))
+        .collect()
+}
+
+/// Modal state: coolant, feed and feed mode, G90/G91, plane, path mode, motion mode, spindle, cutter
+/// compensation, inch, transformation, swivel, frames (all but the corrected entry).
+pub(super) fn modal(t: &State, o: &State, s: &AuditSettings, axes: &[String]) -> Vec<Difference> {
+    let (tm, om) = (&t.modal, &o.modal);
+    let g = |n: u32| format!("G{n}");
+    let items = [
+        ("coolant", coolant(t), coolant(o)),
+        ("feed type", g(tm.feed_mode.g()), g(om.feed_mode.g())),
+        ("dimensions", g90(tm.absolute), g90(om.absolute)),
+        ("plane", plane(&tm.plane), plane(&om.plane)),
+        ("path mode", g(tm.path), g(om.path)),
+        ("exact stop window", g(tm.exact_stop), g(om.exact_stop)),
+        ("motion", motion(tm.motion), motion(om.motion)),
+        ("spindle", spindle(t), spindle(o)),
+        (
+            "cutter compensation",
+            g(tm.compensation),
+            g(om.compensation),
+        ),
+        (
+            "units",
+            inch(tm.inch, tm.inch_feed),
+            inch(om.inch, om.inch_feed),
+        ),
+        ("transformation", transformation(t), transformation(o)),
+        ("swivel", swivel(t), swivel(o)),
+        (
+            "rotation/scale/mirror",
+            linear(&t.frames.linear),
+            linear(&o.frames.linear),
+        ),
+    ];
+    let mut v: Vec<Difference> = items
+        .into_iter()
+        .filter(|(_, here, original)| here != original)
+        .map(|(what, here, original)| item(what, here, original))
+        .collect();
+    let feed = |f: Option<f64>| f.map_or_else(|| "none".to_string(), |f| format!("F{}", num(f)));
+    let feeds_differ = match (tm.feed, om.feed) {
+        (Some(a), Some(b)) => differ(a, b),
+        (a, b) => a.is_some() != b.is_some(),
+    };
+    if feeds_differ {
+        v.push(item("feed", feed(tm.feed), feed(om.feed)));
+    }
+    v.extend(frames(&t.frames, &o.frames, s, axes));
+    v
+}
+
+fn g90(absolute: bool) -> String {
+    if absolute { "G90" } else { "G91" }.into()
+}
+
+fn inch(inch: bool, feed: bool) -> String {
+    match (inch, feed) {
+        (false, _) => "G71",
+        (true, false) => "G70",
+        (true, true) => "G700",
+    }
+    .into()
+}
+
+fn plane(p: &[Option<usize>; 3]) -> String {
+    match p {
+        [Some(0), Some(1), _] => "G17".into(),
+        [Some(2), Some(0), _] => "G18".into(),
+        [Some(1), Some(2), _] => "G19".into(),
+        _ => format!("{p:?}"),
+    }
+}
+
+/// Selected work offset, active offset, programmable translation and the settable frame table, without
+/// the entry driftloop corrects.
+fn frames(t: &Frames, o: &Frames, s: &AuditSettings, axes: &[String]) -> Vec<Difference> {
+    let mut v = Vec::new();
+    if t.selected != o.selected {
+        v.push(item("work offset", select(t.selected), select(o.selected)));
+    }
+    // The corrected entry's axis.
+    let axis = t.geo[s.axis];
+    let frame_method = s.method == OffsetMethod::Frame;
+    for (a, name) in axes.iter().enumerate() {
+        let skip_active = frame_method && Some(a) == axis && t.selected == s.frame;
+        if !skip_active && t.selected == o.selected && differ(t.active[a], o.active[a]) {
+            v.push(item(
+                &format!("active work offset {name}"),
+                num(t.active[a]),
+                num(o.active[a]),
+            ));
+        }
+        let skip_trans = !frame_method && Some(a) == axis;
+        if !skip_trans && differ(t.trans[a], o.trans[a]) {
+            v.push(item(
+                &format!("programmable translation {name}"),
+                num(t.trans[a]),
+                num(o.trans[a]),
+            ));
+        }
+    }
+    if let Some(c) = table_difference(t, o, axes, |f, a, fine| {
+        frame_method && !fine && f == s.frame && Some(a) == axis
+    }) {
+        v.push(item(&c.name(), num(c.transformed), num(c.original)));
+    }
+    v
+}
+
+fn select(n: usize) -> String {
+    match n {
+        0 => "G500".into(),
+        1..=4 => format!("G{}", 53 + n),
+        n => format!("G{}", 500 + n),
+    }
+}
+
+/// An entry of the settable frame table (or the programmable translation) whose values differ between the
+/// runs.
+pub(super) struct Correction {
+    pub frame: usize,
+    pub axis: String,
+    /// `TR`, `FI`, or `TRANS` for the programmable translation.
+    pub component: &'static str,
+    pub transformed: f64,
+    pub original: f64,
+}
+
+impl Correction {
+    /// `$P_UIFR[1,Z,TR]`, or `TRANS Z`.
+    pub fn name(&self) -> String {
+        match self.component {
+            "TRANS" => format!("the programmable translation {}", self.axis),
+            c => format!("$P_UIFR[{},{},{c}]", self.frame, self.axis),
+        }
+    }
+}
+
+fn table_difference(
+    t: &Frames,
+    o: &Frames,
+    axes: &[String],
+    skip: impl Fn(usize, usize, bool) -> bool,
+) -> Option<Correction> {
+    for frame in 0..FRAMES {
+        for (a, name) in axes.iter().enumerate() {
+            for (fine, tv, ov) in [
+                (false, t.table[frame][a], o.table[frame][a]),
+                (true, t.fine[frame][a], o.fine[frame][a]),
+            ] {
+                if differ(tv, ov) && !skip(frame, a, fine) {
+                    return Some(Correction {
+                        frame,
+                        axis: name.clone(),
+                        component: if fine { "FI" } else { "TR" },
+                        transformed: tv,
+                        original: ov,
+                    });
+                }
+            }
+        }
+    }
+    None
+}
+
+/// The first persistent work-offset entry (`$P_UIFR`) that differs from the original run's.
+pub(super) fn persistent_difference(t: &Frames, o: &Frames, axes: &[String]) -> Option<Correction> {
+    table_difference(t, o, axes, |_, _, _| false)
+}
+
+/// A difference this large (mm) is no correction: a probe value orders of magnitude off got through.
+const WILD_MM: f64 = 1000.0;
+
+/// A work-offset entry (settable frame or programmable translation) that is NaN or far off the original's.
+pub(super) fn wild_entry(t: &Frames, o: &Frames, axes: &[String]) -> Option<Correction> {
+    let wild = |a: f64, b: f64| !a.is_finite() || (a - b).abs() > WILD_MM;
+    if let Some(c) = table_difference(t, o, axes, |f, a, fine| {
+        let (tv, ov) = if fine {
+            (t.fine[f][a], o.fine[f][a])
+        } else {
+            (t.table[f][a], o.table[f][a])
+        };
+        !wild(tv, ov)
+    }) {
+        return Some(c);
+    }
+    axes.iter()
+        .enumerate()
+        .find(|&(a, _)| wild(t.trans[a], o.trans[a]))
+        .map(|(a, name)| Correction {
+            frame: 0,
+            axis: name.clone(),
+            component: "TRANS",
+            transformed: t.trans[a],
+            original: o.trans[a],
+        })
+}
+
+/// What makes probing, STOPRE or an offset write unsafe, active now.
+pub(super) fn transforms_active(s: &State) -> Vec<String> {
+    let mut v = Vec::new();
+    if let Some(m) = &s.frames.linear
+        && *m != IDENTITY
+    {
+        v.push(format!(
+            "a rotation/scale/mirror frame {}",
+            linear(&s.frames.linear)
+        ));
+    }
+    if s.kinematics.swivel.is_some() {
+        v.push(format!("the swivel {}", swivel(s)));
+    }
+    if let Some(t) = s.kinematics.transformation {
+        v.push(t.to_string());
+    }
+    if matches!(s.modal.compensation, 41 | 42) {
+        v.push(format!(
+            "cutter radius compensation G{}",
+            s.modal.compensation
+        ));
+    }
+    v
+}

@@ -1,0 +1,281 @@
+//! The audit on hand-written "transformed" programs (fixtures/vm/audit): each hazard file shows one kind of
+//! finding at the lines it is expected, its clean counterpart (or clean.mpf, for the hazards in the base
+//! program) shows none.
+
+use std::path::{Path, PathBuf};
+
+use driftloop::omm::Profile;
+use driftloop::strip::strip;
+use driftloop::vm::audit::{Audit, AuditSettings, Kind, audit};
+use driftloop::vm::{Config, MachineSpec, ProbeFault};
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures/vm/audit")
+        .join(format!("{name}.mpf"))
+}
+
+fn settings() -> AuditSettings {
+    AuditSettings::from_profile(&Profile::default_profile())
+}
+
+fn audited_with(name: &str, settings: &AuditSettings) -> Audit {
+    let transformed = std::fs::read(fixture(name)).unwrap();
+    let original = strip(&transformed).bytes;
+    audit(&original, &transformed, settings, &Config::default()).unwrap()
+}
+
+fn audited(name: &str) -> Audit {
+    audited_with(name, &settings())
+}
+
+/// (kind, line) of every finding, in the order the runs met them.
+fn found(a: &Audit) -> Vec<(Kind, usize)> {
+    a.findings.iter().map(|f| (f.kind, f.line)).collect()
+}
+
+fn messages(a: &Audit) -> String {
+    a.findings
+        .iter()
+        .map(|f| f.message.as_str())
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// Audits fixture `name`, checks its findings' kinds and lines and that their messages say each of `says`.
+fn expect(name: &str, expected: &[(Kind, usize)], says: &[&str]) -> Audit {
+    let a = audited(name);
+    assert_eq!(found(&a), expected, "{name}");
+    let m = messages(&a);
+    for text in says {
+        assert!(m.contains(text), "{name}: {m}");
+    }
+    a
+}
+
+#[test]
+fn clean_counterparts_have_no_finding() {
+    for name in [
+        "clean",
+        "flow_changed_clean",
+        "measure_g41_clean",
+        "measure_swivel_clean",
+        "modal_g95_clean",
+        "offset_abort_clean",
+        "stopre_contour_clean",
+        "tool_preselected_clean",
+    ] {
+        let a = audited(name);
+        assert!(a.findings.is_empty(), "{name}: {:#?}", a.findings);
+        assert!(a.resume_points >= 2, "{name}: the gates were compared");
+    }
+    // The clean gate's abort paths were followed: NaN and 1e6 reach the alarm, the scrap drift (no scrap
+    // check in this gate) is written as a correction and the program goes on.
+    let a = audited("clean");
+    assert_eq!((a.abort_runs, a.aborts_reached), (3, 2));
+}
+
+#[test]
+fn xy_travel_below_the_clearance_plane() {
+    expect(
+        "xy_below_clearance",
+        &[(Kind::XyBelowClearance, 19)],
+        &["travel from X80 Y50 to X0 Y0 at Z20 below the clearance height Z100"],
+    );
+}
+
+#[test]
+fn a_move_out_of_the_probe_point_that_is_not_straight_up() {
+    expect(
+        "probe_exit",
+        &[(Kind::XyBelowClearance, 24)],
+        &["not straight up the tool axis"],
+    );
+}
+
+#[test]
+fn the_probe_left_in_the_spindle() {
+    // At the gate's resume point, and again before M30 (the end block restores the offset only).
+    expect(
+        "tool_state",
+        &[(Kind::ToolState, 35), (Kind::ToolState, 44)],
+        &["spindle tool T=\"BLUM_TC50\" here, T1 in the original"],
+    );
+}
+
+#[test]
+fn a_preselected_tool_the_gate_replaces() {
+    expect(
+        "tool_preselected",
+        &[(Kind::ToolState, 37), (Kind::ToolState, 49)],
+        &[
+            "preselected tool (the next M6 loads it) T1 here, T5 in the original",
+            // The bare M6 after the gate then loads T1 instead of T5: at the end the wrong tool is in the
+            // spindle.
+            "spindle tool T1 here, T5 in the original",
+        ],
+    );
+}
+
+#[test]
+fn probing_under_a_swivel_and_under_cutter_compensation() {
+    // STOPRE, probe call, STOPRE, offset write.
+    let lines = [14, 23, 24, 30].map(|l| (Kind::MeasureUnderTransform, l));
+    expect("measure_swivel", &lines, &["swivel CYCLE800 A0 B30 C0"]);
+    expect("measure_g41", &lines, &["cutter radius compensation G41"]);
+}
+
+#[test]
+fn coolant_and_feed_type_not_restored() {
+    expect(
+        "modal_coolant",
+        &[(Kind::ModalNotRestored, 36)],
+        &["coolant off (M9) here, M8 in the original"],
+    );
+    expect(
+        "modal_g95",
+        &[(Kind::ModalNotRestored, 36), (Kind::ModalNotRestored, 45)],
+        &[
+            "feed type G94 here, G95 in the original",
+            "feed F2000 here, F0.1 in the original",
+        ],
+    );
+}
+
+#[test]
+fn position_not_brought_back() {
+    expect(
+        "position",
+        &[(Kind::PositionNotRestored, 35)],
+        &["X 0 here, 80 in the original; Y 0 here, 50 in the original"],
+    );
+}
+
+#[test]
+fn stopre_inside_a_continuous_path_contour() {
+    expect("stopre_contour", &[(Kind::StopreInContour, 12)], &["(G64)"]);
+}
+
+#[test]
+fn an_alarm_that_leaves_the_work_offset_shifted() {
+    let a = expect(
+        "offset_abort",
+        &[(Kind::OffsetLeftOnAbort, 29)],
+        &["alarm 65000 stops the program with $P_UIFR[1,Z,TR] = NaN mm"],
+    );
+    assert_eq!(
+        a.findings[0].times, 2,
+        "both the NaN and the 1e6 probe reach it"
+    );
+}
+
+#[test]
+fn a_faulty_probe_value_that_reaches_the_offset() {
+    expect(
+        "fault_offset",
+        &[(Kind::FaultReachesOffset, 29)],
+        &["a probe that returns NaN"],
+    );
+}
+
+#[test]
+fn the_original_cuts_where_the_probe_touches() {
+    let a = expect(
+        "probe_machined",
+        &[(Kind::ProbeInMachinedVolume, 10)],
+        &["[position] x, y"],
+    );
+    assert_eq!(a.findings[0].original_line, Some(9));
+    // The cut runs along Y2, 2 mm from the probe point: a margin below that lets it pass.
+    let narrow = AuditSettings {
+        probe_margin_mm: 1.5,
+        ..settings()
+    };
+    assert!(audited_with("probe_machined", &narrow).findings.is_empty());
+}
+
+#[test]
+fn an_inserted_jump_over_an_original_block() {
+    expect(
+        "flow_changed",
+        &[(Kind::FlowChanged, 15)],
+        &["runs original line 12 next where the original runs original line 11"],
+    );
+}
+
+#[test]
+fn an_original_line_changed_by_the_transform() {
+    let transformed = std::fs::read(fixture("clean")).unwrap();
+    let mut original = strip(&transformed).bytes;
+    // Original line 6 is `G0 X50 Y50 Z50`; make it X51.
+    let at = original.windows(3).position(|w| w == b"X50").unwrap();
+    original[at + 2] = b'1';
+    let a = audit(&original, &transformed, &settings(), &Config::default()).unwrap();
+    assert_eq!(found(&a), [(Kind::OriginalChanged, 7)]);
+    assert_eq!(a.findings[0].original_line, Some(6));
+}
+
+#[test]
+fn a_machine_whose_probe_fails_ends_the_comparison_without_a_finding() {
+    let faulty = AuditSettings {
+        machine: MachineSpec {
+            faults: vec![(1, ProbeFault::Nan)],
+            ..MachineSpec::default()
+        },
+        ..settings()
+    };
+    let a = audited_with("clean", &faulty);
+    assert!(a.findings.is_empty(), "{:#?}", a.findings);
+    let stopped = a.stopped.unwrap();
+    assert!(
+        stopped.starts_with("line 27 (inserted) ended the transformed program"),
+        "{stopped}"
+    );
+}
+
+#[test]
+fn a_construct_the_machine_cannot_run_is_an_error_naming_the_line() {
+    let transformed = std::fs::read_to_string(fixture("clean"))
+        .unwrap()
+        .replace("R2=99999 ;DL", "G33 Z-5 K1 ;DL");
+    let original = strip(transformed.as_bytes()).bytes;
+    let e = audit(
+        &original,
+        transformed.as_bytes(),
+        &settings(),
+        &Config::default(),
+    )
+    .unwrap_err();
+    assert_eq!((e.file.as_str(), e.line), ("transformed", 21));
+    assert!(e.message.contains("G33"), "{e}");
+}
+
+#[test]
+fn probing_under_a_rotation_or_a_kinematic_transformation() {
+    let clean = std::fs::read_to_string(fixture("clean")).unwrap();
+    for (on, off, named) in [
+        ("ROT Z30", "ROT", "rotation/scale/mirror frame"),
+        ("MIRROR X0", "MIRROR", "rotation/scale/mirror frame"),
+        ("TRAORI", "TRAFOOF", "TRAORI"),
+        ("TRANSMIT", "TRAFOOF", "TRANSMIT"),
+        ("TRACYL(40)", "TRAFOOF", "TRACYL"),
+    ] {
+        // Switched on by the original before the gate, off again after it.
+        let t = clean
+            .replacen(
+                "G0 Z50\n; driftloop gate",
+                &format!("G0 Z50\n{on}\n; driftloop gate"),
+                1,
+            )
+            .replacen("G0 X50 Y60\n", &format!("{off}\nG0 X50 Y60\n"), 1);
+        let original = strip(t.as_bytes()).bytes;
+        let a = audit(&original, t.as_bytes(), &settings(), &Config::default()).unwrap();
+        let kinds: Vec<Kind> = a.findings.iter().map(|f| f.kind).collect();
+        assert!(
+            !kinds.is_empty() && kinds.iter().all(|k| *k == Kind::MeasureUnderTransform),
+            "{on}: {:#?}",
+            a.findings
+        );
+        assert!(messages(&a).contains(named), "{on}: {}", messages(&a));
+    }
+}
