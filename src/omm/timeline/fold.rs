@@ -1113,8 +1113,13 @@ impl<'p> Builder<'p> {
         self.t.last_cut_min = self.last_cut as f64 / TICKS_PER_MIN;
         // Without M6 in the program the T word changes the tool.
         let mut starts = self.pass_marks;
+        let t_loads = self.profile.probe.tool_change == crate::omm::profile::ToolChange::T;
         if !self.m6_seen && self.profile.passes.tool_change {
-            starts.extend(self.tool_marks);
+            // On a machine that changes tools with M6, a T alone only selects: no change follows it.
+            starts.extend(self.tool_marks.into_iter().map(|m| PassMark {
+                tool_change: t_loads,
+                ..m
+            }));
         }
         starts.sort_by_key(|m| m.block);
         starts.dedup_by_key(|m| m.block);
@@ -1156,8 +1161,6 @@ impl<'p> Builder<'p> {
             .sort_by_key(|s| (s.block, !matches!(s.kind, SiteKind::PassStart { .. })));
         self.t.sites.dedup_by_key(|s| s.block);
         let mut pass = 0;
-        // A machine that changes tools with T loads at once; on one with M6, T only selects.
-        let t_loads = self.profile.probe.tool_change == super::super::profile::ToolChange::T;
         for site in &mut self.t.sites {
             site.state_varies = self.varies.contains(&site.block);
             // Without M6 in the program, T loads the tool at once.
