@@ -11,6 +11,7 @@ mod check;
 mod demo;
 mod diagnose;
 mod fit;
+mod forward;
 mod parse;
 mod plan;
 mod positioning;
@@ -103,6 +104,8 @@ enum Command {
     Fit(fit::Args),
     /// Predict drift for a spindle schedule or the inputs of a data file.
     Predict(predict::Args),
+    /// Fit every channel on earlier time and score it on later time, without and with probing.
+    Forward(forward::Args),
     /// Insert probe measurements, nested measuring loops and drift corrections into NC programs.
     Transform(transform::Args),
     /// Print the timeline, predicted drift and planned measurements of a program.
@@ -130,6 +133,7 @@ pub fn main() -> ExitCode {
         Command::Sensors(args) => sensors::run(args, &cli.global),
         Command::Fit(args) => fit::run(args, &cli.global),
         Command::Predict(args) => predict::run(args, &cli.global),
+        Command::Forward(args) => forward::run(args, &cli.global),
         Command::Check(args) => check::run(args, &cli.global),
         Command::Parse(args) => parse::run(args, &cli.global),
         Command::Bench(args) => bench::run(args, &cli.global),

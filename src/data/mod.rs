@@ -2,9 +2,11 @@
 //! columns classified by their suffix. Read from CSV by [`read_path`] / [`read_bytes`], written back by
 //! [`Dataset::write_csv`].
 
+mod duration;
 mod read;
 mod write;
 
+pub use duration::Minutes;
 pub use read::{DataError, Require, read_bytes, read_path};
 
 use std::ops::Range;

@@ -27,7 +27,9 @@
 //! ```
 
 pub mod candidates;
+pub mod holdout;
 pub mod joint;
+pub mod probing;
 pub mod report;
 pub mod scenario;
 pub mod stats;

@@ -350,6 +350,8 @@ impl Prepared {
                 },
                 interpolation: Interpolation::PiecewiseLinear,
                 extrapolation: Extrapolation::LinearLastSegment,
+                characterised_top_rpm: None,
+                power_law_exponent: None,
                 modes,
             },
             inputs,
@@ -378,6 +380,7 @@ impl Prepared {
                     .enumerate()
                     .map(|(i, tr)| tr.summary(i == chosen, &trials[chosen]))
                     .collect(),
+                forward: None,
             }),
             data: Some(DataProvenance {
                 file: ds.source.clone(),

@@ -452,6 +452,8 @@ fn regression_model(
             grid_rpm: Vec::new(),
             interpolation: Interpolation::PiecewiseLinear,
             extrapolation: Extrapolation::LinearLastSegment,
+            characterised_top_rpm: None,
+            power_law_exponent: None,
             modes: Vec::new(),
         },
         inputs: Vec::new(),
