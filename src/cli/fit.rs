@@ -57,6 +57,10 @@ pub struct Args {
         default_value = "15,60,240"
     )]
     pub spindle_lags: Vec<f64>,
+    /// `--kind dlag`: the exponents p of gain ∝ (n/n_top)^p forward validation chooses among (each
+    /// spindle term its own; default 0.5 to 3).
+    #[arg(long, value_delimiter = ',', value_name = "P,…")]
+    pub exponents: Option<Vec<f64>>,
     /// Write the model file here (`-` = stdout, the report then goes to stderr).
     #[arg(short, long)]
     pub output: Option<PathBuf>,
@@ -87,6 +91,13 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             opts.until_min = until_min;
             opts.signals = args.signals.clone();
             opts.spindle_lags = args.spindle_lags.clone();
+            if let Some(p) = &args.exponents {
+                anyhow::ensure!(
+                    !p.is_empty() && p.iter().all(|p| p.is_finite() && *p > 0.0),
+                    "--exponents must be positive numbers"
+                );
+                opts.exponents = p.clone();
+            }
             if let Some(lags) = &args.lags {
                 anyhow::ensure!(
                     lags.iter().all(|l| l.is_finite() && *l >= 0.0),

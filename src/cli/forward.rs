@@ -81,11 +81,8 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             })?;
         let design = match model.fit.as_ref().and_then(|f| f.forward.as_ref()) {
             Some(f) => format!(
-                "lags {:?} min, p {}, penalty {:.0e}, forward CV {:.2} µm",
-                f.sensor_lags_min,
-                f.exponent.map_or("-".into(), |p| format!("{p}")),
-                f.penalty,
-                f.cv_rms_um
+                "lags {:?} min, spindle lags {:?} min with p {:?}, penalty {:.0e}, forward CV {:.2} µm",
+                f.sensor_lags_min, f.spindle_lags_min, f.exponents, f.penalty, f.cv_rms_um
             ),
             None => format!("{} spindle modes", model.spindle.modes.len()),
         };

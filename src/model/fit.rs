@@ -303,6 +303,7 @@ impl Prepared {
                     .map(|j| t.se_c[k * m + j])
                     .collect::<Option<Vec<_>>>()
                     .unwrap_or_default(),
+                power_law_exponent: None,
             })
             .collect();
         let inputs = self
@@ -351,7 +352,6 @@ impl Prepared {
                 interpolation: Interpolation::PiecewiseLinear,
                 extrapolation: Extrapolation::LinearLastSegment,
                 characterised_top_rpm: None,
-                power_law_exponent: None,
                 modes,
             },
             inputs,

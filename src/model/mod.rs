@@ -93,9 +93,6 @@ pub struct SpindleModes {
     /// With `extrapolation = "power-law"`: the top speed the data held; grid nodes above it carry the law.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub characterised_top_rpm: Option<f64>,
-    /// With `extrapolation = "power-law"`: p in gain ∝ (n / characterised_top_rpm)^p.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub power_law_exponent: Option<f64>,
 }
 
 /// How gains between grid speeds are found (the only scheme; named in the file so a reader knows).
@@ -128,6 +125,10 @@ pub struct Mode {
     pub gain_um: Vec<f64>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub gain_se_um: Vec<f64>,
+    /// With `extrapolation = "power-law"`: p in gain ∝ (n / characterised_top_rpm)^p, the law the gains
+    /// follow on the whole grid.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub power_law_exponent: Option<f64>,
 }
 
 /// A declared input entering through its own first-order lag: target = gain·(u − u₀), u₀ its value at the
@@ -238,7 +239,6 @@ impl DriftModel {
                 interpolation: Interpolation::PiecewiseLinear,
                 extrapolation: Extrapolation::LinearLastSegment,
                 characterised_top_rpm: None,
-                power_law_exponent: None,
                 modes: modes
                     .iter()
                     .map(|(tau, gains)| Mode {
@@ -246,6 +246,7 @@ impl DriftModel {
                         tau_se_min: None,
                         gain_um: gains.clone(),
                         gain_se_um: Vec::new(),
+                        power_law_exponent: None,
                     })
                     .collect(),
             },

@@ -57,6 +57,46 @@ impl Moments {
         m
     }
 
+    /// The moments of the same rows with the columns `extra` appended after the columns `cols` these moments
+    /// were computed from (each a column of the data's length).
+    pub fn extended(
+        &self,
+        cols: &[Vec<f64>],
+        extra: &[&[f64]],
+        y: &[f64],
+        rows: &[usize],
+    ) -> Moments {
+        let (k, e) = (cols.len(), extra.len());
+        let mut m = Moments::zero(k + e);
+        m.n = self.n;
+        m.sy = self.sy;
+        m.syy = self.syy;
+        m.sx.rows_mut(0, k).copy_from(&self.sx);
+        m.sxy.rows_mut(0, k).copy_from(&self.sxy);
+        m.sxx.view_mut((0, 0), (k, k)).copy_from(&self.sxx);
+        for &i in rows {
+            for (a, ca) in extra.iter().enumerate() {
+                let xa = ca[i];
+                let ka = k + a;
+                m.sx[ka] += xa;
+                m.sxy[ka] += xa * y[i];
+                for (b, cb) in cols.iter().enumerate() {
+                    m.sxx[(b, ka)] += cb[i] * xa;
+                }
+                for (b, cb) in extra.iter().enumerate().skip(a) {
+                    m.sxx[(ka, k + b)] += cb[i] * xa;
+                }
+            }
+        }
+        // The new entries went to the upper triangle; mirror them.
+        for a in k..k + e {
+            for b in 0..a {
+                m.sxx[(a, b)] = m.sxx[(b, a)];
+            }
+        }
+        m
+    }
+
     /// The moments of both sets of rows together.
     pub fn plus(&self, other: &Moments) -> Moments {
         Moments {
@@ -214,6 +254,11 @@ mod tests {
         let whole = Moments::of_rows(&cols, &y, &all);
         let parts = Moments::of_rows(&cols, &y, &a).plus(&Moments::of_rows(&cols, &y, &b));
         assert!((&whole.sxx - &parts.sxx).norm() < 1e-9);
+        // Columns appended to a part's moments give the moments of the wider design.
+        let first = Moments::of_rows(&cols[..1], &y, &a);
+        let extra: Vec<&[f64]> = cols[1..].iter().map(Vec::as_slice).collect();
+        let wide = first.extended(&cols[..1], &extra, &y, &a);
+        assert_eq!(wide, Moments::of_rows(&cols, &y, &a));
         let r = Ridge::new(&whole).unwrap();
         let loose = r.solve(0.0);
         let tight = r.solve(10.0);

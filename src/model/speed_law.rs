@@ -48,14 +48,6 @@ impl PowerLaw {
     pub fn gains(&self, nodes: &[f64]) -> Vec<f64> {
         nodes.iter().map(|&n| self.at(n)).collect()
     }
-
-    /// In words, for reports and warnings.
-    pub fn describe(&self) -> String {
-        format!(
-            "power law, gain ∝ (n/{:.0} rpm)^{:.2}",
-            self.top_rpm, self.exponent
-        )
-    }
 }
 
 /// The top speed the model was characterised at: the law's reference for a power-law model, else the grid's
@@ -72,16 +64,26 @@ pub fn characterised_top(model: &DriftModel) -> Option<f64> {
 
 /// The law a model uses above its top characterised speed, in words.
 pub fn extrapolation_law(model: &DriftModel) -> String {
-    let last = model.spindle.grid_rpm.last().copied().unwrap_or(0.0);
-    match (
-        model.spindle.extrapolation,
-        model.spindle.characterised_top_rpm,
-        model.spindle.power_law_exponent,
-    ) {
-        (Extrapolation::PowerLaw, Some(top_rpm), Some(exponent)) => format!(
-            "{} (chosen by forward validation), continued linearly above {last:.0} rpm",
-            PowerLaw { top_rpm, exponent }.describe()
-        ),
+    let sp = &model.spindle;
+    let last = sp.grid_rpm.last().copied().unwrap_or(0.0);
+    match (sp.extrapolation, sp.characterised_top_rpm) {
+        (Extrapolation::PowerLaw, Some(top)) => {
+            let per_mode: Vec<String> = sp
+                .modes
+                .iter()
+                .map(|m| {
+                    format!(
+                        "{:.2} (τ {})",
+                        m.power_law_exponent.unwrap_or(f64::NAN),
+                        super::fit::fmt_tau(m.tau_min)
+                    )
+                })
+                .collect();
+            format!(
+                "the power law gain ∝ (n/{top:.0} rpm)^p, p = {} (chosen by forward validation), continued linearly above {last:.0} rpm",
+                per_mode.join(", ")
+            )
+        }
         _ => "the last segment of the speed grid continued linearly".to_string(),
     }
 }
@@ -141,13 +143,17 @@ mod tests {
         };
         let nodes = law.nodes(&[1250.0, 2500.0]);
         m.spindle.modes[0].gain_um = law.gains(&nodes);
+        m.spindle.modes[0].power_law_exponent = Some(1.25);
         m.spindle.grid_rpm = nodes;
         m.spindle.extrapolation = Extrapolation::PowerLaw;
         m.spindle.characterised_top_rpm = Some(2500.0);
-        m.spindle.power_law_exponent = Some(1.25);
+        m.validate().unwrap();
         assert_eq!(extrapolation_warning(&m, -2400.0), None);
         let w = extrapolation_warning(&m, 5000.0).unwrap();
-        assert!(w.contains("5000 rpm") && w.contains("^1.25"), "{w}");
+        assert!(
+            w.contains("5000 rpm") && w.contains("p = 1.25 (τ 30.0 min)"),
+            "{w}"
+        );
         let bare = DriftModel::from_modes("ch1_um", vec![], &[], 0.0);
         assert_eq!(extrapolation_warning(&bare, 9000.0), None);
     }

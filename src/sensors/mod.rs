@@ -453,7 +453,6 @@ fn regression_model(
             interpolation: Interpolation::PiecewiseLinear,
             extrapolation: Extrapolation::LinearLastSegment,
             characterised_top_rpm: None,
-            power_law_exponent: None,
             modes: Vec::new(),
         },
         inputs: Vec::new(),

@@ -3,7 +3,8 @@
 //! model predicts exactly what was fitted:
 //! - a sensor at lag 0: a `static_input` effect, gain·(u(i) − u at the run's start);
 //! - a sensor at lag τ: an `input_lag` effect, the same change through a first-order lag;
-//! - the spindle at lag τ: a spindle mode whose gains on the speed grid follow the speed law.
+//! - the spindle at lag τ: a spindle mode whose gains on the speed grid follow its own power law
+//!   gain ∝ (n / n_top)^p.
 
 use std::ops::Range;
 
@@ -17,8 +18,8 @@ use crate::model::{DriftModel, EffectSpec, Mode};
 pub enum Term {
     /// A measured signal (a temperature) as a change from its run's start, lagged by `lag_min` (0: none).
     Sensor { signal: String, lag_min: f64 },
-    /// The spindle speed through the speed law, lagged by `lag_min` (> 0).
-    Spindle { lag_min: f64 },
+    /// The spindle speed through the power law with `exponent`, lagged by `lag_min` (> 0).
+    Spindle { lag_min: f64, exponent: f64 },
 }
 
 impl Term {
@@ -41,22 +42,23 @@ impl Term {
         })
     }
 
-    /// The spindle mode of a spindle term with gain `gain` at the law's reference speed.
-    pub fn mode(&self, gain: f64, law_gains: &[f64]) -> Option<Mode> {
-        let Term::Spindle { lag_min } = self else {
+    /// The spindle mode of a spindle term with gain `gain` at the top characterised speed.
+    pub fn mode(&self, gain: f64, speeds: &SpeedNodes) -> Option<Mode> {
+        let Term::Spindle { lag_min, exponent } = self else {
             return None;
         };
         Some(Mode {
             tau_min: *lag_min,
             tau_se_min: None,
-            gain_um: law_gains.iter().map(|g| gain * g).collect(),
+            gain_um: speeds.gains(*exponent).iter().map(|g| gain * g).collect(),
             gain_se_um: Vec::new(),
+            power_law_exponent: Some(*exponent),
         })
     }
 
     pub fn lag_min(&self) -> f64 {
         match self {
-            Term::Sensor { lag_min, .. } | Term::Spindle { lag_min } => *lag_min,
+            Term::Sensor { lag_min, .. } | Term::Spindle { lag_min, .. } => *lag_min,
         }
     }
 
@@ -71,30 +73,47 @@ impl Term {
         };
         match self {
             Term::Sensor { signal, lag_min } => format!("{signal}{}", lag(*lag_min)),
-            Term::Spindle { lag_min } => format!("spindle{}", lag(*lag_min)),
+            Term::Spindle { lag_min, exponent } => {
+                format!("spindle^{exponent}{}", lag(*lag_min))
+            }
         }
     }
 }
 
-/// The speed law's grid: nodes and the law's relative gain at each.
+/// The speed grid the spindle terms' laws are written on: the characterised speeds and the ladder.
 #[derive(Debug, Clone, PartialEq)]
-pub struct LawGrid {
-    pub law: PowerLaw,
+pub struct SpeedNodes {
+    pub top_rpm: f64,
     pub nodes: Vec<f64>,
-    pub gains: Vec<f64>,
 }
 
-impl LawGrid {
-    pub fn new(law: PowerLaw, characterised: &[f64]) -> LawGrid {
-        let nodes = law.nodes(characterised);
-        let gains = law.gains(&nodes);
-        LawGrid { law, nodes, gains }
+impl SpeedNodes {
+    /// `None` without a characterised speed.
+    pub fn new(characterised: &[f64]) -> Option<SpeedNodes> {
+        let top_rpm = *characterised.last()?;
+        let law = PowerLaw {
+            top_rpm,
+            exponent: 1.0,
+        };
+        Some(SpeedNodes {
+            top_rpm,
+            nodes: law.nodes(characterised),
+        })
+    }
+
+    /// The law's relative gain at every node for exponent `p`.
+    pub fn gains(&self, p: f64) -> Vec<f64> {
+        PowerLaw {
+            top_rpm: self.top_rpm,
+            exponent: p,
+        }
+        .gains(&self.nodes)
     }
 }
 
-/// The column of one term on every row of `ds` (`law` is needed for spindle terms).
-pub fn column(ds: &Dataset, term: &Term, law: Option<&LawGrid>) -> Vec<f64> {
-    match (term, law) {
+/// The column of one term on every row of `ds` (`speeds` is needed for spindle terms).
+pub fn column(ds: &Dataset, term: &Term, speeds: Option<&SpeedNodes>) -> Vec<f64> {
+    match (term, speeds) {
         (Term::Sensor { .. }, _) => {
             let e = term.effect(1.0).expect("a sensor term is an effect");
             let runs: Vec<Range<usize>> = ds.runs().collect();
@@ -103,11 +122,11 @@ pub fn column(ds: &Dataset, term: &Term, law: Option<&LawGrid>) -> Vec<f64> {
             e.columns(&series, &e.theta, &mut [&mut col]);
             col
         }
-        (Term::Spindle { lag_min }, Some(g)) => {
+        (Term::Spindle { lag_min, exponent }, Some(s)) => {
             let unit = DriftModel::from_modes(
                 "unit",
-                g.nodes.clone(),
-                &[(*lag_min, g.gains.clone())],
+                s.nodes.clone(),
+                &[(*lag_min, s.gains(*exponent))],
                 0.0,
             );
             unit.predict(ds)
@@ -144,13 +163,7 @@ mod tests {
             .map(|t| 20.0 + (t / 50.0).sin())
             .collect();
         ds.push_column("t1_c", temp);
-        let law = LawGrid::new(
-            PowerLaw {
-                top_rpm: 2500.0,
-                exponent: 1.5,
-            },
-            &[1250.0, 2500.0],
-        );
+        let speeds = SpeedNodes::new(&[1250.0, 2500.0]).unwrap();
         let terms = [
             Term::Sensor {
                 signal: "t1_c".into(),
@@ -160,14 +173,20 @@ mod tests {
                 signal: "t1_c".into(),
                 lag_min: 30.0,
             },
-            Term::Spindle { lag_min: 40.0 },
+            Term::Spindle {
+                lag_min: 40.0,
+                exponent: 1.5,
+            },
         ];
         let gains = [2.0, -1.0, 3.0];
-        let mut model = DriftModel::from_modes("z_um", law.nodes.clone(), &[], 0.5);
-        model.spindle.modes = vec![terms[2].mode(gains[2], &law.gains).unwrap()];
+        let mut model = DriftModel::from_modes("z_um", speeds.nodes.clone(), &[], 0.5);
+        model.spindle.modes = vec![terms[2].mode(gains[2], &speeds).unwrap()];
         model.effects = effect_specs(&terms, &gains);
         let predicted = model.predict(&ds).unwrap();
-        let cols: Vec<Vec<f64>> = terms.iter().map(|t| column(&ds, t, Some(&law))).collect();
+        let cols: Vec<Vec<f64>> = terms
+            .iter()
+            .map(|t| column(&ds, t, Some(&speeds)))
+            .collect();
         for i in 0..ds.len() {
             let sum: f64 = 0.5 + (0..3).map(|k| gains[k] * cols[k][i]).sum::<f64>();
             assert!((sum - predicted[i]).abs() < 1e-12, "row {i}");

@@ -23,12 +23,11 @@ use super::fit::{FitError, max_abs, rms};
 use super::forward::{Origins, elapsed};
 use super::ridge::{Coefficients, Moments, Ridge};
 use super::speed_grid::SpeedGrid;
-use super::speed_law::PowerLaw;
 use super::{
     DataProvenance, DriftModel, Extrapolation, FitSummary, Interpolation, RunStats, SCHEMA,
     SpindleModes,
 };
-use basis::{LawGrid, Term, column, effect_specs};
+use basis::{SpeedNodes, Term, column, effect_specs};
 
 /// What `fit --kind dlag` fits and which designs forward validation chooses among.
 #[derive(Debug, Clone, PartialEq)]
@@ -80,9 +79,8 @@ pub struct ForwardSelection {
     pub signals: Vec<String>,
     pub sensor_lags_min: Vec<f64>,
     pub spindle_lags_min: Vec<f64>,
-    /// p of the speed law (absent without spindle terms).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub exponent: Option<f64>,
+    /// p of each spindle term's speed law, in the order of `spindle_lags_min`.
+    pub exponents: Vec<f64>,
     pub penalty: f64,
     /// Pooled forward RMS of the chosen design.
     pub cv_rms_um: f64,
@@ -96,8 +94,8 @@ pub struct ForwardSelection {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct DesignTrial {
     pub sensor_lags_min: Vec<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub exponent: Option<f64>,
+    /// p of each spindle term (the order of `spindle_lags_min`).
+    pub exponents: Vec<f64>,
     pub penalty: f64,
     pub cv_rms_um: f64,
 }
@@ -108,8 +106,8 @@ struct Prepared<'a> {
     y: Vec<f64>,
     usable: Vec<bool>,
     signals: Vec<String>,
-    /// Characterised speeds (grid of the window's logged speeds); empty without spindle terms.
-    characterised: Vec<f64>,
+    /// The speed grid of the spindle terms; `None` when the window never runs the spindle.
+    speeds: Option<SpeedNodes>,
     stretches: Vec<Vec<usize>>,
     origins_min: Vec<f64>,
 }
@@ -125,74 +123,210 @@ pub fn fit_dlag(all: &Dataset, opts: &DlagOptions) -> Result<DriftModel, FitErro
         None => all,
     };
     let prep = Prepared::new(ds, opts)?;
-    let exponents: Vec<Option<f64>> = if prep.characterised.is_empty() {
-        vec![None]
-    } else {
-        opts.exponents.iter().copied().map(Some).collect()
-    };
     let mut trials = Vec::new();
+    let mut best: Option<(Design, f64, f64)> = None;
     for lags in &opts.sensor_lags {
-        let sensor_cols: Vec<Vec<f64>> = prep
-            .sensor_terms(lags)
-            .iter()
-            .map(|t| column(ds, t, None))
-            .collect();
-        for &p in &exponents {
-            let (terms, law) = prep.terms(lags, &opts.spindle_lags, p);
-            let mut cols = sensor_cols.clone();
-            cols.extend(
-                terms[sensor_cols.len()..]
-                    .iter()
-                    .map(|t| column(ds, t, law.as_ref())),
-            );
-            if let Some((penalty, cv)) = prep.validate(&cols, &opts.penalties) {
-                trials.push(DesignTrial {
-                    sensor_lags_min: lags.clone(),
-                    exponent: p,
-                    penalty,
-                    cv_rms_um: cv,
-                });
-            }
+        let mut search = Search::new(&prep, opts, lags);
+        let Some(found) = search.run(&mut trials) else {
+            continue;
+        };
+        if best.as_ref().is_none_or(|b| found.2 < b.2) {
+            best = Some(found);
         }
     }
-    let best = trials
+    let (design, penalty, cv) = best.ok_or(FitError::TooFewSamples {
+        samples: prep.rows().len(),
+        needed: 2 * opts.origins.count.max(1),
+    })?;
+    let terms = prep.terms(&design);
+    let cols: Vec<Vec<f64>> = terms
         .iter()
-        .min_by(|a, b| a.cv_rms_um.total_cmp(&b.cv_rms_um))
-        .cloned()
-        .ok_or(FitError::TooFewSamples {
-            samples: prep.rows().len(),
-            needed: 2 * opts.origins.count.max(1),
-        })?;
-    let (terms, law) = prep.terms(&best.sensor_lags_min, &opts.spindle_lags, best.exponent);
-    let cols: Vec<Vec<f64>> = terms.iter().map(|t| column(ds, t, law.as_ref())).collect();
+        .map(|t| column(ds, t, prep.speeds.as_ref()))
+        .collect();
     let rows = prep.rows();
     let fit = Ridge::new(&Moments::of_rows(&cols, &prep.y, &rows))
         .ok_or(FitError::Numerical)?
-        .solve(best.penalty);
+        .solve(penalty);
     let selection = ForwardSelection {
         origins_min: prep.origins_min.clone(),
         signals: prep.signals.clone(),
-        sensor_lags_min: best.sensor_lags_min.clone(),
-        spindle_lags_min: if law.is_some() {
-            opts.spindle_lags.clone()
-        } else {
-            Vec::new()
-        },
-        exponent: best.exponent,
-        penalty: best.penalty,
-        cv_rms_um: best.cv_rms_um,
+        sensor_lags_min: design.sensor_lags.clone(),
+        spindle_lags_min: design.spindle.iter().map(|s| s.0).collect(),
+        exponents: design.spindle.iter().map(|s| s.1).collect(),
+        penalty,
+        cv_rms_um: cv,
         dof: fit.dof,
         trials,
     };
-    Ok(prep.model(
-        all.len(),
-        opts,
-        &terms,
-        law.as_ref(),
-        &cols,
-        &fit,
-        selection,
-    ))
+    Ok(prep.model(all.len(), opts, &terms, &cols, &fit, selection))
+}
+
+/// A design: the sensors' lag set and the spindle terms' (lag, exponent).
+#[derive(Debug, Clone, PartialEq)]
+struct Design {
+    sensor_lags: Vec<f64>,
+    spindle: Vec<(f64, f64)>,
+}
+
+/// The forward-validation search over the spindle exponents for one sensor lag set. The sensor columns and
+/// their moments per stretch are computed once; a spindle configuration only appends its columns.
+struct Search<'p, 'a> {
+    prep: &'p Prepared<'a>,
+    penalties: &'p [f64],
+    exponents: &'p [f64],
+    spindle_lags: Vec<f64>,
+    sensor_lags: Vec<f64>,
+    sensor_cols: Vec<Vec<f64>>,
+    base: Vec<Moments>,
+    /// Spindle columns by (lag index, exponent index).
+    spindle_cols: std::collections::HashMap<(usize, usize), Vec<f64>>,
+}
+
+impl<'p, 'a> Search<'p, 'a> {
+    fn new(prep: &'p Prepared<'a>, opts: &'p DlagOptions, lags: &[f64]) -> Search<'p, 'a> {
+        let sensor_cols: Vec<Vec<f64>> = prep
+            .sensor_terms(lags)
+            .iter()
+            .map(|t| column(prep.ds, t, None))
+            .collect();
+        let base = prep
+            .stretches
+            .iter()
+            .map(|rows| Moments::of_rows(&sensor_cols, &prep.y, rows))
+            .collect();
+        Search {
+            prep,
+            penalties: &opts.penalties,
+            exponents: &opts.exponents,
+            spindle_lags: if prep.speeds.is_some() {
+                opts.spindle_lags.clone()
+            } else {
+                Vec::new()
+            },
+            sensor_lags: lags.to_vec(),
+            sensor_cols,
+            base,
+            spindle_cols: std::collections::HashMap::new(),
+        }
+    }
+
+    fn design(&self, exps: &[usize]) -> Design {
+        Design {
+            sensor_lags: self.sensor_lags.clone(),
+            spindle: self
+                .spindle_lags
+                .iter()
+                .zip(exps)
+                .map(|(&l, &e)| (l, self.exponents[e]))
+                .collect(),
+        }
+    }
+
+    /// Best penalty and pooled forward RMS of the design with exponent indices `exps`.
+    fn score(&mut self, exps: &[usize]) -> Option<(f64, f64)> {
+        for (j, &e) in exps.iter().enumerate() {
+            if !self.spindle_cols.contains_key(&(j, e)) {
+                let term = Term::Spindle {
+                    lag_min: self.spindle_lags[j],
+                    exponent: self.exponents[e],
+                };
+                let col = column(self.prep.ds, &term, self.prep.speeds.as_ref());
+                self.spindle_cols.insert((j, e), col);
+            }
+        }
+        let extra: Vec<&[f64]> = exps
+            .iter()
+            .enumerate()
+            .map(|(j, &e)| self.spindle_cols[&(j, e)].as_slice())
+            .collect();
+        let parts: Vec<Moments> = self
+            .base
+            .iter()
+            .zip(&self.prep.stretches)
+            .map(|(m, rows)| m.extended(&self.sensor_cols, &extra, &self.prep.y, rows))
+            .collect();
+        validate(&parts, self.penalties)
+    }
+
+    /// One exponent shared by every spindle term on the grid, then each term's own exponent by coordinate
+    /// descent from there (two sweeps); every design scored is appended to `trials`. Returns the best
+    /// design, its penalty and its forward RMS.
+    fn run(&mut self, trials: &mut Vec<DesignTrial>) -> Option<(Design, f64, f64)> {
+        let m = self.spindle_lags.len();
+        let mut record = |s: &Search, exps: &[usize], (penalty, cv): (f64, f64)| {
+            let d = s.design(exps);
+            trials.push(DesignTrial {
+                sensor_lags_min: d.sensor_lags,
+                exponents: d.spindle.iter().map(|x| x.1).collect(),
+                penalty,
+                cv_rms_um: cv,
+            });
+        };
+        if m == 0 {
+            let found = self.score(&[])?;
+            record(self, &[], found);
+            return Some((self.design(&[]), found.0, found.1));
+        }
+        let mut best: Option<(Vec<usize>, (f64, f64))> = None;
+        for e in 0..self.exponents.len() {
+            let exps = vec![e; m];
+            if let Some(found) = self.score(&exps) {
+                record(self, &exps, found);
+                if best.as_ref().is_none_or(|b| found.1 < b.1.1) {
+                    best = Some((exps, found));
+                }
+            }
+        }
+        let (mut exps, mut found) = best?;
+        for _sweep in 0..2 {
+            let mut changed = false;
+            for j in 0..m {
+                for e in 0..self.exponents.len() {
+                    if e == exps[j] {
+                        continue;
+                    }
+                    let mut trial = exps.clone();
+                    trial[j] = e;
+                    if let Some(f) = self.score(&trial)
+                        && f.1 < found.1
+                    {
+                        (exps, found, changed) = (trial, f, true);
+                    }
+                }
+            }
+            if !changed {
+                break;
+            }
+        }
+        if exps.iter().any(|&e| e != exps[0]) {
+            record(self, &exps, found);
+        }
+        Some((self.design(&exps), found.0, found.1))
+    }
+}
+
+/// The best penalty and its pooled forward RMS, from the moments of the stretches between the origins:
+/// fold k trains on stretches `..=k` and scores stretches `k + 1..`. `None` when no fold can be fitted.
+fn validate(parts: &[Moments], penalties: &[f64]) -> Option<(f64, f64)> {
+    let mut sse = vec![0.0; penalties.len()];
+    let mut scored = 0.0;
+    for k in 0..parts.len().saturating_sub(1) {
+        let train = sum(&parts[..=k]);
+        let test = sum(&parts[k + 1..]);
+        if test.n == 0.0 {
+            continue;
+        }
+        let ridge = Ridge::new(&train)?;
+        for (s, &lambda) in sse.iter_mut().zip(penalties) {
+            *s += test.sse(&ridge.solve(lambda));
+        }
+        scored += test.n;
+    }
+    if scored == 0.0 {
+        return None;
+    }
+    let (best, s) = sse.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1))?;
+    Some((penalties[best], (s / scored).sqrt()))
 }
 
 impl<'a> Prepared<'a> {
@@ -248,7 +382,8 @@ impl<'a> Prepared<'a> {
                 SpeedGrid::from_speeds(&window).nodes().to_vec()
             })
             .unwrap_or_default();
-        if signals.is_empty() && characterised.is_empty() {
+        let speeds = SpeedNodes::new(&characterised);
+        if signals.is_empty() && speeds.is_none() {
             return Err(FitError::NoInputs);
         }
         let el = elapsed(ds);
@@ -263,7 +398,7 @@ impl<'a> Prepared<'a> {
             y,
             usable,
             signals,
-            characterised,
+            speeds,
             stretches,
             origins_min,
         })
@@ -285,72 +420,33 @@ impl<'a> Prepared<'a> {
             .collect()
     }
 
-    /// Every term of a design (sensors first) and the speed law's grid, when the design has spindle terms.
-    fn terms(
-        &self,
-        lags: &[f64],
-        spindle_lags: &[f64],
-        p: Option<f64>,
-    ) -> (Vec<Term>, Option<LawGrid>) {
-        let mut terms = self.sensor_terms(lags);
-        let law = p.and_then(|exponent| {
-            let top_rpm = *self.characterised.last()?;
-            Some(LawGrid::new(
-                PowerLaw { top_rpm, exponent },
-                &self.characterised,
-            ))
-        });
-        if law.is_some() {
-            terms.extend(spindle_lags.iter().map(|&l| Term::Spindle { lag_min: l }));
-        }
-        (terms, law)
+    /// Every term of a design, sensors first.
+    fn terms(&self, design: &Design) -> Vec<Term> {
+        let mut terms = self.sensor_terms(&design.sensor_lags);
+        terms.extend(
+            design
+                .spindle
+                .iter()
+                .map(|&(lag_min, exponent)| Term::Spindle { lag_min, exponent }),
+        );
+        terms
     }
 
-    /// The best penalty of a design and its pooled forward RMS; `None` when no fold can be fitted.
-    fn validate(&self, cols: &[Vec<f64>], penalties: &[f64]) -> Option<(f64, f64)> {
-        let parts: Vec<Moments> = self
-            .stretches
-            .iter()
-            .map(|rows| Moments::of_rows(cols, &self.y, rows))
-            .collect();
-        let mut sse = vec![0.0; penalties.len()];
-        let mut scored = 0.0;
-        for k in 0..parts.len().saturating_sub(1) {
-            let train = sum(&parts[..=k]);
-            let test = sum(&parts[k + 1..]);
-            if test.n == 0.0 {
-                continue;
-            }
-            let ridge = Ridge::new(&train)?;
-            for (s, &lambda) in sse.iter_mut().zip(penalties) {
-                *s += test.sse(&ridge.solve(lambda));
-            }
-            scored += test.n;
-        }
-        if scored == 0.0 {
-            return None;
-        }
-        let (best, s) = sse.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1))?;
-        Some((penalties[best], (s / scored).sqrt()))
-    }
-
-    #[allow(clippy::too_many_arguments)]
     fn model(
         &self,
         rows_in_file: usize,
         opts: &DlagOptions,
         terms: &[Term],
-        law: Option<&LawGrid>,
         cols: &[Vec<f64>],
         fit: &Coefficients,
         forward: ForwardSelection,
     ) -> DriftModel {
         let ds = self.ds;
         let gains: Vec<f64> = fit.beta.iter().copied().collect();
-        let modes = terms
+        let modes: Vec<super::Mode> = terms
             .iter()
             .zip(&gains)
-            .filter_map(|(t, g)| t.mode(*g, law.map_or(&[], |l| l.gains.as_slice())))
+            .filter_map(|(t, g)| self.speeds.as_ref().and_then(|s| t.mode(*g, s)))
             .collect();
         let predicted: Vec<f64> = (0..ds.len())
             .map(|i| fit.intercept + cols.iter().zip(&gains).map(|(c, g)| g * c[i]).sum::<f64>())
@@ -384,20 +480,20 @@ impl<'a> Prepared<'a> {
             lags.clone().fold(f64::INFINITY, f64::min),
             lags.fold(0.0, f64::max),
         ];
+        let speeds = self.speeds.as_ref().filter(|_| !modes.is_empty());
         DriftModel {
             schema: SCHEMA,
             channel: opts.channel.clone(),
             offset_um: fit.intercept,
             spindle: SpindleModes {
-                grid_rpm: law.map(|l| l.nodes.clone()).unwrap_or_default(),
+                grid_rpm: speeds.map(|s| s.nodes.clone()).unwrap_or_default(),
                 interpolation: Interpolation::PiecewiseLinear,
-                extrapolation: if law.is_some() {
+                extrapolation: if speeds.is_some() {
                     Extrapolation::PowerLaw
                 } else {
                     Extrapolation::LinearLastSegment
                 },
-                characterised_top_rpm: law.map(|l| l.law.top_rpm),
-                power_law_exponent: law.map(|l| l.law.exponent),
+                characterised_top_rpm: speeds.map(|s| s.top_rpm),
                 modes,
             },
             inputs: Vec::new(),
