@@ -95,7 +95,12 @@ fn predict_a_schedule_and_a_data_file() {
         .map(|l| l.split(',').next().unwrap())
         .collect();
     assert_eq!(times, ["0", "30", "60", "90", "100"]);
-    assert!(text(&out.stderr).contains("exceed the top characterised speed 5000 rpm"));
+    let warning = text(&out.stderr);
+    assert!(
+        warning.contains("6000 rpm is above the top characterised speed 5000 rpm")
+            && warning.contains("last segment"),
+        "{warning}"
+    );
 
     let pred = dir.path().join("pred.csv");
     let out = common::run(&[

@@ -135,6 +135,9 @@ pub(crate) fn only_channel(ds: &Dataset, asked: Option<&str>) -> anyhow::Result<
 /// The human summary: modes, τ, gains at each speed, fit statistics, and why each order was or was not
 /// chosen.
 pub fn summary(model: &DriftModel) -> String {
+    if let Some(s) = crate::model::dlag::text::summary(model) {
+        return s;
+    }
     let mut s = String::new();
     let modes = &model.spindle.modes;
     let plural = if modes.len() == 1 { "" } else { "s" };

@@ -45,7 +45,7 @@ mod tests {
     fn a_probe_re_zeroes_the_error_on_its_schedule() {
         let t: Vec<f64> = (0..10).map(|i| f64::from(i) * 10.0).collect();
         let err: Vec<f64> = t.iter().map(|x| x / 10.0).collect();
-        let runs = [0..10];
+        let runs: Vec<Range<usize>> = std::iter::once(0..10).collect();
         let out = rezeroed(&t, &runs, &err, 20.0, 30.0);
         // Probings at 20, 50, 80 min.
         assert_eq!(out, vec![0.0, 1.0, 0.0, 1.0, 2.0, 0.0, 1.0, 2.0, 0.0, 1.0]);

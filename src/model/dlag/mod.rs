@@ -14,6 +14,7 @@
 //! speed) for the spindle, so `predict`, `plan` and `transform` evaluate it with nothing new.
 
 pub mod basis;
+pub mod text;
 
 use serde::{Deserialize, Serialize};
 
