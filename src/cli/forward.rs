@@ -75,7 +75,8 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         };
         let predicted = model.predict(&ds)?;
         let measured = ds.values(ch).unwrap_or_default();
-        let score = HoldoutScore::of(&ds, measured, &predicted, until, Some(args.probe_every.0))
+        let later: Vec<bool> = ds.time_min.iter().map(|&t| t >= until).collect();
+        let score = HoldoutScore::of(&ds, measured, &predicted, &later, Some(args.probe_every.0))
             .ok_or_else(|| {
                 anyhow::anyhow!("{}: no reading of {ch} from {until} min on", ds.source)
             })?;

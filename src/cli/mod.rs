@@ -12,6 +12,7 @@ mod demo;
 mod diagnose;
 mod fit;
 mod forward;
+mod log;
 mod parse;
 mod plan;
 mod positioning;
@@ -106,6 +107,8 @@ enum Command {
     Predict(predict::Args),
     /// Fit every channel on earlier time and score it on later time, without and with probing.
     Forward(forward::Args),
+    /// Measurement logs: `log merge` joins characterisation CSVs and DRIFTLOG files into one series.
+    Log(log::Args),
     /// Insert probe measurements, nested measuring loops and drift corrections into NC programs.
     Transform(transform::Args),
     /// Print the timeline, predicted drift and planned measurements of a program.
@@ -134,6 +137,7 @@ pub fn main() -> ExitCode {
         Command::Fit(args) => fit::run(args, &cli.global),
         Command::Predict(args) => predict::run(args, &cli.global),
         Command::Forward(args) => forward::run(args, &cli.global),
+        Command::Log(args) => log::run(args, &cli.global),
         Command::Check(args) => check::run(args, &cli.global),
         Command::Parse(args) => parse::run(args, &cli.global),
         Command::Bench(args) => bench::run(args, &cli.global),

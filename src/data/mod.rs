@@ -3,6 +3,7 @@
 //! [`Dataset::write_csv`].
 
 mod duration;
+pub mod merge;
 mod read;
 mod write;
 

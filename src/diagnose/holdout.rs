@@ -1,4 +1,4 @@
-//! Scores of a prediction on a forward holdout (the rows from a time on): the uncompensated drift, the
+//! Scores of a prediction on a forward holdout (the later rows): the uncompensated drift, the
 //! model's error, and — with a probing interval — the error when a probe re-zeroes the correction every P
 //! minutes, with and without the model. The compensation rate is 1 − RMS / RMS uncompensated.
 
@@ -32,13 +32,14 @@ pub fn rate(error: &ErrorStats, uncompensated: &ErrorStats) -> f64 {
 }
 
 impl HoldoutScore {
-    /// Scores `predicted` (one value per row) against `measured` on the rows from `from_min` on; probings
-    /// every `probe_every_min` from `from_min`. `None` when no holdout row has a reading.
+    /// Scores `predicted` (one value per row) against `measured` on the rows marked `scored`; probings
+    /// every `probe_every_min` from each run's first scored reading. `None` when no scored row has a
+    /// reading.
     pub fn of(
         ds: &Dataset,
         measured: &[f64],
         predicted: &[f64],
-        from_min: f64,
+        scored: &[bool],
         probe_every_min: Option<f64>,
     ) -> Option<HoldoutScore> {
         let runs: Vec<_> = ds.runs().collect();
@@ -51,20 +52,17 @@ impl HoldoutScore {
             }
         }
         let err: Vec<f64> = measured.iter().zip(predicted).map(|(m, p)| m - p).collect();
+        let rows: Vec<usize> = (0..ds.len())
+            .filter(|&i| scored[i] && !measured[i].is_nan())
+            .collect();
         let held = |e: &[f64]| -> Option<ErrorStats> {
-            let v: Vec<f64> = (0..ds.len())
-                .filter(|&i| ds.time_min[i] >= from_min && !measured[i].is_nan())
-                .map(|i| e[i])
-                .collect();
-            ErrorStats::of(&v)
+            ErrorStats::of(&rows.iter().map(|&i| e[i]).collect::<Vec<_>>())
         };
         let probed = |e: &[f64]| {
-            probe_every_min.and_then(|p| held(&rezeroed(&ds.time_min, &runs, e, from_min, p)))
+            probe_every_min.and_then(|p| held(&rezeroed(&ds.time_min, &runs, e, scored, p)))
         };
         Some(HoldoutScore {
-            rows: (0..ds.len())
-                .filter(|&i| ds.time_min[i] >= from_min && !measured[i].is_nan())
-                .count(),
+            rows: rows.len(),
             uncompensated: held(&uncomp)?,
             model: held(&err)?,
             model_probed: probed(&err),
