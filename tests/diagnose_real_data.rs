@@ -29,7 +29,10 @@ fn every_channel_of_the_first_24_hours() {
         assert!(d.rows_holdout > 0 && d.rows_fit > 0);
         assert!(d.recalibrated.fit.rms_um <= d.before.fit.rms_um + 1e-9);
         let (before, after) = (d.before.holdout.unwrap(), d.after.holdout.unwrap());
-        assert!(after.rms_um <= before.rms_um, "{ch}: after worse than before");
+        assert!(
+            after.rms_um <= before.rms_um,
+            "{ch}: after worse than before"
+        );
         if d.holdout_guard.is_empty() {
             assert!(d.after.fit.rms_um <= d.recalibrated.fit.rms_um + 1e-9);
         }
@@ -59,12 +62,22 @@ fn every_channel_of_the_first_24_hours() {
             &Options::new(ch).holdout_from(HOLDOUT_MIN),
         )
         .unwrap();
-        assert_eq!(again.rejected, d.rejected, "{ch}: the holdout leaked into the search");
+        assert_eq!(
+            again.rejected, d.rejected,
+            "{ch}: the holdout leaked into the search"
+        );
         let kinds = |x: &driftloop::diagnose::Diagnosis| -> Vec<String> {
-            x.effects_added.iter().map(|a| format!("{:?}", a.effect)).collect()
+            x.effects_added
+                .iter()
+                .map(|a| format!("{:?}", a.effect))
+                .collect()
         };
         let (a, b) = (kinds(&again), kinds(&d));
         let n = a.len().min(b.len());
-        assert_eq!(a[..n], b[..n], "{ch}: the kept effects are stages of one search");
+        assert_eq!(
+            a[..n],
+            b[..n],
+            "{ch}: the kept effects are stages of one search"
+        );
     }
 }

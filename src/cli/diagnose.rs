@@ -73,7 +73,10 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         args.probe_every.0 > 0.0,
         "--probe-every must be a positive time"
     );
-    let channel = args.channel.clone().unwrap_or_else(|| model.channel.clone());
+    let channel = args
+        .channel
+        .clone()
+        .unwrap_or_else(|| model.channel.clone());
     let mut opts = Options::new(&channel);
     opts.holdout = match args.holdout_from {
         None => Holdout::LastFraction(1.0 / 3.0),

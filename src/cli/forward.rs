@@ -78,8 +78,8 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         let later: Vec<bool> = ds.time_min.iter().map(|&t| t >= until).collect();
         let score = HoldoutScore::of(&ds, measured, &predicted, &later, Some(args.probe_every.0))
             .ok_or_else(|| {
-                anyhow::anyhow!("{}: no reading of {ch} from {until} min on", ds.source)
-            })?;
+            anyhow::anyhow!("{}: no reading of {ch} from {until} min on", ds.source)
+        })?;
         let design = match model.fit.as_ref().and_then(|f| f.forward.as_ref()) {
             Some(f) => format!(
                 "lags {:?} min, spindle lags {:?} min with p {:?}, penalty {:.0e}, forward CV {:.2} µm",

@@ -46,10 +46,9 @@ pub struct Merged {
 /// A `--rename OLD=NEW` pair.
 pub fn parse_rename(s: &str) -> Result<(String, String), String> {
     match s.split_once('=') {
-        Some((a, b)) if !a.trim().is_empty() && !b.trim().is_empty() => Ok((
-            a.trim().to_ascii_lowercase(),
-            b.trim().to_ascii_lowercase(),
-        )),
+        Some((a, b)) if !a.trim().is_empty() && !b.trim().is_empty() => {
+            Ok((a.trim().to_ascii_lowercase(), b.trim().to_ascii_lowercase()))
+        }
         _ => Err(format!("`{s}`: expected OLD=NEW, e.g. drift_z_um=ch3_um")),
     }
 }
@@ -91,7 +90,8 @@ pub fn merge(mut parts: Vec<Dataset>, renames: &[(String, String)]) -> Result<Me
             p.push_column(to, values);
         }
         let before = p.columns.len();
-        p.columns.retain(|c| !BOOKKEEPING.contains(&c.name.as_str()));
+        p.columns
+            .retain(|c| !BOOKKEEPING.contains(&c.name.as_str()));
         if p.columns.len() < before {
             notes.push(format!(
                 "{}: the bookkeeping column `pass` is left out",
@@ -202,7 +202,10 @@ mod tests {
         let ch = d.values("ch3_um").unwrap();
         assert_eq!(&ch[..4], &[0.0, 1.5, 2.5, 0.0]);
         assert!(ch[4].is_nan() && ch[5] == 0.0);
-        assert_eq!(d.values("t1_c").unwrap(), &[20.0, 20.5, 21.0, 22.0, 22.5, 23.0]);
+        assert_eq!(
+            d.values("t1_c").unwrap(),
+            &[20.0, 20.5, 21.0, 22.0, 22.5, 23.0]
+        );
         assert!(d.column("pass").is_none() && d.column("drift_z_um").is_none());
         assert!(m.notes.iter().any(|n| n.contains("pass")));
         // Written and read back, the merged series is the same.
@@ -217,7 +220,9 @@ mod tests {
     fn mismatches_are_named() {
         let a = read("a.csv", "time_min,spindle_rpm,z_um,t1_c\n0,0,0,20\n");
         let b = read("b.csv", "time_min,spindle_rpm,z_um\n0,0,0\n");
-        let e = merge(vec![a.clone(), b.clone()], &[]).unwrap_err().to_string();
+        let e = merge(vec![a.clone(), b.clone()], &[])
+            .unwrap_err()
+            .to_string();
         assert!(
             e.contains("b.csv: no column `t1_c`, which a.csv has") && e.contains("--rename"),
             "{e}"
@@ -229,7 +234,10 @@ mod tests {
         let e = merge(vec![a], &[parse_rename("t1_c=z_um").unwrap()])
             .unwrap_err()
             .to_string();
-        assert!(e.contains("a.csv: --rename t1_c=z_um meets a column `z_um`"), "{e}");
+        assert!(
+            e.contains("a.csv: --rename t1_c=z_um meets a column `z_um`"),
+            "{e}"
+        );
         assert!(parse_rename("x").is_err() && parse_rename("=y").is_err());
     }
 }

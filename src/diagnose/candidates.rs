@@ -286,8 +286,9 @@ pub fn forward_validate(ctx: &Ctx, joint: &Joint, tested: std::ops::Range<usize>
                     .first()
                     .is_some_and(|&f| fold.train.iter().any(|&i| (col[i] - col[f]).abs() > 1e-12))
             });
+            let train = ctx.training(&fold.train);
             let refit = varies
-                .then(|| joint.refit(&ctx.training(&fold.train)))
+                .then(|| rescan_steps(joint, &train).refit(&train))
                 .flatten();
             match refit {
                 Some(f) => Fold {
@@ -307,6 +308,37 @@ pub fn forward_validate(ctx: &Ctx, joint: &Joint, tested: std::ops::Range<usize>
             }
         })
         .collect()
+}
+
+/// The structure with each step's time scanned again on the fit rows of `ctx` (a fold's training rows):
+/// the time a step was placed at on the whole window was chosen with the rows after the fold's origin, and
+/// a forward fold must not know them. Other θ are refitted by the fold's refit itself.
+fn rescan_steps(joint: &Joint, ctx: &Ctx) -> Joint {
+    let mut out = joint.clone();
+    let times = ctx.fit_rows(&ctx.ds.time_min);
+    let (Some(&lo), Some(&hi)) = (times.first(), times.last()) else {
+        return out;
+    };
+    for k in 0..out.effects.len() {
+        if out.effects[k].kind != Kind::Step {
+            continue;
+        }
+        let mut best: Option<(f64, f64)> = None;
+        for i in 1..STEP_POINTS {
+            let at = lo + (hi - lo) * (0.04 + 0.92 * i as f64 / STEP_POINTS as f64);
+            let mut trial = out.clone();
+            trial.effects[k].theta = vec![at];
+            if let Some(f) = trial.finish(ctx)
+                && best.is_none_or(|(_, rss)| f.rss < rss)
+            {
+                best = Some((at, f.rss));
+            }
+        }
+        if let Some((at, _)) = best {
+            out.effects[k].theta = vec![at];
+        }
+    }
+    out
 }
 
 /// RMS over the folds `use_fold` keeps.

@@ -407,7 +407,9 @@ impl Joint {
         if let Some(frozen) = &self.frozen {
             let scale = it.next().unwrap_or(1.0);
             joint.base = scaled(&self.base, scale);
-            joint.frozen = Some(std::sync::Arc::new(frozen.iter().map(|v| v * scale).collect()));
+            joint.frozen = Some(std::sync::Arc::new(
+                frozen.iter().map(|v| v * scale).collect(),
+            ));
         } else {
             for m in &mut joint.base.spindle.modes {
                 let scale = it.next().unwrap_or(1.0);

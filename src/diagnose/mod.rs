@@ -247,10 +247,7 @@ pub fn diagnose(
         }
         None => {
             added.clear();
-            white = ljung_box_white(
-                &ctx.fit_rows(&residual(&ctx, &before_pred)),
-                WHITENESS_LAGS,
-            );
+            white = ljung_box_white(&ctx.fit_rows(&residual(&ctx, &before_pred)), WHITENESS_LAGS);
             Fitted {
                 joint: start.clone(),
                 model: model.clone(),
@@ -385,7 +382,8 @@ fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Optio
         let p = fitted.joint.n_linear();
         let tested = p - 1 - s.effect.amplitudes.len()..p - 1;
         let folds_with = forward_validate(ctx, &fitted.joint, tested);
-        let without = folds_without.get_or_insert_with(|| forward_validate(ctx, &current.joint, 0..0));
+        let without =
+            folds_without.get_or_insert_with(|| forward_validate(ctx, &current.joint, 0..0));
         // Compared on the folds where the effect can be estimated from the training stretch.
         let usable: Vec<bool> = folds_with
             .iter()
@@ -446,12 +444,12 @@ fn measured_range(ctx: &Ctx) -> f64 {
         - y.iter().copied().fold(f64::INFINITY, f64::min)
 }
 
-/// The effect's time constant when the refit left it at the upper bound of its search.
+/// The effect's time constant when the refit left it at the upper bound of its search. A lagged input or
+/// slope that slow is a wandering signal's trend in disguise; a further spindle mode that slow is not: far
+/// slower than the window, it integrates the speed history (its response is k·rpm·t/τ there, only the
+/// ratio is identified), which no trend imitates — the forward validation judges it like any other.
 fn at_upper_tau_bound(ctx: &Ctx, e: &Effect) -> Option<f64> {
-    let lagged = matches!(
-        e.kind,
-        Kind::InputLag | Kind::ExtraMode | Kind::PositionSlope
-    );
+    let lagged = matches!(e.kind, Kind::InputLag | Kind::PositionSlope);
     let (_, hi) = ctx.effect_tau_bounds(e.kind);
     (lagged && e.theta[0] >= 0.99 * hi).then(|| e.theta[0])
 }
@@ -478,7 +476,13 @@ fn holdout_guard(ctx: &Ctx, before: &Windows, stages: &[Fitted]) -> (Option<usiz
             ),
             _ => format!(
                 "{}: with it the holdout RMS is {:.3} µm, above the model before ({:.3} µm)",
-                text::effect_name(stage.joint.effects.last().expect("a stage past 0 added one")),
+                text::effect_name(
+                    stage
+                        .joint
+                        .effects
+                        .last()
+                        .expect("a stage past 0 added one")
+                ),
                 h.rms_um,
                 b.rms_um
             ),
@@ -491,7 +495,9 @@ fn holdout_guard(ctx: &Ctx, before: &Windows, stages: &[Fitted]) -> (Option<usiz
 /// holdout); `None` without a reading there.
 fn probing(ctx: &Ctx, every: f64, before: &[f64], after: &[f64]) -> Option<Probing> {
     let scored: Vec<bool> = if ctx.n_holdout > 0 {
-        (0..ctx.n()).map(|i| ctx.measured[i] && !ctx.fit[i]).collect()
+        (0..ctx.n())
+            .map(|i| ctx.measured[i] && !ctx.fit[i])
+            .collect()
     } else {
         ctx.fit.clone()
     };

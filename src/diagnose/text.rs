@@ -227,10 +227,9 @@ impl Diagnosis {
                 Some(self.uncompensated.fit)
             };
             let rate = |e: &ErrorStats| {
-                unc.filter(|u| u.rms_um > 0.0)
-                    .map_or("—".to_string(), |u| {
-                        format!("{:.0} %", 100.0 * (1.0 - e.rms_um / u.rms_um))
-                    })
+                unc.filter(|u| u.rms_um > 0.0).map_or("—".to_string(), |u| {
+                    format!("{:.0} %", 100.0 * (1.0 - e.rms_um / u.rms_um))
+                })
             };
             let _ = writeln!(
                 s,
