@@ -57,7 +57,10 @@ fn machine(seed: u64) -> (Dataset, DriftModel) {
     };
     let grid = law.nodes(&[1000.0, 2000.0]);
     let mut truth = DriftModel::from_modes("z_um", grid.clone(), &[(60.0, law.gains(&grid))], 0.2);
-    truth.spindle.modes[0].gain_um.iter_mut().for_each(|g| *g *= 6.0);
+    truth.spindle.modes[0]
+        .gain_um
+        .iter_mut()
+        .for_each(|g| *g *= 6.0);
     let term = |kind, signal: &str, theta: Vec<f64>, gain| Effect {
         kind,
         signal: Some(signal.into()),
@@ -106,7 +109,14 @@ fn predicts_a_speed_never_trained_on_with_the_law_forward_validation_chose() {
         let truth_held = window_rms(&ds, &truth.predict(&ds).unwrap(), UNTIL_MIN, true);
         eprintln!(
             "seed {seed}: holdout {held:.3} µm (truth {truth_held:.3}, uncompensated {uncompensated:.2}); exponents {:?}",
-            model.fit.as_ref().unwrap().forward.as_ref().unwrap().exponents
+            model
+                .fit
+                .as_ref()
+                .unwrap()
+                .forward
+                .as_ref()
+                .unwrap()
+                .exponents
         );
         // Seeds 1–3 reach 1.1–3.3× the noise (the ridge's shrinkage, extrapolated 1.5× past the top
         // speed); the bound leaves room for that, far below what a wrong law costs (p = 1 instead of 1.5
@@ -136,7 +146,12 @@ fn the_model_file_predicts_what_was_fitted() {
         assert!((a - b).abs() < 1e-9);
     }
     // Made only of kinds the NC predictor evaluates: spindle modes, static and lagged inputs.
-    assert!(model.effects.iter().all(|e| e.kind == "static_input" || e.kind == "input_lag"));
+    assert!(
+        model
+            .effects
+            .iter()
+            .all(|e| e.kind == "static_input" || e.kind == "input_lag")
+    );
     let f = fit.forward.as_ref().unwrap();
     assert_eq!(f.signals, ["hall_c", "spindle_c"]);
     assert_eq!(model.effects.len(), 2 * f.sensor_lags_min.len());
@@ -186,7 +201,11 @@ fn the_nc_predictor_reproduces_the_model_gate_by_gate() {
         p.advance(ds.time_min[i] - ds.time_min[i - 1]);
         p.set_static_changes(&change(statics(), i));
         let nc = p.drift() + model.offset_um;
-        assert!((nc - predicted[i]).abs() < 1e-9, "row {i}: {nc} vs {}", predicted[i]);
+        assert!(
+            (nc - predicted[i]).abs() < 1e-9,
+            "row {i}: {nc} vs {}",
+            predicted[i]
+        );
         p.set_rpm(rpm[i]);
         p.set_input_changes(&change(lagged(), i));
     }
@@ -214,7 +233,9 @@ fn fit_predict_and_transform_through_the_binary() {
     ds.write_csv(&mut csv).unwrap();
     std::fs::write(dir.path().join("m.csv"), csv).unwrap();
     let run = |args: &[&str]| common::driftloop(dir.path(), args, b"");
-    let out = run(&["fit", "m.csv", "--kind", "dlag", "--until", "16h", "-o", "m.toml"]);
+    let out = run(&[
+        "fit", "m.csv", "--kind", "dlag", "--until", "16h", "-o", "m.toml",
+    ]);
     assert_eq!(out.status.code(), Some(0), "{}", common::stderr(&out));
     let summary = String::from_utf8_lossy(&out.stdout).into_owned();
     for part in [
@@ -238,10 +259,21 @@ fn fit_predict_and_transform_through_the_binary() {
     let program = program.to_str().unwrap();
     let out = run(&["transform", program, "--model", "m.toml"]);
     assert_eq!(out.status.code(), Some(2));
-    assert!(common::stderr(&out).contains("hall_c"), "{}", common::stderr(&out));
+    assert!(
+        common::stderr(&out).contains("hall_c"),
+        "{}",
+        common::stderr(&out)
+    );
     let profile = format!("{DEFAULT_PROFILE}\n[log]\ninputs = {{ hall_c = 1, spindle_c = 2 }}\n");
     std::fs::write(dir.path().join("p.toml"), profile).unwrap();
-    let out = run(&["transform", program, "--model", "m.toml", "--profile", "p.toml"]);
+    let out = run(&[
+        "transform",
+        program,
+        "--model",
+        "m.toml",
+        "--profile",
+        "p.toml",
+    ]);
     assert_eq!(out.status.code(), Some(0), "{}", common::stderr(&out));
     let nc = String::from_utf8_lossy(&out.stdout);
     assert!(nc.contains("$A_INA[1]") && nc.contains("$A_INA[2]"));
