@@ -52,3 +52,38 @@ fn modes_that_cool_much_slower_or_faster_than_they_heat() {
         );
     }
 }
+
+/// Ten seeds per case at 4× the noise, sampling 1, 3 or 5 min; prints the holdout RMS after diagnosis in
+/// multiples of the noise (docs/forward.md quotes it). Release-speed: `cargo test --release --test
+/// diagnose_hard -- --ignored --nocapture`.
+#[test]
+#[ignore = "release-speed sweep; run explicitly"]
+fn sweep() {
+    let cases = [
+        (Kind::CoolingAsymmetry, 3.0),
+        (Kind::CoolingAsymmetry, 5.0),
+        (Kind::CoolingAsymmetry, 0.2),
+        (Kind::ExtraMode, 1500.0),
+        (Kind::ExtraMode, 3000.0),
+    ];
+    for (kind, theta) in cases {
+        let mut ratios = Vec::new();
+        for seed in 100..110u64 {
+            let mut sc = Scenario::new(seed, Some(kind));
+            sc.effect_size = 4.0;
+            sc.step_min = [1.0, 3.0, 5.0][(seed % 3) as usize];
+            sc.theta = Some(theta);
+            let sim = simulate(&sc).unwrap();
+            let declared = fit(&sim.characterisation, &FitOptions::new(CHANNEL)).unwrap();
+            let opts = Options::new(CHANNEL).holdout_from(sc.holdout_from_min);
+            let d = diagnose(&declared, &sim.production, &opts).unwrap();
+            ratios.push(d.after.holdout.unwrap().rms_um / sc.noise_um);
+        }
+        let within = ratios.iter().filter(|r| **r <= 2.0).count();
+        let text: Vec<String> = ratios.iter().map(|r| format!("{r:.2}")).collect();
+        eprintln!(
+            "{kind:?} θ {theta}: {within}/10 within 2× the noise: {}",
+            text.join(" ")
+        );
+    }
+}

@@ -326,16 +326,39 @@ pub fn diagnose(
 fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Option<(Fitted, Added)> {
     let resid = ctx.fit_rows(&residual(ctx, &current.prediction));
     let proj = Projector::new(ctx, current);
+    // The best-screened candidates, and every candidate that changes or overlaps the declared modes:
+    // screening holds the recalibrated modes fixed, and a recalibrated mode that stretched its τ towards a
+    // slower undeclared one leaves that one little or nothing to screen on (its column projected off the
+    // modes' vanishes), while refitted jointly it takes its share. Unscreenable, such a candidate starts
+    // from the slowest time constant its search allows.
+    let overlaps = |s: &candidates::Screened| {
+        matches!(s.effect.kind, Kind::ExtraMode | Kind::CoolingAsymmetry)
+    };
     let mut screened: Vec<_> = candidates::candidates(ctx, current)
         .iter()
-        .filter_map(|c| screen(ctx, current, &proj, &resid, c))
-        .filter(|s| s.delta_bic < 0.0)
+        .filter_map(|c| {
+            screen(ctx, current, &proj, &resid, c).or_else(|| {
+                (c.kind == Kind::ExtraMode).then(|| candidates::Screened {
+                    effect: Effect {
+                        theta: vec![ctx.effect_tau_bounds(c.kind).1],
+                        ..c.clone()
+                    },
+                    delta_bic: f64::INFINITY,
+                })
+            })
+        })
         .collect();
     screened.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
+    let refits: Vec<_> = screened
+        .iter()
+        .enumerate()
+        .filter(|(i, s)| (*i < REFITS_PER_ROUND && s.delta_bic < 0.0) || overlaps(s))
+        .map(|(_, s)| s.clone())
+        .collect();
     let mut folds_without: Option<Vec<candidates::Fold>> = None;
     let rss0 = current.rss;
     let mut best: Option<(Fitted, Added)> = None;
-    for s in screened.into_iter().take(REFITS_PER_ROUND) {
+    for s in refits {
         let mut joint = current.joint.clone();
         joint.effects.push(s.effect.clone());
         let Some(fitted) = joint.refit(ctx) else {
