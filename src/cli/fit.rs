@@ -141,18 +141,13 @@ pub fn summary(model: &DriftModel) -> String {
     let mut s = String::new();
     let modes = &model.spindle.modes;
     let plural = if modes.len() == 1 { "" } else { "s" };
-    let _ = write!(s, "{}: {} spindle mode{plural}", model.channel, modes.len());
-    if let (Some(fit), Some(data)) = (&model.fit, &model.data) {
-        let _ = write!(s, ", fitted on {} samples of {}", fit.samples, data.file);
-        if let Some(u) = fit.until {
-            let _ = write!(
-                s,
-                " before {u} {}",
-                data.time_unit.column_name().trim_start_matches("time_")
-            );
-        }
-    }
-    s.push('\n');
+    let _ = writeln!(
+        s,
+        "{}: {} spindle mode{plural}{}",
+        model.channel,
+        modes.len(),
+        crate::model::fit::fitted_on(model)
+    );
     for (k, m) in modes.iter().enumerate() {
         let se = m
             .tau_se_min

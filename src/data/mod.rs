@@ -229,6 +229,14 @@ impl Dataset {
         self.select(|t| t < until_min)
     }
 
+    /// [`Dataset::until`] when a time is given, the whole data set (not copied) otherwise.
+    pub fn until_opt(&self, until_min: Option<f64>) -> std::borrow::Cow<'_, Dataset> {
+        match until_min {
+            Some(u) => std::borrow::Cow::Owned(self.until(u)),
+            None => std::borrow::Cow::Borrowed(self),
+        }
+    }
+
     fn select(&self, keep: impl Fn(f64) -> bool) -> Dataset {
         let mut out = Dataset::new(self.source.clone(), self.time_unit, Vec::new());
         out.run_starts.clear();

@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::data::{ColumnKind, Dataset, SPINDLE};
 
-use super::fit::{FitError, max_abs, rms};
+use super::fit::{FitError, channel_values, max_abs, rms};
 use super::forward::{Origins, elapsed};
 use super::ridge::{Coefficients, Moments, Ridge};
 use super::speed_grid::SpeedGrid;
@@ -115,14 +115,8 @@ struct Prepared<'a> {
 
 /// Fits the distributed-lag model of `opts.channel`.
 pub fn fit_dlag(all: &Dataset, opts: &DlagOptions) -> Result<DriftModel, FitError> {
-    let windowed;
-    let ds = match opts.until_min {
-        Some(u) => {
-            windowed = all.until(u);
-            &windowed
-        }
-        None => all,
-    };
+    let window = all.until_opt(opts.until_min);
+    let ds = window.as_ref();
     let prep = Prepared::new(ds, opts)?;
     let mut trials = Vec::new();
     let mut best: Option<(Design, f64, f64)> = None;
@@ -332,20 +326,7 @@ fn validate(parts: &[Moments], penalties: &[f64]) -> Option<(f64, f64)> {
 
 impl<'a> Prepared<'a> {
     fn new(ds: &'a Dataset, opts: &DlagOptions) -> Result<Prepared<'a>, FitError> {
-        let y = ds
-            .column(&opts.channel)
-            .filter(|c| c.kind == ColumnKind::Displacement)
-            .ok_or_else(|| FitError::NoChannel {
-                source_name: ds.source.clone(),
-                channel: opts.channel.clone(),
-                available: ds
-                    .channels()
-                    .map(|c| c.name.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", "),
-            })?
-            .values
-            .clone();
+        let y = channel_values(ds, &opts.channel)?.to_vec();
         let usable = crate::data::measured(&y);
         let varies = |v: &[f64]| {
             let mut it = (0..v.len()).filter(|&i| usable[i]).map(|i| v[i]);

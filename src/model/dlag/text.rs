@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 
 use crate::model::DriftModel;
 use crate::model::effects::{Effect, Kind};
-use crate::model::fit::fmt_tau;
+use crate::model::fit::{fitted_on, fmt_tau};
 use crate::model::speed_law::extrapolation_law;
 
 use super::ForwardSelection;
@@ -18,18 +18,12 @@ pub fn summary(model: &DriftModel) -> Option<String> {
     let fit = model.fit.as_ref()?;
     let f = fit.forward.as_ref()?;
     let mut s = String::new();
-    let _ = write!(s, "{}: distributed-lag model", model.channel);
-    if let Some(data) = &model.data {
-        let _ = write!(s, ", fitted on {} samples of {}", fit.samples, data.file);
-        if let Some(u) = fit.until {
-            let _ = write!(
-                s,
-                " before {u} {}",
-                data.time_unit.column_name().trim_start_matches("time_")
-            );
-        }
-    }
-    s.push('\n');
+    let _ = writeln!(
+        s,
+        "{}: distributed-lag model{}",
+        model.channel,
+        fitted_on(model)
+    );
     let _ = writeln!(
         s,
         "  sensors: {} ({}), each a change from its run's start at lags {} min",
