@@ -88,7 +88,7 @@ fn forward_block(s: &mut String, f: &ForwardSelection) {
         if let Some(t) = best {
             let _ = writeln!(
                 s,
-                "    sensor lags {:<22} best {:.3} µm (exponents {}, penalty {:.0e})",
+                "    sensor lags {:<26} best {:.3} µm (exponents {}, penalty {:.0e})",
                 format!("{} min", join(set)),
                 t.cv_rms_um,
                 join(&t.exponents),
