@@ -494,11 +494,11 @@ fn holdout_guard(ctx: &Ctx, before: &Windows, stages: &[Fitted]) -> (Option<usiz
         }
         notes.push(match k {
             0 => format!(
-                "the recalibration: holdout RMS {:.3} µm, above the model as given ({:.3} µm)",
+                "the recalibration: holdout RMS {:.3} µm, no better than the model as given ({:.3} µm)",
                 h.rms_um, b.rms_um
             ),
             _ => format!(
-                "{}: with it the holdout RMS is {:.3} µm, above the model before ({:.3} µm)",
+                "{}: with it the holdout RMS is {:.3} µm, no better than the model before ({:.3} µm)",
                 text::effect_name(
                     stage
                         .joint
