@@ -85,7 +85,10 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 "lags {:?} min, spindle lags {:?} min with p {:?}, penalty {:.0e}, forward CV {:.2} µm",
                 f.sensor_lags_min, f.spindle_lags_min, f.exponents, f.penalty, f.cv_rms_um
             ),
-            None => format!("{} spindle modes", model.spindle.modes.len()),
+            None => match model.spindle.modes.len() {
+                1 => "1 spindle mode".to_string(),
+                n => format!("{n} spindle modes"),
+            },
         };
         lines.push(Line {
             channel: ch.clone(),
