@@ -278,3 +278,49 @@ fn fit_predict_and_transform_through_the_binary() {
     let nc = String::from_utf8_lossy(&out.stdout);
     assert!(nc.contains("$A_INA[1]") && nc.contains("$A_INA[2]"));
 }
+
+#[test]
+fn the_forward_benchmark_scores_later_hours_with_and_without_probing() {
+    let dir = tempfile::tempdir().unwrap();
+    let (ds, _) = machine(8);
+    let mut csv = Vec::new();
+    ds.write_csv(&mut csv).unwrap();
+    std::fs::write(dir.path().join("m.csv"), csv).unwrap();
+    let out = common::driftloop(
+        dir.path(),
+        &[
+            "forward",
+            "m.csv",
+            "--until",
+            "16h",
+            "--probe-every",
+            "2h",
+            "--format",
+            "json",
+        ],
+        b"",
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", common::stderr(&out));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let line = &v[0];
+    assert_eq!(line["channel"], "z_um");
+    // 480 rows from minute 960 to 1440 (one a minute), every one with a reading.
+    assert_eq!(line["score"]["rows"], 481);
+    let s = &line["score"];
+    let rate = |e: &str| {
+        1.0 - s[e]["rms_um"].as_f64().unwrap() / s["uncompensated"]["rms_um"].as_f64().unwrap()
+    };
+    assert!((line["rate_model"].as_f64().unwrap() - rate("model")).abs() < 1e-12);
+    assert!((line["rate_model_probed"].as_f64().unwrap() - rate("model_probed")).abs() < 1e-12);
+    assert!((line["rate_probe_only"].as_f64().unwrap() - rate("probe_only")).abs() < 1e-12);
+    // The model is the same one `fit --kind dlag --until 16h` makes: its holdout error here is that fit's.
+    let model = fit_dlag(&ds, &options()).unwrap();
+    let held = window_rms(&ds, &model.predict(&ds).unwrap(), UNTIL_MIN, true);
+    assert!((s["model"]["rms_um"].as_f64().unwrap() - held).abs() < 1e-9);
+    // A probe re-zeroing every 2 h leaves a drift of several µm per 2 h of 3000 rpm heating; the model
+    // follows it between probings.
+    assert!(
+        rate("probe_only") < 0.95 && rate("model_probed") > 0.97,
+        "{s}"
+    );
+}
