@@ -76,6 +76,16 @@ fn machine(seed: u64) -> (Dataset, DriftModel) {
     (ds, truth)
 }
 
+/// The simulated machine's data, also written as `m.csv` in a new temporary directory.
+fn machine_csv(seed: u64) -> (tempfile::TempDir, Dataset) {
+    let dir = tempfile::tempdir().unwrap();
+    let (ds, _) = machine(seed);
+    let mut csv = Vec::new();
+    ds.write_csv(&mut csv).unwrap();
+    std::fs::write(dir.path().join("m.csv"), csv).unwrap();
+    (dir, ds)
+}
+
 fn options() -> DlagOptions {
     let mut o = DlagOptions::new("z_um");
     o.until_min = Some(UNTIL_MIN);
@@ -227,11 +237,7 @@ fn p_signals(model: &DriftModel, lagged: bool) -> Vec<&str> {
 
 #[test]
 fn fit_predict_and_transform_through_the_binary() {
-    let dir = tempfile::tempdir().unwrap();
-    let (ds, _) = machine(7);
-    let mut csv = Vec::new();
-    ds.write_csv(&mut csv).unwrap();
-    std::fs::write(dir.path().join("m.csv"), csv).unwrap();
+    let (dir, ds) = machine_csv(7);
     let run = |args: &[&str]| common::driftloop(dir.path(), args, b"");
     let out = run(&[
         "fit", "m.csv", "--kind", "dlag", "--until", "16h", "-o", "m.toml",
@@ -281,11 +287,7 @@ fn fit_predict_and_transform_through_the_binary() {
 
 #[test]
 fn the_forward_benchmark_scores_later_hours_with_and_without_probing() {
-    let dir = tempfile::tempdir().unwrap();
-    let (ds, _) = machine(8);
-    let mut csv = Vec::new();
-    ds.write_csv(&mut csv).unwrap();
-    std::fs::write(dir.path().join("m.csv"), csv).unwrap();
+    let (dir, ds) = machine_csv(8);
     let out = common::driftloop(
         dir.path(),
         &[
