@@ -237,7 +237,7 @@ fn p_signals(model: &DriftModel, lagged: bool) -> Vec<&str> {
 
 #[test]
 fn fit_predict_and_transform_through_the_binary() {
-    let (dir, ds) = machine_csv(7);
+    let (dir, _) = machine_csv(7);
     let run = |args: &[&str]| common::driftloop(dir.path(), args, b"");
     let out = run(&[
         "fit", "m.csv", "--kind", "dlag", "--until", "16h", "-o", "m.toml",
