@@ -1,10 +1,12 @@
-//! Drift model speed: fitting 11 000 samples with 3 modes (target < 1 s) and predicting 1 M steps
-//! (target < 50 ms). Run with `cargo bench --bench model`.
+//! Drift model speed: fitting 11 000 samples with 3 modes (target < 1 s), the distributed-lag model over 16
+//! sensors on the same 11 000 samples (target: seconds), and predicting 1 M steps (target < 50 ms). Run with
+//! `cargo bench --bench model`.
 
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use driftloop::data::Dataset;
+use driftloop::model::dlag::{DlagOptions, fit_dlag};
 use driftloop::model::synth::{self, Rng};
 use driftloop::model::{DriftModel, FitOptions, ModesChoice, Schedule, fit};
 
@@ -33,6 +35,27 @@ fn eleven_thousand_samples() -> Dataset {
     ds
 }
 
+/// 16 temperatures like the real test's: slow hall waves of different periods, some following the spindle.
+fn with_sensors(mut ds: Dataset) -> Dataset {
+    let rpm = ds.values("spindle_rpm").unwrap().to_vec();
+    for k in 0..16 {
+        let period = 300.0 + 97.0 * k as f64;
+        let heated = 0.4 * (k % 4) as f64;
+        let mut x = 0.0;
+        let col: Vec<f64> = ds
+            .time_min
+            .iter()
+            .zip(&rpm)
+            .map(|(t, r)| {
+                x += (heated * r / 1000.0 - x) * 0.25 / 40.0;
+                25.0 + (std::f64::consts::TAU * t / period).sin() + x
+            })
+            .collect();
+        ds.push_column(&format!("t{}_c", k + 1), col);
+    }
+    ds
+}
+
 fn bench(c: &mut Criterion) {
     let ds = eleven_thousand_samples();
     assert!(ds.len() > 11_000);
@@ -46,6 +69,11 @@ fn bench(c: &mut Criterion) {
     opts.modes = ModesChoice::Auto;
     group.bench_function("11k_samples_auto_order", |b| {
         b.iter(|| fit(black_box(&ds), &opts).unwrap())
+    });
+    let sensed = with_sensors(ds.clone());
+    let dlag = DlagOptions::new("z_um");
+    group.bench_function("11k_samples_16_sensors_dlag", |b| {
+        b.iter(|| fit_dlag(black_box(&sensed), &dlag).unwrap())
     });
     group.finish();
 

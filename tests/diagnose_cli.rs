@@ -87,10 +87,17 @@ fn json_refined_model_and_report() {
             "before",
             "channel",
             "effects_added",
+            "holdout_guard",
+            "probing",
             "residual_white",
             "uncompensated"
         ]
     );
+    // A probe every 60 min by default: alone, with the model before, with the model after.
+    assert_eq!(v["probing"]["every_min"], 60.0);
+    for k in ["probe_only", "before", "after"] {
+        assert!(v["probing"][k]["rms_um"].is_f64(), "{k}");
+    }
     assert_eq!(v["channel"], "z_um");
     for w in ["uncompensated", "before", "after"] {
         for k in ["rms_um", "max_um", "p95_um"] {
@@ -140,14 +147,34 @@ fn json_refined_model_and_report() {
 }
 
 #[test]
-fn human_output_says_in_sample_without_holdout_and_bad_input_exits_2() {
+fn human_output_holds_out_the_last_third_by_default_and_bad_input_exits_2() {
     let dir = tempfile::tempdir().unwrap();
     prepare(dir.path(), "none", "2");
     let p = |f: &str| dir.path().join(f).to_str().unwrap().to_string();
-    let out = diagnose_in(dir.path(), &[]);
+    let out = diagnose_in(dir.path(), &["--holdout-from", "none"]);
     let s = text(&out.stdout);
     assert!(s.contains("in-sample only"), "{s}");
     assert!(matches!(out.status.code(), Some(0 | 1)));
+    // Without --holdout-from the last third of the 24 h log is held out: from the first row at or after
+    // minute 960 on (the log is sampled every few minutes).
+    let out = diagnose_in(dir.path(), &[]);
+    let s = text(&out.stdout);
+    let from: f64 = s
+        .split("rows from minute ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|m| m.parse().ok())
+        .unwrap_or_else(|| panic!("{s}"));
+    assert!((960.0..970.0).contains(&from), "{s}");
+    assert!(s.contains("with a probe re-zeroing the correction every 60 min (on the holdout)"));
+    // The channel defaults to the model's; a time takes its unit.
+    let model = p("model.toml");
+    let data = p("production.csv");
+    let out = common::run(&["diagnose", &model, &data, "--holdout-from", "20h"]);
+    assert!(text(&out.stdout).contains("rows before minute 1200"));
+    let out = common::run(&["diagnose", &model, &data, "--holdout-from", "16 hours"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out.stderr).contains("unknown time unit `hours`"));
     let out = common::run(&[
         "diagnose",
         &p("model.toml"),

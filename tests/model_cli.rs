@@ -67,10 +67,26 @@ fn fit_json_is_one_object_with_the_model() {
 }
 
 #[test]
-fn fit_until_uses_the_data_time_unit() {
+fn fit_until_takes_a_unit_and_a_bare_number_is_minutes() {
     let v = fit_json(&["--until", "200"]);
     assert_eq!(v["fit"]["until"], 200.0);
-    assert!(v["fit"]["samples"].as_u64().unwrap() < 206);
+    let samples = v["fit"]["samples"].as_u64().unwrap();
+    assert!(samples < 206);
+    // The same time in seconds and in hours; the model file keeps it in the data's unit (minutes here).
+    for until in ["12000s", "200min"] {
+        let v = fit_json(&["--until", until]);
+        assert_eq!(v["fit"]["samples"].as_u64().unwrap(), samples, "{until}");
+    }
+    let out = common::run(&[
+        "fit",
+        FIXTURE,
+        "--channel",
+        "drift_z_um",
+        "--until",
+        "2 days",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out.stderr).contains("unknown time unit `days`"));
 }
 
 #[test]
@@ -95,7 +111,12 @@ fn predict_a_schedule_and_a_data_file() {
         .map(|l| l.split(',').next().unwrap())
         .collect();
     assert_eq!(times, ["0", "30", "60", "90", "100"]);
-    assert!(text(&out.stderr).contains("exceed the top characterised speed 5000 rpm"));
+    let warning = text(&out.stderr);
+    assert!(
+        warning.contains("6000 rpm is above the top characterised speed 5000 rpm")
+            && warning.contains("last segment"),
+        "{warning}"
+    );
 
     let pred = dir.path().join("pred.csv");
     let out = common::run(&[

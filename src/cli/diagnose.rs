@@ -8,26 +8,54 @@ use std::process::ExitCode;
 use anyhow::Context;
 
 use super::{Format, Global};
-use crate::data::{Require, read_path};
-use crate::diagnose::{Options, diagnose};
+use crate::data::Minutes;
+use crate::data::merge::parse_rename;
+use crate::diagnose::{Holdout, Options, diagnose};
 use crate::model::DriftModel;
+
+/// `--holdout-from`: a time, or `none` for no holdout.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum HoldoutArg {
+    None,
+    From(Minutes),
+}
+
+impl std::str::FromStr for HoldoutArg {
+    type Err = String;
+    fn from_str(s: &str) -> Result<HoldoutArg, String> {
+        if s.eq_ignore_ascii_case("none") {
+            Ok(HoldoutArg::None)
+        } else {
+            s.parse().map(HoldoutArg::From)
+        }
+    }
+}
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Model file from `driftloop fit` (or a refined one from an earlier diagnosis).
     pub model: PathBuf,
-    /// Measurement CSV with the model's inputs and channel; `-` reads stdin.
-    pub data: PathBuf,
-    /// Displacement channel the model is of, e.g. ch3_um.
+    /// Measurement files with the model's inputs and channel: a CSV, or characterisation CSVs and DRIFTLOG
+    /// files in the order they were recorded (merged as `driftloop log merge` does); `-` reads stdin.
+    #[arg(required = true)]
+    pub data: Vec<PathBuf>,
+    /// Displacement channel to diagnose (default: the model's channel).
     #[arg(long)]
-    pub channel: String,
-    /// Rows from this time on (minutes of the data's time axis) are only scored, never fitted or selected
-    /// on. Without it every number is in-sample.
-    #[arg(long, value_name = "MINUTES")]
-    pub holdout_from: Option<f64>,
+    pub channel: Option<String>,
+    /// Rows from this time of the data's time axis on (`16h`, `960min`, `57600s`; a bare number is
+    /// minutes) are only scored, never fitted or selected on; `none`: no holdout, every number in-sample.
+    /// Default: the last third of the data's time.
+    #[arg(long, value_name = "TIME|none")]
+    pub holdout_from: Option<HoldoutArg>,
+    /// Also report the error when a probe re-zeroes the correction this often (`60min`, `2h`).
+    #[arg(long, value_name = "TIME", default_value = "60min")]
+    pub probe_every: Minutes,
     /// At most this many effects are added.
     #[arg(long, default_value_t = 3)]
     pub max_effects: usize,
+    /// Map a column of a data file to the merged name, e.g. drift_z_um=ch3_um (repeatable).
+    #[arg(long, value_name = "OLD=NEW", value_parser = parse_rename)]
+    pub rename: Vec<(String, String)>,
     #[arg(long, value_enum, default_value_t = Format::Human)]
     pub format: Format,
     /// Write a self-contained HTML report (inline SVG charts) here.
@@ -40,13 +68,23 @@ pub struct Args {
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     let model = DriftModel::read(&args.model)?;
-    let ds = read_path(&args.data, Require::Displacement)?;
-    if let Some(h) = args.holdout_from {
-        anyhow::ensure!(h.is_finite(), "--holdout-from must be a number of minutes");
-    }
-    let mut opts = Options::new(&args.channel);
-    opts.holdout_from_min = args.holdout_from;
+    let ds = super::log::read_merged(&args.data, &args.rename)?;
+    anyhow::ensure!(
+        args.probe_every.0 > 0.0,
+        "--probe-every must be a positive time"
+    );
+    let channel = args
+        .channel
+        .clone()
+        .unwrap_or_else(|| model.channel.clone());
+    let mut opts = Options::new(&channel);
+    opts.holdout = match args.holdout_from {
+        None => Holdout::LastFraction(1.0 / 3.0),
+        Some(HoldoutArg::None) => Holdout::None,
+        Some(HoldoutArg::From(m)) => Holdout::From(m.0),
+    };
     opts.max_effects = args.max_effects;
+    opts.probe_every_min = Some(args.probe_every.0);
     let d = diagnose(&model, &ds, &opts)?;
     match args.format {
         Format::Human => print!("{}", d.human()),

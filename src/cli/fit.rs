@@ -5,27 +5,62 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use super::{Format, Global};
-use crate::data::{Require, read_path};
+use crate::data::{Dataset, Minutes, Require, read_path};
+use crate::model::dlag::{DlagOptions, fit_dlag};
 use crate::model::fit::fmt_tau;
 use crate::model::{DriftModel, FitOptions, ModesChoice, fit};
+
+/// Which model `fit` makes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Kind {
+    /// Spindle-driven first-order modes on the characterised speed grid (plus declared lagged inputs).
+    Modes,
+    /// Every temperature at several lags plus a power-law spindle basis, ridge, chosen by forward
+    /// validation.
+    Dlag,
+}
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Measurement CSV (time_s|time_min|time_h, spindle_rpm, *_um channels, …); `-` reads stdin.
     pub data: PathBuf,
-    /// Displacement channel to model, e.g. ch3_um.
+    /// Displacement channel to model, e.g. ch3_um (default: the data's only `*_um` column).
     #[arg(long)]
-    pub channel: String,
-    /// Declared inputs, comma separated: spindle_rpm gives the spindle modes, any other column a lagged
-    /// linear term (e.g. spindle_rpm,ambient_c).
+    pub channel: Option<String>,
+    /// The model to fit: `modes` (spindle modes) or `dlag` (every temperature at several lags plus a
+    /// power-law spindle term, chosen by forward validation).
+    #[arg(long, value_enum, default_value_t = Kind::Modes)]
+    pub kind: Kind,
+    /// Declared inputs of `--kind modes`, comma separated: spindle_rpm gives the spindle modes, any other
+    /// column a lagged linear term (e.g. spindle_rpm,ambient_c).
     #[arg(long, value_delimiter = ',', default_value = "spindle_rpm")]
     pub inputs: Vec<String>,
-    /// Number of modes, or `auto` (BIC).
+    /// Number of modes of `--kind modes`, or `auto` (BIC).
     #[arg(long, default_value = "auto")]
     pub modes: ModesChoice,
-    /// Fit only the rows before this time, in the data's own time unit (e.g. 57600 for 16 h of time_s).
-    #[arg(long)]
-    pub until: Option<f64>,
+    /// Fit only the rows before this time of the data's time axis: `16h`, `960min`, `57600s`; a bare
+    /// number is minutes.
+    #[arg(long, value_name = "TIME")]
+    pub until: Option<Minutes>,
+    /// `--kind dlag`: the sensor columns (comma separated; default every `*_c` column that varies).
+    #[arg(long, value_delimiter = ',')]
+    pub signals: Option<Vec<String>>,
+    /// `--kind dlag`: one lag set for the sensors, minutes, 0 = unlagged (default: forward validation
+    /// chooses among 0,15,60,240 / 0,60,240 / 0,15,60,240,960).
+    #[arg(long, value_delimiter = ',', value_name = "MIN,…")]
+    pub lags: Option<Vec<f64>>,
+    /// `--kind dlag`: lags of the spindle terms, minutes, each above 0.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "MIN,…",
+        default_value = "15,60,240"
+    )]
+    pub spindle_lags: Vec<f64>,
+    /// `--kind dlag`: the exponents p of gain ∝ (n/n_top)^p forward validation chooses among (each
+    /// spindle term its own; default 0.5 to 3).
+    #[arg(long, value_delimiter = ',', value_name = "P,…")]
+    pub exponents: Option<Vec<f64>>,
     /// Write the model file here (`-` = stdout, the report then goes to stderr).
     #[arg(short, long)]
     pub output: Option<PathBuf>,
@@ -35,13 +70,44 @@ pub struct Args {
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     let ds = read_path(&args.data, Require::Displacement)?;
-    let opts = FitOptions {
-        channel: args.channel.clone(),
-        inputs: args.inputs.clone(),
-        modes: args.modes,
-        until_min: args.until.map(|u| u * ds.time_unit.minutes()),
+    let channel = only_channel(&ds, args.channel.as_deref())?;
+    let until_min = args.until.map(|u| u.0);
+    let model = match args.kind {
+        Kind::Modes => fit(
+            &ds,
+            &FitOptions {
+                channel,
+                inputs: args.inputs.clone(),
+                modes: args.modes,
+                until_min,
+            },
+        )?,
+        Kind::Dlag => {
+            anyhow::ensure!(
+                args.spindle_lags.iter().all(|l| l.is_finite() && *l > 0.0),
+                "--spindle-lags must be positive minutes (a spindle term is a mode with a time constant)"
+            );
+            let mut opts = DlagOptions::new(channel);
+            opts.until_min = until_min;
+            opts.signals = args.signals.clone();
+            opts.spindle_lags = args.spindle_lags.clone();
+            if let Some(p) = &args.exponents {
+                anyhow::ensure!(
+                    !p.is_empty() && p.iter().all(|p| p.is_finite() && *p > 0.0),
+                    "--exponents must be positive numbers"
+                );
+                opts.exponents = p.clone();
+            }
+            if let Some(lags) = &args.lags {
+                anyhow::ensure!(
+                    lags.iter().all(|l| l.is_finite() && *l >= 0.0),
+                    "--lags must be minutes, 0 or more"
+                );
+                opts.sensor_lags = vec![lags.clone()];
+            }
+            fit_dlag(&ds, &opts)?
+        }
     };
-    let model = fit(&ds, &opts)?;
     let report = match args.format {
         Format::Human => summary(&model),
         Format::Json => serde_json::to_string_pretty(&model)? + "\n",
@@ -50,24 +116,38 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// The channel asked for, or the data's only displacement channel.
+pub(crate) fn only_channel(ds: &Dataset, asked: Option<&str>) -> anyhow::Result<String> {
+    if let Some(c) = asked {
+        return Ok(c.to_ascii_lowercase());
+    }
+    let channels: Vec<&str> = ds.channels().map(|c| c.name.as_str()).collect();
+    match channels.as_slice() {
+        [one] => Ok(one.to_string()),
+        _ => anyhow::bail!(
+            "{}: several displacement channels ({}); choose one with --channel",
+            ds.source,
+            channels.join(", ")
+        ),
+    }
+}
+
 /// The human summary: modes, τ, gains at each speed, fit statistics, and why each order was or was not
 /// chosen.
 pub fn summary(model: &DriftModel) -> String {
+    if let Some(s) = crate::model::dlag::text::summary(model) {
+        return s;
+    }
     let mut s = String::new();
     let modes = &model.spindle.modes;
     let plural = if modes.len() == 1 { "" } else { "s" };
-    let _ = write!(s, "{}: {} spindle mode{plural}", model.channel, modes.len());
-    if let (Some(fit), Some(data)) = (&model.fit, &model.data) {
-        let _ = write!(s, ", fitted on {} samples of {}", fit.samples, data.file);
-        if let Some(u) = fit.until {
-            let _ = write!(
-                s,
-                " before {u} {}",
-                data.time_unit.column_name().trim_start_matches("time_")
-            );
-        }
-    }
-    s.push('\n');
+    let _ = writeln!(
+        s,
+        "{}: {} spindle mode{plural}{}",
+        model.channel,
+        modes.len(),
+        crate::model::fit::fitted_on(model)
+    );
     for (k, m) in modes.iter().enumerate() {
         let se = m
             .tau_se_min

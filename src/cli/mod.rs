@@ -11,6 +11,8 @@ mod check;
 mod demo;
 mod diagnose;
 mod fit;
+mod forward;
+mod log;
 mod parse;
 mod plan;
 mod positioning;
@@ -105,6 +107,10 @@ enum Command {
     Fit(fit::Args),
     /// Predict drift for a spindle schedule or the inputs of a data file.
     Predict(predict::Args),
+    /// Fit every channel on earlier time and score it on later time, without and with probing.
+    Forward(forward::Args),
+    /// Measurement logs: `log merge` joins characterisation CSVs and DRIFTLOG files into one series.
+    Log(log::Args),
     /// Insert probe measurements, nested measuring loops and drift corrections into NC programs.
     Transform(transform::Args),
     /// Remove the blocks `transform` inserted: the original program, byte for byte.
@@ -136,6 +142,8 @@ pub fn main() -> ExitCode {
         Command::Sensors(args) => sensors::run(args, &cli.global),
         Command::Fit(args) => fit::run(args, &cli.global),
         Command::Predict(args) => predict::run(args, &cli.global),
+        Command::Forward(args) => forward::run(args, &cli.global),
+        Command::Log(args) => log::run(args, &cli.global),
         Command::Check(args) => check::run(args, &cli.global),
         Command::Parse(args) => parse::run(args, &cli.global),
         Command::Bench(args) => bench::run(args, &cli.global),

@@ -8,7 +8,7 @@ use anyhow::Context;
 
 use super::Global;
 use crate::data::{Dataset, Require, SPINDLE, read_path};
-use crate::model::{DriftModel, Schedule};
+use crate::model::{DriftModel, Schedule, extrapolation_warning};
 
 #[derive(Debug, clap::Args)]
 #[command(group(clap::ArgGroup::new("input").required(true).args(["schedule", "data"])))]
@@ -87,16 +87,13 @@ fn prediction_table(model: &DriftModel, input: &Dataset, predicted: Vec<f64>) ->
     out
 }
 
-/// Says so on stderr when the input runs the spindle faster than the model was characterised.
+/// Says so on stderr when the input runs the spindle faster than the model was characterised, naming the
+/// fastest speed and the law the gains are extrapolated by.
 fn warn_extrapolation(model: &DriftModel, input: &Dataset) {
-    let top = model.spindle.grid_rpm.last().copied().unwrap_or(0.0);
     let fastest = input
         .values(SPINDLE)
         .map_or(0.0, |v| v.iter().fold(0.0f64, |a, s| a.max(s.abs())));
-    if !model.spindle.modes.is_empty() && fastest > top {
-        eprintln!(
-            "warning: speeds up to {fastest:.0} rpm exceed the top characterised speed {top:.0} rpm; \
-             gains there continue the last segment linearly (an extrapolation)"
-        );
+    if let Some(w) = extrapolation_warning(model, fastest) {
+        eprintln!("warning: {w}");
     }
 }

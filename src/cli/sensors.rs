@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use super::{Format, Global};
-use crate::data::{Require, read_path};
+use crate::data::{Minutes, Require, read_path};
 use crate::sensors::position::analyse_position;
 use crate::sensors::{Options, analyse};
 
@@ -13,9 +13,9 @@ use crate::sensors::{Options, analyse};
 pub struct Args {
     /// Measurement CSV with a displacement channel and `*_c` temperature columns; `-` reads stdin.
     pub data: PathBuf,
-    /// Displacement channel to explain, e.g. ch3_um.
+    /// Displacement channel to explain, e.g. ch3_um (default: the data's only `*_um` column).
     #[arg(long)]
-    pub channel: String,
+    pub channel: Option<String>,
     /// Axis position column (`*_mm`): separate the error into E_G(p) + S(θ)·p + I(θ) and explain the slope S
     /// and intercept I per time step (rows sharing a time).
     #[arg(long, value_name = "P")]
@@ -26,10 +26,10 @@ pub struct Args {
     /// A cluster whose best sensor has |r| with the error below this is dropped as irrelevant.
     #[arg(long, default_value_t = 0.5)]
     pub min_correlation: f64,
-    /// Without a `run` column: validate on the rows from this time on, in minutes (default: the last
-    /// third of the time span).
-    #[arg(long, value_name = "MINUTES")]
-    pub holdout_from: Option<f64>,
+    /// Without a `run` column: validate on the rows from this time on (`16h`, `960min`, `57600s`; a bare
+    /// number is minutes; default: the last third of the time span).
+    #[arg(long, value_name = "TIME")]
+    pub holdout_from: Option<Minutes>,
     #[arg(long, value_enum, default_value_t = Format::Human)]
     pub format: Format,
     /// Write the regression as a model file that `predict`, `diagnose` and `transform` read (`-` = stdout,
@@ -40,14 +40,12 @@ pub struct Args {
 }
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
-    if let Some(h) = args.holdout_from {
-        anyhow::ensure!(h.is_finite(), "--holdout-from must be a number of minutes");
-    }
     let ds = read_path(&args.data, Require::Displacement)?;
-    let mut opts = Options::new(&args.channel);
+    let channel = super::fit::only_channel(&ds, args.channel.as_deref())?;
+    let mut opts = Options::new(&channel);
     opts.threshold = args.threshold;
     opts.min_correlation = args.min_correlation;
-    opts.holdout_from_min = args.holdout_from;
+    opts.holdout_from_min = args.holdout_from.map(|m| m.0);
     let (report, model) = match &args.position_column {
         Some(p) => {
             let analysis = analyse_position(&ds, &p.to_ascii_lowercase(), &opts)?;

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 
 use super::Global;
+use crate::data::Minutes;
 use crate::diagnose::scenario::{Scenario, simulate};
 
 #[derive(Debug, clap::Args)]
@@ -25,28 +26,39 @@ pub struct Args {
     /// The effect's standard deviation over the log, in multiples of the noise.
     #[arg(long, default_value_t = 5.0)]
     pub size: f64,
-    /// Production log length and sampling step, minutes.
-    #[arg(long, default_value_t = 1440.0)]
-    pub minutes: f64,
-    #[arg(long, default_value_t = 3.0)]
-    pub step: f64,
-    /// Start of the holdout written to scenario.json, minutes.
-    #[arg(long, default_value_t = 1080.0)]
-    pub holdout_from: f64,
+    /// Production log length (`24h`, `1440min`; a bare number is minutes).
+    #[arg(long, value_name = "TIME", default_value = "1440")]
+    pub minutes: Minutes,
+    /// Sampling step of the production log (`3min`, `30s`; a bare number is minutes).
+    #[arg(long, value_name = "TIME", default_value = "3")]
+    pub step: Minutes,
+    /// Start of the holdout written to scenario.json (`18h`; a bare number is minutes).
+    #[arg(long, value_name = "TIME", default_value = "1080")]
+    pub holdout_from: Minutes,
+    /// The injected effect's θ instead of a random draw: its time constant in minutes (input_lag,
+    /// extra_mode, position_slope), its cooling ratio (cooling_asymmetry) or its time in minutes (step).
+    #[arg(long)]
+    pub theta: Option<f64>,
 }
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
+    let (minutes, step) = (args.minutes.0, args.step.0);
     anyhow::ensure!(
-        args.noise >= 0.0 && args.step > 0.0 && args.minutes > args.step,
+        args.noise >= 0.0 && step > 0.0 && minutes > step,
         "--noise must be ≥ 0, --step > 0 and --minutes longer than one step"
+    );
+    anyhow::ensure!(
+        args.theta.is_none_or(|t| t.is_finite() && t > 0.0),
+        "--theta must be a positive number"
     );
     let mut sc = Scenario::new(args.seed, None);
     sc.effect = args.effect.filter(|e| e != "none");
     sc.noise_um = args.noise;
     sc.effect_size = args.size;
-    sc.log_min = args.minutes;
-    sc.step_min = args.step;
-    sc.holdout_from_min = args.holdout_from;
+    sc.log_min = minutes;
+    sc.step_min = step;
+    sc.holdout_from_min = args.holdout_from.0;
+    sc.theta = args.theta;
     let sim = simulate(&sc)?;
     std::fs::create_dir_all(&args.dir)
         .with_context(|| format!("cannot create {}", args.dir.display()))?;

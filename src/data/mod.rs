@@ -2,9 +2,12 @@
 //! columns classified by their suffix. Read from CSV by [`read_path`] / [`read_bytes`], written back by
 //! [`Dataset::write_csv`].
 
+mod duration;
+pub mod merge;
 mod read;
 mod write;
 
+pub use duration::Minutes;
 pub use read::{DataError, Require, read_bytes, read_path};
 
 use std::ops::Range;
@@ -224,6 +227,14 @@ impl Dataset {
     /// The rows whose time (in minutes) is before `until_min`; runs that start later are dropped.
     pub fn until(&self, until_min: f64) -> Dataset {
         self.select(|t| t < until_min)
+    }
+
+    /// [`Dataset::until`] when a time is given, the whole data set (not copied) otherwise.
+    pub fn until_opt(&self, until_min: Option<f64>) -> std::borrow::Cow<'_, Dataset> {
+        match until_min {
+            Some(u) => std::borrow::Cow::Owned(self.until(u)),
+            None => std::borrow::Cow::Borrowed(self),
+        }
     }
 
     fn select(&self, keep: impl Fn(f64) -> bool) -> Dataset {

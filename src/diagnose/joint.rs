@@ -19,6 +19,17 @@ use crate::model::speed_grid::{SpeedGrid, Weights};
 use crate::model::varpro::{dot, solve_normal};
 use crate::model::{DataProvenance, DriftModel, Mode};
 
+/// Which rows are held out: only scored, never fitted or selected on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Holdout {
+    /// Every row is fitted (the numbers are in-sample).
+    None,
+    /// Rows from this time (minutes of the data's time axis) on.
+    From(f64),
+    /// The last fraction of the data's elapsed time (runs laid end to end in file order).
+    LastFraction(f64),
+}
+
 /// The measured data of one diagnosis laid out for the refits. Every row drives the recursions (its
 /// inputs hold until the next row); only rows with a reading are fitted, scored and tested.
 pub struct Ctx<'a> {
@@ -34,8 +45,12 @@ pub struct Ctx<'a> {
     pub n_fit: usize,
     /// Rows scored only (a reading, time from the holdout on).
     pub n_holdout: usize,
-    /// Start of the holdout (min), if any.
+    /// Time (min) of the first holdout row, if any.
     pub holdout_from_min: Option<f64>,
+    /// Rows before the holdout, with a reading or not (the window the inputs are judged on).
+    pub in_window: Vec<bool>,
+    /// Forward-validation folds over the fit rows (train before each origin, test after).
+    pub folds: Vec<crate::model::forward::Fold>,
     /// Bounds on the declared model's time constants (min).
     pub tau_bounds: (f64, f64),
     /// Duration the fit rows cover (min).
@@ -43,15 +58,27 @@ pub struct Ctx<'a> {
 }
 
 impl<'a> Ctx<'a> {
-    pub fn new(ds: &'a Dataset, channel: &str, holdout_from_min: Option<f64>) -> Option<Ctx<'a>> {
+    pub fn new(ds: &'a Dataset, channel: &str, holdout: Holdout) -> Option<Ctx<'a>> {
         let y = ds.values(channel)?.to_vec();
         let measured = crate::data::measured(&y);
-        let fit: Vec<bool> = ds
-            .time_min
+        let elapsed = crate::model::forward::elapsed(ds);
+        let in_window: Vec<bool> = match holdout {
+            Holdout::None => vec![true; ds.len()],
+            Holdout::From(h) => ds.time_min.iter().map(|&t| t < h).collect(),
+            Holdout::LastFraction(f) => {
+                let end = elapsed.last().copied().unwrap_or(0.0);
+                elapsed.iter().map(|&e| e < end * (1.0 - f)).collect()
+            }
+        };
+        let fit: Vec<bool> = in_window
             .iter()
             .zip(&measured)
-            .map(|(&t, &m)| m && holdout_from_min.is_none_or(|h| t < h))
+            .map(|(&w, &m)| m && w)
             .collect();
+        let holdout_from_min = (0..ds.len())
+            .find(|&i| !in_window[i])
+            .map(|i| ds.time_min[i]);
+        let folds = crate::model::forward::Origins::default().folds(&elapsed, &fit);
         let n_fit = fit.iter().filter(|f| **f).count();
         let n_holdout = measured.iter().filter(|m| **m).count() - n_fit;
         let span = fit_span(ds, &fit);
@@ -66,9 +93,35 @@ impl<'a> Ctx<'a> {
             n_fit,
             n_holdout,
             holdout_from_min,
+            in_window,
+            folds,
             tau_bounds: (lo, (3.0 * span).max(4.0 * lo)),
             span,
         })
+    }
+
+    /// The same data with only the rows `train` to fit on (a fold of the forward validation); bounds and
+    /// span stay those of the whole window, so a fold's refit searches the same space.
+    pub fn training(&self, train: &[usize]) -> Ctx<'a> {
+        let mut fit = vec![false; self.n()];
+        for &i in train {
+            fit[i] = true;
+        }
+        Ctx {
+            ds: self.ds,
+            y: self.y.clone(),
+            runs: self.runs.clone(),
+            rpm: self.rpm,
+            measured: self.measured.clone(),
+            n_fit: train.len(),
+            n_holdout: 0,
+            holdout_from_min: self.holdout_from_min,
+            in_window: self.in_window.clone(),
+            folds: Vec::new(),
+            fit,
+            tau_bounds: self.tau_bounds,
+            span: self.span,
+        }
     }
 
     /// Bounds on an effect's time constant: a lag much longer than the fit window cannot be told from a
@@ -128,6 +181,10 @@ fn fit_span(ds: &Dataset, fit: &[bool]) -> f64 {
 #[derive(Debug, Clone)]
 pub struct Joint {
     pub base: DriftModel,
+    /// The base model's whole prediction (offset removed), when its design is kept as it is: a model whose
+    /// terms were chosen by forward validation (`fit --kind dlag`) is not refitted term by term on the
+    /// window — its prediction is one column with one scale, and only the added effects are fitted.
+    pub frozen: Option<std::sync::Arc<Vec<f64>>>,
     pub effects: Vec<Effect>,
 }
 
@@ -152,10 +209,65 @@ impl Joint {
             .position(|e| e.kind == Kind::CoolingAsymmetry)
     }
 
+    /// A structure starting from `model`: its effects join the refit, unless the model's design is kept
+    /// (see [`Joint::frozen`]), in which case they stay part of the base.
+    pub fn start(model: &DriftModel, ds: &Dataset) -> Result<Joint, crate::model::PredictError> {
+        let keep = model.fit.as_ref().is_some_and(|f| f.forward.is_some());
+        if keep {
+            let column = model
+                .predict(ds)?
+                .into_iter()
+                .map(|p| p - model.offset_um)
+                .collect();
+            return Ok(Joint {
+                base: model.clone(),
+                frozen: Some(std::sync::Arc::new(column)),
+                effects: Vec::new(),
+            });
+        }
+        let mut base = model.clone();
+        base.effects.clear();
+        Ok(Joint {
+            base,
+            frozen: None,
+            effects: model
+                .effects
+                .iter()
+                .map(Effect::from_spec)
+                .collect::<Result<_, _>>()?,
+        })
+    }
+
+    /// Spindle modes and inputs refitted one by one (none when the base is frozen).
+    fn own_modes(&self) -> &[Mode] {
+        if self.frozen.is_some() {
+            &[]
+        } else {
+            &self.base.spindle.modes
+        }
+    }
+
+    fn own_inputs(&self) -> &[crate::model::InputLag] {
+        if self.frozen.is_some() {
+            &[]
+        } else {
+            &self.base.inputs
+        }
+    }
+
+    /// Columns of the base before the effects': one per mode and input, or the frozen prediction.
+    fn n_base(&self) -> usize {
+        if self.frozen.is_some() {
+            1
+        } else {
+            self.base.spindle.modes.len() + self.base.inputs.len()
+        }
+    }
+
     /// θ in the iterated coordinates: ln τ of modes, ln τ of inputs, ln of each effect's smooth θ.
     pub fn theta(&self) -> Vec<f64> {
-        let modes = self.base.spindle.modes.iter().map(|m| m.tau_min.ln());
-        let inputs = self.base.inputs.iter().map(|i| i.tau_min.ln());
+        let modes = self.own_modes().iter().map(|m| m.tau_min.ln());
+        let inputs = self.own_inputs().iter().map(|i| i.tau_min.ln());
         let effects = self
             .effects
             .iter()
@@ -167,7 +279,7 @@ impl Joint {
     /// Bounds of each θ entry.
     fn bounds(&self, ctx: &Ctx) -> Vec<(f64, f64)> {
         let tau = (ctx.tau_bounds.0.ln(), ctx.tau_bounds.1.ln());
-        let k = self.base.spindle.modes.len() + self.base.inputs.len();
+        let k = self.own_modes().len() + self.own_inputs().len();
         let mut b = vec![tau; k];
         for e in self.effects.iter().filter(|e| e.kind.theta_smooth()) {
             let r = match e.kind {
@@ -185,11 +297,13 @@ impl Joint {
     fn with_theta(&self, theta: &[f64]) -> Joint {
         let mut j = self.clone();
         let mut it = theta.iter().map(|v| v.exp());
-        for m in &mut j.base.spindle.modes {
-            m.tau_min = it.next().unwrap_or(m.tau_min);
-        }
-        for i in &mut j.base.inputs {
-            i.tau_min = it.next().unwrap_or(i.tau_min);
+        if j.frozen.is_none() {
+            for m in &mut j.base.spindle.modes {
+                m.tau_min = it.next().unwrap_or(m.tau_min);
+            }
+            for i in &mut j.base.inputs {
+                i.tau_min = it.next().unwrap_or(i.tau_min);
+            }
         }
         for e in j.effects.iter_mut().filter(|e| e.kind.theta_smooth()) {
             for v in &mut e.theta {
@@ -201,8 +315,7 @@ impl Joint {
 
     /// Number of amplitude columns.
     pub fn n_linear(&self) -> usize {
-        self.base.spindle.modes.len()
-            + self.base.inputs.len()
+        self.n_base()
             + self
                 .effects
                 .iter()
@@ -213,8 +326,8 @@ impl Joint {
 
     /// Number of θ entries (iterated and scanned).
     pub fn n_nonlinear(&self) -> usize {
-        self.base.spindle.modes.len()
-            + self.base.inputs.len()
+        self.own_modes().len()
+            + self.own_inputs().len()
             + self.effects.iter().map(|e| e.theta.len()).sum::<usize>()
     }
 
@@ -226,7 +339,10 @@ impl Joint {
         let mut cols: Vec<&mut [f64]> = phi.as_mut_slice().chunks_mut(n).collect();
         let ratio = self.cooling_ratio_index().map(|i| self.effects[i].theta[0]);
         let mut at = 0;
-        if let Some(rpm) = ctx.rpm {
+        if let Some(frozen) = &self.frozen {
+            cols[0].copy_from_slice(frozen);
+            at = 1;
+        } else if let Some(rpm) = ctx.rpm {
             let grid = self.grid();
             let w: Vec<Weights> = rpm.iter().map(|&s| grid.weights(s)).collect();
             for m in &self.base.spindle.modes {
@@ -236,7 +352,7 @@ impl Joint {
         } else {
             at += self.base.spindle.modes.len();
         }
-        for i in &self.base.inputs {
+        for i in self.own_inputs() {
             input_lag::columns(&ctx.series(Some(&i.signal)), i.tau_min, cols[at]);
             at += 1;
         }
@@ -288,18 +404,26 @@ impl Joint {
         // The scaled gains become the modes' shapes, so a further refit starts from scale 1.
         let mut joint = self.clone();
         let mut it = c.iter().copied();
-        for m in &mut joint.base.spindle.modes {
+        if let Some(frozen) = &self.frozen {
             let scale = it.next().unwrap_or(1.0);
-            for g in &mut m.gain_um {
-                *g *= scale;
+            joint.base = scaled(&self.base, scale);
+            joint.frozen = Some(std::sync::Arc::new(
+                frozen.iter().map(|v| v * scale).collect(),
+            ));
+        } else {
+            for m in &mut joint.base.spindle.modes {
+                let scale = it.next().unwrap_or(1.0);
+                for g in &mut m.gain_um {
+                    *g *= scale;
+                }
+                m.tau_se_min = None;
+                m.gain_se_um.clear();
             }
-            m.tau_se_min = None;
-            m.gain_se_um.clear();
-        }
-        for i in &mut joint.base.inputs {
-            i.gain_um_per_unit = it.next().unwrap_or(0.0);
-            i.tau_se_min = None;
-            i.gain_se_um_per_unit = None;
+            for i in &mut joint.base.inputs {
+                i.gain_um_per_unit = it.next().unwrap_or(0.0);
+                i.tau_se_min = None;
+                i.gain_se_um_per_unit = None;
+            }
         }
         for e in &mut joint.effects {
             for a in &mut e.amplitudes {
@@ -308,7 +432,9 @@ impl Joint {
         }
         joint.base.offset_um = it.next().unwrap_or(0.0);
         let mut model = joint.base.clone();
-        model.effects = joint.effects.iter().map(Effect::to_spec).collect();
+        model
+            .effects
+            .extend(joint.effects.iter().map(Effect::to_spec));
         model.fit = None;
         model.data = Some(DataProvenance {
             file: ctx.ds.source.clone(),
@@ -323,6 +449,27 @@ impl Joint {
             rss,
         })
     }
+}
+
+/// The model with every gain and amplitude (not the offset) multiplied by `scale`.
+fn scaled(model: &DriftModel, scale: f64) -> DriftModel {
+    let mut m = model.clone();
+    for mode in &mut m.spindle.modes {
+        mode.gain_um.iter_mut().for_each(|g| *g *= scale);
+        mode.gain_se_um.clear();
+    }
+    for i in &mut m.inputs {
+        i.gain_um_per_unit *= scale;
+        i.gain_se_um_per_unit = None;
+    }
+    for spec in &mut m.effects {
+        // Every effect of a model that predicts is known (`Joint::start` predicted with it).
+        if let Ok(mut e) = Effect::from_spec(spec) {
+            e.amplitudes.iter_mut().for_each(|a| *a *= scale);
+            *spec = e.to_spec();
+        }
+    }
+    m
 }
 
 /// One spindle mode's response to its characterised gain shape (scale 1), cooling with τ·ratio when set.
@@ -518,12 +665,13 @@ mod tests {
             .collect();
         ds.push_column("ambient_c", amb);
         measure(&truth, &mut ds, 0.05, &mut Rng::new(5)).unwrap();
-        let ctx = Ctx::new(&ds, "z_um", None).unwrap();
+        let ctx = Ctx::new(&ds, "z_um", Holdout::None).unwrap();
         let mut start = lag.clone();
         start.theta = vec![40.0];
         start.amplitudes = vec![0.0];
         let joint = Joint {
             base: declared,
+            frozen: None,
             effects: vec![start],
         };
         let fitted = joint.refit(&ctx).unwrap();

@@ -3,14 +3,18 @@
 //! everything jointly and score again.
 //!
 //! 0. "before": the model as given, on every row.
-//! 1. Recalibration on the fit window (rows before `holdout_from_min`): mode scales and time constants,
-//!    declared inputs, offset ([`joint`]).
+//! 1. Recalibration on the fit window (the rows before the holdout): mode scales and time constants,
+//!    declared inputs, offset ([`joint`]). A model from `fit --kind dlag` keeps its design (its lags were
+//!    chosen by forward validation): its whole prediction gets one scale.
 //! 2. While the fit-window residual is not white (Ljung–Box, 10 lags): screen every candidate of the
 //!    library ([`candidates`]) on the residual, then, best score first, refit the model with the candidate
-//!    jointly and accept it only if (a) the BIC on the effective sample size falls and (b) time-blocked
-//!    cross-validation on the fit window improves. Dense logs are autocorrelated; the effective sample
-//!    size tempers the BIC and the blocked CV is what keeps an effect that fits noise out.
-//! 3. "after": the refined model on every row. Holdout rows are never used for fitting or selecting.
+//!    jointly and accept it only if (a) the BIC on the effective sample size falls and (b) the forward
+//!    error falls: refitted on the rows before each origin, predicting the rows after it, never the
+//!    reverse ([`candidates::forward_validate`]).
+//! 3. "after": the refined model on every row. Holdout rows are never used for fitting or selecting, with
+//!    one exception, the last word: an "after" worse than "before" on the holdout is never reported —
+//!    the effects are dropped again, last first, until it is not, and when even the recalibration alone is
+//!    worse the model is kept as given and the report says that nothing helped.
 //!
 //! ```no_run
 //! use driftloop::data::{Require, read_path};
@@ -27,7 +31,9 @@
 //! ```
 
 pub mod candidates;
+pub mod holdout;
 pub mod joint;
+pub mod probing;
 pub mod report;
 pub mod scenario;
 pub mod stats;
@@ -38,7 +44,8 @@ use serde::Serialize;
 use crate::data::{ColumnKind, Dataset};
 use crate::model::DriftModel;
 use crate::model::effects::{Effect, Kind};
-use candidates::{Projector, cross_validate, cv_rms, screen};
+use candidates::{Projector, cv_rms, forward_validate, screen};
+pub use joint::Holdout;
 use joint::{Ctx, Fitted, Joint};
 use stats::{ErrorStats, effective_n, ljung_box_white};
 
@@ -54,8 +61,6 @@ const MIN_SHARE: f64 = 0.1;
 /// (a sparse log), a tiny logged change can buy a huge gain whose response the data never see (a 1 min lag
 /// of +430 µm/°C fed by 0.004 °C of sensor creep).
 const IMPLAUSIBLE_REACH: f64 = 10.0;
-/// Cross-validation blocks.
-const CV_BLOCKS: usize = 5;
 /// Best-screened candidates given a full joint refit per round. Screening holds the rest of the model
 /// fixed, so a candidate that overlaps a declared term (a slow mode next to a recalibrated one) screens
 /// low but refits well; the joint BIC decides among these.
@@ -65,25 +70,42 @@ const REFITS_PER_ROUND: usize = 5;
 #[derive(Debug, Clone)]
 pub struct Options {
     pub channel: String,
-    /// Rows from this time (minutes of the data's time axis) on are only scored.
-    pub holdout_from_min: Option<f64>,
+    /// The rows only scored, never fitted or selected on (`Holdout::None` from [`Options::new`]; the
+    /// command line holds out the last third by default).
+    pub holdout: Holdout,
     /// At most this many effects are added.
     pub max_effects: usize,
+    /// Also report the error when a probe re-zeroes the correction this often (minutes), from the holdout's
+    /// start (from the first reading without a holdout).
+    pub probe_every_min: Option<f64>,
 }
 
 impl Options {
     pub fn new(channel: &str) -> Options {
         Options {
             channel: channel.to_ascii_lowercase(),
-            holdout_from_min: None,
+            holdout: Holdout::None,
             max_effects: 3,
+            probe_every_min: None,
         }
     }
 
+    /// Rows from `minutes` (of the data's time axis) on are held out.
     pub fn holdout_from(mut self, minutes: f64) -> Options {
-        self.holdout_from_min = Some(minutes);
+        self.holdout = Holdout::From(minutes);
         self
     }
+}
+
+/// The errors with a probe re-zeroing the correction every `every_min` minutes, on the holdout (on the fit
+/// window without one): what the gates buy on top of the model, and what probing alone would do.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Probing {
+    pub every_min: f64,
+    /// The uncompensated drift re-zeroed at every probing: a probe and no model.
+    pub probe_only: ErrorStats,
+    pub before: ErrorStats,
+    pub after: ErrorStats,
 }
 
 /// Why diagnosis could not run.
@@ -147,6 +169,11 @@ pub struct Diagnosis {
     /// Candidates that were refitted but rejected, with why (for the human report).
     pub rejected: Vec<String>,
     pub residual_white: bool,
+    /// Why effects found on the fit window were dropped again on the holdout (or the recalibration
+    /// undone), in words; empty when the holdout kept everything.
+    pub holdout_guard: Vec<String>,
+    /// Errors with a probe re-zeroing every P minutes, when asked for.
+    pub probing: Option<Probing>,
     pub refined: DriftModel,
     /// Per row: time (min), measured (NaN where not measured), model before, refined model after.
     pub time_min: Vec<f64>,
@@ -175,7 +202,7 @@ pub fn diagnose(
     let ctx = ds
         .column(&channel)
         .filter(|c| c.kind == ColumnKind::Displacement)
-        .and_then(|_| Ctx::new(ds, &channel, opts.holdout_from_min))
+        .and_then(|_| Ctx::new(ds, &channel, opts.holdout))
         .ok_or_else(|| DiagnoseError::NoChannel {
             source_name: ds.source.clone(),
             channel: channel.clone(),
@@ -185,35 +212,50 @@ pub fn diagnose(
                 .collect::<Vec<_>>()
                 .join(", "),
         })?;
-    let start = Joint {
-        base: model.clone(),
-        effects: model
-            .effects
-            .iter()
-            .map(Effect::from_spec)
-            .collect::<Result<_, _>>()
-            .map_err(crate::model::PredictError::from)?,
-    };
+    let start = Joint::start(model, ds)?;
     if ctx.n_fit < start.n_linear() + start.n_nonlinear() + 3 {
         return Err(DiagnoseError::TooFewRows(ctx.n_fit));
     }
     let before_pred = model.predict(ds)?;
     let recal = start.refit(&ctx).ok_or(DiagnoseError::Numerical)?;
     let recalibrated = windows(&ctx, &recal.prediction);
-    let mut current = recal;
+    // Every stage, for the holdout's last word: recalibrated, then with each effect added.
+    let mut stages = vec![recal];
     let mut added = Vec::new();
     let mut rejected = Vec::new();
-    let mut white = white_residual(&ctx, &current);
+    let mut white = white_residual(&ctx, &stages[0]);
     while !white && added.len() < opts.max_effects {
-        match next_effect(&ctx, &current, &mut rejected) {
+        let current = stages.last().expect("the recalibration is a stage");
+        match next_effect(&ctx, current, &mut rejected) {
             Some((fitted, a)) => {
-                current = fitted;
+                white = white_residual(&ctx, &fitted);
+                stages.push(fitted);
                 added.push(a);
-                white = white_residual(&ctx, &current);
             }
             None => break,
         }
     }
+    let before = windows(&ctx, &before_pred);
+    let (kept, holdout_guard) = holdout_guard(&ctx, &before, &stages);
+    let current = match kept {
+        Some(k) => {
+            added.truncate(k);
+            if k + 1 < stages.len() {
+                white = white_residual(&ctx, &stages[k]);
+            }
+            stages.swap_remove(k)
+        }
+        None => {
+            added.clear();
+            white = ljung_box_white(&ctx.fit_rows(&residual(&ctx, &before_pred)), WHITENESS_LAGS);
+            Fitted {
+                joint: start.clone(),
+                model: model.clone(),
+                prediction: before_pred.clone(),
+                rss: 0.0,
+            }
+        }
+    };
     let after_pred = current.model.predict(ds)?;
     let contributions = current
         .joint
@@ -247,20 +289,25 @@ pub fn diagnose(
     let first = ctx.y.iter().copied().find(|v| !v.is_nan()).unwrap_or(0.0);
     let uncomp: Vec<f64> = ctx.y.iter().map(|v| v - first).collect();
     let zero = vec![0.0; ctx.n()];
+    let probing = opts
+        .probe_every_min
+        .and_then(|every| probing(&ctx, every, &before_pred, &after_pred));
     Ok(Diagnosis {
         channel,
         source: ds.source.clone(),
-        holdout_from_min: opts.holdout_from_min,
+        holdout_from_min: ctx.holdout_from_min,
         rows_fit: ctx.n_fit,
         rows_holdout: ctx.n_holdout,
         rows_unmeasured: ctx.n() - ctx.n_fit - ctx.n_holdout,
         uncompensated: windows_of(&ctx, &uncomp, &zero),
-        before: windows(&ctx, &before_pred),
+        before,
         recalibrated,
         after: windows(&ctx, &after_pred),
         effects_added: added,
         rejected,
         residual_white: white,
+        holdout_guard,
+        probing,
         refined: current.model,
         time_min: ds.time_min.clone(),
         measured: ctx.y.clone(),
@@ -279,16 +326,39 @@ pub fn diagnose(
 fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Option<(Fitted, Added)> {
     let resid = ctx.fit_rows(&residual(ctx, &current.prediction));
     let proj = Projector::new(ctx, current);
+    // The best-screened candidates, and every candidate that changes or overlaps the declared modes:
+    // screening holds the recalibrated modes fixed, and a recalibrated mode that stretched its τ towards a
+    // slower undeclared one leaves that one little or nothing to screen on (its column projected off the
+    // modes' vanishes), while refitted jointly it takes its share. Unscreenable, such a candidate starts
+    // from the slowest time constant its search allows.
+    let overlaps = |s: &candidates::Screened| {
+        matches!(s.effect.kind, Kind::ExtraMode | Kind::CoolingAsymmetry)
+    };
     let mut screened: Vec<_> = candidates::candidates(ctx, current)
         .iter()
-        .filter_map(|c| screen(ctx, current, &proj, &resid, c))
-        .filter(|s| s.delta_bic < 0.0)
+        .filter_map(|c| {
+            screen(ctx, current, &proj, &resid, c).or_else(|| {
+                (c.kind == Kind::ExtraMode).then(|| candidates::Screened {
+                    effect: Effect {
+                        theta: vec![ctx.effect_tau_bounds(c.kind).1],
+                        ..c.clone()
+                    },
+                    delta_bic: f64::INFINITY,
+                })
+            })
+        })
         .collect();
     screened.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
-    let folds_without = cross_validate(ctx, current, CV_BLOCKS, 0..0)?;
+    let refits: Vec<_> = screened
+        .iter()
+        .enumerate()
+        .filter(|(i, s)| (*i < REFITS_PER_ROUND && s.delta_bic < 0.0) || overlaps(s))
+        .map(|(_, s)| s.clone())
+        .collect();
+    let mut folds_without: Option<Vec<candidates::Fold>> = None;
     let rss0 = current.rss;
     let mut best: Option<(Fitted, Added)> = None;
-    for s in screened.into_iter().take(REFITS_PER_ROUND) {
+    for s in refits {
         let mut joint = current.joint.clone();
         joint.effects.push(s.effect.clone());
         let Some(fitted) = joint.refit(ctx) else {
@@ -298,16 +368,6 @@ fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Optio
         let n_eff = effective_n(&r1);
         let dof = (s.effect.amplitudes.len() + s.effect.theta.len()) as f64;
         let delta_bic = n_eff * (fitted.rss.max(f64::MIN_POSITIVE) / rss0).ln() + dof * n_eff.ln();
-        // The new effect's columns sit just before the offset column.
-        let p = fitted.joint.n_linear();
-        let tested = p - 1 - s.effect.amplitudes.len()..p - 1;
-        let Some(folds_with) = cross_validate(ctx, &fitted, CV_BLOCKS, tested) else {
-            continue;
-        };
-        // Compared on the folds where the effect can be estimated from the training stretch.
-        let usable: Vec<bool> = folds_with.iter().map(|f| f.identifiable).collect();
-        let cv_without = cv_rms(&folds_without, &usable);
-        let cv_with = cv_rms(&folds_with, &usable);
         let name = text::effect_name(&s.effect);
         let added = fitted.joint.effects.last();
         if let Some(tau) = added.and_then(|e| at_upper_tau_bound(ctx, e)) {
@@ -341,9 +401,23 @@ fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Optio
             ));
             continue;
         }
+        // The new effect's columns sit just before the offset column.
+        let p = fitted.joint.n_linear();
+        let tested = p - 1 - s.effect.amplitudes.len()..p - 1;
+        let folds_with = forward_validate(ctx, &fitted.joint, tested);
+        let without =
+            folds_without.get_or_insert_with(|| forward_validate(ctx, &current.joint, 0..0));
+        // Compared on the folds where the effect can be estimated from the training stretch.
+        let usable: Vec<bool> = folds_with
+            .iter()
+            .zip(without.iter())
+            .map(|(a, b)| a.identifiable && b.identifiable)
+            .collect();
+        let cv_without = cv_rms(without, &usable);
+        let cv_with = cv_rms(&folds_with, &usable);
         if !usable.contains(&true) || cv_with >= cv_without {
             rejected.push(format!(
-                "{name}: blocked cross-validation does not improve ({cv_without:.3} → {cv_with:.3} µm)"
+                "{name}: the forward error does not fall (fitted on earlier time, predicting later: {cv_without:.3} → {cv_with:.3} µm)"
             ));
             continue;
         }
@@ -377,8 +451,8 @@ fn steady_state_reach(ctx: &Ctx, e: &Effect) -> Option<f64> {
     };
     let window: Vec<f64> = driver
         .iter()
-        .zip(&ctx.ds.time_min)
-        .filter(|(_, t)| ctx.holdout_from_min.is_none_or(|h| **t < h))
+        .zip(&ctx.in_window)
+        .filter(|(_, w)| **w)
         .map(|(v, _)| *v)
         .collect();
     let lo = window.iter().copied().fold(f64::INFINITY, f64::min);
@@ -393,14 +467,71 @@ fn measured_range(ctx: &Ctx) -> f64 {
         - y.iter().copied().fold(f64::INFINITY, f64::min)
 }
 
-/// The effect's time constant when the refit left it at the upper bound of its search.
+/// The effect's time constant when the refit left it at the upper bound of its search. A lagged input or
+/// slope that slow is a wandering signal's trend in disguise; a further spindle mode that slow is not: far
+/// slower than the window, it integrates the speed history (its response is k·rpm·t/τ there, only the
+/// ratio is identified), which no trend imitates — the forward validation judges it like any other.
 fn at_upper_tau_bound(ctx: &Ctx, e: &Effect) -> Option<f64> {
-    let lagged = matches!(
-        e.kind,
-        Kind::InputLag | Kind::ExtraMode | Kind::PositionSlope
-    );
+    let lagged = matches!(e.kind, Kind::InputLag | Kind::PositionSlope);
     let (_, hi) = ctx.effect_tau_bounds(e.kind);
     (lagged && e.theta[0] >= 0.99 * hi).then(|| e.theta[0])
+}
+
+/// The holdout's last word: the stage kept (index into `stages`: 0 the recalibration, k with k effects) —
+/// the last one whose holdout RMS is not above the model before, or `None` when none is (the model as
+/// given is kept) — and what was dropped, in words. Without a holdout every stage is kept.
+fn holdout_guard(ctx: &Ctx, before: &Windows, stages: &[Fitted]) -> (Option<usize>, Vec<String>) {
+    let Some(b) = before.holdout else {
+        return (Some(stages.len() - 1), Vec::new());
+    };
+    let mut notes = Vec::new();
+    for (k, stage) in stages.iter().enumerate().rev() {
+        let Some(h) = windows(ctx, &stage.prediction).holdout else {
+            return (Some(k), notes);
+        };
+        if h.rms_um <= b.rms_um {
+            return (Some(k), notes);
+        }
+        notes.push(match k {
+            0 => format!(
+                "the recalibration: holdout RMS {:.3} µm, no better than the model as given ({:.3} µm)",
+                h.rms_um, b.rms_um
+            ),
+            _ => format!(
+                "{}: with it the holdout RMS is {:.3} µm, no better than the model before ({:.3} µm)",
+                text::effect_name(
+                    stage
+                        .joint
+                        .effects
+                        .last()
+                        .expect("a stage past 0 added one")
+                ),
+                h.rms_um,
+                b.rms_um
+            ),
+        });
+    }
+    (None, notes)
+}
+
+/// The errors with a probe re-zeroing every `every` minutes, on the holdout rows (the fit rows without a
+/// holdout); `None` without a reading there.
+fn probing(ctx: &Ctx, every: f64, before: &[f64], after: &[f64]) -> Option<Probing> {
+    let scored: Vec<bool> = if ctx.n_holdout > 0 {
+        (0..ctx.n())
+            .map(|i| ctx.measured[i] && !ctx.fit[i])
+            .collect()
+    } else {
+        ctx.fit.clone()
+    };
+    let score = |p: &[f64]| holdout::HoldoutScore::of(ctx.ds, &ctx.y, p, &scored, Some(every));
+    let (b, a) = (score(before)?, score(after)?);
+    Some(Probing {
+        every_min: every,
+        probe_only: b.probe_only?,
+        before: b.model_probed?,
+        after: a.model_probed?,
+    })
 }
 
 fn residual(ctx: &Ctx, prediction: &[f64]) -> Vec<f64> {

@@ -40,9 +40,10 @@ impl Diagnosis {
                 .to_string(),
             holdout,
             "An effect is added only if it lowers the BIC computed on the effective number of independent \
-             samples (neighbouring samples of a dense log are correlated) and if it predicts better in a \
-             time-blocked cross-validation on the fit window (each block predicted from the blocks before it), and if \
-             it explains at least a tenth of the residual variance. The compensation rate is 1 − after/uncompensated RMS: \
+             samples (neighbouring samples of a dense log are correlated), if it predicts later time better \
+             (forward validation on the fit window: refitted on the rows before each origin, scored on the rows \
+             after it), and if it explains at least a tenth of the residual variance. An \"after\" worse than \
+             \"before\" on the holdout is never reported: such effects are dropped again. The compensation rate is 1 − after/uncompensated RMS: \
              the share of the drift a correction by the model would remove."
                 .to_string(),
         ]);

@@ -34,6 +34,11 @@ pub struct Scenario {
     pub step_min: f64,
     /// Rows from here on are the holdout (min).
     pub holdout_from_min: f64,
+    /// The injected effect's θ instead of a random one (τ in minutes for the lagged kinds, the cooling ratio
+    /// for `cooling_asymmetry`, the step's time): for cases harder than the random draw, such as a mode far
+    /// slower than the characterisation runs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub theta: Option<f64>,
 }
 
 impl Scenario {
@@ -46,6 +51,7 @@ impl Scenario {
             log_min: 1440.0,
             step_min: 3.0,
             holdout_from_min: 1080.0,
+            theta: None,
         }
     }
 }
@@ -219,7 +225,10 @@ fn injected(kind: Kind, sc: &Scenario, ds: &Dataset, rng: &mut Rng) -> EffectSpe
         kind,
         signal: signal.map(str::to_string),
         position: None,
-        theta,
+        theta: match sc.theta {
+            Some(v) if !theta.is_empty() => vec![v],
+            _ => theta,
+        },
         amplitudes,
     };
     if kind != Kind::CoolingAsymmetry {

@@ -139,6 +139,14 @@ impl Diagnosis {
                 })
             })
             .collect();
+        let probing = self.probing.map(|p| {
+            json!({
+                "every_min": p.every_min,
+                "probe_only": stats_json(&p.probe_only),
+                "before": stats_json(&p.before),
+                "after": stats_json(&p.after),
+            })
+        });
         json!({
             "channel": self.channel,
             "uncompensated": windows_json(&self.uncompensated),
@@ -146,6 +154,8 @@ impl Diagnosis {
             "after": windows_json(&self.after),
             "effects_added": effects,
             "residual_white": self.residual_white,
+            "holdout_guard": self.holdout_guard,
+            "probing": probing,
         })
     }
 
@@ -173,14 +183,14 @@ impl Diagnosis {
             Some(h) => {
                 let _ = writeln!(
                     s,
-                    "fit window: {} rows before minute {h}; holdout: {} rows from minute {h} on (never used to fit or select)",
+                    "fit window: {} rows before minute {h}; holdout: {} rows from minute {h} on (never used to fit or select; only to veto an \"after\" worse than \"before\")",
                     self.rows_fit, self.rows_holdout
                 );
             }
             None => {
                 let _ = writeln!(
                     s,
-                    "no holdout (--holdout-from): all {} rows fitted; the numbers below are in-sample only",
+                    "no holdout (--holdout-from none): all {} rows fitted; the numbers below are in-sample only",
                     self.rows_fit
                 );
             }
@@ -210,7 +220,62 @@ impl Diagnosis {
             pct(self.compensation_rate(false)),
             pct(self.compensation_rate(true))
         );
-        if self.effects_added.is_empty() {
+        if let Some(p) = &self.probing {
+            let unc = if self.rows_holdout > 0 {
+                self.uncompensated.holdout
+            } else {
+                Some(self.uncompensated.fit)
+            };
+            let rate = |e: &ErrorStats| {
+                unc.filter(|u| u.rms_um > 0.0).map_or("—".to_string(), |u| {
+                    format!("{:.0} %", 100.0 * (1.0 - e.rms_um / u.rms_um))
+                })
+            };
+            let _ = writeln!(
+                s,
+                "\nwith a probe re-zeroing the correction every {} ({}), rms / max, rate:",
+                duration(p.every_min),
+                if self.rows_holdout > 0 {
+                    "on the holdout"
+                } else {
+                    "on the fit window"
+                }
+            );
+            for (name, e) in [
+                ("probe alone", &p.probe_only),
+                ("probe + model before", &p.before),
+                ("probe + model after", &p.after),
+            ] {
+                let _ = writeln!(
+                    s,
+                    "  {name:<22} {:.2} / {:.2} µm, {}",
+                    e.rms_um,
+                    e.max_um,
+                    rate(e)
+                );
+            }
+        }
+        if !self.holdout_guard.is_empty() {
+            let _ = writeln!(s);
+        }
+        for g in &self.holdout_guard {
+            let _ = writeln!(s, "dropped on the holdout: {g}");
+        }
+        let kept_as_given = self
+            .holdout_guard
+            .iter()
+            .any(|g| g.starts_with("the recalibration"));
+        if kept_as_given {
+            let _ = writeln!(
+                s,
+                "\nnothing helps on the forward holdout: the model is kept as given (\"after\" = \"before\")"
+            );
+        } else if self.effects_added.is_empty() && !self.holdout_guard.is_empty() {
+            let _ = writeln!(
+                s,
+                "\nnothing found on the fit window helps on the forward holdout: no effect kept"
+            );
+        } else if self.effects_added.is_empty() {
             let _ = writeln!(s, "\nno effect added");
         } else {
             let _ = writeln!(s, "\neffects added:");
@@ -218,7 +283,7 @@ impl Diagnosis {
                 let _ = writeln!(s, "  {}. {}: {}", i + 1, a.effect.kind.name(), sentence(a));
                 let _ = writeln!(
                     s,
-                    "     (ΔBIC {:+.1} on the effective sample; blocked CV {:.3} → {:.3} µm)",
+                    "     (ΔBIC {:+.1} on the effective sample; forward error {:.3} → {:.3} µm)",
                     a.delta_bic, a.cv_rms_before_um, a.cv_rms_after_um
                 );
             }

@@ -99,6 +99,20 @@ impl DriftModel {
                 ));
             }
         }
+        if sp.extrapolation == super::Extrapolation::PowerLaw {
+            let top_ok = sp
+                .characterised_top_rpm
+                .is_some_and(|t| sp.grid_rpm.iter().any(|n| (n - t).abs() <= 1e-9 * t));
+            let p_ok = sp.modes.iter().all(|m| {
+                m.power_law_exponent
+                    .is_some_and(|p| p.is_finite() && p > 0.0)
+            });
+            if !top_ok || !p_ok {
+                return Err(
+                    "spindle.extrapolation = \"power-law\" needs characterised_top_rpm (a grid speed) and a positive power_law_exponent in every mode".into(),
+                );
+            }
+        }
         for i in &self.inputs {
             if !(i.tau_min.is_finite() && i.tau_min > 0.0 && i.gain_um_per_unit.is_finite()) {
                 return Err(format!(

@@ -99,14 +99,8 @@ pub enum FitError {
 
 /// Fits the model of `opts.channel` to `ds`.
 pub fn fit(all: &Dataset, opts: &FitOptions) -> Result<DriftModel, FitError> {
-    let windowed;
-    let ds = match opts.until_min {
-        Some(u) => {
-            windowed = all.until(u);
-            &windowed
-        }
-        None => all,
-    };
+    let window = all.until_opt(opts.until_min);
+    let ds = window.as_ref();
     let prep = Prepared::new(ds, opts)?;
     let p = &prep.problem;
     let (lo, hi) = prep.tau_bounds;
@@ -181,22 +175,40 @@ struct Prepared {
     tau_bounds: (f64, f64),
 }
 
+/// The readings of displacement channel `channel`, or the error naming the channels there are.
+pub(crate) fn channel_values<'a>(ds: &'a Dataset, channel: &str) -> Result<&'a [f64], FitError> {
+    ds.column(channel)
+        .filter(|c| c.kind == crate::data::ColumnKind::Displacement)
+        .map(|c| c.values.as_slice())
+        .ok_or_else(|| FitError::NoChannel {
+            source_name: ds.source.clone(),
+            channel: channel.to_string(),
+            available: ds
+                .channels()
+                .map(|c| c.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+        })
+}
+
+/// ", fitted on N samples of FILE before T unit" for a summary's first line (empty without provenance).
+pub(crate) fn fitted_on(model: &DriftModel) -> String {
+    let (Some(fit), Some(data)) = (&model.fit, &model.data) else {
+        return String::new();
+    };
+    let mut s = format!(", fitted on {} samples of {}", fit.samples, data.file);
+    if let Some(u) = fit.until {
+        s += &format!(
+            " before {u} {}",
+            data.time_unit.column_name().trim_start_matches("time_")
+        );
+    }
+    s
+}
+
 impl Prepared {
     fn new(ds: &Dataset, opts: &FitOptions) -> Result<Prepared, FitError> {
-        let channel = ds
-            .column(&opts.channel)
-            .filter(|c| c.kind == crate::data::ColumnKind::Displacement)
-            .ok_or_else(|| FitError::NoChannel {
-                source_name: ds.source.clone(),
-                channel: opts.channel.clone(),
-                available: ds
-                    .channels()
-                    .map(|c| c.name.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", "),
-            })?
-            .values
-            .as_slice();
+        let channel = channel_values(ds, &opts.channel)?;
         // Rows without a reading still carry the inputs: the recursions run over them, the least squares
         // leaves them out.
         let measured = crate::data::measured(channel);
@@ -303,6 +315,7 @@ impl Prepared {
                     .map(|j| t.se_c[k * m + j])
                     .collect::<Option<Vec<_>>>()
                     .unwrap_or_default(),
+                power_law_exponent: None,
             })
             .collect();
         let inputs = self
@@ -350,6 +363,7 @@ impl Prepared {
                 },
                 interpolation: Interpolation::PiecewiseLinear,
                 extrapolation: Extrapolation::LinearLastSegment,
+                characterised_top_rpm: None,
                 modes,
             },
             inputs,
@@ -378,6 +392,7 @@ impl Prepared {
                     .enumerate()
                     .map(|(i, tr)| tr.summary(i == chosen, &trials[chosen]))
                     .collect(),
+                forward: None,
             }),
             data: Some(DataProvenance {
                 file: ds.source.clone(),

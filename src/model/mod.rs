@@ -30,13 +30,17 @@
 //! # }
 //! ```
 
+pub mod dlag;
 pub mod effects;
 pub mod file;
 pub mod fit;
+pub mod forward;
 pub mod lag;
 mod predict;
+pub mod ridge;
 pub mod schedule;
 pub mod speed_grid;
+pub mod speed_law;
 pub mod synth;
 pub(crate) mod varpro;
 
@@ -48,6 +52,7 @@ pub use fit::{FitError, FitOptions, ModesChoice, fit};
 pub use predict::PredictError;
 pub use schedule::Schedule;
 pub use speed_grid::SpeedGrid;
+pub use speed_law::extrapolation_warning;
 
 /// The model file schema this version reads and writes.
 pub const SCHEMA: u32 = 1;
@@ -85,6 +90,9 @@ pub struct SpindleModes {
     /// Modes sorted by time constant, fastest first.
     #[serde(default)]
     pub modes: Vec<Mode>,
+    /// With `extrapolation = "power-law"`: the top speed the data held; grid nodes above it carry the law.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub characterised_top_rpm: Option<f64>,
 }
 
 /// How gains between grid speeds are found (the only scheme; named in the file so a reader knows).
@@ -94,11 +102,15 @@ pub enum Interpolation {
     PiecewiseLinear,
 }
 
-/// How gains above the top grid speed are found.
+/// How gains above the top characterised speed are found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Extrapolation {
+    /// The grid holds the characterised speeds only; above the top one its last segment is continued.
     LinearLastSegment,
+    /// The grid's nodes above `characterised_top_rpm` carry the power law (see [`speed_law`]); above the
+    /// last node its last segment is continued.
+    PowerLaw,
 }
 
 /// One first-order mode: time constant and steady-state gain at each grid speed.
@@ -113,6 +125,10 @@ pub struct Mode {
     pub gain_um: Vec<f64>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub gain_se_um: Vec<f64>,
+    /// With `extrapolation = "power-law"`: p in gain ∝ (n / characterised_top_rpm)^p, the law the gains
+    /// follow on the whole grid.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub power_law_exponent: Option<f64>,
 }
 
 /// A declared input entering through its own first-order lag: target = gain·(u − u₀), u₀ its value at the
@@ -167,6 +183,9 @@ pub struct FitSummary {
     pub per_run: Vec<RunStats>,
     /// Every model order tried, with why it was or was not chosen.
     pub orders: Vec<OrderTrial>,
+    /// How a forward-validated fit (`fit --kind dlag`) chose its design.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub forward: Option<dlag::ForwardSelection>,
 }
 
 /// Fit statistics of one run.
@@ -219,6 +238,7 @@ impl DriftModel {
                 grid_rpm,
                 interpolation: Interpolation::PiecewiseLinear,
                 extrapolation: Extrapolation::LinearLastSegment,
+                characterised_top_rpm: None,
                 modes: modes
                     .iter()
                     .map(|(tau, gains)| Mode {
@@ -226,6 +246,7 @@ impl DriftModel {
                         tau_se_min: None,
                         gain_um: gains.clone(),
                         gain_se_um: Vec::new(),
+                        power_law_exponent: None,
                     })
                     .collect(),
             },

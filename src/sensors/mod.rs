@@ -452,6 +452,7 @@ fn regression_model(
             grid_rpm: Vec::new(),
             interpolation: Interpolation::PiecewiseLinear,
             extrapolation: Extrapolation::LinearLastSegment,
+            characterised_top_rpm: None,
             modes: Vec::new(),
         },
         inputs: Vec::new(),

@@ -1,0 +1,142 @@
+//! `driftloop forward DATA.csv --until 16h`: the forward benchmark. Every channel is fitted on the rows
+//! before the time and scored on the rows from it on — the model predicting later hours it never saw —
+//! without probing and with a probe re-zeroing the correction every P minutes.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use serde::Serialize;
+
+use super::fit::Kind;
+use super::{Format, Global};
+use crate::data::{Minutes, Require, read_path};
+use crate::diagnose::holdout::{HoldoutScore, rate};
+use crate::model::dlag::{DlagOptions, fit_dlag};
+use crate::model::{FitOptions, fit};
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Measurement CSV with the channels, the spindle speed and the sensors; `-` reads stdin.
+    pub data: PathBuf,
+    /// Fit on the rows before this time, score the rows from it on: `16h`, `960min`, `57600s`; a bare
+    /// number is minutes.
+    #[arg(long, value_name = "TIME")]
+    pub until: Minutes,
+    /// Channels to score (comma separated; default every `*_um` column).
+    #[arg(long, value_delimiter = ',')]
+    pub channel: Option<Vec<String>>,
+    /// The model: `dlag` (sensors at several lags plus a power-law spindle term) or `modes` (spindle only).
+    #[arg(long, value_enum, default_value_t = Kind::Dlag)]
+    pub kind: Kind,
+    /// A probe re-zeroes the correction this often from the holdout's start (`60min`, `1h`).
+    #[arg(long, value_name = "TIME", default_value = "60min")]
+    pub probe_every: Minutes,
+    #[arg(long, value_enum, default_value_t = Format::Human)]
+    pub format: Format,
+}
+
+/// One channel's line of the table.
+#[derive(Debug, Serialize)]
+struct Line {
+    channel: String,
+    score: HoldoutScore,
+    rate_model: f64,
+    rate_model_probed: Option<f64>,
+    rate_probe_only: Option<f64>,
+    /// How the model was chosen, in words.
+    design: String,
+}
+
+pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
+    let ds = read_path(&args.data, Require::Displacement)?;
+    let until = args.until.0;
+    anyhow::ensure!(
+        args.probe_every.0 > 0.0,
+        "--probe-every must be a positive time"
+    );
+    let channels: Vec<String> = match &args.channel {
+        Some(c) => c.iter().map(|s| s.to_ascii_lowercase()).collect(),
+        None => ds.channels().map(|c| c.name.clone()).collect(),
+    };
+    let mut lines = Vec::new();
+    for ch in &channels {
+        let model = match args.kind {
+            Kind::Dlag => {
+                let mut o = DlagOptions::new(ch.clone());
+                o.until_min = Some(until);
+                fit_dlag(&ds, &o)?
+            }
+            Kind::Modes => {
+                let mut o = FitOptions::new(ch.clone());
+                o.until_min = Some(until);
+                fit(&ds, &o)?
+            }
+        };
+        let predicted = model.predict(&ds)?;
+        let measured = ds.values(ch).unwrap_or_default();
+        let later: Vec<bool> = ds.time_min.iter().map(|&t| t >= until).collect();
+        let score = HoldoutScore::of(&ds, measured, &predicted, &later, Some(args.probe_every.0))
+            .ok_or_else(|| {
+            anyhow::anyhow!("{}: no reading of {ch} from {until} min on", ds.source)
+        })?;
+        let design = match model.fit.as_ref().and_then(|f| f.forward.as_ref()) {
+            Some(f) => format!(
+                "lags {:?} min, spindle lags {:?} min with p {:?}, penalty {:.0e}, forward CV {:.2} µm",
+                f.sensor_lags_min, f.spindle_lags_min, f.exponents, f.penalty, f.cv_rms_um
+            ),
+            None => match model.spindle.modes.len() {
+                1 => "1 spindle mode".to_string(),
+                n => format!("{n} spindle modes"),
+            },
+        };
+        lines.push(Line {
+            channel: ch.clone(),
+            rate_model: rate(&score.model, &score.uncompensated),
+            rate_model_probed: score.model_probed.map(|e| rate(&e, &score.uncompensated)),
+            rate_probe_only: score.probe_only.map(|e| rate(&e, &score.uncompensated)),
+            score,
+            design,
+        });
+    }
+    match args.format {
+        Format::Json => println!("{}", serde_json::to_string_pretty(&lines)?),
+        Format::Human => print!("{}", table(&lines, until, args.probe_every.0)),
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn table(lines: &[Line], until: f64, every: f64) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "fitted before {until} min, scored from it on; RMS in µm, rate = 1 − RMS / RMS uncompensated; a probe re-zeroes every {every} min"
+    );
+    let _ = writeln!(
+        s,
+        "channel   rows  uncomp   model   rate   model+probe   rate   probe alone   rate"
+    );
+    let pct = |r: Option<f64>| r.map_or("-".to_string(), |r| format!("{:.1} %", 100.0 * r));
+    let rms = |e: Option<crate::diagnose::stats::ErrorStats>| {
+        e.map_or("-".to_string(), |e| format!("{:.2}", e.rms_um))
+    };
+    for l in lines {
+        let _ = writeln!(
+            s,
+            "{:<8} {:>5} {:>7.2} {:>7.2} {:>7} {:>12} {:>7} {:>12} {:>7}",
+            l.channel,
+            l.score.rows,
+            l.score.uncompensated.rms_um,
+            l.score.model.rms_um,
+            pct(Some(l.rate_model)),
+            rms(l.score.model_probed),
+            pct(l.rate_model_probed),
+            rms(l.score.probe_only),
+            pct(l.rate_probe_only),
+        );
+    }
+    for l in lines {
+        let _ = writeln!(s, "  {}: {}", l.channel, l.design);
+    }
+    s
+}

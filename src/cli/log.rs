@@ -1,0 +1,74 @@
+//! `driftloop log merge FILE…`: characterisation CSVs and DRIFTLOG files as one measurement series.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+
+use super::Global;
+use crate::data::merge::{Merged, merge, parse_rename};
+use crate::data::{Require, read_path};
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(subcommand)]
+    pub command: LogCommand,
+}
+
+#[derive(Debug, clap::Subcommand)]
+pub enum LogCommand {
+    /// Join characterisation CSVs and DRIFTLOG files into one series: each file's runs in order, each from
+    /// rest at its own time zero; columns matched by name after --rename.
+    Merge(MergeArgs),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct MergeArgs {
+    /// Measurement files in the order they were recorded (CSV or DRIFTLOG; `-` reads stdin once).
+    #[arg(required = true)]
+    pub files: Vec<PathBuf>,
+    /// Map a column to the merged name, e.g. drift_z_um=ch3_um (repeatable).
+    #[arg(long, value_name = "OLD=NEW", value_parser = parse_rename)]
+    pub rename: Vec<(String, String)>,
+    /// Write the merged CSV here instead of stdout.
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+}
+
+/// Reads and merges `files`; the notes go to stderr.
+pub(crate) fn read_merged(
+    files: &[PathBuf],
+    renames: &[(String, String)],
+) -> anyhow::Result<crate::data::Dataset> {
+    let parts = files
+        .iter()
+        .map(|f| read_path(f, Require::InputsOnly))
+        .collect::<Result<Vec<_>, _>>()?;
+    if parts.len() == 1 && renames.is_empty() {
+        return Ok(parts.into_iter().next().expect("one part"));
+    }
+    let Merged { data, notes } = merge(parts, renames)?;
+    for n in notes {
+        eprintln!("note: {n}");
+    }
+    Ok(data)
+}
+
+pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
+    match args.command {
+        LogCommand::Merge(m) => {
+            let data = read_merged(&m.files, &m.rename)?;
+            let mut bytes = Vec::new();
+            data.write_csv(&mut bytes)?;
+            match &m.output {
+                Some(path) if path.as_os_str() != "-" => std::fs::write(path, bytes)
+                    .with_context(|| format!("cannot write {}", path.display()))?,
+                _ => {
+                    use std::io::Write;
+                    std::io::stdout().write_all(&bytes)?;
+                }
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}
