@@ -47,6 +47,10 @@ pub struct Args {
     /// without it one refusal writes nothing at all.
     #[arg(long)]
     keep_going: bool,
+    /// Do not run the safety audit on the output (by default every transformed program is run side by side
+    /// with the original on the virtual machine, and refused when an inserted block breaks the state).
+    #[arg(long)]
+    no_audit: bool,
 }
 
 /// Model and profile, shared by `transform` and `plan`.
@@ -116,6 +120,7 @@ struct Outcome {
     program: crate::Program,
     edits: Edits,
     summary: Summary,
+    audit: Option<AuditNote>,
 }
 
 impl Outcome {
@@ -157,6 +162,20 @@ struct JsonFile<'a> {
     changed: Option<bool>,
     #[serde(skip_serializing_if = "Option::is_none")]
     summary: Option<&'a Summary>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    audit: Option<&'a AuditNote>,
+}
+
+/// What the safety audit said of a transformed program that it accepted.
+#[derive(Serialize, Default)]
+struct AuditNote {
+    /// Findings that come from the profile rather than the inserted blocks (the probe point).
+    warnings: Vec<String>,
+    /// Why the audit could not run the programs to their end, or at all.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    incomplete: Option<String>,
+    resume_points: u64,
+    abort_paths: u64,
 }
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
@@ -166,14 +185,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     let results: Vec<Result<Outcome, Refusal>> = jobs
         .par_iter()
         .map(|job| {
-            let r = transform_one(
-                &job.input,
-                &model,
-                &sha,
-                &profile,
-                args.force,
-                args.setup.strict,
-            );
+            let r = transform_one(&job.input, &model, &sha, &profile, &args);
             progress.tick();
             r
         })
@@ -202,6 +214,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                     reason: Some(e.reason),
                     changed: None,
                     summary: None,
+                    audit: None,
                 });
             }
             Ok(o) => {
@@ -219,6 +232,14 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                     let s = &o.summary;
                     for w in &s.warnings {
                         writeln!(stderr, "warning: {path}: {w}")?;
+                    }
+                    if let Some(a) = &o.audit {
+                        for w in &a.warnings {
+                            writeln!(stderr, "warning: {path}: {w}")?;
+                        }
+                        if let Some(why) = &a.incomplete {
+                            writeln!(stderr, "note: {path}: audit incomplete: {why}")?;
+                        }
                     }
                     writeln!(
                         stderr,
@@ -250,6 +271,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                     reason: None,
                     changed: args.check.then_some(differs),
                     summary: Some(&o.summary),
+                    audit: o.audit.as_ref(),
                 });
             }
         }
@@ -329,25 +351,100 @@ fn transform_one(
     model: &DriftModel,
     sha: &str,
     profile: &Profile,
-    force: bool,
-    strict: bool,
+    args: &Args,
 ) -> Result<Outcome, Refusal> {
     let bytes = input.read().map_err(|e| Refusal::new("unreadable", e))?;
     let (program, moves) = omm::parse_timed(bytes);
-    let model = ModelRef { model, sha256: sha };
-    let (edits, summary) = omm::prepare_timed(&program, &moves, model, profile, force)
+    let drift = ModelRef { model, sha256: sha };
+    let (edits, summary) = omm::prepare_timed(&program, &moves, drift, profile, args.force)
         .map_err(|e| Refusal::new(e.reason(), e))?
         .into_edits();
-    if strict && let Some(w) = summary.warnings.first() {
+    if args.setup.strict
+        && let Some(w) = summary.warnings.first()
+    {
         return Err(Refusal::new(
             "plan warnings (--strict)",
             format!("--strict: {w}"),
         ));
     }
+    let audit = if args.no_audit {
+        None
+    } else {
+        Some(audit_output(input, &program, &edits, model, profile)?)
+    };
     Ok(Outcome {
         program,
         edits,
         summary,
+        audit,
+    })
+}
+
+/// Runs the transformed program beside the original on a virtual machine that drifts as the model predicts
+/// (the safety audit, `driftloop run --audit`): a finding the inserted blocks caused refuses the program; one
+/// the profile caused (its probe point in the part's cut) is a warning; a construct the dry run cannot run
+/// ends the audit there, with a note.
+fn audit_output(
+    input: &Input,
+    program: &crate::Program,
+    edits: &Edits,
+    model: &DriftModel,
+    profile: &Profile,
+) -> Result<AuditNote, Refusal> {
+    use crate::vm::audit::{AuditSettings, Kind, audit_owned};
+    // The virtual machine drifts as the model predicts from the spindle; the terms it reads from sensors
+    // have no signal there and are left out.
+    let mut spindle_part = model.clone();
+    spindle_part.inputs.clear();
+    spindle_part
+        .effects
+        .retain(|e| e.signal.is_none() && e.position.is_none());
+    let mut settings = AuditSettings::from_profile(profile)
+        .drifting_as(&spindle_part)
+        .map_err(|e| Refusal::new("audit setup", e))?;
+    // Subprograms are looked up beside the program, as the control finds them in its folder.
+    if let Input::File(path) = input {
+        settings.dir = path.parent().map(|d| d.to_path_buf());
+        settings.original_name = path.display().to_string();
+    }
+    let cfg = crate::vm::Config {
+        subprogram_dirs: profile.timeline.subprograms.clone(),
+        ..crate::vm::Config::default()
+    };
+    let transformed = edits.to_bytes(program);
+    let found = match audit_owned(program.source().to_vec(), transformed, &settings, &cfg) {
+        Ok(found) => found,
+        Err(e) => {
+            return Ok(AuditNote {
+                incomplete: Some(format!("the dry run cannot run the program: {e}")),
+                ..AuditNote::default()
+            });
+        }
+    };
+    let (warnings, caused): (Vec<_>, Vec<_>) = found
+        .findings
+        .iter()
+        .partition(|f| f.kind == Kind::ProbeInMachinedVolume);
+    if let Some(f) = caused.first() {
+        return Err(Refusal::new(
+            "audit findings",
+            format!(
+                "the safety audit found {} hazard(s) in the output, nothing written; first: line {}: {}: {} (`driftloop run --audit` on the output shows them all)",
+                caused.len(),
+                f.line,
+                f.kind.name(),
+                f.message
+            ),
+        ));
+    }
+    Ok(AuditNote {
+        warnings: warnings
+            .iter()
+            .map(|f| format!("line {}: {}: {}", f.line, f.kind.name(), f.message))
+            .collect(),
+        incomplete: found.stopped.clone(),
+        resume_points: found.resume_points,
+        abort_paths: found.abort_runs,
     })
 }
 

@@ -64,6 +64,8 @@ pub struct Config {
     pub offsets: Vec<(usize, String, f64)>,
     /// Count TRANS / ATRANS as corrections in the machined error (default: only `$P_UIFR` changes are).
     pub trans_is_correction: bool,
+    /// The settable frame selected at the start (0: G500), as the control's reset selects it (MD20150).
+    pub reset_frame: usize,
     /// Folders searched for subprograms after the calling program's own folder.
     pub subprogram_dirs: Vec<std::path::PathBuf>,
     /// Executed blocks beyond the main program's own block count after which the run stops with an error
@@ -96,6 +98,7 @@ impl Default for Config {
             offsets: Vec::new(),
             subprogram_dirs: Vec::new(),
             trans_is_correction: false,
+            reset_frame: 0,
             max_blocks: 1_000_000,
             trace: true,
             passes: true,

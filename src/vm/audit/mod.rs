@@ -62,6 +62,9 @@ pub struct AuditSettings {
     /// `offset.method` and `offset.frame`: the entry the correction writes, the one difference allowed.
     pub method: OffsetMethod,
     pub frame: usize,
+    /// `offset.reset_selects`: both runs start with the profile's work offset selected, as the control's
+    /// reset selects it.
+    pub reset_selects: bool,
     /// The probe cycle's upper-cased name and where it leaves its result.
     pub probe_cycle: String,
     pub probe_result: Option<ProbeTarget>,
@@ -106,6 +109,7 @@ impl AuditSettings {
             axis,
             method: profile.offset.method,
             frame: profile.offset.frame as usize,
+            reset_selects: profile.offset.reset_selects,
             probe_cycle: cycle.to_ascii_uppercase(),
             probe_result: ProbeTarget::parse(&probe.result),
             tool_change_on_t: probe.tool_change == ToolChange::T,
@@ -146,6 +150,9 @@ impl AuditSettings {
         let axis = ["X", "Y", "Z"][self.axis];
         cfg.probe_axis = axis.to_string();
         cfg.tool_change_on_t = self.tool_change_on_t;
+        if self.reset_selects {
+            cfg.reset_frame = self.frame;
+        }
         // The probed surface where the profile says it is: the nominal, in machine coordinates or in those of
         // the corrected work offset as it stands at the start.
         cfg.probe_machine_frame = self.probe_point_in_machine;

@@ -97,6 +97,11 @@ impl Interp<'_> {
                     // The new tool's first cutting edge unless the block selects one (MD20270
                     // CUTTING_EDGE_DEFAULT = 1).
                     self.motion.d = w.d.unwrap_or(1.0);
+                    // The change cycle stops the spindle to swap the tool; the program starts it again.
+                    if self.motion.rotation != 0 && !w.m.iter().any(|m| matches!(m, 3 | 4)) {
+                        self.motion.rotation = 0;
+                        self.spindle.set(self.time_min, 0.0);
+                    }
                     self.done.tool_change = true;
                     self.time_min += self.cfg.tool_change_min;
                 }

@@ -184,6 +184,9 @@ impl<'m> Interp<'m> {
             }
         }
         motion.frames.mark_initial();
+        motion
+            .frames
+            .select(cfg.reset_frame.min(super::motion::FRAMES - 1));
         motion.frames.trans_is_correction = cfg.trans_is_correction;
         motion.frames.geo = ["X", "Y", "Z"].map(|g| cfg.axes.iter().position(|a| a == g));
         Interp {
