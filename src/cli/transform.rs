@@ -254,7 +254,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                         match s.untimed_calls {
                             0 => String::new(),
                             n => format!(
-                                "; {n} subprogram/cycle call(s) not timed (`plan` lists them)"
+                                "; {n} subprogram/cycle call(s) not timed, 0 min assumed for each (`plan` lists them; give their folder with --subprograms DIR)"
                             ),
                         },
                         if args.check && differs {

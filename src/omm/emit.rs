@@ -449,11 +449,14 @@ impl Emitter<'_> {
     /// back, whatever loop run or expression led there; and the height to travel at: the clearance height,
     /// or the program's own where that is higher (the tool never moves down to travel). Nothing when the
     /// gate does not move the machine.
-    fn save_position(&self) -> Vec<String> {
+    fn save_position(&self, gate: &Gate) -> Vec<String> {
         let p = &self.profile.position;
         if self.profile.probe.kind == ProbeKind::Gauge {
             return Vec::new();
         }
+        // In radius from here to the modal line: the saved X, the clearance and every move of the gate
+        // mean the same on any control, whatever $AA_IW reports under DIAMON.
+        let radius = gate.before.diameter.then(|| "DIAMOF".to_string());
         let saves: Vec<String> = p
             .axes
             .iter()
@@ -461,13 +464,16 @@ impl Emitter<'_> {
             .map(|(a, reg)| format!("{}=$AA_IW[{}]", r(*reg), a.name()))
             .collect();
         let (h, clearance) = (r(self.regs.height), number(p.clearance));
-        vec![
-            saves.join(" "),
-            format!("{h}={}", r(self.regs.saved[self.retract_index()])),
-            format!("IF {h}<{clearance}"),
-            format!("{h}={clearance}"),
-            "ENDIF".into(),
-        ]
+        radius
+            .into_iter()
+            .chain([
+                saves.join(" "),
+                format!("{h}={}", r(self.regs.saved[self.retract_index()])),
+                format!("IF {h}<{clearance}"),
+                format!("{h}={clearance}"),
+                "ENDIF".into(),
+            ])
+            .collect()
     }
 
     /// Index of the retract axis in the profile's axes (and the saved position).
@@ -750,6 +756,9 @@ impl Emitter<'_> {
         }
         words.push(format!("G{}", b.motion));
         words.push(if b.absolute { "G90" } else { "G91" }.to_string());
+        if b.diameter && self.profile.probe.kind != ProbeKind::Gauge {
+            words.push("DIAMON".into());
+        }
         if let Some(f) = b.feed {
             words.push(format!("F{}", number(f)));
         }
@@ -829,7 +838,7 @@ impl Emitter<'_> {
                 .collect::<String>()
         ));
         v.push(p.offset.select.clone());
-        v.extend(self.save_position());
+        v.extend(self.save_position(gate));
         v.extend(self.probe_in(gate));
         v.push("; driftloop stage 4: reference measurement, the zero".into());
         v.extend(self.measure(&number(p.position.nominal), &what));
@@ -869,7 +878,7 @@ impl Emitter<'_> {
                 v.push("ENDIF".into());
                 v.push(format!("{cycle_in} GOTOF {skip}"));
             }
-            v.extend(self.save_position());
+            v.extend(self.save_position(gate));
             v.extend(self.probe_in(gate));
             v.extend(self.measure(&self.expected(), &what));
             v.push(self.measured_drift());

@@ -8,10 +8,10 @@ use std::sync::Arc;
 
 use serde::Serialize;
 
-use crate::model::DriftModel;
 use crate::model::effects::{Effect, Kind};
 use crate::model::lag::step;
 use crate::model::speed_grid::SpeedGrid;
+use crate::model::{DriftModel, extrapolation_warning};
 
 use super::loops::{Loop, site_runs};
 use super::nc::number;
@@ -509,6 +509,18 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
     let mut rpm = 0.0;
     let mut at_last_measurement = 0.0;
     let mut max: f64 = 0.0;
+    // Speeds the model was never characterised at: say so, with the law its gains follow there.
+    let mut above: Vec<f64> = timeline
+        .speeds
+        .iter()
+        .map(|s| s.1)
+        .filter(|rpm| extrapolation_warning(model, *rpm).is_some())
+        .collect();
+    above.sort_by(f64::total_cmp);
+    above.dedup();
+    let speed_warnings = above
+        .iter()
+        .filter_map(|rpm| extrapolation_warning(model, *rpm));
     let mut watch = Watch {
         chance: (
             format!("line {}", timeline.sites[first].block + 1),
@@ -518,7 +530,7 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
         cut: None,
         limit,
         tolerance: profile.limits.tolerance_um,
-        warnings: Vec::new(),
+        warnings: speed_warnings.collect(),
     };
     for (n, &(k, time)) in runs.sites[start..].iter().enumerate() {
         let site = &timeline.sites[k];

@@ -270,6 +270,8 @@ pub struct State {
     pub mist: bool,
     pub flood: bool,
     pub kinematics: Kinematics,
+    /// DIAMON / DIAM90: the axis (X) whose programmed values are diameters; the machine moves half.
+    pub diameter_axis: Option<usize>,
 }
 
 impl State {
@@ -300,6 +302,7 @@ impl State {
             mist: false,
             flood: false,
             kinematics: Kinematics::default(),
+            diameter_axis: None,
         }
     }
 
@@ -308,6 +311,8 @@ impl State {
     pub fn work_position(&self, axis: usize) -> f64 {
         if self.frames.is_linear() {
             self.local[axis]
+        } else if self.diameter_axis == Some(axis) {
+            2.0 * (self.machine[axis] - self.frames.offset(axis))
         } else {
             self.machine[axis] - self.frames.offset(axis)
         }

@@ -85,7 +85,7 @@ struct Label {
 mod field {
     use super::Modal;
 
-    pub const COUNT: usize = 17;
+    pub const COUNT: usize = 18;
     const TOOL: usize = 0;
     const D: usize = 1;
     const S: usize = 2;
@@ -103,6 +103,7 @@ mod field {
     const FRAMES: usize = 14;
     const UNKNOWN: usize = 15;
     const OFFSET: usize = 16;
+    const DIAMETER: usize = 17;
 
     /// The fields in which two states differ.
     pub fn differ(a: &Modal, b: &Modal) -> [bool; COUNT] {
@@ -124,6 +125,7 @@ mod field {
         d[FRAMES] = a.frames != b.frames;
         d[UNKNOWN] = a.unknown != b.unknown;
         d[OFFSET] = a.offset != b.offset;
+        d[DIAMETER] = a.diameter != b.diameter;
         d
     }
 }
@@ -665,6 +667,9 @@ impl<'p> Builder<'p> {
         }
         self.frames(s.frame_ops);
         self.t.moves |= s.other_axes;
+        if let Some(on) = s.diameter {
+            self.state.diameter = on;
+        }
         // Modal words first: they hold for this block's move.
         for g in s.g.iter() {
             match g {
@@ -1073,15 +1078,17 @@ impl<'p> Builder<'p> {
             minutes += self.profile.timeline.tool_change_s / 60.0;
         }
         self.t.inexact_blocks += usize::from(inexact);
-        self.last_was_z_retract = moved
-            && self.state.motion == 0
-            && mv.axes[0].is_none()
-            && mv.axes[1].is_none()
-            && match (from[2], to[2]) {
-                (Some(a), Some(b)) => b > a,
-                (None, Some(_)) => true,
-                _ => false,
-            };
+        // A dwell leaves the tool where the retract put it: the rapid after it is still clear of the part.
+        self.last_was_z_retract = (dwell && self.last_was_z_retract)
+            || moved
+                && self.state.motion == 0
+                && mv.axes[0].is_none()
+                && mv.axes[1].is_none()
+                && match (from[2], to[2]) {
+                    (Some(a), Some(b)) => b > a,
+                    (None, Some(_)) => true,
+                    _ => false,
+                };
         self.pos = to;
         if self.state.z != to[2] {
             self.state.z = to[2];

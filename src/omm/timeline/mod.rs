@@ -46,6 +46,8 @@ pub struct Modal {
     pub comp: u32,
     /// The work offset selected (54 … 57, 505 … 599, or 500 for none), when the program selected one.
     pub offset: Option<u32>,
+    /// X is programmed in diameters (DIAMON, DIAM90).
+    pub diameter: bool,
     /// Frames and transformations active ([`frame`] bits).
     pub frames: u8,
     /// Fields the program set by an expression the timeline cannot evaluate ([`unknown`] bits): a gate

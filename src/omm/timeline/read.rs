@@ -48,6 +48,8 @@ pub(super) struct Scan {
     pub(super) statement: bool,
     /// The block moves an axis other than X, Y, Z (a rotary axis, say).
     pub(super) other_axes: bool,
+    /// DIAMON / DIAM90 (true) or DIAMOF (false): X values are diameters from here on.
+    pub(super) diameter: Option<bool>,
 }
 
 /// Bits of [`Scan::frame_ops`].
@@ -371,6 +373,11 @@ pub(super) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
             NodeKind::Command => {
                 let name = String::from_utf8_lossy(block.text(node)).to_ascii_uppercase();
                 s.frame_ops |= transformation_op(&name) | frame_command_op(&name, &f, &block);
+                match name.as_str() {
+                    "DIAMON" | "DIAM90" => s.diameter = Some(true),
+                    "DIAMOF" => s.diameter = Some(false),
+                    _ => {}
+                }
                 if !is_predefined_command(&name) {
                     s.call = Some(name);
                 }

@@ -59,6 +59,15 @@ pub(super) fn tools(t: &State, o: &State) -> Vec<Difference> {
     v
 }
 
+fn diameter(s: &State) -> String {
+    if s.diameter_axis.is_some() {
+        "DIAMON"
+    } else {
+        "DIAMOF"
+    }
+    .into()
+}
+
 fn coolant(s: &State) -> String {
     match (s.mist, s.flood) {
         (false, false) => "off (M9)".into(),
@@ -142,6 +151,7 @@ pub(super) fn modal(t: &State, o: &State, s: &AuditSettings, axes: &[String]) ->
         ),
         ("transformation", transformation(t), transformation(o)),
         ("swivel", swivel(t), swivel(o)),
+        ("diameter programming", diameter(t), diameter(o)),
         (
             "rotation/scale/mirror",
             linear(&t.frames.linear),

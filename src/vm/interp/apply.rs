@@ -310,7 +310,12 @@ impl Interp<'_> {
             };
             let offset = if suppress { 0.0 } else { st.frames.offset(a) };
             st.local[a] = if absolute { v } else { st.local[a] + v };
-            st.machine[a] = st.local[a] + offset;
+            let radius = if st.diameter_axis == Some(a) {
+                st.local[a] / 2.0
+            } else {
+                st.local[a]
+            };
+            st.machine[a] = radius + offset;
             st.moved |= 1 << a;
             if suppress {
                 st.suppressed |= 1 << a;
