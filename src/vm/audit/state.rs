@@ -204,11 +204,12 @@ fn frames(t: &Frames, o: &Frames, s: &AuditSettings, axes: &[String]) -> Vec<Dif
     if t.selected != o.selected {
         v.push(item("work offset", select(t.selected), select(o.selected)));
     }
-    // The corrected entry's axis.
-    let axis = t.geo[s.axis];
+    // The corrected entries' axes.
+    let corrected: Vec<Option<usize>> = s.corrected().into_iter().map(|k| t.geo[k]).collect();
+    let is_corrected = |a: usize| corrected.contains(&Some(a));
     let frame_method = s.method == OffsetMethod::Frame;
     for (a, name) in axes.iter().enumerate() {
-        let skip_active = frame_method && Some(a) == axis && t.selected == s.frame;
+        let skip_active = frame_method && is_corrected(a) && t.selected == s.frame;
         if !skip_active && t.selected == o.selected && differ(t.active[a], o.active[a]) {
             v.push(item(
                 &format!("active work offset {name}"),
@@ -216,7 +217,7 @@ fn frames(t: &Frames, o: &Frames, s: &AuditSettings, axes: &[String]) -> Vec<Dif
                 num(o.active[a]),
             ));
         }
-        let skip_trans = !frame_method && Some(a) == axis;
+        let skip_trans = !frame_method && is_corrected(a);
         if !skip_trans && differ(t.trans[a], o.trans[a]) {
             v.push(item(
                 &format!("programmable translation {name}"),
@@ -226,7 +227,7 @@ fn frames(t: &Frames, o: &Frames, s: &AuditSettings, axes: &[String]) -> Vec<Dif
         }
     }
     if let Some(c) = table_difference(t, o, axes, |f, a, fine| {
-        frame_method && !fine && f == s.frame && Some(a) == axis
+        frame_method && !fine && f == s.frame && is_corrected(a)
     }) {
         v.push(item(&c.name(), num(c.transformed), num(c.original)));
     }

@@ -437,7 +437,19 @@ impl Interp<'_> {
 
     pub(super) fn probe(&mut self, u: &Unit, i: usize, cycle: &str, args: &[Option<f64>]) {
         self.passes.end_segment();
-        let axis = self.cfg.probe_axis.clone();
+        let named = self
+            .cfg
+            .probe_axis_arg
+            .and_then(|k| args.get(k).copied().flatten())
+            .filter(|n| matches!(*n as i64, 1..=3) && n.fract() == 0.0)
+            .map(|n| ["X", "Y", "Z"][n as usize - 1].to_string());
+        let axis = named.unwrap_or_else(|| self.cfg.probe_axis.clone());
+        let surface = self
+            .cfg
+            .probe_surfaces
+            .get(&axis)
+            .copied()
+            .unwrap_or(self.cfg.probe_surface_mm);
         let t = self.time_min;
         let true_drift = self.machine.drift_um(&axis, t, &self.spindle);
         let result = self.machine.probe(&ProbeCall {
@@ -460,7 +472,7 @@ impl Interp<'_> {
                     offset
                 };
                 let scale = if self.cfg.probe_diameter { 2.0 } else { 1.0 };
-                Some(self.cfg.probe_surface_mm - frame + scale * d / 1000.0)
+                Some(surface - frame + scale * d / 1000.0)
             }
             ProbeResult::Raw(v) => Some(v),
             ProbeResult::Nothing => None,
