@@ -407,13 +407,29 @@ impl Interp<'_> {
             return Ok(());
         }
         let rpm = self.motion.spindle_rpm();
-        let Some(z) = self.axis_index("Z") else {
-            return Ok(());
-        };
         if rpm <= 0.0 || length == 0.0 {
             return Ok(());
         }
         let mid = (t0 + self.time_min) / 2.0;
+        for name in ["X", "Y", "Z"] {
+            let Some(a) = self.axis_index(name) else {
+                continue;
+            };
+            let drift = self.machine.drift_um(name, mid, &self.spindle);
+            let correction = if suppress {
+                0.0
+            } else {
+                self.motion.frames.correction(a) * 1000.0
+            };
+            self.run
+                .cutting_error
+                .entry(name.to_string())
+                .or_default()
+                .add(drift - correction, drift, minutes);
+        }
+        let Some(z) = self.axis_index("Z") else {
+            return Ok(());
+        };
         let drift = self.machine.drift_um("Z", mid, &self.spindle);
         let correction = if suppress {
             0.0
