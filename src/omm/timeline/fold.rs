@@ -61,6 +61,8 @@ pub(super) struct Builder<'p> {
     run_end: usize,
     /// Until the first cut: the first block after the setup so far, as a [`SiteKind::Start`] site.
     start: Option<Site>,
+    /// The speed limit under constant cutting speed (`LIMS=`).
+    lims: Option<f64>,
     /// When the last cut (feed move) ended, in ticks.
     last_cut: u64,
 }
@@ -110,7 +112,7 @@ mod field {
         let mut d = [false; COUNT];
         d[TOOL] = a.tool != b.tool;
         d[D] = a.d != b.d;
-        d[S] = a.s != b.s;
+        d[S] = a.s != b.s || a.css_rpm != b.css_rpm;
         d[DIRECTION] = a.direction != b.direction;
         d[FEED] = a.feed != b.feed;
         d[MOTION] = a.motion != b.motion;
@@ -185,6 +187,7 @@ impl<'p> Builder<'p> {
             varies: BTreeSet::new(),
             run_end: 0,
             start: None,
+            lims: None,
             last_cut: 0,
         }
     }
@@ -698,6 +701,16 @@ impl<'p> Builder<'p> {
             self.state.s = v;
             self.state.unknown &= !unknown::S;
         }
+        if let Some(l) = s.lims {
+            self.lims = Some(l);
+        }
+        if s.g.contains(97) {
+            self.state.css_rpm = None;
+        } else if s.g.contains(96)
+            || (self.state.css_rpm.is_some() && (s.s.is_some() || s.lims.is_some()))
+        {
+            self.state.css_rpm = Some(self.css_rpm());
+        }
         if let Some(d) = s.d {
             self.state.d = Some(d);
             self.state.unknown &= !unknown::D;
@@ -1098,6 +1111,24 @@ impl<'p> Builder<'p> {
         if moves_somehow && !g4 && self.state.motion != 0 {
             self.last_cut = self.ticks;
         }
+    }
+
+    /// The spindle speed under constant cutting speed (G96): 1000·v / (π·D) at the diameter the tool stands
+    /// at (X, a diameter under DIAMON), capped by LIMS; LIMS (or v itself) where no diameter is known yet.
+    fn css_rpm(&self) -> f64 {
+        let v = self.state.s.abs();
+        let diameter = self.pos[0].map(|x| {
+            if self.state.diameter {
+                x.abs()
+            } else {
+                2.0 * x.abs()
+            }
+        });
+        let n = match diameter {
+            Some(d) if d > 1.0 => 1000.0 * v / (std::f64::consts::PI * d),
+            _ => self.lims.unwrap_or(v),
+        };
+        self.lims.map_or(n, |l| n.min(l))
     }
 
     /// Minutes from the end of the last cut to `at_min`.

@@ -48,6 +48,9 @@ pub struct Modal {
     pub offset: Option<u32>,
     /// X is programmed in diameters (DIAMON, DIAM90).
     pub diameter: bool,
+    /// Under constant cutting speed (G96, `s` in m/min): the spindle speed estimated where S was set,
+    /// n = 1000·v / (π·D) at the diameter the tool stood at, capped by LIMS.
+    pub css_rpm: Option<f64>,
     /// Frames and transformations active ([`frame`] bits).
     pub frames: u8,
     /// Fields the program set by an expression the timeline cannot evaluate ([`unknown`] bits): a gate
@@ -79,7 +82,7 @@ impl Modal {
     /// Speed the spindle turns at (rpm, 0 when stopped).
     pub fn rpm(&self) -> f64 {
         if matches!(self.direction, 3 | 4) {
-            self.s.abs()
+            self.css_rpm.unwrap_or(self.s).abs()
         } else {
             0.0
         }

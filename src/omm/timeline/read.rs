@@ -50,6 +50,8 @@ pub(super) struct Scan {
     pub(super) other_axes: bool,
     /// DIAMON / DIAM90 (true) or DIAMOF (false): X values are diameters from here on.
     pub(super) diameter: Option<bool>,
+    /// `LIMS=`: the speed limit under constant cutting speed (rpm).
+    pub(super) lims: Option<f64>,
 }
 
 /// Bits of [`Scan::frame_ops`].
@@ -762,6 +764,7 @@ fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
             }
         }
         b"CR" => s.mv.radius = v,
+        b"LIMS" => s.lims = v,
         b"D" => match v {
             Some(d) if d >= 0.0 && d.fract() == 0.0 => s.d = Some(d as u32),
             _ => s.unknown |= unknown::D,

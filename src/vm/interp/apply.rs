@@ -37,6 +37,7 @@ impl Interp<'_> {
                 93 => modal.feed_mode = FeedMode::InverseTime,
                 94 => modal.feed_mode = FeedMode::PerMinute,
                 95 => modal.feed_mode = FeedMode::PerRevolution,
+                96 | 97 => modal.css = g == 96,
                 _ => return Err(format!("G{g} is not supported by the dry run")),
             }
         }
@@ -63,11 +64,16 @@ impl Interp<'_> {
             };
             self.motion.modal.feed = Some(f * unit);
         }
+        if let Some(l) = w.lims {
+            self.motion.modal.lims = Some(l);
+        }
         if let Some(s) = w.s.filter(|_| !dwell) {
             self.motion.s = s;
-            if self.motion.rotation != 0 {
-                self.spindle.set(self.time_min, s);
-            }
+        }
+        if (w.s.is_some() || w.g.iter().any(|g| matches!(g, 96 | 97)) || w.lims.is_some())
+            && self.motion.rotation != 0
+        {
+            self.spindle.set(self.time_min, self.motion.spindle_rpm());
         }
         if let Some(t) = w.tool.take() {
             if self.cfg.tool_change_on_t {
@@ -87,7 +93,7 @@ impl Interp<'_> {
             match m {
                 3 | 4 => {
                     self.motion.rotation = m;
-                    self.spindle.set(self.time_min, self.motion.s);
+                    self.spindle.set(self.time_min, self.motion.spindle_rpm());
                 }
                 6 => {
                     self.passes.end_segment();
