@@ -66,6 +66,10 @@ pub enum TransformError {
     UnknownTool(usize),
     #[error(transparent)]
     Plan(#[from] PlanError),
+    #[error(
+        "the program writes a frame itself at line {0}, after the zero: the corrections driftloop writes into the work offset and its restore at the end would overwrite it (or be overwritten); move the write before the first cut"
+    )]
+    FrameWrite(usize),
     #[error("{0}")]
     Other(String),
     #[error(
@@ -89,6 +93,7 @@ impl TransformError {
             TransformError::Plan(PlanError::NothingToCompensate) => "moves no axis",
             TransformError::Plan(PlanError::NoReference(_)) => "no place for the reference",
             TransformError::Plan(PlanError::Model(_)) => "model not predictable in NC",
+            TransformError::FrameWrite(_) => "writes a work offset itself",
             TransformError::Other(_) => "profile or registers",
             TransformError::LongBlock(_) => "block too long",
             TransformError::Emit(_) => "internal error",
@@ -362,6 +367,10 @@ fn prepare_with<'p>(
     );
     checked?;
     let (timeline, plan) = planned?;
+    let zero = plan.gates.first().map_or(0, |g| g.block);
+    if let Some(&b) = timeline.frame_writes.iter().find(|&&b| b >= zero) {
+        return Err(TransformError::FrameWrite(b + 1));
+    }
     let measured = profile.measured();
     let predictors: Vec<Predictor> = models
         .iter()

@@ -668,6 +668,9 @@ impl<'p> Builder<'p> {
         {
             self.state.offset = Some(g);
         }
+        if s.frame_ops & super::read::frame_op::WRITE != 0 {
+            self.t.frame_writes.push(i);
+        }
         self.frames(s.frame_ops);
         self.t.moves |= s.other_axes;
         if let Some(on) = s.diameter {
