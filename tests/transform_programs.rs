@@ -66,3 +66,24 @@ fn a_program_with_labels_defined_twice() {
     let out = transformed("duplicate_labels.mpf", "blum-tc50");
     insta::assert_snapshot!("duplicate_labels", out);
 }
+
+#[test]
+fn a_cam_program_with_a_title_above_its_header_cycles_and_a_modal_call() {
+    // A GBK title comment above `%_N_…_MPF`, CYCLE832 with symbolic arguments, G41, MCALL CYCLE81: the
+    // header goes after the `%` lines, the program's own flow is followed, and the audit runs to the end
+    // (the cycles it cannot find are skipped alike in both runs).
+    let o = common::run(&[
+        "transform",
+        &fixture("programs/gbk_title.mpf"),
+        "--model",
+        &fixture("omm/model.toml"),
+        "-o",
+        "-",
+    ]);
+    let stderr = common::stderr(&o);
+    assert!(o.status.success(), "{stderr}");
+    assert!(!stderr.contains("audit incomplete"), "{stderr}");
+    let out = o.stdout;
+    let lines: Vec<&[u8]> = out.split(|&b| b == b'\n').collect();
+    assert!(lines[1].starts_with(b"%_N_PART1_MPF") && lines[3].starts_with(b"; driftloop-omm"));
+}

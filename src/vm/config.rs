@@ -57,6 +57,10 @@ pub struct Config {
     /// The probe cycle's argument (0-based) that names the measured axis (1, 2, 3 for X, Y, Z), as
     /// driftloop's `{axis}` placeholder does: a program that measures several axes says which at each call.
     pub probe_axis_arg: Option<usize>,
+    /// Run on past a call of a subprogram or cycle that is not found (a manufacturer's cycle, a folder not
+    /// given) as if it did nothing, with a message, instead of stopping: the audit compares two runs that
+    /// skip it alike.
+    pub skip_missing_calls: bool,
     /// Machine coordinate of the surface probed along each axis other than `probe_axis`.
     pub probe_surfaces: std::collections::BTreeMap<String, f64>,
     /// The cycle reports machine coordinates (a reference fixed on the table), not work coordinates.
@@ -98,6 +102,7 @@ impl Default for Config {
             probe_axis: "Z".into(),
             probe_surface_mm: 0.0,
             probe_axis_arg: None,
+            skip_missing_calls: false,
             probe_surfaces: std::collections::BTreeMap::new(),
             probe_machine_frame: false,
             probe_diameter: false,

@@ -356,10 +356,12 @@ impl<'p> Builder<'p> {
 
     /// Header lines (`%…`, `;$PATH`) and the declarations after them: no gate may come before their end.
     fn header_and_preamble(&mut self, i: usize, header: bool, declaration: bool, blank: bool) {
+        // Comments and blank lines may stand around the `%` header lines: driftloop's header goes after the
+        // last of those header lines.
         if !self.header_done {
             if header {
                 self.t.header_end = i + 1;
-            } else {
+            } else if !blank {
                 self.header_done = true;
             }
         }

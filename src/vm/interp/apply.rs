@@ -186,13 +186,24 @@ impl Interp<'_> {
             return Ok(Flow::Return);
         }
         if let Some((name, args, refs)) = w.call {
-            let unit = self.load(u, &name)?;
-            return Ok(Flow::Call {
-                unit,
-                args,
-                refs,
-                repeats: w.repeat.unwrap_or(1).max(1),
-            });
+            match self.load(u, &name) {
+                Ok(unit) => {
+                    return Ok(Flow::Call {
+                        unit,
+                        args,
+                        refs,
+                        repeats: w.repeat.unwrap_or(1).max(1),
+                    });
+                }
+                Err(why) if self.cfg.skip_missing_calls => {
+                    let at = self.at(u, i);
+                    self.run.messages.push(Message {
+                        at,
+                        text: format!("skipped as doing nothing: {why}"),
+                    });
+                }
+                Err(why) => return Err(why),
+            }
         }
         if let Some((start, end)) = w.section {
             let passes = w.repeat.unwrap_or(1);
