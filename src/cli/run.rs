@@ -95,6 +95,9 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             &mut machine,
         )?
     } else {
+        // The virtual machine names a file and line; a file that cannot be opened has no line.
+        std::fs::File::open(&args.program)
+            .with_context(|| format!("cannot read {}", args.program.display()))?;
         vm::run_file(&args.program, &cfg, &mut machine)?
     };
     match args.format {
