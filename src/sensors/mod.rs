@@ -508,4 +508,5 @@ impl Analysis {
     }
 }
 
+mod report;
 mod text;
