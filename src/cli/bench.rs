@@ -31,7 +31,7 @@ pub struct Args {
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
     runs: u32,
     /// Also write the generated program to this file, to feed other tools the same bytes.
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     save: Option<PathBuf>,
     /// Also time `transform` of the same program (the transform tests' model, the default profile) in the
     /// same alternation, and report it against parse + print (the transform's target is 1.5x).

@@ -17,8 +17,9 @@ use crate::vm::{self, Config, End, MachineSpec};
 pub struct Args {
     /// The main program (`-` reads stdin; subprograms are then looked up in the current folder).
     pub program: PathBuf,
-    /// Machine file (TOML): timing, probe, initial work offsets, drift (see README); default: no drift.
-    #[arg(long)]
+    /// Machine file (TOML): timing, probe, initial work offsets, drift (docs/commands/run.md); default: a
+    /// machine that does not drift.
+    #[arg(long, value_name = "MACHINE.toml")]
     pub machine: Option<PathBuf>,
     /// Standard deviation of the probe noise in µm (overrides the machine file).
     #[arg(long, value_name = "UM")]
@@ -46,7 +47,7 @@ pub struct Args {
     pub original: Option<PathBuf>,
     /// The machine profile the program was transformed with (clearance, probe tool and point, corrected
     /// offset): a file or a builtin's name (`driftloop profiles`); the shipped default profile when absent.
-    #[arg(long, value_name = "P.toml", requires = "audit")]
+    #[arg(long, value_name = "MACHINE.toml|NAME", requires = "audit")]
     pub profile: Option<PathBuf>,
     /// The drift model the program was transformed with: the machine then drifts as it predicts, so the
     /// probe values agree with the program's predictions (without it the machine does not drift, and a

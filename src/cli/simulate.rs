@@ -18,10 +18,11 @@ pub struct Args {
     /// Undeclared effect in the production log (none: a control without one).
     #[arg(long, value_parser = effect_names())]
     pub effect: Option<String>,
+    /// Seed of the random draws (effect parameters, temperatures, speeds, noise).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Measurement noise (standard deviation, µm).
-    #[arg(long, default_value_t = 0.3)]
+    #[arg(long, value_name = "UM", default_value_t = 0.3)]
     pub noise: f64,
     /// The effect's standard deviation over the log, in multiples of the noise.
     #[arg(long, default_value_t = 5.0)]
