@@ -38,6 +38,11 @@ pub struct Args {
     /// Write the per-block trace (positions, time, spindle speed) as CSV to this file (`-`: stdout).
     #[arg(long, value_name = "FILE", conflicts_with = "audit")]
     pub trace: Option<PathBuf>,
+    /// Write the files the program writes with WRITE (e.g. the DRIFTLOG of a transformed program) into this
+    /// folder, replacing files of the same name: one folder per job (the virtual machine's clock starts at 0
+    /// in every run, so two jobs in one file would share a run label).
+    #[arg(long, value_name = "DIR", conflicts_with = "audit")]
+    pub write_files: Option<PathBuf>,
     /// Safety audit: PROGRAM is a transformed program; run it beside its original and report where the
     /// inserted blocks leave the control in another state than the original would be in (exit 1).
     #[arg(long)]
@@ -114,10 +119,30 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 .with_context(|| format!("cannot write {}", path.display()))?;
         }
     }
+    if let Some(dir) = &args.write_files {
+        write_files(dir, &run.files)?;
+    }
     Ok(match run.end {
         End::Alarm { .. } => ExitCode::from(1),
         _ => ExitCode::SUCCESS,
     })
+}
+
+/// Writes each file the program wrote to `dir/NAME`, creating the folder as needed.
+fn write_files(
+    dir: &Path,
+    files: &std::collections::BTreeMap<String, String>,
+) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    for (name, text) in files {
+        anyhow::ensure!(
+            !name.is_empty() && !name.contains(['/', '\\']) && name != "." && name != "..",
+            "the program writes to `{name}`, which is not a plain file name"
+        );
+        let path = dir.join(name);
+        std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    Ok(())
 }
 
 fn read_stdin() -> anyhow::Result<Vec<u8>> {
