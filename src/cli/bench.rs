@@ -143,6 +143,8 @@ fn measure_interleaved(
     let mut driftloop_runs = Vec::new();
     let mut gcode_runs = Vec::new();
     let mut transform_runs = Vec::new();
+    // Between timed runs only, so the line costs no measured time.
+    let progress = super::progress::Progress::new("timed runs", runs as usize);
     for _ in 0..runs {
         let (run, returned) = driftloop_run(source, &expected, &mut sink);
         source = returned;
@@ -153,7 +155,9 @@ fn measure_interleaved(
             source = returned;
             transform_runs.push(run);
         }
+        progress.tick();
     }
+    progress.finish();
 
     let mut parse: Vec<Duration> = driftloop_runs.iter().map(|r| r.parse).collect();
     let mut print: Vec<Duration> = driftloop_runs.iter().map(|r| r.print).collect();
