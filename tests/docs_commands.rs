@@ -8,7 +8,8 @@
 //! - `# slow`: run only by the ignored test `slow_docs_commands_run` (`cargo test --test docs_commands --
 //!   --ignored`), for the benchmarks and the real-data runs that take minutes in a debug build;
 //! - `# test: CMD`: the fast test runs CMD instead (the same command with a smaller argument), the ignored
-//!   test the command as written.
+//!   test the command as written;
+//! - several of them separated by `, ` (`# slow, exit 1`).
 //!
 //! Cargo commands (build, install, test, bench, doc) are not run here: they are the test run itself.
 //! Also checked: every flag of every command's `--help` is in its reference page, and every relative link
@@ -119,22 +120,23 @@ fn annotated(line: usize, text: &str) -> Shown {
         slow: false,
         fast_variant: None,
     };
-    if let Some((command, note)) = text.rsplit_once("  # ") {
-        let note = note.trim();
-        let known = if let Some(code) = note.strip_prefix("exit ") {
-            shown.expect = code.parse().expect("`# exit N` takes a number");
-            true
-        } else if note == "slow" {
-            shown.slow = true;
-            true
-        } else if let Some(variant) = note.strip_prefix("test: ") {
-            shown.fast_variant = Some(variant.to_string());
-            true
-        } else {
-            false
-        };
+    if let Some((command, notes)) = text.rsplit_once("  # ") {
+        let mut known = true;
+        for note in notes.split(", ").map(str::trim) {
+            if let Some(code) = note.strip_prefix("exit ") {
+                shown.expect = code.parse().expect("`# exit N` takes a number");
+            } else if note == "slow" {
+                shown.slow = true;
+            } else if let Some(variant) = note.strip_prefix("test: ") {
+                shown.fast_variant = Some(variant.to_string());
+            } else {
+                known = false;
+            }
+        }
         if known {
             shown.command = command.trim_end().to_string();
+        } else {
+            (shown.expect, shown.slow, shown.fast_variant) = (0, false, None);
         }
     }
     shown
@@ -244,6 +246,8 @@ fn the_annotations_are_read() {
         s.fast_variant.as_deref(),
         Some("driftloop bench --size-mb 1")
     );
+    let s = annotated(3, "driftloop run --audit big.mpf  # slow, exit 1");
+    assert!(s.slow && s.expect == 1 && s.command == "driftloop run --audit big.mpf");
     let s = annotated(3, "echo a  # just a comment");
     assert_eq!(s.command, "echo a  # just a comment");
     assert_eq!(
