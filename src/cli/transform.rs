@@ -182,6 +182,22 @@ struct JsonFile<'a> {
     audit: Option<&'a AuditNote>,
 }
 
+impl<'a> JsonFile<'a> {
+    /// The record of `path` with nothing said about it yet.
+    fn of(path: String, output: Option<String>) -> JsonFile<'a> {
+        JsonFile {
+            path,
+            output,
+            error: None,
+            reason: None,
+            changed: None,
+            already_transformed: None,
+            summary: None,
+            audit: None,
+        }
+    }
+}
+
 /// What the safety audit said of a transformed program that it accepted.
 #[derive(Serialize, Default)]
 struct AuditNote {
@@ -229,14 +245,9 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                     e.message
                 )?;
                 json.push(JsonFile {
-                    path,
-                    output,
                     error: Some(e.message.clone()),
                     reason: Some(e.reason),
-                    changed: None,
-                    already_transformed: None,
-                    summary: None,
-                    audit: None,
+                    ..JsonFile::of(path, output)
                 });
             }
             Ok(Done::AlreadyTransformed(line)) => {
@@ -247,14 +258,9 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                     )?;
                 }
                 json.push(JsonFile {
-                    path,
-                    output,
-                    error: None,
-                    reason: None,
                     changed: Some(false),
                     already_transformed: Some(*line),
-                    summary: None,
-                    audit: None,
+                    ..JsonFile::of(path, output)
                 });
             }
             Ok(Done::Transformed(o)) => {
@@ -309,14 +315,10 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                     )?;
                 }
                 json.push(JsonFile {
-                    path,
-                    output,
-                    error: None,
-                    reason: None,
                     changed: (args.check || args.diff).then_some(differs),
-                    already_transformed: None,
                     summary: Some(&o.summary),
                     audit: o.audit.as_ref(),
+                    ..JsonFile::of(path, output)
                 });
             }
         }

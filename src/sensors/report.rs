@@ -208,11 +208,7 @@ fn cluster_table(clusters: &[Cluster], threshold: f64) -> Table {
         "Groups of redundant sensors (complete linkage, |r| ≥ {threshold} inside a group)"
     ));
     for c in clusters {
-        let verdict = match (&c.kept, &c.dropped) {
-            (Some(k), _) => format!("keep {k}"),
-            (None, Some(why)) => format!("drop ({why})"),
-            (None, None) => "drop".into(),
-        };
+        let verdict = c.verdict();
         table.row(vec![Cell::from(c.sensors.join(" ")), Cell::from(verdict)]);
     }
     table
