@@ -42,7 +42,8 @@ struct JsonPlan<'a> {
 }
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
-    let (model, _sha, profile) = args.setup.load()?;
+    let (models, profile) = args.setup.load()?;
+    let drift: Vec<&crate::model::DriftModel> = models.iter().map(|(m, _)| m).collect();
     let input = if args.program.as_os_str() == "-" {
         Input::Stdin
     } else {
@@ -51,7 +52,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     let (program, moves) = omm::parse_timed(input.read()?);
     let name = input.to_string();
     let planned = omm::check_timed(&program, &moves, args.force)
-        .and_then(|()| omm::plan_timed(&program, &moves, &model, &profile));
+        .and_then(|()| omm::plan_timed(&program, &moves, &drift, &profile));
     let (timeline, plan) = match planned {
         Ok(p) => p,
         Err(e) => {
@@ -69,7 +70,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         );
         return Ok(ExitCode::from(2));
     }
-    let unforeseen = model.signals();
+    let unforeseen: Vec<&str> = models.iter().flat_map(|(m, _)| m.signals()).collect();
     if !unforeseen.is_empty() {
         anstream::eprintln!(
             "{} the model also reads {}; the plan cannot foresee them and holds them at their values at the zero, so its predicted drift is the spindle part only; the transformed program reads them (`$A_INA`) and corrects with them at every gate",

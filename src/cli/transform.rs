@@ -60,9 +60,10 @@ pub struct Args {
 /// Model and profile, shared by `transform` and `plan`.
 #[derive(Debug, clap::Args)]
 pub struct Setup {
-    /// The drift model file (`driftloop fit` writes it).
-    #[arg(long, value_name = "MODEL.toml")]
-    pub model: PathBuf,
+    /// The drift model file (`driftloop fit` writes it); repeated, one per measured axis when the profile
+    /// measures several (`[[position.also]]` names each further axis's channel).
+    #[arg(long, value_name = "MODEL.toml", required = true)]
+    pub model: Vec<PathBuf>,
     /// The machine profile: a TOML file, or the name of a builtin profile (`driftloop profiles` lists
     /// them: blum-tc50, siemens-cycle978, tool-setter, grinder-gauge, lathe-setter); blum-tc50 when absent.
     #[arg(long, value_name = "MACHINE.toml|NAME")]
@@ -79,17 +80,21 @@ pub struct Setup {
 }
 
 impl Setup {
-    /// The model, the SHA-256 of its file, and the profile.
-    pub fn load(&self) -> anyhow::Result<(DriftModel, String, Profile)> {
-        let bytes = std::fs::read(&self.model)
-            .with_context(|| format!("cannot read {}", self.model.display()))?;
-        let text = String::from_utf8(bytes.clone())
-            .with_context(|| format!("{}: not UTF-8 text", self.model.display()))?;
-        let model = DriftModel::from_toml(&text, &self.model.display().to_string())?;
-        let sha: String = Sha256::digest(&bytes)
-            .iter()
-            .map(|b| format!("{b:02x}"))
-            .collect();
+    /// The models with the SHA-256 of their files, and the profile.
+    pub fn load(&self) -> anyhow::Result<(Vec<(DriftModel, String)>, Profile)> {
+        let mut models = Vec::new();
+        for path in &self.model {
+            let bytes =
+                std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+            let text = String::from_utf8(bytes.clone())
+                .with_context(|| format!("{}: not UTF-8 text", path.display()))?;
+            let model = DriftModel::from_toml(&text, &path.display().to_string())?;
+            let sha: String = Sha256::digest(&bytes)
+                .iter()
+                .map(|b| format!("{b:02x}"))
+                .collect();
+            models.push((model, sha));
+        }
         let mut profile = match &self.profile {
             Some(path) => Profile::read_or_builtin(path)?,
             None => Profile::default_profile(),
@@ -99,7 +104,7 @@ impl Setup {
         if let Some(missing) = dirs.iter().find(|d| !d.is_dir()) {
             anyhow::bail!("subprogram folder {} is not a folder", missing.display());
         }
-        Ok((model, sha, profile))
+        Ok((models, profile))
     }
 }
 
@@ -211,13 +216,13 @@ struct AuditNote {
 }
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
-    let (model, sha, profile) = args.setup.load()?;
+    let (models, profile) = args.setup.load()?;
     let jobs = jobs(&args)?;
     let progress = Progress::new("transformed", jobs.len());
     let results: Vec<Result<Done, Refusal>> = jobs
         .par_iter()
         .map(|job| {
-            let r = transform_one(&job.input, &model, &sha, &profile, &args);
+            let r = transform_one(&job.input, &models, &profile, &args);
             progress.tick();
             r
         })
@@ -304,7 +309,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                         match s.untimed_calls {
                             0 => String::new(),
                             n => format!(
-                                "; {n} subprogram/cycle call(s) not timed (`plan` lists them)"
+                                "; {n} subprogram/cycle call(s) not timed, 0 min assumed for each (`plan` lists them; give their folder with --subprograms DIR)"
                             ),
                         },
                         if args.check && differs {
@@ -398,8 +403,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
 
 fn transform_one(
     input: &Input,
-    model: &DriftModel,
-    sha: &str,
+    models: &[(DriftModel, String)],
     profile: &Profile,
     args: &Args,
 ) -> Result<Done, Refusal> {
@@ -410,8 +414,11 @@ fn transform_one(
         return Ok(Done::AlreadyTransformed(line));
     }
     let (program, moves) = omm::parse_timed(bytes);
-    let drift = ModelRef { model, sha256: sha };
-    let (edits, summary) = omm::prepare_timed(&program, &moves, drift, profile, args.force)
+    let refs: Vec<ModelRef<'_>> = models
+        .iter()
+        .map(|(model, sha)| ModelRef { model, sha256: sha })
+        .collect();
+    let (edits, summary) = omm::prepare_timed(&program, &moves, &refs, profile, args.force)
         .map_err(|e| Refusal::new(e.reason(), e))?
         .into_edits();
     if args.setup.strict
@@ -425,7 +432,7 @@ fn transform_one(
     let audit = if args.no_audit {
         None
     } else {
-        Some(audit_output(input, &program, &edits, model, profile)?)
+        Some(audit_output(input, &program, &edits, &refs, profile)?)
     };
     Ok(Done::Transformed(Box::new(Outcome {
         program,
@@ -443,19 +450,27 @@ fn audit_output(
     input: &Input,
     program: &crate::Program,
     edits: &Edits,
-    model: &DriftModel,
+    models: &[ModelRef<'_>],
     profile: &Profile,
 ) -> Result<AuditNote, Refusal> {
     use crate::vm::audit::{AuditSettings, Kind, audit_owned};
-    // The virtual machine drifts as the model predicts from the spindle; the terms it reads from sensors
-    // have no signal there and are left out.
-    let mut spindle_part = model.clone();
-    spindle_part.inputs.clear();
-    spindle_part
-        .effects
-        .retain(|e| e.signal.is_none() && e.position.is_none());
+    // The virtual machine drifts as each axis's model predicts from the spindle; the terms it reads from
+    // sensors have no signal there and are left out.
+    let ordered = omm::models_for_axes(profile, models, |m: ModelRef<'_>| m.model.channel.as_str())
+        .map_err(|e| Refusal::new(e.reason(), e))?;
+    let spindle_parts: Vec<DriftModel> = ordered
+        .iter()
+        .map(|m| {
+            let mut part = m.model.clone();
+            part.inputs.clear();
+            part.effects
+                .retain(|e| e.signal.is_none() && e.position.is_none());
+            part
+        })
+        .collect();
+    let parts: Vec<&DriftModel> = spindle_parts.iter().collect();
     let mut settings = AuditSettings::from_profile(profile)
-        .drifting_as(&spindle_part)
+        .drifting_as_axes(&parts)
         .map_err(|e| Refusal::new("audit setup", e))?;
     // Subprograms are looked up beside the program, as the control finds them in its folder.
     if let Input::File(path) = input {

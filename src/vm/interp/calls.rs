@@ -95,6 +95,10 @@ impl Interp<'_> {
             }
             "TRAFOOF" => self.motion.kinematics.transformation = None,
             "SUPA" => w.suppress_frames = true,
+            "DIAMON" | "DIAM90" => {
+                self.motion.diameter_axis = self.cfg.axes.iter().position(|a| a == "X")
+            }
+            "DIAMOF" => self.motion.diameter_axis = None,
             "BSPLINE" | "ASPLINE" | "CSPLINE" => w.spline = true,
             "TRANS" | "ATRANS" | "ROT" | "AROT" | "SCALE" | "ASCALE" | "MIRROR" | "AMIRROR" => {
                 w.frame_command = Some(name)
