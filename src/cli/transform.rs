@@ -2,18 +2,20 @@
 //! correction blocks. Programs are transformed in parallel; nothing is written unless every program could
 //! be transformed, so a batch never ends half done.
 
-use std::io::{self, IsTerminal, Write};
+use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use anyhow::{Context, bail};
 use rayon::prelude::*;
 use serde::Serialize;
 use sha2::{Digest, Sha256};
 
+use super::progress::Progress;
+use super::style;
 use super::{Format, Global};
 use crate::Edits;
+use crate::diagnostic::Severity;
 use crate::model::DriftModel;
 use crate::omm::{self, ModelRef, Profile, Summary};
 use crate::walk::{self, Input};
@@ -31,10 +33,12 @@ pub struct Args {
     /// Replace each input file (atomically: temp file in the same directory, then rename).
     #[arg(long, conflicts_with = "output")]
     in_place: bool,
-    /// Write nothing; exit 1 if any output would differ from the file at `-o` (or the input without `-o`).
+    /// Write nothing; exit 1 if any output would differ from the file at `-o` (or the input without `-o`), 0
+    /// if none would; an input that is transformed already counts as unchanged.
     #[arg(long)]
     check: bool,
-    /// Print a unified diff of each input against its output instead of writing.
+    /// Print a unified diff of each input against its output instead of writing; exit 1 if there is a
+    /// difference, 0 if not (an input that is transformed already).
     #[arg(long)]
     diff: bool,
     /// `human`: summary on stderr; `json`: one JSON object per file (on stdout unless the program goes there).
@@ -155,6 +159,15 @@ impl Refusal {
     }
 }
 
+/// What became of one input that was not refused.
+enum Done {
+    Transformed(Box<Outcome>),
+    /// `--check` or `--diff` on a program that carries driftloop's header (line): nothing would change, as
+    /// rustfmt says of a formatted file; written normally it is a refusal, since a second transform would
+    /// measure twice.
+    AlreadyTransformed(usize),
+}
+
 #[derive(Serialize)]
 struct JsonFile<'a> {
     path: String,
@@ -165,10 +178,29 @@ struct JsonFile<'a> {
     reason: Option<&'static str>,
     #[serde(skip_serializing_if = "Option::is_none")]
     changed: Option<bool>,
+    /// The line of driftloop's header in an input `--check`/`--diff` found transformed already.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    already_transformed: Option<usize>,
     #[serde(skip_serializing_if = "Option::is_none")]
     summary: Option<&'a Summary>,
     #[serde(skip_serializing_if = "Option::is_none")]
     audit: Option<&'a AuditNote>,
+}
+
+impl<'a> JsonFile<'a> {
+    /// The record of `path` with nothing said about it yet.
+    fn of(path: String, output: Option<String>) -> JsonFile<'a> {
+        JsonFile {
+            path,
+            output,
+            error: None,
+            reason: None,
+            changed: None,
+            already_transformed: None,
+            summary: None,
+            audit: None,
+        }
+    }
 }
 
 /// What the safety audit said of a transformed program that it accepted.
@@ -186,8 +218,8 @@ struct AuditNote {
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     let (models, profile) = args.setup.load()?;
     let jobs = jobs(&args)?;
-    let progress = Progress::new(jobs.len());
-    let results: Vec<Result<Outcome, Refusal>> = jobs
+    let progress = Progress::new("transformed", jobs.len());
+    let results: Vec<Result<Done, Refusal>> = jobs
         .par_iter()
         .map(|job| {
             let r = transform_one(&job.input, &models, &profile, &args);
@@ -195,9 +227,9 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             r
         })
         .collect();
-    progress.done();
+    progress.finish();
 
-    let mut stderr = io::stderr().lock();
+    let mut stderr = anstream::stderr().lock();
     let refused = results.iter().filter(|r| r.is_err()).count();
     let mut changed = 0;
     let mut json = Vec::new();
@@ -211,18 +243,32 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         };
         match result {
             Err(e) => {
-                writeln!(stderr, "error: {path}: {}", e.message)?;
+                writeln!(
+                    stderr,
+                    "{} {path}: {}",
+                    style::label(Severity::Error),
+                    e.message
+                )?;
                 json.push(JsonFile {
-                    path,
-                    output,
                     error: Some(e.message.clone()),
                     reason: Some(e.reason),
-                    changed: None,
-                    summary: None,
-                    audit: None,
+                    ..JsonFile::of(path, output)
                 });
             }
-            Ok(o) => {
+            Ok(Done::AlreadyTransformed(line)) => {
+                if args.format == Format::Human {
+                    writeln!(
+                        stderr,
+                        "{path}: already transformed (driftloop header on line {line}); nothing would change"
+                    )?;
+                }
+                json.push(JsonFile {
+                    changed: Some(false),
+                    already_transformed: Some(*line),
+                    ..JsonFile::of(path, output)
+                });
+            }
+            Ok(Done::Transformed(o)) => {
                 let differs = if args.check {
                     let current = match &job.target {
                         Target::File(p) => std::fs::read(p).ok(),
@@ -236,14 +282,18 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 if args.format == Format::Human {
                     let s = &o.summary;
                     for w in &s.warnings {
-                        writeln!(stderr, "warning: {path}: {w}")?;
+                        writeln!(stderr, "{} {path}: {w}", style::label(Severity::Warning))?;
                     }
                     if let Some(a) = &o.audit {
                         for w in &a.warnings {
-                            writeln!(stderr, "warning: {path}: {w}")?;
+                            writeln!(stderr, "{} {path}: {w}", style::label(Severity::Warning))?;
                         }
                         if let Some(why) = &a.incomplete {
-                            writeln!(stderr, "note: {path}: audit incomplete: {why}")?;
+                            writeln!(
+                                stderr,
+                                "{} {path}: audit incomplete: {why}",
+                                style::label(Severity::Note)
+                            )?;
                         }
                     }
                     writeln!(
@@ -270,13 +320,10 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                     )?;
                 }
                 json.push(JsonFile {
-                    path,
-                    output,
-                    error: None,
-                    reason: None,
-                    changed: args.check.then_some(differs),
+                    changed: (args.check || args.diff).then_some(differs),
                     summary: Some(&o.summary),
                     audit: o.audit.as_ref(),
+                    ..JsonFile::of(path, output)
                 });
             }
         }
@@ -308,7 +355,10 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     let outcomes: Vec<(&Job, &Outcome)> = jobs
         .iter()
         .zip(&results)
-        .filter_map(|(job, r)| Some((job, r.as_ref().ok()?)))
+        .filter_map(|(job, r)| match r {
+            Ok(Done::Transformed(o)) => Some((job, o.as_ref())),
+            _ => None,
+        })
         .collect();
     if args.diff {
         let mut out = io::stdout().lock();
@@ -344,7 +394,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         )?;
         return Ok(ExitCode::from(2));
     }
-    Ok(if args.check && changed > 0 {
+    Ok(if (args.check || args.diff) && changed > 0 {
         ExitCode::from(1)
     } else {
         ExitCode::SUCCESS
@@ -356,8 +406,13 @@ fn transform_one(
     models: &[(DriftModel, String)],
     profile: &Profile,
     args: &Args,
-) -> Result<Outcome, Refusal> {
+) -> Result<Done, Refusal> {
     let bytes = input.read().map_err(|e| Refusal::new("unreadable", e))?;
+    if (args.check || args.diff)
+        && let Some(line) = omm::transformed_line(&bytes)
+    {
+        return Ok(Done::AlreadyTransformed(line));
+    }
     let (program, moves) = omm::parse_timed(bytes);
     let refs: Vec<ModelRef<'_>> = models
         .iter()
@@ -379,12 +434,12 @@ fn transform_one(
     } else {
         Some(audit_output(input, &program, &edits, &refs, profile)?)
     };
-    Ok(Outcome {
+    Ok(Done::Transformed(Box::new(Outcome {
         program,
         edits,
         summary,
         audit,
-    })
+    })))
 }
 
 /// Runs the transformed program beside the original on a virtual machine that drifts as the model predicts
@@ -464,18 +519,25 @@ fn audit_output(
 }
 
 /// The batch's count: how many programs transform, and the refusals by kind.
-fn write_coverage(w: &mut impl Write, results: &[Result<Outcome, Refusal>]) -> io::Result<()> {
+fn write_coverage(w: &mut impl Write, results: &[Result<Done, Refusal>]) -> io::Result<()> {
     let mut reasons: std::collections::BTreeMap<&str, usize> = Default::default();
     for e in results.iter().filter_map(|r| r.as_ref().err()) {
         *reasons.entry(e.reason).or_default() += 1;
     }
-    let ok = results.len() - reasons.values().sum::<usize>();
+    let already = results
+        .iter()
+        .filter(|r| matches!(r, Ok(Done::AlreadyTransformed(_))))
+        .count();
+    let ok = results.len() - reasons.values().sum::<usize>() - already;
     write!(
         w,
         "{ok} of {} programs transform ({:.1} %)",
         results.len(),
         100.0 * ok as f64 / results.len() as f64
     )?;
+    if already > 0 {
+        write!(w, "; already transformed: {already}")?;
+    }
     if !reasons.is_empty() {
         let list: Vec<String> = reasons.iter().map(|(r, n)| format!("{r}: {n}")).collect();
         write!(w, "; refused: {}", list.join(", "))?;
@@ -506,8 +568,9 @@ fn jobs(args: &Args) -> anyhow::Result<Vec<Job>> {
             0
         };
         if skipped > 0 {
-            eprintln!(
-                "note: {}: {skipped} subprogram file(s) (.spf, .def) not transformed: gates go into the main programs, which time the subprograms they call (--subprograms DIR)",
+            anstream::eprintln!(
+                "{} {}: {skipped} subprogram file(s) (.spf, .def) not transformed: gates go into the main programs, which time the subprograms they call (--subprograms DIR)",
+                style::label(Severity::Note),
                 root.display()
             );
         }
@@ -609,34 +672,4 @@ fn write_diff(out: &mut impl Write, name: &str, old: &[u8], new: &[u8]) -> io::R
             .context_radius(2)
             .header(&format!("a/{name}"), &format!("b/{name}"))
     )
-}
-
-/// `transformed k/n` on a terminal's stderr, nothing otherwise.
-struct Progress {
-    total: usize,
-    done: AtomicUsize,
-    shown: bool,
-}
-
-impl Progress {
-    fn new(total: usize) -> Progress {
-        Progress {
-            total,
-            done: AtomicUsize::new(0),
-            shown: total > 1 && io::stderr().is_terminal(),
-        }
-    }
-
-    fn tick(&self) {
-        let n = self.done.fetch_add(1, Ordering::Relaxed) + 1;
-        if self.shown {
-            eprint!("\rtransformed {n}/{}", self.total);
-        }
-    }
-
-    fn done(&self) {
-        if self.shown {
-            eprintln!();
-        }
-    }
 }

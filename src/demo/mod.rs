@@ -76,6 +76,8 @@ pub struct Stage {
     pub alarms: usize,
     /// How the program ended, as the dry run reports it.
     pub end: String,
+    /// Each pass's time, machined error and drift, for the before/after plot (`demo --plot`).
+    pub passes: Vec<crate::vm::Pass>,
 }
 
 impl Stage {
@@ -88,6 +90,7 @@ impl Stage {
             corrections: run.corrections.len(),
             alarms: run.alarms.len(),
             end: format!("{:?}", run.end),
+            passes: run.passes.clone(),
         }
     }
 }
