@@ -1,0 +1,320 @@
+//! Hostile and broken input through the built binary (issue J): every case refuses with a message that
+//! names the file (and line and column where there is one), exits 2, and writes nothing a machine would run.
+//! Sections follow the issue's items: what reaches NC, aborts and panics, bounded work, files, honest
+//! success.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+fn fixture(rel: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures")
+        .join(rel)
+}
+
+fn text_of(rel: &str) -> String {
+    std::fs::read_to_string(fixture(rel)).unwrap()
+}
+
+/// The fixture `rel` with `from` replaced by `to` (which must occur), written to `dir/name`.
+fn edited(dir: &Path, rel: &str, from: &str, to: &str, name: &str) -> String {
+    let text = text_of(rel);
+    assert!(text.contains(from), "{rel} has no `{from}`");
+    let path = dir.join(name);
+    std::fs::write(&path, text.replacen(from, to, 1)).unwrap();
+    path.display().to_string()
+}
+
+fn code(o: &Output) -> i32 {
+    o.status.code().expect("exited, not killed by a signal")
+}
+
+fn err(o: &Output) -> String {
+    common::stderr(o)
+}
+
+/// Runs `driftloop ARGS` in `dir` with empty stdin.
+fn run_in(dir: &Path, args: &[&str]) -> Output {
+    common::driftloop(dir, args, b"")
+}
+
+/// A refusal: exit 2, no panic, nothing on stdout, the message holds every `needle`.
+fn assert_refused(o: &Output, needles: &[&str]) {
+    let e = err(o);
+    assert_eq!(code(o), 2, "{e}");
+    assert!(!e.contains("panicked"), "{e}");
+    assert!(o.stdout.is_empty(), "wrote {} bytes", o.stdout.len());
+    for n in needles {
+        assert!(e.contains(n), "`{n}` not in: {e}");
+    }
+}
+
+/// `transform handwritten.mpf --model MODEL --profile PROFILE -o dir/out.mpf`: refused, and no output file.
+fn transform_refused(dir: &Path, model: &str, profile: &str, needles: &[&str]) {
+    let program = fixture("omm/handwritten.mpf").display().to_string();
+    let o = run_in(
+        dir,
+        &[
+            "transform",
+            &program,
+            "--model",
+            model,
+            "--profile",
+            profile,
+            "-o",
+            "out.mpf",
+        ],
+    );
+    assert_refused(&o, needles);
+    assert!(!dir.join("out.mpf").exists(), "a refused transform wrote");
+}
+
+fn default_model() -> String {
+    fixture("omm/model.toml").display().to_string()
+}
+
+fn default_profile() -> String {
+    fixture("omm/blum-tc50.toml").display().to_string()
+}
+
+// ---- 1. Never into NC: absurd numbers and block-breaking strings are refused where they are read ----
+
+#[test]
+fn model_values_that_would_write_absurd_nc_are_refused_with_line_and_column() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cases = [
+        // τ → 0 would be written as EXP(-R/0).
+        (
+            "tau_min = 12.0",
+            "tau_min = 1e-300",
+            "m.toml:13:11",
+            "tau_min",
+        ),
+        (
+            "tau_min = 12.0",
+            "tau_min = 1e300",
+            "m.toml:13:11",
+            "tau_min",
+        ),
+        ("tau_min = 12.0", "tau_min = nan", "m.toml:13:11", "tau_min"),
+        (
+            "tau_min = 12.0",
+            "tau_min = -inf",
+            "m.toml:13:11",
+            "tau_min",
+        ),
+        ("[2.0, 4.5", "[1e308, 4.5", "m.toml:14:12", "gain_um[0]"),
+        (
+            "offset_um = 0.0",
+            "offset_um = inf",
+            "m.toml:5:13",
+            "offset_um",
+        ),
+        ("5000.0]", "5e200]", "m.toml:8:", "grid_rpm[4]"),
+        // A channel name is written into the log's header and a comment: a line break injects a block.
+        (
+            "channel = \"drift_z_um\"",
+            "channel = \"drift_z_um\\nM30\"",
+            "m.toml:4:11",
+            "column name",
+        ),
+        (
+            "channel = \"drift_z_um\"",
+            "channel = \"a\\\"b\"",
+            "m.toml:4:11",
+            "column name",
+        ),
+        // Syntax and type errors carry their place too.
+        (
+            "tau_min = 12.0",
+            "tau_min = 12.0.0",
+            "m.toml:13:",
+            "not a valid model file",
+        ),
+        (
+            "tau_min = 12.0",
+            "tau_min = \"x\"",
+            "m.toml:13:11",
+            "not a valid model file",
+        ),
+    ];
+    for (from, to, at, what) in cases {
+        let model = edited(d, "omm/model.toml", from, to, "m.toml");
+        transform_refused(d, &model, &default_profile(), &[at, what]);
+    }
+}
+
+#[test]
+fn a_model_with_modes_and_no_speed_grid_is_refused_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let text = text_of("omm/model.toml")
+        .replace("[1000.0, 2000.0, 3000.0, 4000.0, 5000.0]", "[]")
+        .replace("[2.0, 4.5, 7.0, 9.5, 12.0]", "[]")
+        .replace("[5.0, 10.0, 16.0, 22.0, 28.0]", "[]");
+    std::fs::write(d.join("m.toml"), text).unwrap();
+    transform_refused(
+        d,
+        "m.toml",
+        &default_profile(),
+        &["m.toml:8:12", "grid_rpm"],
+    );
+    for args in [
+        &["predict", "m.toml", "--schedule", "3000:60"][..],
+        &["plan", "x.mpf", "--model", "m.toml"][..],
+    ] {
+        std::fs::write(d.join("x.mpf"), "G54\nT1 M6\nS1000 M3\nG1 X10 F100\nM30\n").unwrap();
+        assert_refused(&run_in(d, args), &["m.toml:8:12"]);
+    }
+}
+
+#[test]
+fn profile_values_that_would_break_or_misdirect_nc_are_refused_with_line_and_column() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cases = [
+        // A name with a line break or quote would inject `M30` into the header comment.
+        (
+            "name = \"blum-tc50-g54\"",
+            "name = \"x\\nM30\"",
+            "p.toml:5:8",
+            "printable ASCII",
+        ),
+        (
+            "name = \"blum-tc50-g54\"",
+            "name = \"x\\rM30\"",
+            "p.toml:5:8",
+            "printable ASCII",
+        ),
+        (
+            "result = \"R2\"",
+            "result = \"R2\\nM30\"",
+            "p.toml:",
+            "probe.result",
+        ),
+        (
+            "cycle = \"BL9700(",
+            "cycle = \"M30\\nBL9700(",
+            "p.toml:",
+            "probe.cycle",
+        ),
+        (
+            "log_file = \"DRIFTLOG\"",
+            "log_file = \"DRIFT\\nLOG\"",
+            "p.toml:",
+            "registers.log_file",
+        ),
+        (
+            "timer = \"$AN_SETUP_TIME\"",
+            "timer = \"$AN_SETUP_TIME\\nM30\"",
+            "p.toml:",
+            "registers.timer",
+        ),
+        (
+            "select = \"G54\"",
+            "select = \"G54\\nM30\"",
+            "p.toml:",
+            "offset.select",
+        ),
+        // Numbers: a travel height below the probe, frames out of range, absurd limits.
+        (
+            "clearance = 100.0",
+            "clearance = -5.0",
+            "p.toml:36:13",
+            "position.clearance",
+        ),
+        (
+            "frame = 1\n",
+            "frame = 100000\n",
+            "p.toml:53:9",
+            "offset.frame",
+        ),
+        (
+            "frame = 1\n",
+            "frame = 2\n",
+            "p.toml:53:9",
+            "another work offset",
+        ),
+        (
+            "tolerance_um = 20.0",
+            "tolerance_um = 1e300",
+            "p.toml:57:16",
+            "limits.tolerance_um",
+        ),
+        (
+            "tolerance_um = 20.0",
+            "tolerance_um = nan",
+            "p.toml:57:16",
+            "limits.tolerance_um",
+        ),
+        ("z = 10.0", "z = 1e308", "p.toml:", "position.z"),
+        (
+            "measure_s = 3.0",
+            "measure_s = 1e300",
+            "p.toml:",
+            "probe.measure_s",
+        ),
+        (
+            "tool_offset = 1",
+            "tool_offset = 0",
+            "p.toml:",
+            "probe.tool_offset",
+        ),
+        (
+            "r_last = 99",
+            "r_last = 4000000000",
+            "p.toml:",
+            "registers.r_last",
+        ),
+        (
+            "max_attempts = 8",
+            "max_attempts = 4000000000",
+            "p.toml:",
+            "limits.max_attempts",
+        ),
+        // Syntax and type errors.
+        (
+            "tolerance_um = 20.0",
+            "tolerance_um = 20.0.0",
+            "p.toml:57:",
+            "not a valid machine profile",
+        ),
+        (
+            "tolerance_um = 20.0",
+            "tolerance_um = \"x\"",
+            "p.toml:57:16",
+            "expected f64",
+        ),
+    ];
+    for (from, to, at, what) in cases {
+        let profile = edited(d, "omm/blum-tc50.toml", from, to, "p.toml");
+        transform_refused(d, &default_model(), &profile, &[at, what]);
+    }
+}
+
+#[test]
+fn program_values_out_of_the_writable_range_refuse_the_transform() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let program = text_of("omm/handwritten.mpf");
+    assert!(program.contains("S5000 M3"));
+    let path = d.join("huge_s.mpf");
+    std::fs::write(&path, program.replacen("S5000 M3", "S5EX15 M3", 1)).unwrap();
+    let o = run_in(
+        d,
+        &[
+            "transform",
+            "huge_s.mpf",
+            "--model",
+            &default_model(),
+            "--no-audit",
+            "-o",
+            "out.mpf",
+        ],
+    );
+    assert_refused(&o, &["huge_s.mpf"]);
+    assert!(!d.join("out.mpf").exists());
+}
