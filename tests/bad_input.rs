@@ -318,3 +318,110 @@ fn program_values_out_of_the_writable_range_refuse_the_transform() {
     assert_refused(&o, &["huge_s.mpf"]);
     assert!(!d.join("out.mpf").exists());
 }
+
+// ---- 2. No abort or panic: a full or closed stdout is an error of every command ----
+
+/// Runs `driftloop ARGS` from the crate root with stdout on `/dev/full`.
+#[cfg(target_os = "linux")]
+fn to_full_disk(args: &[&str]) -> Output {
+    let full = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .unwrap();
+    std::process::Command::new(env!("CARGO_BIN_EXE_driftloop"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .stdin(std::process::Stdio::null())
+        .stdout(full)
+        .stderr(std::process::Stdio::piped())
+        .output()
+        .unwrap()
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn every_command_that_writes_stdout_fails_on_a_full_disk_without_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let transformed = dir.path().join("t.mpf").display().to_string();
+    let made = common::run(&[
+        "transform",
+        "fixtures/omm/handwritten.mpf",
+        "--model",
+        "fixtures/omm/model.toml",
+        "--no-audit",
+        "-o",
+        &transformed,
+    ]);
+    assert!(made.status.success(), "{}", err(&made));
+    let (m, p, csv) = (
+        "fixtures/omm/model.toml",
+        "fixtures/omm/handwritten.mpf",
+        "fixtures/data/characterisation.csv",
+    );
+    let commands: Vec<Vec<&str>> = vec![
+        vec!["transform", p, "--model", m, "--no-audit", "-o", "-"],
+        vec!["transform", p, "--model", m, "--no-audit", "--diff"],
+        vec![
+            "transform",
+            p,
+            "--model",
+            m,
+            "--no-audit",
+            "--check",
+            "--format",
+            "json",
+        ],
+        vec!["check", "fixtures/nc/errors.mpf", "--format", "json"],
+        vec!["parse", "fixtures/nc/cam.mpf"],
+        vec!["strip", &transformed],
+        vec!["plan", p, "--model", m],
+        vec!["run", p],
+        vec!["run", p, "--format", "json"],
+        vec!["run", p, "--trace", "-"],
+        vec!["predict", m, "--schedule", "3000:60"],
+        vec!["fit", csv, "--channel", "drift_z_um", "--modes", "1"],
+        vec!["profiles"],
+        vec!["profiles", "blum-tc50"],
+        vec!["positioning", "fixtures/positioning/paper_row.csv"],
+        vec!["log", "merge", csv],
+        vec!["diagnose", m, csv, "--max-effects", "0"],
+        vec!["forward", csv, "--until", "100", "--format", "json"],
+        vec!["bench", "--size-mb", "1", "--runs", "1"],
+        vec!["--help"],
+        vec!["transform", "--help"],
+    ];
+    for args in &commands {
+        let o = to_full_disk(args);
+        let e = err(&o);
+        assert_eq!(code(&o), 2, "{args:?}: {e}");
+        assert!(!e.contains("panicked"), "{args:?}: {e}");
+        assert!(
+            e.contains("cannot write to standard output"),
+            "{args:?}: {e}"
+        );
+    }
+}
+
+#[test]
+fn a_program_cut_short_by_a_closed_pipe_is_no_success() {
+    use std::process::{Command, Stdio};
+    let mut child = Command::new(env!("CARGO_BIN_EXE_driftloop"))
+        .args([
+            "transform",
+            "fixtures/omm/handwritten.mpf",
+            "--model",
+            "fixtures/omm/model.toml",
+            "--no-audit",
+            "-o",
+            "-",
+        ])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(code(&o), 2, "{}", err(&o));
+    assert!(err(&o).contains("not written completely"), "{}", err(&o));
+}

@@ -69,7 +69,7 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<ExitCode> {
         .map(|input| check_file(input, args.format, color))
         .collect();
 
-    let mut stdout = io::stdout().lock();
+    let mut stdout = super::output::stdout();
     let mut stderr = io::stderr().lock();
     for report in &reports {
         if let Some(err) = &report.read_error {

@@ -40,9 +40,9 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         // Best effort: a leftover temp folder is harmless, the demo's result is not.
         let _ = std::fs::remove_dir_all(&dir);
     }
-    print!("{}", outcome?.table());
+    super::output::print(&outcome?.table())?;
     if let Some(out) = &args.out {
-        println!("artefacts written to {}", out.display());
+        super::output::print(&format!("artefacts written to {}\n", out.display()))?;
     }
     Ok(ExitCode::SUCCESS)
 }

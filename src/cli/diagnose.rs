@@ -87,8 +87,10 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     opts.probe_every_min = Some(args.probe_every.0);
     let d = diagnose(&model, &ds, &opts)?;
     match args.format {
-        Format::Human => print!("{}", d.human()),
-        Format::Json => println!("{}", serde_json::to_string_pretty(&d.json())?),
+        Format::Human => super::output::print(&d.human())?,
+        Format::Json => {
+            super::output::print(&format!("{}\n", serde_json::to_string_pretty(&d.json())?))?
+        }
     }
     if let Some(path) = &args.output {
         std::fs::write(path, d.refined.to_toml())

@@ -13,6 +13,7 @@ mod diagnose;
 mod fit;
 mod forward;
 mod log;
+mod output;
 mod parse;
 mod plan;
 mod positioning;
@@ -35,15 +36,15 @@ fn write_model(
     use anyhow::Context;
     match path {
         Some(path) if path.as_os_str() == "-" => {
-            print!("{}", model.to_toml());
+            output::print(&model.to_toml())?;
             eprint!("{report}");
         }
         Some(path) => {
             std::fs::write(path, model.to_toml())
                 .with_context(|| format!("cannot write the model file {}", path.display()))?;
-            print!("{report}");
+            output::print(report)?;
         }
-        None => print!("{report}"),
+        None => output::print(report)?,
     }
     Ok(())
 }
@@ -135,7 +136,22 @@ enum Command {
 
 /// Entry point of the binary.
 pub fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        // `--help` goes to stdout: a failed write there is an error too (`clap::Error::exit` ignores it).
+        Err(e) => {
+            let printed = e
+                .print()
+                .and_then(|()| std::io::Write::flush(&mut std::io::stdout()));
+            return match printed {
+                Err(err) if err.kind() != std::io::ErrorKind::BrokenPipe => {
+                    eprintln!("error: cannot write to standard output: {err}");
+                    ExitCode::from(2)
+                }
+                _ => ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(2)),
+            };
+        }
+    };
     let result = match cli.command {
         Command::Demo(args) => demo::run(args, &cli.global),
         Command::Positioning(args) => positioning::run(args, &cli.global),
@@ -155,6 +171,11 @@ pub fn main() -> ExitCode {
         Command::Plan(args) => plan::run(args, &cli.global),
         Command::Profiles(args) => profiles::run(args, &cli.global),
     };
+    // What is still buffered is written now, while a failure can still change the exit code.
+    let result = result.and_then(|code| {
+        std::io::Write::flush(&mut output::stdout())?;
+        Ok(code)
+    });
     match result {
         Ok(code) => code,
         // A reader that stops early (`driftloop transform … --diff | head`) is not a failure of ours.

@@ -1,7 +1,7 @@
 //! `driftloop plan PROGRAM --model model.toml [--profile machine.toml]`: the timeline of the program, the
 //! predicted drift along it and where driftloop would measure, as a table (or JSON).
 
-use std::io::{self, Write};
+use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -71,7 +71,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             unforeseen.join(", ")
         );
     }
-    let mut out = io::stdout().lock();
+    let mut out = super::output::stdout();
     match args.format {
         Format::Json => {
             let j = JsonPlan {

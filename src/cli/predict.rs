@@ -51,7 +51,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         Some(path) if path.as_os_str() != "-" => std::fs::write(path, bytes)
             .with_context(|| format!("cannot write {}", path.display()))?,
         // A reader that stops early (`| head`) is quiet: `cli::main` recognises the broken pipe.
-        _ => std::io::stdout().write_all(&bytes)?,
+        _ => super::output::stdout().write_all(&bytes)?,
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -90,9 +90,10 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         match target {
             Some(path) => write_atomic(&path, |f| f.write_all(&stripped.bytes))?,
             None => {
-                let mut out = io::stdout().lock();
-                out.write_all(&stripped.bytes)?;
-                out.flush()?;
+                let mut out = super::output::stdout();
+                out.write_all(&stripped.bytes)
+                    .and_then(|()| out.flush())
+                    .map_err(super::output::program_not_written)?;
             }
         }
     }

@@ -284,7 +284,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         if to_stdout && !args.check && !args.diff {
             writeln!(io::stderr(), "{text}")?;
         } else {
-            writeln!(io::stdout(), "{text}")?;
+            writeln!(super::output::stdout(), "{text}")?;
         }
         Ok(())
     };
@@ -306,7 +306,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         .filter_map(|(job, r)| Some((job, r.as_ref().ok()?)))
         .collect();
     if args.diff {
-        let mut out = io::stdout().lock();
+        let mut out = super::output::stdout();
         for &(job, o) in &outcomes {
             write_diff(
                 &mut out,
@@ -318,7 +318,9 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     } else if !args.check {
         for &(job, o) in &outcomes {
             match &job.target {
-                Target::Stdout => o.write_to(&mut io::stdout().lock())?,
+                Target::Stdout => o
+                    .write_to(&mut super::output::stdout())
+                    .map_err(super::output::program_not_written)?,
                 Target::File(p) => write_atomic(p, |w| o.write_to(w))?,
                 Target::None => {}
             }
