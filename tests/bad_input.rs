@@ -425,3 +425,114 @@ fn a_program_cut_short_by_a_closed_pipe_is_no_success() {
     assert_eq!(code(&o), 2, "{}", err(&o));
     assert!(err(&o).contains("not written completely"), "{}", err(&o));
 }
+
+#[test]
+fn pass_markers_at_the_end_of_a_file_without_newline_plan_and_transform() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let model = default_model();
+    std::fs::write(d.join("only.mpf"), "; PASS 1").unwrap();
+    for cmd in ["plan", "transform"] {
+        let o = run_in(d, &[cmd, "only.mpf", "--model", &model]);
+        assert_refused(&o, &["only.mpf", "moves no axis"]);
+    }
+    std::fs::write(
+        d.join("last.mpf"),
+        "G54\nT1 M6\nS1000 M3\nG1 X10 F100\n; PASS 1",
+    )
+    .unwrap();
+    let plan = run_in(d, &["plan", "last.mpf", "--model", &model]);
+    assert_eq!(code(&plan), 0, "{}", err(&plan));
+    let o = run_in(
+        d,
+        &["transform", "last.mpf", "--model", &model, "--no-audit"],
+    );
+    assert_eq!(code(&o), 0, "{}", err(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("; PASS 1\n"));
+}
+
+// ---- 3. No hang, bounded memory: work beyond a named limit is refused before it starts ----
+
+#[test]
+fn requests_for_unbounded_series_are_refused_with_the_limit_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let model = default_model();
+    let sim = d.join("sim").display().to_string();
+    let cases: Vec<(Vec<&str>, &[&str])> = vec![
+        (
+            vec!["predict", &model, "--schedule", "3000:60", "--step", "1e-9"],
+            &["6.000e10 rows", "10000000", "--step"],
+        ),
+        (
+            vec!["predict", &model, "--schedule", "3000:1e300"],
+            &["rows", "10000000"],
+        ),
+        (
+            vec!["predict", &model, "--schedule", "1e200:60"],
+            &["faster than 1000000 rpm"],
+        ),
+        (
+            vec!["simulate-data", &sim, "--minutes", "1e12"],
+            &["3.333e11 rows", "10000000"],
+        ),
+        (
+            vec!["simulate-data", &sim, "--step", "1e-6"],
+            &["rows", "10000000"],
+        ),
+        (
+            vec!["simulate-data", &sim, "--noise", "1e308"],
+            &["--noise"],
+        ),
+        (
+            vec!["simulate-data", &sim, "--theta", "1e300"],
+            &["--theta"],
+        ),
+    ];
+    for (args, needles) in cases {
+        assert_refused(&run_in(d, &args), needles);
+    }
+    assert!(!d.join("sim").exists(), "a refused simulation wrote");
+}
+
+#[test]
+fn measurement_figures_beyond_any_machine_are_refused_where_they_are_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let csv = text_of("data/characterisation.csv");
+    let mut lines: Vec<String> = csv.lines().map(str::to_string).collect();
+    assert_eq!(lines[0], "time_min,run,spindle_rpm,drift_z_um");
+    let row = lines[1].clone();
+    for (column, value, needle) in [
+        (2, "1e200", "spindle_rpm`: 1e200 is beyond ±1000000 rpm"),
+        (3, "1e306", "drift_z_um`: 1e306 is beyond ±1000000 µm"),
+        (0, "1e300", "time_min`: 1e300 is beyond ±1000000000"),
+    ] {
+        let mut cells: Vec<&str> = row.split(',').collect();
+        cells[column] = value;
+        lines[1] = cells.join(",");
+        std::fs::write(d.join("bad.csv"), lines.join("\n") + "\n").unwrap();
+        let at = format!("bad.csv:2:{}", column + 1);
+        for args in [
+            &["fit", "bad.csv", "--channel", "drift_z_um"][..],
+            &["diagnose", &default_model(), "bad.csv"][..],
+            &["predict", &default_model(), "--data", "bad.csv"][..],
+        ] {
+            assert_refused(&run_in(d, args), &[&at, needle]);
+        }
+    }
+    let rows = text_of("positioning/paper_row.csv").replacen("X,0,+,1,2", "X,0,+,1,1e16", 1);
+    std::fs::write(d.join("pos.csv"), rows).unwrap();
+    assert_refused(
+        &run_in(d, &["positioning", "pos.csv"]),
+        &["pos.csv:2:5", "within ±1e6", "1e16"],
+    );
+    let paper = fixture("positioning/paper_row.csv").display().to_string();
+    for grid in ["0:1e-300:100", "-1e300:1:1e300"] {
+        let flag = format!("--grid={grid}");
+        assert_refused(
+            &run_in(d, &["positioning", &paper, &flag]),
+            &["more than the 100000 allowed"],
+        );
+    }
+}

@@ -34,6 +34,10 @@ fn write_model(
     report: &str,
 ) -> anyhow::Result<()> {
     use anyhow::Context;
+    // A model the loaders would refuse is not written: the same checks, before the file exists.
+    model
+        .validate()
+        .map_err(|e| anyhow::anyhow!("the model made is not usable: {e}"))?;
     match path {
         Some(path) if path.as_os_str() == "-" => {
             output::print(&model.to_toml())?;

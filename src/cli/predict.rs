@@ -37,6 +37,15 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 args.step.is_finite() && args.step > 0.0,
                 "--step must be a positive number of minutes"
             );
+            crate::data::check_rows(
+                schedule.rows(args.step),
+                &format!(
+                    "--schedule of {:?} min at --step {:?} min",
+                    schedule.minutes(),
+                    args.step
+                ),
+            )
+            .map_err(|e| anyhow::anyhow!("{e}: use a larger --step"))?;
             schedule.to_dataset(args.step)
         }
         (None, Some(path)) => read_path(path, Require::InputsOnly)?,

@@ -72,6 +72,18 @@ pub enum DataError {
         text: String,
     },
     #[error(
+        "{file}:{line}:{column}: column `{name}`: {text} is beyond ±{largest}{unit}, more than any machine measures"
+    )]
+    OutOfRange {
+        file: String,
+        line: u64,
+        column: usize,
+        name: String,
+        text: String,
+        largest: f64,
+        unit: &'static str,
+    },
+    #[error(
         "{file}:{line}:{column}: time goes backwards within run {run}: {time} after {previous}"
     )]
     TimeBackwards {
@@ -349,7 +361,29 @@ impl<'a> Cell<'a> {
                 text: text.to_string(),
             });
         }
+        let (largest, unit) = largest(self.name);
+        if v.abs() > largest {
+            return Err(DataError::OutOfRange {
+                file: self.file.to_string(),
+                line: self.line,
+                column: self.column,
+                name: self.name.to_string(),
+                text: text.to_string(),
+                largest,
+                unit,
+            });
+        }
         Ok(v)
+    }
+}
+
+/// The largest magnitude a column of this name may hold, and its unit: a speed or a drift beyond it is a
+/// unit or typing error, and would only make the fits ill-conditioned (an SVD of 1e200 rpm does not end).
+fn largest(name: &str) -> (f64, &'static str) {
+    match ColumnKind::of(name) {
+        ColumnKind::Spindle => (crate::model::file::FASTEST_RPM, " rpm"),
+        ColumnKind::Displacement => (crate::model::file::LARGEST_UM, " µm"),
+        _ => (1e9, ""),
     }
 }
 

@@ -143,10 +143,11 @@ pub fn read_samples<R: Read>(
                 Some((index + 1, names[index].clone())),
             )
         };
+        // A figure beyond a metre (a million mm or µm) is a unit or typing error: refused, not tabulated.
         let number = |index: usize, what: &str| -> Result<f64, InputError> {
             let (text, column) = field(index);
             match text.parse::<f64>() {
-                Ok(value) if value.is_finite() => Ok(value),
+                Ok(value) if value.abs() <= 1e6 => Ok(value),
                 _ => Err(error(
                     line,
                     column,
@@ -182,10 +183,10 @@ pub fn read_samples<R: Read>(
         rows.push(Row {
             line,
             axis: axis.to_string(),
-            target_mm: number(columns.target, "a target position in mm")?,
+            target_mm: number(columns.target, "a target position in mm (within ±1e6)")?,
             direction,
             run,
-            deviation_um: number(columns.deviation, "a deviation in µm")?,
+            deviation_um: number(columns.deviation, "a deviation in µm (within ±1e6)")?,
         });
     }
     if rows.is_empty() {
