@@ -536,3 +536,231 @@ fn measurement_figures_beyond_any_machine_are_refused_where_they_are_read() {
         );
     }
 }
+
+// ---- 5. Files: no output over an input, atomic in-place writes, walks that report what they cannot read ----
+
+#[test]
+fn an_output_that_is_an_input_is_refused_before_anything_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::copy(fixture("data/characterisation.csv"), d.join("data.csv")).unwrap();
+    std::fs::copy(fixture("omm/model.toml"), d.join("m.toml")).unwrap();
+    std::fs::copy(fixture("omm/handwritten.mpf"), d.join("p.mpf")).unwrap();
+    let before: Vec<Vec<u8>> = ["data.csv", "m.toml", "p.mpf"]
+        .iter()
+        .map(|f| std::fs::read(d.join(f)).unwrap())
+        .collect();
+    let cases: Vec<Vec<&str>> = vec![
+        vec![
+            "fit",
+            "data.csv",
+            "--channel",
+            "drift_z_um",
+            "-o",
+            "./data.csv",
+        ],
+        vec!["diagnose", "m.toml", "data.csv", "--report", "data.csv"],
+        vec!["diagnose", "m.toml", "data.csv", "-o", "m.toml"],
+        vec!["transform", "p.mpf", "--model", "m.toml", "-o", "p.mpf"],
+        vec!["transform", "p.mpf", "--model", "m.toml", "-o", "m.toml"],
+        vec!["predict", "m.toml", "--data", "data.csv", "-o", "data.csv"],
+        vec!["sensors", "data.csv", "-o", "data.csv"],
+    ];
+    for args in &cases {
+        assert_refused(&run_in(d, args), &["is the input", "would destroy"]);
+    }
+    for (f, b) in ["data.csv", "m.toml", "p.mpf"].iter().zip(&before) {
+        assert_eq!(&std::fs::read(d.join(f)).unwrap(), b, "{f} changed");
+    }
+}
+
+#[cfg(unix)]
+#[test]
+fn in_place_keeps_the_mode_and_leaves_no_temporary_file() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let p = d.join("p.mpf");
+    std::fs::copy(fixture("omm/handwritten.mpf"), &p).unwrap();
+    std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o640)).unwrap();
+    let o = run_in(
+        d,
+        &[
+            "transform",
+            "p.mpf",
+            "--model",
+            &default_model(),
+            "--no-audit",
+            "--in-place",
+        ],
+    );
+    assert_eq!(code(&o), 0, "{}", err(&o));
+    let meta = std::fs::metadata(&p).unwrap();
+    assert_eq!(meta.permissions().mode() & 0o777, 0o640);
+    assert!(std::fs::read(&p).unwrap().starts_with(b"; driftloop-omm"));
+    let names: Vec<String> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names, vec!["p.mpf".to_string()]);
+}
+
+/// Files in `dir` whose names mark them as driftloop's temporary files.
+#[cfg(unix)]
+fn temporary_files(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".driftloop.tmp"))
+        .collect()
+}
+
+#[cfg(unix)]
+#[test]
+fn a_terminated_in_place_write_leaves_no_temporary_file_and_whole_programs() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let made = run_in(
+        d,
+        &[
+            "transform",
+            &fixture("omm/handwritten.mpf").display().to_string(),
+            "--model",
+            &default_model(),
+            "--no-audit",
+            "-o",
+            "t.mpf",
+        ],
+    );
+    assert_eq!(code(&made), 0, "{}", err(&made));
+    let transformed = std::fs::read(d.join("t.mpf")).unwrap();
+    let original = std::fs::read(fixture("omm/handwritten.mpf")).unwrap();
+    let progs = d.join("progs");
+    std::fs::create_dir(&progs).unwrap();
+    // Enough files that the writing takes a while; the signal lands while one is being written.
+    for i in 0..400 {
+        std::fs::write(progs.join(format!("p{i:03}.mpf")), &transformed).unwrap();
+    }
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_driftloop"))
+        .args(["strip", "--in-place", "progs"])
+        .current_dir(d)
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let started = std::time::Instant::now();
+    while temporary_files(&progs).is_empty()
+        && child.try_wait().unwrap().is_none()
+        && started.elapsed().as_secs() < 60
+    {
+        std::thread::yield_now();
+    }
+    // SIGTERM, as `kill` sends it.
+    let _ = std::process::Command::new("kill")
+        .arg(child.id().to_string())
+        .status();
+    let status = child.wait().unwrap();
+    assert_eq!(temporary_files(&progs), Vec::<String>::new(), "{status:?}");
+    for e in std::fs::read_dir(&progs).unwrap() {
+        let bytes = std::fs::read(e.unwrap().path()).unwrap();
+        assert!(
+            bytes == original || bytes == transformed,
+            "a half-written program"
+        );
+    }
+}
+
+#[cfg(unix)]
+#[test]
+fn walks_report_dangling_links_and_unreadable_entries_and_go_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let tree = d.join("tree");
+    std::fs::create_dir(&tree).unwrap();
+    std::fs::copy(fixture("nc/errors.mpf"), tree.join("a.mpf")).unwrap();
+    std::os::unix::fs::symlink("nowhere.mpf", tree.join("b.mpf")).unwrap();
+    for args in [
+        &["check", "tree", "missing.mpf"][..],
+        &["strip", "--check", "tree", "missing.mpf"][..],
+    ] {
+        let o = run_in(d, args);
+        let e = err(&o);
+        assert_eq!(code(&o), 2, "{e}");
+        assert!(
+            e.contains("tree/b.mpf") && e.contains("dangling symbolic link"),
+            "{e}"
+        );
+        assert!(e.contains("missing.mpf"), "{e}");
+        // The readable program is still worked on.
+        assert!(e.contains("tree/a.mpf"), "{e}");
+    }
+    let o = run_in(
+        d,
+        &[
+            "transform",
+            "tree",
+            "--model",
+            &default_model(),
+            "--check",
+            "--format",
+            "json",
+        ],
+    );
+    assert_eq!(code(&o), 2);
+    let json = String::from_utf8_lossy(&o.stdout);
+    assert!(json.contains("dangling symbolic link"), "{json}");
+}
+
+#[test]
+fn binary_and_utf16_files_get_their_own_diagnostic() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let utf16: Vec<u8> = "\u{feff}G54\r\nG0 X1\r\nM30\r\n"
+        .encode_utf16()
+        .flat_map(u16::to_le_bytes)
+        .collect();
+    std::fs::write(d.join("u.mpf"), utf16).unwrap();
+    let binary: Vec<u8> = (0..=255u8).cycle().take(3000).collect();
+    std::fs::write(d.join("b.mpf"), binary).unwrap();
+    for (file, needle) in [("u.mpf", "UTF-16"), ("b.mpf", "binary file")] {
+        for args in [
+            &["check", file][..],
+            &["transform", file, "--model", &default_model()][..],
+            &["plan", file, "--model", &default_model()][..],
+        ] {
+            let o = run_in(d, args);
+            let e = err(&o);
+            assert_eq!(code(&o), 2, "{args:?}: {e}");
+            assert!(e.contains(file) && e.contains(needle), "{args:?}: {e}");
+            assert!(!e.contains("PC-format archive"), "{args:?}: {e}");
+        }
+    }
+}
+
+#[test]
+fn a_closed_or_empty_stdin_is_no_program_and_a_missing_subprogram_folder_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for args in [
+        &["check", "-"][..],
+        &["transform", "-", "--model", &default_model()][..],
+        &["plan", "-", "--model", &default_model()][..],
+    ] {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_driftloop"))
+            .args(args)
+            .current_dir(d)
+            .stdin(std::process::Stdio::null())
+            .output()
+            .unwrap();
+        assert_eq!(code(&o), 2, "{args:?}");
+        assert!(
+            err(&o).contains("standard input is empty or closed"),
+            "{}",
+            err(&o)
+        );
+    }
+    let program = fixture("omm/handwritten.mpf").display().to_string();
+    assert_refused(
+        &run_in(d, &["run", &program, "--subprograms", "no-such-folder"]),
+        &["no-such-folder", "not a folder"],
+    );
+}

@@ -62,7 +62,7 @@ struct JsonRelated<'a> {
 }
 
 pub fn run(args: Args, global: &Global) -> anyhow::Result<ExitCode> {
-    let inputs = walk::expand(&args.paths)?;
+    let inputs = walk::expand(&args.paths);
     let color = global.stderr_color();
     let reports: Vec<FileReport> = inputs
         .par_iter()
@@ -118,10 +118,17 @@ fn check_file(input: &Input, format: Format, color: bool) -> FileReport {
         notes: 0,
         read_error: None,
     };
-    let source = match input.read() {
+    let source =
+        input
+            .read()
+            .map_err(|e| e.to_string())
+            .and_then(|bytes| match walk::not_text(&bytes) {
+                Some(why) => Err(format!("{path}: {why}")),
+                None => Ok(bytes),
+            });
+    let source = match source {
         Ok(source) => source,
-        Err(err) => {
-            let message = err.to_string();
+        Err(message) => {
             if format == Format::Json {
                 write_json_line(
                     &mut report.output,

@@ -67,6 +67,16 @@ pub struct Args {
 }
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
+    let inputs: Vec<&std::path::Path> = std::iter::once(args.model.as_path())
+        .chain(args.data.iter().map(PathBuf::as_path))
+        .collect();
+    super::output::refuse_overwriting(
+        &[
+            ("-o", args.output.as_deref()),
+            ("--report", args.report.as_deref()),
+        ],
+        &inputs,
+    )?;
     let model = DriftModel::read(&args.model)?;
     let ds = super::log::read_merged(&args.data, &args.rename)?;
     anyhow::ensure!(

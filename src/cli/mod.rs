@@ -22,6 +22,7 @@ mod profiles;
 mod render;
 mod run;
 mod sensors;
+mod signals;
 mod simulate;
 mod strip;
 mod transform;

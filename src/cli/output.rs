@@ -49,3 +49,47 @@ pub fn named(e: io::Error) -> io::Error {
     }
     io::Error::new(e.kind(), format!("cannot write to standard output: {e}"))
 }
+
+/// Refuses to start when an output (`flag`, path) is one of the inputs, by any name (a link, `./x`): the
+/// input would be destroyed before or while it is read. `-` (stdout) and outputs that do not exist yet
+/// are no input.
+pub fn refuse_overwriting(
+    outputs: &[(&str, Option<&std::path::Path>)],
+    inputs: &[&std::path::Path],
+) -> anyhow::Result<()> {
+    let known: std::collections::HashMap<FileId, &std::path::Path> = inputs
+        .iter()
+        .filter_map(|p| Some((file_id(p)?, *p)))
+        .collect();
+    for (flag, output) in outputs {
+        let Some(output) = output.filter(|o| o.as_os_str() != "-") else {
+            continue;
+        };
+        if let Some(input) = file_id(output).and_then(|id| known.get(&id)) {
+            anyhow::bail!(
+                "{flag} {} is the input {}: writing it would destroy what is read; choose another file",
+                output.display(),
+                input.display(),
+            );
+        }
+    }
+    Ok(())
+}
+
+/// What makes two paths one file: device and inode where there are such, else the canonical path.
+#[cfg(unix)]
+type FileId = (u64, u64);
+#[cfg(not(unix))]
+type FileId = std::path::PathBuf;
+
+#[cfg(unix)]
+fn file_id(path: &std::path::Path) -> Option<FileId> {
+    use std::os::unix::fs::MetadataExt;
+    let meta = std::fs::metadata(path).ok()?;
+    Some((meta.dev(), meta.ino()))
+}
+
+#[cfg(not(unix))]
+fn file_id(path: &std::path::Path) -> Option<FileId> {
+    std::fs::canonicalize(path).ok()
+}

@@ -46,7 +46,11 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     } else {
         Input::File(args.program.clone())
     };
-    let (program, moves) = omm::parse_timed(input.read()?);
+    let bytes = input.read()?;
+    if let Some(why) = crate::walk::not_text(&bytes) {
+        anyhow::bail!("{input}: {why}");
+    }
+    let (program, moves) = omm::parse_timed(bytes);
     let name = input.to_string();
     let planned = omm::check_timed(&program, &moves, args.force)
         .and_then(|()| omm::plan_timed(&program, &moves, &model, &profile));

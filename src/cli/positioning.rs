@@ -44,6 +44,13 @@ pub struct Args {
 }
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
+    super::output::refuse_overwriting(
+        &[
+            ("--report", args.report.as_deref()),
+            ("--table", args.table.as_deref()),
+        ],
+        &[&args.data],
+    )?;
     let grids = args
         .grid
         .iter()

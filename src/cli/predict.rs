@@ -30,6 +30,10 @@ pub struct Args {
 }
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
+    let inputs: Vec<&std::path::Path> = std::iter::once(args.model.as_path())
+        .chain(args.data.as_deref())
+        .collect();
+    super::output::refuse_overwriting(&[("-o", args.output.as_deref())], &inputs)?;
     let model = DriftModel::read(&args.model)?;
     let input = match (&args.schedule, &args.data) {
         (Some(schedule), _) => {

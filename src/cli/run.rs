@@ -74,6 +74,9 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         (cfg, spec) = vm::parse_machine_file(&text, dir, cfg)
             .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     }
+    if let Some(missing) = args.subprogram_dirs.iter().find(|d| !d.is_dir()) {
+        anyhow::bail!("--subprograms {}: not a folder", missing.display());
+    }
     cfg.subprogram_dirs = args.subprogram_dirs.clone();
     if let Some(noise) = args.probe_noise {
         anyhow::ensure!(
