@@ -764,3 +764,38 @@ fn a_closed_or_empty_stdin_is_no_program_and_a_missing_subprogram_folder_an_erro
         &["no-such-folder", "not a folder"],
     );
 }
+
+// ---- 6. Honest success ----
+
+#[test]
+fn the_demo_never_calls_a_run_stopped_by_alarms_a_success() {
+    let o = common::run(&["demo", "--tolerance", "0"]);
+    assert_refused(&o, &["--tolerance 0", "tolerance_um must be a positive number"]);
+    // 1 µm: every compensated run stops as scrap at its first measurement.
+    let o = common::run(&["demo", "--tolerance", "1"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(code(&o), 1, "{out}");
+    assert!(!out.contains("target met"), "{out}");
+    assert!(out.contains("target NOT met: the run after diagnose stopped"), "{out}");
+}
+
+#[test]
+fn json_output_carries_the_error_record_and_errors_name_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("p.mpf"), "G54\nT1 M6\nS1000 M3\nG1 X10 F100\nM30\n").unwrap();
+    for args in [
+        &["transform", "p.mpf", "--model", "nope.toml", "--format", "json"][..],
+        &["plan", "p.mpf", "--model", "nope.toml", "--format=json"][..],
+        &["diagnose", "nope.toml", "data.csv", "--format", "json"][..],
+        &["fit", "nope.csv", "--format", "json"][..],
+    ] {
+        let o = run_in(d, args);
+        assert_eq!(code(&o), 2, "{args:?}");
+        let record: serde_json::Value = serde_json::from_slice(&o.stdout)
+            .unwrap_or_else(|e| panic!("{args:?}: {e}: {}", String::from_utf8_lossy(&o.stdout)));
+        let message = record["error"].as_str().unwrap();
+        assert!(message.contains("nope."), "{args:?}: {message}");
+        assert!(err(&o).contains("nope."), "{args:?}");
+    }
+}

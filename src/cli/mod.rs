@@ -187,9 +187,23 @@ pub fn main() -> ExitCode {
         Err(err) if is_broken_pipe(&err) => ExitCode::SUCCESS,
         Err(err) => {
             eprintln!("error: {err:#}");
+            if wants_json(std::env::args_os()) {
+                // A program reading the JSON gets the failure as JSON too, not an empty stdout.
+                let record = serde_json::json!({ "error": format!("{err:#}") });
+                let _ = output::print(&format!("{record}\n"));
+            }
             ExitCode::from(2)
         }
     }
+}
+
+/// Whether the command line asks for `--format json`.
+fn wants_json(args: impl Iterator<Item = std::ffi::OsString>) -> bool {
+    let args: Vec<std::ffi::OsString> = args.collect();
+    args.iter().any(|a| a == "--format=json")
+        || args
+            .windows(2)
+            .any(|w| w[0] == "--format" && w[1] == "json")
 }
 
 fn is_broken_pipe(err: &anyhow::Error) -> bool {

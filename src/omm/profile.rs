@@ -517,7 +517,7 @@ impl Profile {
     /// What reaches the NC program and has to make sense there: texts that cannot break a block or inject
     /// one (printable ASCII only: no line break, no quote inside a quoted name), numbers in the range a
     /// machine works in, and an offset frame that is the selected offset's. Messages start with the key.
-    fn validate_nc_values(&self) -> Result<(), String> {
+    pub fn validate_nc_values(&self) -> Result<(), String> {
         let texts = [
             ("name", &self.name, ""),
             ("probe.tool", &self.probe.tool, "\""),
