@@ -770,13 +770,19 @@ fn a_closed_or_empty_stdin_is_no_program_and_a_missing_subprogram_folder_an_erro
 #[test]
 fn the_demo_never_calls_a_run_stopped_by_alarms_a_success() {
     let o = common::run(&["demo", "--tolerance", "0"]);
-    assert_refused(&o, &["--tolerance 0", "tolerance_um must be a positive number"]);
+    assert_refused(
+        &o,
+        &["--tolerance 0", "tolerance_um must be a positive number"],
+    );
     // 1 µm: every compensated run stops as scrap at its first measurement.
     let o = common::run(&["demo", "--tolerance", "1"]);
     let out = String::from_utf8_lossy(&o.stdout);
     assert_eq!(code(&o), 1, "{out}");
     assert!(!out.contains("target met"), "{out}");
-    assert!(out.contains("target NOT met: the run after diagnose stopped"), "{out}");
+    assert!(
+        out.contains("target NOT met: the run after diagnose stopped"),
+        "{out}"
+    );
 }
 
 #[test]
@@ -785,7 +791,14 @@ fn json_output_carries_the_error_record_and_errors_name_the_file() {
     let d = dir.path();
     std::fs::write(d.join("p.mpf"), "G54\nT1 M6\nS1000 M3\nG1 X10 F100\nM30\n").unwrap();
     for args in [
-        &["transform", "p.mpf", "--model", "nope.toml", "--format", "json"][..],
+        &[
+            "transform",
+            "p.mpf",
+            "--model",
+            "nope.toml",
+            "--format",
+            "json",
+        ][..],
         &["plan", "p.mpf", "--model", "nope.toml", "--format=json"][..],
         &["diagnose", "nope.toml", "data.csv", "--format", "json"][..],
         &["fit", "nope.csv", "--format", "json"][..],
@@ -798,4 +811,28 @@ fn json_output_carries_the_error_record_and_errors_name_the_file() {
         assert!(message.contains("nope."), "{args:?}: {message}");
         assert!(err(&o).contains("nope."), "{args:?}");
     }
+}
+
+#[test]
+fn a_file_of_too_many_sensors_is_refused_with_the_limit_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let n = 501;
+    let mut csv = String::from("time_min,e_um");
+    for i in 0..n {
+        csv.push_str(&format!(",t{i}_c"));
+    }
+    csv.push('\n');
+    for r in 0..6 {
+        csv.push_str(&format!("{r},{}", r % 3));
+        for i in 0..n {
+            csv.push_str(&format!(",{}", 20 + (i + r) % 5));
+        }
+        csv.push('\n');
+    }
+    std::fs::write(d.join("wide.csv"), csv).unwrap();
+    assert_refused(
+        &run_in(d, &["sensors", "wide.csv"]),
+        &["501 temperature columns", "more than the 500"],
+    );
 }
