@@ -399,7 +399,11 @@ fn every_command_that_writes_stdout_fails_on_a_full_disk_without_a_panic() {
         vec!["transform", "--help"],
     ];
     for args in &commands {
-        assert_failed(&to_full_disk(args), &["cannot write to standard output"], &[]);
+        assert_failed(
+            &to_full_disk(args),
+            &["cannot write to standard output"],
+            &[],
+        );
     }
 }
 
@@ -686,7 +690,11 @@ fn walks_report_dangling_links_and_unreadable_entries_and_go_on() {
         // The readable program is still worked on.
         assert_failed(
             &run_in(d, args),
-            &["tree/b.mpf: dangling symbolic link", "missing.mpf", "tree/a.mpf"],
+            &[
+                "tree/b.mpf: dangling symbolic link",
+                "missing.mpf",
+                "tree/a.mpf",
+            ],
             &[],
         );
     }

@@ -46,6 +46,11 @@ pub struct Modal {
     pub comp: u32,
     /// The work offset selected (54 … 57, 505 … 599, or 500 for none), when the program selected one.
     pub offset: Option<u32>,
+    /// X is programmed in diameters (DIAMON, DIAM90).
+    pub diameter: bool,
+    /// Under constant cutting speed (G96, `s` in m/min): the spindle speed estimated where S was set,
+    /// n = 1000·v / (π·D) at the diameter the tool stood at, capped by LIMS.
+    pub css_rpm: Option<f64>,
     /// Frames and transformations active ([`frame`] bits).
     pub frames: u8,
     /// Fields the program set by an expression the timeline cannot evaluate ([`unknown`] bits): a gate
@@ -77,7 +82,7 @@ impl Modal {
     /// Speed the spindle turns at (rpm, 0 when stopped).
     pub fn rpm(&self) -> f64 {
         if matches!(self.direction, 3 | 4) {
-            self.s.abs()
+            self.css_rpm.unwrap_or(self.s).abs()
         } else {
             0.0
         }
@@ -218,6 +223,8 @@ pub struct Timeline {
     pub last_cut_min: f64,
     /// The program moves an axis, or calls a subprogram or cycle that may.
     pub moves: bool,
+    /// Blocks that write a frame variable themselves (`$P_UIFR[…]=`, `$P_PFRAME=`, …).
+    pub frame_writes: Vec<usize>,
     /// One past the last block before the first cut that selects a work offset or changes frames or
     /// transformations: the reference measurement goes after the program's own setup.
     pub setup_end: usize,
@@ -340,8 +347,21 @@ fn callees_first(names: &[Option<String>], calls: &[&BTreeSet<String>]) -> Vec<u
 /// The block ranges of the program's units: a new one starts at each `%` header after the first block.
 fn units(program: &Program) -> Vec<std::ops::Range<usize>> {
     let count = program.block_count();
+    let src = program.source();
+    // Comments and blank lines before the first header belong to its unit (a title above `%_N_…_MPF`).
+    let only_comments = |blocks: std::ops::Range<usize>| {
+        blocks.into_iter().all(|i| {
+            let text = program.content_span(i).slice(src).trim_ascii();
+            text.is_empty() || text.starts_with(b";")
+        })
+    };
     let mut starts = vec![0];
-    starts.extend(program.header_blocks().iter().filter(|&&h| h > 0));
+    starts.extend(
+        program
+            .header_blocks()
+            .iter()
+            .filter(|&&h| h > 0 && !only_comments(0..h)),
+    );
     starts.push(count);
     starts.windows(2).map(|w| w[0]..w[1]).collect()
 }
