@@ -831,3 +831,25 @@ fn a_file_of_too_many_sensors_is_refused_with_the_limit_named() {
         &["501 temperature columns", "more than the 500"],
     );
 }
+
+#[test]
+fn a_walk_over_a_deep_expression_and_a_program_over_16_mib_reports_without_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let tree = dir.path().join("tree");
+    std::fs::create_dir(&tree).unwrap();
+    let deep = format!("R1={}1{}\nM30\n", "(".repeat(100_000), ")".repeat(100_000));
+    std::fs::write(tree.join("deep.mpf"), deep).unwrap();
+    let line = "G1 X1.5 Y2 Z-3 F100\n";
+    let big = line.repeat((17 << 20) / line.len() + 1);
+    assert!(big.len() > 16 << 20);
+    std::fs::write(tree.join("big.mpf"), big).unwrap();
+    let o = run_in(dir.path(), &["check", "tree"]);
+    let e = err(&o);
+    assert_eq!(code(&o), 1, "{e}");
+    assert!(!e.contains("panicked"), "{e}");
+    assert!(
+        e.contains("tree/deep.mpf:1:") && e.contains("nested deeper"),
+        "{e}"
+    );
+    assert!(e.contains("checked 2 files"), "{e}");
+}
