@@ -27,6 +27,19 @@ fn edited(dir: &Path, rel: &str, from: &str, to: &str, name: &str) -> String {
     path.display().to_string()
 }
 
+/// Rows of `from | to | where | what`: a replacement in a fixture and what its refusal must say.
+fn cases(table: &str) -> Vec<[&str; 4]> {
+    table
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .map(|l| {
+            let cells: Vec<&str> = l.split(" | ").collect();
+            cells.try_into().expect("four cells a row")
+        })
+        .collect()
+}
+
 fn code(o: &Output) -> i32 {
     o.status.code().expect("exited, not killed by a signal")
 }
@@ -79,6 +92,23 @@ fn transform_refused(dir: &Path, model: &str, profile: &str, needles: &[&str]) {
     assert!(!dir.join("out.mpf").exists(), "a refused transform wrote");
 }
 
+/// Each row of `table` (see [`cases`]) edits the model (`omm/model.toml`, saved as m.toml) or the profile
+/// (saved as p.toml) fixture, and `transform` refuses the edited file saying where and what.
+fn edits_refused(rel: &str, table: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let is_model = rel == "omm/model.toml";
+    for [from, to, at, what] in cases(table) {
+        let file = edited(d, rel, from, to, if is_model { "m.toml" } else { "p.toml" });
+        let (model, profile) = if is_model {
+            (file, default_profile())
+        } else {
+            (default_model(), file)
+        };
+        transform_refused(d, &model, &profile, &[at, what]);
+    }
+}
+
 fn default_model() -> String {
     fixture("omm/model.toml").display().to_string()
 }
@@ -87,72 +117,43 @@ fn default_profile() -> String {
     fixture("omm/blum-tc50.toml").display().to_string()
 }
 
+/// The hand-written fixture program transformed with the fixture model, written to `path`.
+fn transformed_fixture(path: &Path) -> Vec<u8> {
+    let made = common::run(&[
+        "transform",
+        "fixtures/omm/handwritten.mpf",
+        "--model",
+        "fixtures/omm/model.toml",
+        "--no-audit",
+        "-o",
+        &path.display().to_string(),
+    ]);
+    assert!(made.status.success(), "{}", err(&made));
+    std::fs::read(path).unwrap()
+}
+
 // ---- 1. Never into NC: absurd numbers and block-breaking strings are refused where they are read ----
 
 #[test]
 fn model_values_that_would_write_absurd_nc_are_refused_with_line_and_column() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let cases = [
-        // τ → 0 would be written as EXP(-R/0).
-        (
-            "tau_min = 12.0",
-            "tau_min = 1e-300",
-            "m.toml:13:11",
-            "tau_min",
-        ),
-        (
-            "tau_min = 12.0",
-            "tau_min = 1e300",
-            "m.toml:13:11",
-            "tau_min",
-        ),
-        ("tau_min = 12.0", "tau_min = nan", "m.toml:13:11", "tau_min"),
-        (
-            "tau_min = 12.0",
-            "tau_min = -inf",
-            "m.toml:13:11",
-            "tau_min",
-        ),
-        ("[2.0, 4.5", "[1e308, 4.5", "m.toml:14:12", "gain_um[0]"),
-        (
-            "offset_um = 0.0",
-            "offset_um = inf",
-            "m.toml:5:13",
-            "offset_um",
-        ),
-        ("5000.0]", "5e200]", "m.toml:8:", "grid_rpm[4]"),
-        // A channel name is written into the log's header and a comment: a line break injects a block.
-        (
-            "channel = \"drift_z_um\"",
-            "channel = \"drift_z_um\\nM30\"",
-            "m.toml:4:11",
-            "column name",
-        ),
-        (
-            "channel = \"drift_z_um\"",
-            "channel = \"a\\\"b\"",
-            "m.toml:4:11",
-            "column name",
-        ),
-        // Syntax and type errors carry their place too.
-        (
-            "tau_min = 12.0",
-            "tau_min = 12.0.0",
-            "m.toml:13:",
-            "not a valid model file",
-        ),
-        (
-            "tau_min = 12.0",
-            "tau_min = \"x\"",
-            "m.toml:13:11",
-            "not a valid model file",
-        ),
-    ];
-    for (from, to, at, what) in cases {
-        let model = edited(d, "omm/model.toml", from, to, "m.toml");
-        transform_refused(d, &model, &default_profile(), &[at, what]);
-    }
+    // τ → 0 would be written as EXP(-R/0); a channel name is written into the log's header and a
+    // comment, where a line break injects a block; syntax and type errors carry their place too.
+    edits_refused(
+        "omm/model.toml",
+        r#"
+        tau_min = 12.0 | tau_min = 1e-300 | m.toml:13:11 | tau_min
+        tau_min = 12.0 | tau_min = 1e300 | m.toml:13:11 | tau_min
+        tau_min = 12.0 | tau_min = nan | m.toml:13:11 | tau_min
+        tau_min = 12.0 | tau_min = -inf | m.toml:13:11 | tau_min
+        [2.0, 4.5 | [1e308, 4.5 | m.toml:14:12 | gain_um[0]
+        offset_um = 0.0 | offset_um = inf | m.toml:5:13 | offset_um
+        5000.0] | 5e200] | m.toml:8: | grid_rpm[4]
+        channel = "drift_z_um" | channel = "drift_z_um\nM30" | m.toml:4:11 | column name
+        channel = "drift_z_um" | channel = "a\"b" | m.toml:4:11 | column name
+        tau_min = 12.0 | tau_min = 12.0.0 | m.toml:13: | not a valid model file
+        tau_min = 12.0 | tau_min = "x" | m.toml:13:11 | not a valid model file
+        "#,
+    );
 }
 
 #[test]
@@ -181,126 +182,32 @@ fn a_model_with_modes_and_no_speed_grid_is_refused_not_a_panic() {
 
 #[test]
 fn profile_values_that_would_break_or_misdirect_nc_are_refused_with_line_and_column() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let cases = [
-        // A name with a line break or quote would inject `M30` into the header comment.
-        (
-            "name = \"blum-tc50-g54\"",
-            "name = \"x\\nM30\"",
-            "p.toml:5:8",
-            "printable ASCII",
-        ),
-        (
-            "name = \"blum-tc50-g54\"",
-            "name = \"x\\rM30\"",
-            "p.toml:5:8",
-            "printable ASCII",
-        ),
-        (
-            "result = \"R2\"",
-            "result = \"R2\\nM30\"",
-            "p.toml:",
-            "probe.result",
-        ),
-        (
-            "cycle = \"BL9700(",
-            "cycle = \"M30\\nBL9700(",
-            "p.toml:",
-            "probe.cycle",
-        ),
-        (
-            "log_file = \"DRIFTLOG\"",
-            "log_file = \"DRIFT\\nLOG\"",
-            "p.toml:",
-            "registers.log_file",
-        ),
-        (
-            "timer = \"$AN_SETUP_TIME\"",
-            "timer = \"$AN_SETUP_TIME\\nM30\"",
-            "p.toml:",
-            "registers.timer",
-        ),
-        (
-            "select = \"G54\"",
-            "select = \"G54\\nM30\"",
-            "p.toml:",
-            "offset.select",
-        ),
-        // Numbers: a travel height below the probe, frames out of range, absurd limits.
-        (
-            "clearance = 100.0",
-            "clearance = -5.0",
-            "p.toml:36:13",
-            "position.clearance",
-        ),
-        (
-            "frame = 1\n",
-            "frame = 100000\n",
-            "p.toml:53:9",
-            "offset.frame",
-        ),
-        (
-            "frame = 1\n",
-            "frame = 2\n",
-            "p.toml:53:9",
-            "another work offset",
-        ),
-        (
-            "tolerance_um = 20.0",
-            "tolerance_um = 1e300",
-            "p.toml:57:16",
-            "limits.tolerance_um",
-        ),
-        (
-            "tolerance_um = 20.0",
-            "tolerance_um = nan",
-            "p.toml:57:16",
-            "limits.tolerance_um",
-        ),
-        ("z = 10.0", "z = 1e308", "p.toml:", "position.z"),
-        (
-            "measure_s = 3.0",
-            "measure_s = 1e300",
-            "p.toml:",
-            "probe.measure_s",
-        ),
-        (
-            "tool_offset = 1",
-            "tool_offset = 0",
-            "p.toml:",
-            "probe.tool_offset",
-        ),
-        (
-            "r_last = 99",
-            "r_last = 4000000000",
-            "p.toml:",
-            "registers.r_last",
-        ),
-        (
-            "max_attempts = 8",
-            "max_attempts = 4000000000",
-            "p.toml:",
-            "limits.max_attempts",
-        ),
-        // Syntax and type errors.
-        (
-            "tolerance_um = 20.0",
-            "tolerance_um = 20.0.0",
-            "p.toml:57:",
-            "not a valid machine profile",
-        ),
-        (
-            "tolerance_um = 20.0",
-            "tolerance_um = \"x\"",
-            "p.toml:57:16",
-            "expected f64",
-        ),
-    ];
-    for (from, to, at, what) in cases {
-        let profile = edited(d, "omm/blum-tc50.toml", from, to, "p.toml");
-        transform_refused(d, &default_model(), &profile, &[at, what]);
-    }
+    // Texts with a line break or quote would inject `M30` into a comment or block; numbers: a travel
+    // height below the probe, frames out of range, absurd limits; then syntax and type errors.
+    edits_refused(
+        "omm/blum-tc50.toml",
+        r#"
+        name = "blum-tc50-g54" | name = "x\nM30" | p.toml:5:8 | printable ASCII
+        name = "blum-tc50-g54" | name = "x\rM30" | p.toml:5:8 | printable ASCII
+        result = "R2" | result = "R2\nM30" | p.toml: | probe.result
+        cycle = "BL9700( | cycle = "M30\nBL9700( | p.toml: | probe.cycle
+        log_file = "DRIFTLOG" | log_file = "DRIFT\nLOG" | p.toml: | registers.log_file
+        timer = "$AN_SETUP_TIME" | timer = "$AN_SETUP_TIME\nM30" | p.toml: | registers.timer
+        select = "G54" | select = "G54\nM30" | p.toml: | offset.select
+        clearance = 100.0 | clearance = -5.0 | p.toml:36:13 | position.clearance
+        frame = 1 | frame = 100000 | p.toml:53:9 | offset.frame
+        frame = 1 | frame = 2 | p.toml:53:9 | another work offset
+        tolerance_um = 20.0 | tolerance_um = 1e300 | p.toml:57:16 | limits.tolerance_um
+        tolerance_um = 20.0 | tolerance_um = nan | p.toml:57:16 | limits.tolerance_um
+        z = 10.0 | z = 1e308 | p.toml: | position.z
+        measure_s = 3.0 | measure_s = 1e300 | p.toml: | probe.measure_s
+        tool_offset = 1 | tool_offset = 0 | p.toml: | probe.tool_offset
+        r_last = 99 | r_last = 4000000000 | p.toml: | registers.r_last
+        max_attempts = 8 | max_attempts = 4000000000 | p.toml: | limits.max_attempts
+        tolerance_um = 20.0 | tolerance_um = 20.0.0 | p.toml:57: | not a valid machine profile
+        tolerance_um = 20.0 | tolerance_um = "x" | p.toml:57:16 | expected f64
+        "#,
+    );
 }
 
 #[test]
@@ -350,17 +257,8 @@ fn to_full_disk(args: &[&str]) -> Output {
 #[test]
 fn every_command_that_writes_stdout_fails_on_a_full_disk_without_a_panic() {
     let dir = tempfile::tempdir().unwrap();
+    transformed_fixture(&dir.path().join("t.mpf"));
     let transformed = dir.path().join("t.mpf").display().to_string();
-    let made = common::run(&[
-        "transform",
-        "fixtures/omm/handwritten.mpf",
-        "--model",
-        "fixtures/omm/model.toml",
-        "--no-audit",
-        "-o",
-        &transformed,
-    ]);
-    assert!(made.status.success(), "{}", err(&made));
     let (m, p, csv) = (
         "fixtures/omm/model.toml",
         "fixtures/omm/handwritten.mpf",
@@ -625,20 +523,7 @@ fn temporary_files(dir: &Path) -> Vec<String> {
 fn a_terminated_in_place_write_leaves_no_temporary_file_and_whole_programs() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let made = run_in(
-        d,
-        &[
-            "transform",
-            &fixture("omm/handwritten.mpf").display().to_string(),
-            "--model",
-            &default_model(),
-            "--no-audit",
-            "-o",
-            "t.mpf",
-        ],
-    );
-    assert_eq!(code(&made), 0, "{}", err(&made));
-    let transformed = std::fs::read(d.join("t.mpf")).unwrap();
+    let transformed = transformed_fixture(&d.join("t.mpf"));
     let original = std::fs::read(fixture("omm/handwritten.mpf")).unwrap();
     let progs = d.join("progs");
     std::fs::create_dir(&progs).unwrap();
