@@ -55,6 +55,7 @@ pub mod source;
 pub mod strip;
 pub mod structure;
 pub mod syntax;
+pub mod toml_span;
 pub mod views;
 pub mod vm;
 pub mod walk;

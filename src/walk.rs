@@ -14,15 +14,19 @@ use std::path::{Path, PathBuf};
 /// Extensions (compared case-insensitively) of the files a directory walk picks up.
 pub const PROGRAM_EXTENSIONS: [&str; 5] = ["mpf", "spf", "arc", "nc", "def"];
 
-/// One program to read: a file or standard input (`-`).
+/// One program to read: a file or standard input (`-`), or a path the walk found but cannot read (a missing
+/// argument, a dangling link, a directory it could not list, a device), kept in its place so the other
+/// programs are still worked on and this one is reported with them.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Input {
     Stdin,
     File(PathBuf),
+    Unreadable { path: PathBuf, why: String },
 }
 
 impl Input {
-    /// Reads the whole program as raw bytes; the error names the path.
+    /// Reads the whole program as raw bytes; the error names the path. An empty standard input is an
+    /// error: a closed stdin (`<&-`) reads as empty, and no program is no program to work on.
     pub fn read(&self) -> Result<Vec<u8>, WalkError> {
         match self {
             Input::Stdin => {
@@ -31,11 +35,26 @@ impl Input {
                     .lock()
                     .read_to_end(&mut bytes)
                     .map_err(|source| WalkError::new(Path::new("-"), "cannot read", source))?;
+                if bytes.is_empty() {
+                    return Err(WalkError::new(
+                        Path::new("-"),
+                        "cannot read",
+                        io::Error::new(
+                            io::ErrorKind::UnexpectedEof,
+                            "standard input is empty or closed: no program",
+                        ),
+                    ));
+                }
                 Ok(bytes)
             }
             Input::File(path) => {
                 fs::read(path).map_err(|source| WalkError::new(path, "cannot read", source))
             }
+            Input::Unreadable { path, why } => Err(WalkError::new(
+                path,
+                "cannot read",
+                io::Error::other(why.clone()),
+            )),
         }
     }
 }
@@ -45,7 +64,7 @@ impl fmt::Display for Input {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Input::Stdin => f.write_str("-"),
-            Input::File(path) => write!(f, "{}", path.display()),
+            Input::File(path) | Input::Unreadable { path, .. } => write!(f, "{}", path.display()),
         }
     }
 }
@@ -82,8 +101,9 @@ pub fn is_program_file(path: &Path) -> bool {
 }
 
 /// Expands command-line paths in the order given; each directory expands to its programs in sorted order.
-/// Fails on the first path that does not exist or cannot be listed.
-pub fn expand<P: AsRef<Path>>(paths: &[P]) -> Result<Vec<Input>, WalkError> {
+/// A path that does not exist, a directory that cannot be listed and a program entry that cannot be read
+/// (a dangling link, a device) become [`Input::Unreadable`] in their place: reported, never skipped.
+pub fn expand<P: AsRef<Path>>(paths: &[P]) -> Vec<Input> {
     let mut inputs = Vec::new();
     for path in paths {
         let path = path.as_ref();
@@ -91,36 +111,98 @@ pub fn expand<P: AsRef<Path>>(paths: &[P]) -> Result<Vec<Input>, WalkError> {
             inputs.push(Input::Stdin);
             continue;
         }
-        let meta =
-            fs::metadata(path).map_err(|source| WalkError::new(path, "cannot open", source))?;
-        if meta.is_dir() {
-            walk_dir(path, &mut inputs)?;
-        } else {
-            inputs.push(Input::File(path.to_path_buf()));
+        match fs::metadata(path) {
+            Ok(meta) if meta.is_dir() => walk_dir(path, &mut inputs),
+            Ok(_) => inputs.push(Input::File(path.to_path_buf())),
+            Err(e) => inputs.push(unreadable(path, &e.to_string())),
         }
     }
-    Ok(inputs)
+    inputs
 }
 
-fn walk_dir(dir: &Path, out: &mut Vec<Input>) -> Result<(), WalkError> {
-    let listing_error = |source| WalkError::new(dir, "cannot list directory", source);
-    let mut entries = fs::read_dir(dir)
-        .map_err(listing_error)?
-        .map(|entry| entry.map(|e| e.path()))
-        .collect::<Result<Vec<_>, _>>()
-        .map_err(listing_error)?;
-    entries.sort();
-    for path in entries {
-        // Symlinked directories are not followed (no cycles); symlinked files are read like files.
-        let link_meta = fs::symlink_metadata(&path)
-            .map_err(|source| WalkError::new(&path, "cannot open", source))?;
-        if link_meta.is_dir() {
-            walk_dir(&path, out)?;
-        } else if is_program_file(&path) && fs::metadata(&path).is_ok_and(|m| m.is_file()) {
-            out.push(Input::File(path));
+fn unreadable(path: &Path, why: &str) -> Input {
+    Input::Unreadable {
+        path: path.to_path_buf(),
+        why: why.to_string(),
+    }
+}
+
+/// Symlinked directories are not followed (no cycles); symlinked files are read like files.
+fn walk_dir(dir: &Path, out: &mut Vec<Input>) {
+    let walk = walkdir::WalkDir::new(dir)
+        .min_depth(1)
+        .follow_links(false)
+        .sort_by_file_name();
+    for entry in walk {
+        let entry = match entry {
+            Ok(entry) => entry,
+            Err(e) => {
+                let path = e.path().unwrap_or(dir);
+                let why = e
+                    .io_error()
+                    .map_or_else(|| e.to_string(), io::Error::to_string);
+                out.push(unreadable(
+                    path,
+                    &format!("cannot list the directory: {why}"),
+                ));
+                continue;
+            }
+        };
+        let path = entry.path();
+        if entry.file_type().is_dir() || !is_program_file(path) {
+            continue;
+        }
+        match fs::metadata(path) {
+            Ok(meta) if meta.is_file() => out.push(Input::File(path.to_path_buf())),
+            // A link to a directory named like a program is a directory, not followed.
+            Ok(meta) if meta.is_dir() => {}
+            Ok(_) => out.push(unreadable(path, "not a regular file (a device or a pipe)")),
+            Err(e) if entry.path_is_symlink() => out.push(unreadable(
+                path,
+                &format!(
+                    "dangling symbolic link to {} ({e})",
+                    fs::read_link(path).map_or_else(|_| "?".into(), |t| t.display().to_string())
+                ),
+            )),
+            Err(e) => out.push(unreadable(path, &e.to_string())),
         }
     }
-    Ok(())
+}
+
+/// Why `bytes` are no NC program at all, if they are not: UTF-16 text (the control reads 8-bit text) or a
+/// binary file (many control bytes). A PC-format archive (binary bytes in its first line only) is text.
+pub fn not_text(bytes: &[u8]) -> Option<String> {
+    let head = &bytes[..bytes.len().min(8192)];
+    if head.starts_with(b"\xFF\xFE") || head.starts_with(b"\xFE\xFF") || utf16_without_bom(head) {
+        return Some(
+            "UTF-16 text: the control reads 8-bit text; save the program as UTF-8 or Latin-1 (ANSI)"
+                .into(),
+        );
+    }
+    let control = head
+        .iter()
+        .filter(|&&b| b < 0x20 && !matches!(b, b'\t' | b'\n' | b'\r' | 0x0B | 0x0C | 0x1A))
+        .count();
+    (control * 10 >= head.len() && control > 0).then(|| {
+        format!(
+            "a binary file, not an NC program ({control} of its first {} bytes are control bytes)",
+            head.len()
+        )
+    })
+}
+
+/// Text in UTF-16 without a byte-order mark: NUL in every other byte.
+fn utf16_without_bom(head: &[u8]) -> bool {
+    let pairs = head.len() / 2;
+    if pairs < 2 {
+        return false;
+    }
+    let nul_at = |parity: usize| {
+        head.chunks_exact(2)
+            .filter(|p| p[parity] == 0 && p[1 - parity] != 0)
+            .count()
+    };
+    nul_at(0).max(nul_at(1)) * 10 >= pairs * 9
 }
 
 /// The `.SPF` / `.MPF` files of a folder (`_N_NAME_SPF` too) by upper-cased program name, as a call names
@@ -185,7 +267,7 @@ mod tests {
         ] {
             touch(&root.join(rel));
         }
-        let got = expand(&[root]).unwrap();
+        let got = expand(&[root]);
         let want: Vec<Input> = ["a.spf", "b.MPF", "sub/deeper/y.def", "sub/z.nc"]
             .iter()
             .map(|rel| Input::File(root.join(rel)))
@@ -202,7 +284,7 @@ mod tests {
         std::os::unix::fs::symlink(root.join("real/a.mpf"), root.join("real/link.mpf")).unwrap();
         // A link back to its own parent would make a naive walk run forever.
         std::os::unix::fs::symlink(root.join("real"), root.join("real/loop")).unwrap();
-        let got = expand(&[root.join("real")]).unwrap();
+        let got = expand(&[root.join("real")]);
         assert_eq!(
             got,
             vec![
@@ -217,17 +299,50 @@ mod tests {
         let tmp = tempfile::tempdir().unwrap();
         let txt = tmp.path().join("program.txt");
         touch(&txt);
-        let got = expand(&[txt.as_path(), Path::new("-")]).unwrap();
+        let got = expand(&[txt.as_path(), Path::new("-")]);
         assert_eq!(got, vec![Input::File(txt), Input::Stdin]);
         assert_eq!(Input::Stdin.to_string(), "-");
     }
 
     #[test]
-    fn missing_path_is_an_error_naming_it() {
+    fn missing_paths_and_dangling_links_are_kept_as_unreadable_in_their_place() {
         let tmp = tempfile::tempdir().unwrap();
-        let missing = tmp.path().join("nope.mpf");
-        let err = expand(&[&missing]).unwrap_err();
-        assert_eq!(err.path, missing);
+        let root = tmp.path();
+        let missing = root.join("nope.mpf");
+        touch(&root.join("dir/a.mpf"));
+        #[cfg(unix)]
+        std::os::unix::fs::symlink(root.join("gone.mpf"), root.join("dir/b.mpf")).unwrap();
+        let got = expand(&[missing.as_path(), &root.join("dir")]);
+        assert!(matches!(&got[0], Input::Unreadable { path, .. } if *path == missing));
+        let err = got[0].read().unwrap_err();
         assert!(err.to_string().contains("nope.mpf"), "{err}");
+        assert_eq!(got[1], Input::File(root.join("dir/a.mpf")));
+        #[cfg(unix)]
+        {
+            let err = got[2].read().unwrap_err().to_string();
+            assert!(err.contains("b.mpf") && err.contains("dangling"), "{err}");
+        }
+    }
+
+    #[test]
+    fn utf16_and_binary_bytes_are_told_from_programs_and_archives() {
+        let utf16: Vec<u8> = "G0 X1\r\nM30\r\n"
+            .encode_utf16()
+            .flat_map(u16::to_le_bytes)
+            .collect();
+        assert!(not_text(&utf16).unwrap().contains("UTF-16"));
+        let mut with_bom = vec![0xFF, 0xFE];
+        with_bom.extend(&utf16);
+        assert!(not_text(&with_bom).unwrap().contains("UTF-16"));
+        let binary: Vec<u8> = (0..=255u8).cycle().take(4096).collect();
+        assert!(not_text(&binary).unwrap().contains("binary"));
+        assert_eq!(not_text(b"G0 X1\nM30\n"), None);
+        assert_eq!(not_text(b""), None);
+        let archive = fs::read(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/fixtures/nc/archive.arc"
+        ))
+        .unwrap();
+        assert_eq!(not_text(&archive), None);
     }
 }

@@ -107,7 +107,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         gcode,
         transform: measured.transform,
     };
-    let mut out = io::stdout().lock();
+    let mut out = super::output::stdout();
     match args.format {
         Format::Human => write_human(&mut out, &report)?,
         Format::Json => {

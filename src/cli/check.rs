@@ -3,7 +3,7 @@
 //! Files are read and parsed in parallel; each file's report is rendered into its own buffer and the buffers
 //! are written in input order, so output is deterministic whatever the scheduling.
 
-use std::io::{self, Write};
+use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -64,7 +64,7 @@ struct JsonRelated<'a> {
 }
 
 pub fn run(args: Args, global: &Global) -> anyhow::Result<ExitCode> {
-    let inputs = walk::expand(&args.paths)?;
+    let inputs = walk::expand(&args.paths);
     let color = global.stderr_color();
     let progress = Progress::new("checked", inputs.len());
     let reports: Vec<FileReport> = inputs
@@ -77,7 +77,7 @@ pub fn run(args: Args, global: &Global) -> anyhow::Result<ExitCode> {
         .collect();
     progress.finish();
 
-    let mut stdout = io::stdout().lock();
+    let mut stdout = super::output::stdout();
     let mut stderr = anstream::stderr().lock();
     for report in &reports {
         if let Some(err) = &report.read_error {
@@ -126,10 +126,17 @@ fn check_file(input: &Input, format: Format, color: bool) -> FileReport {
         notes: 0,
         read_error: None,
     };
-    let source = match input.read() {
+    let source =
+        input
+            .read()
+            .map_err(|e| e.to_string())
+            .and_then(|bytes| match walk::not_text(&bytes) {
+                Some(why) => Err(format!("{path}: {why}")),
+                None => Ok(bytes),
+            });
+    let source = match source {
         Ok(source) => source,
-        Err(err) => {
-            let message = err.to_string();
+        Err(message) => {
             if format == Format::Json {
                 write_json_line(
                     &mut report.output,

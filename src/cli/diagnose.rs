@@ -67,6 +67,16 @@ pub struct Args {
 }
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
+    let inputs: Vec<&std::path::Path> = std::iter::once(args.model.as_path())
+        .chain(args.data.iter().map(PathBuf::as_path))
+        .collect();
+    super::output::refuse_overwriting(
+        &[
+            ("-o", args.output.as_deref()),
+            ("--report", args.report.as_deref()),
+        ],
+        &inputs,
+    )?;
     let model = DriftModel::read(&args.model)?;
     let ds = super::log::read_merged(&args.data, &args.rename)?;
     anyhow::ensure!(
@@ -87,8 +97,10 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     opts.probe_every_min = Some(args.probe_every.0);
     let d = diagnose(&model, &ds, &opts)?;
     match args.format {
-        Format::Human => print!("{}", d.human()),
-        Format::Json => println!("{}", serde_json::to_string_pretty(&d.json())?),
+        Format::Human => super::output::print(&d.human())?,
+        Format::Json => {
+            super::output::print(&format!("{}\n", serde_json::to_string_pretty(&d.json())?))?
+        }
     }
     if let Some(path) = &args.output {
         std::fs::write(path, d.refined.to_toml())

@@ -69,6 +69,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
+    super::output::refuse_overwriting(&[("-o", args.output.as_deref())], &[&args.data])?;
     let ds = read_path(&args.data, Require::Displacement)?;
     let channel = only_channel(&ds, args.channel.as_deref())?;
     let until_min = args.until.map(|u| u.0);

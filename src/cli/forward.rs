@@ -104,8 +104,10 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     }
     progress.finish();
     match args.format {
-        Format::Json => println!("{}", serde_json::to_string_pretty(&lines)?),
-        Format::Human => print!("{}", table(&lines, until, args.probe_every.0)),
+        Format::Json => {
+            super::output::print(&format!("{}\n", serde_json::to_string_pretty(&lines)?))?
+        }
+        Format::Human => super::output::print(&table(&lines, until, args.probe_every.0))?,
     }
     Ok(ExitCode::SUCCESS)
 }

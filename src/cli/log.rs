@@ -67,7 +67,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                     .with_context(|| format!("cannot write {}", path.display()))?,
                 _ => {
                     use std::io::Write;
-                    std::io::stdout().write_all(&bytes)?;
+                    super::output::stdout().write_all(&bytes)?;
                 }
             }
             Ok(ExitCode::SUCCESS)

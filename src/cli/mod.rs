@@ -13,6 +13,7 @@ mod diagnose;
 mod fit;
 mod forward;
 mod log;
+mod output;
 mod parse;
 mod plan;
 mod positioning;
@@ -22,6 +23,7 @@ mod progress;
 mod render;
 mod run;
 mod sensors;
+mod signals;
 mod simulate;
 mod strip;
 mod style;
@@ -35,17 +37,21 @@ fn write_model(
     report: &str,
 ) -> anyhow::Result<()> {
     use anyhow::Context;
+    // A model the loaders would refuse is not written: the same checks, before the file exists.
+    model
+        .validate()
+        .map_err(|e| anyhow::anyhow!("the model made is not usable: {e}"))?;
     match path {
         Some(path) if path.as_os_str() == "-" => {
-            print!("{}", model.to_toml());
+            output::print(&model.to_toml())?;
             eprint!("{report}");
         }
         Some(path) => {
             std::fs::write(path, model.to_toml())
                 .with_context(|| format!("cannot write the model file {}", path.display()))?;
-            print!("{report}");
+            output::print(report)?;
         }
-        None => print!("{report}"),
+        None => output::print(report)?,
     }
     Ok(())
 }
@@ -137,8 +143,26 @@ pub fn main() -> ExitCode {
     let args: Vec<std::ffi::OsString> = std::env::args_os().collect();
     let color = style::choice_from_args(&args);
     style::apply(color);
-    let matches = Cli::command().color(color.into()).get_matches_from(args);
-    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    let parsed = Cli::command()
+        .color(color.into())
+        .try_get_matches_from(&args)
+        .and_then(|matches| Cli::from_arg_matches(&matches));
+    let cli = match parsed {
+        Ok(cli) => cli,
+        // `--help` goes to stdout: a failed write there is an error too (`clap::Error::exit` ignores it).
+        Err(e) => {
+            let printed = e
+                .print()
+                .and_then(|()| std::io::Write::flush(&mut std::io::stdout()));
+            return match printed {
+                Err(err) if err.kind() != std::io::ErrorKind::BrokenPipe => {
+                    eprintln!("error: cannot write to standard output: {err}");
+                    ExitCode::from(2)
+                }
+                _ => ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(2)),
+            };
+        }
+    };
     let result = match cli.command {
         Command::Demo(args) => demo::run(args, &cli.global),
         Command::Positioning(args) => positioning::run(args, &cli.global),
@@ -158,6 +182,11 @@ pub fn main() -> ExitCode {
         Command::Plan(args) => plan::run(args, &cli.global),
         Command::Profiles(args) => profiles::run(args, &cli.global),
     };
+    // What is still buffered is written now, while a failure can still change the exit code.
+    let result = result.and_then(|code| {
+        std::io::Write::flush(&mut output::stdout())?;
+        Ok(code)
+    });
     match result {
         Ok(code) => code,
         // A reader that stops early (`driftloop transform … --diff | head`) is not a failure of ours.
@@ -168,9 +197,22 @@ pub fn main() -> ExitCode {
                 style::label(crate::Severity::Error),
                 error_chain(&err)
             );
+            if wants_json(&args) {
+                // A program reading the JSON gets the failure as JSON too, not an empty stdout.
+                let record = serde_json::json!({ "error": error_chain(&err) });
+                let _ = output::print(&format!("{record}\n"));
+            }
             ExitCode::from(2)
         }
     }
+}
+
+/// Whether the command line asks for `--format json`.
+fn wants_json(args: &[std::ffi::OsString]) -> bool {
+    args.iter().any(|a| a == "--format=json")
+        || args
+            .windows(2)
+            .any(|w| w[0] == "--format" && w[1] == "json")
 }
 
 /// The error and its causes joined with `: `, leaving out a cause whose text the message before it already

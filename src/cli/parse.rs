@@ -5,8 +5,6 @@ use std::io::{self, BufWriter, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::Context;
-
 use super::Global;
 use crate::walk::Input;
 
@@ -34,7 +32,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         Input::File(args.file)
     };
     let program = crate::parse_owned(input.read()?);
-    let mut out = BufWriter::new(io::stdout().lock());
+    let mut out = BufWriter::new(super::output::stdout());
     let written = match args.format {
         Format::Json => serde_json::to_writer(&mut out, &program)
             .map_err(io::Error::from)
@@ -43,6 +41,6 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     }
     .and_then(|()| out.flush());
     // A reader that stops early (`| head`) is quiet: `cli::main` recognises the broken pipe.
-    written.context("cannot write to stdout")?;
+    written?;
     Ok(ExitCode::SUCCESS)
 }

@@ -1,7 +1,7 @@
 //! `driftloop plan PROGRAM --model model.toml [--profile machine.toml]`: the timeline of the program, the
 //! predicted drift along it and where driftloop would measure, as a table (or JSON).
 
-use std::io::{self, Write};
+use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -49,7 +49,11 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     } else {
         Input::File(args.program.clone())
     };
-    let (program, moves) = omm::parse_timed(input.read()?);
+    let bytes = input.read()?;
+    if let Some(why) = crate::walk::not_text(&bytes) {
+        anyhow::bail!("{input}: {why}");
+    }
+    let (program, moves) = omm::parse_timed(bytes);
     let name = input.to_string();
     let planned = omm::check_timed(&program, &moves, args.force)
         .and_then(|()| omm::plan_timed(&program, &moves, &drift, &profile));
@@ -78,7 +82,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             unforeseen.join(", ")
         );
     }
-    let mut out = io::stdout().lock();
+    let mut out = super::output::stdout();
     match args.format {
         Format::Json => {
             let j = JsonPlan {

@@ -1,7 +1,7 @@
 //! `driftloop positioning`: positioning accuracy statistics and compensation tables from repeated
 //! bidirectional approaches (DSTU/GOST 27843-88, VDI 3441, ISO 230-2).
 
-use std::io::{Read, Write};
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -46,6 +46,13 @@ pub struct Args {
 }
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
+    super::output::refuse_overwriting(
+        &[
+            ("--report", args.report.as_deref()),
+            ("--table", args.table.as_deref()),
+        ],
+        &[&args.data],
+    )?;
     let grids = args
         .grid
         .iter()
@@ -111,9 +118,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             TableFormat::Sinumerik => sinumerik_text(&analysis),
         };
         if to_stdout {
-            std::io::stdout()
-                .write_all(text.as_bytes())
-                .context("writing stdout")?;
+            super::output::print(&text)?;
             table_on_stdout = true;
         } else {
             std::fs::write(path, text)
@@ -128,9 +133,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 serde_json::to_string_pretty(&positioning::json(&analysis))?
             ),
         };
-        std::io::stdout()
-            .write_all(text.as_bytes())
-            .context("writing stdout")?;
+        super::output::print(&text)?;
     }
     Ok(ExitCode::SUCCESS)
 }

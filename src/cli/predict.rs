@@ -32,6 +32,10 @@ pub struct Args {
 }
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
+    let inputs: Vec<&std::path::Path> = std::iter::once(args.model.as_path())
+        .chain(args.data.as_deref())
+        .collect();
+    super::output::refuse_overwriting(&[("-o", args.output.as_deref())], &inputs)?;
     let model = DriftModel::read(&args.model)?;
     let input = match (&args.schedule, &args.data) {
         (Some(schedule), _) => {
@@ -39,6 +43,15 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 args.step.is_finite() && args.step > 0.0,
                 "--step must be a positive number of minutes"
             );
+            crate::data::check_rows(
+                schedule.rows(args.step),
+                &format!(
+                    "--schedule of {:?} min at --step {:?} min",
+                    schedule.minutes(),
+                    args.step
+                ),
+            )
+            .map_err(|e| anyhow::anyhow!("{e}: use a larger --step"))?;
             schedule.to_dataset(args.step)
         }
         (None, Some(path)) => read_path(path, Require::InputsOnly)?,
@@ -53,7 +66,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         Some(path) if path.as_os_str() != "-" => std::fs::write(path, bytes)
             .with_context(|| format!("cannot write {}", path.display()))?,
         // A reader that stops early (`| head`) is quiet: `cli::main` recognises the broken pipe.
-        _ => std::io::stdout().write_all(&bytes)?,
+        _ => super::output::stdout().write_all(&bytes)?,
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -18,12 +18,14 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         None => {
             let width = BUILTIN.iter().map(|(n, _, _)| n.len()).max().unwrap_or(0);
             for (name, what, _) in BUILTIN {
-                println!("{name:width$}  {what}");
+                super::output::print(&format!("{name:width$}  {what}\n"))?;
             }
-            println!("\n`--profile NAME` uses one; `driftloop profiles NAME` prints it to adapt.");
+            super::output::print(
+                "\n`--profile NAME` uses one; `driftloop profiles NAME` prints it to adapt.\n",
+            )?;
         }
         Some(name) => match BUILTIN.iter().find(|(n, _, _)| *n == name) {
-            Some((_, _, text)) => print!("{text}"),
+            Some((_, _, text)) => super::output::print(text)?,
             None => anyhow::bail!(
                 "no builtin profile `{name}`; there are: {}",
                 BUILTIN

@@ -80,6 +80,9 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         (cfg, spec) = vm::parse_machine_file(&text, dir, cfg)
             .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     }
+    if let Some(missing) = args.subprogram_dirs.iter().find(|d| !d.is_dir()) {
+        anyhow::bail!("--subprograms {}: not a folder", missing.display());
+    }
     cfg.subprogram_dirs = args.subprogram_dirs.clone();
     if let Some(noise) = args.probe_noise {
         anyhow::ensure!(
@@ -107,13 +110,15 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         vm::run_file(&args.program, &cfg, &mut machine)?
     };
     match args.format {
-        Format::Human => print!("{}", run.human()),
-        Format::Json => println!("{}", serde_json::to_string_pretty(&run)?),
+        Format::Human => super::output::print(&run.human())?,
+        Format::Json => {
+            super::output::print(&format!("{}\n", serde_json::to_string_pretty(&run)?))?
+        }
     }
     if let Some(path) = &args.trace {
         let csv = run.trace_csv();
         if path == Path::new("-") {
-            print!("{csv}");
+            super::output::print(&csv)?;
         } else {
             std::fs::write(path, csv)
                 .with_context(|| format!("cannot write {}", path.display()))?;
@@ -211,8 +216,10 @@ fn audit(args: &Args, cfg: &Config, machine: MachineSpec) -> anyhow::Result<Exit
     }
     let found = vm::audit::audit_owned(original, transformed, &settings, cfg)?;
     match args.format {
-        Format::Human => print!("{}", found.human(&program_name)),
-        Format::Json => println!("{}", serde_json::to_string_pretty(&found)?),
+        Format::Human => super::output::print(&found.human(&program_name))?,
+        Format::Json => {
+            super::output::print(&format!("{}\n", serde_json::to_string_pretty(&found)?))?
+        }
     }
     Ok(if found.findings.is_empty() {
         ExitCode::SUCCESS

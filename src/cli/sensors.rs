@@ -46,6 +46,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
+    super::output::refuse_overwriting(&[("-o", args.output.as_deref())], &[&args.data])?;
     let ds = read_path(&args.data, Require::Displacement)?;
     let channel = super::fit::only_channel(&ds, args.channel.as_deref())?;
     let mut opts = Options::new(&channel);

@@ -54,9 +54,21 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         args.noise >= 0.0 && step > 0.0 && minutes > step,
         "--noise must be ≥ 0, --step > 0 and --minutes longer than one step"
     );
+    let largest = crate::model::file::LARGEST_UM;
     anyhow::ensure!(
-        args.theta.is_none_or(|t| t.is_finite() && t > 0.0),
-        "--theta must be a positive number"
+        args.noise <= largest && (0.0..=largest).contains(&args.size),
+        "--noise (µm) and --size (multiples of the noise) must be within 0…{largest}"
+    );
+    crate::data::check_rows(
+        minutes / step,
+        &format!("--minutes {minutes:?} at --step {step:?} min"),
+    )
+    .map_err(|e| anyhow::anyhow!("{e}: use a shorter log or a larger --step"))?;
+    anyhow::ensure!(
+        args.theta
+            .is_none_or(|t| t > 0.0 && t <= crate::model::file::TAU_LONGEST_MIN),
+        "--theta must be a positive number up to {}",
+        crate::model::file::TAU_LONGEST_MIN
     );
     let mut sc = Scenario::new(args.seed, None);
     sc.effect = args.effect.filter(|e| e != "none");

@@ -33,7 +33,7 @@ pub struct Args {
 /// Exit 0 when done (or with --check when no input carries driftloop's blocks), 1 with --check when one
 /// does, 2 on errors.
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
-    let inputs = walk::expand(&args.paths)?;
+    let inputs = walk::expand(&args.paths);
     let several = inputs.len() > 1;
     if several && !args.in_place && !args.check {
         bail!(
@@ -46,8 +46,17 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     }
     let mut stderr = io::stderr().lock();
     let mut transformed = 0;
+    let mut unreadable = 0;
     for input in &inputs {
-        let src = input.read()?;
+        // One input that cannot be read is reported in its place; the others are still stripped.
+        let src = match input.read() {
+            Ok(src) => src,
+            Err(e) => {
+                writeln!(stderr, "error: {e}")?;
+                unreadable += 1;
+                continue;
+            }
+        };
         let stripped = strip(&src);
         let name = input.to_string();
         match stripped.header {
@@ -81,7 +90,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 continue;
             }
             match input {
-                Input::File(path) => Some(path.clone()),
+                Input::File(path) | Input::Unreadable { path, .. } => Some(path.clone()),
                 Input::Stdin => None,
             }
         } else {
@@ -90,13 +99,16 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         match target {
             Some(path) => write_atomic(&path, |f| f.write_all(&stripped.bytes))?,
             None => {
-                let mut out = io::stdout().lock();
-                out.write_all(&stripped.bytes)?;
-                out.flush()?;
+                let mut out = super::output::stdout();
+                out.write_all(&stripped.bytes)
+                    .and_then(|()| out.flush())
+                    .map_err(super::output::program_not_written)?;
             }
         }
     }
-    Ok(if args.check && transformed > 0 {
+    Ok(if unreadable > 0 {
+        ExitCode::from(2)
+    } else if args.check && transformed > 0 {
         ExitCode::from(1)
     } else {
         ExitCode::SUCCESS

@@ -218,6 +218,24 @@ struct AuditNote {
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     let (models, profile) = args.setup.load()?;
     let jobs = jobs(&args)?;
+    if !args.in_place && !args.check {
+        let mut inputs: Vec<&Path> = jobs
+            .iter()
+            .filter_map(|j| match &j.input {
+                Input::File(p) => Some(p.as_path()),
+                _ => None,
+            })
+            .collect();
+        inputs.extend(args.setup.model.iter().map(PathBuf::as_path));
+        let outputs: Vec<(&str, Option<&Path>)> = jobs
+            .iter()
+            .filter_map(|j| match &j.target {
+                Target::File(out) => Some(("-o", Some(out.as_path()))),
+                _ => None,
+            })
+            .collect();
+        super::output::refuse_overwriting(&outputs, &inputs)?;
+    }
     let progress = Progress::new("transformed", jobs.len());
     let results: Vec<Result<Done, Refusal>> = jobs
         .par_iter()
@@ -336,7 +354,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         if to_stdout && !args.check && !args.diff {
             writeln!(io::stderr(), "{text}")?;
         } else {
-            writeln!(io::stdout(), "{text}")?;
+            writeln!(super::output::stdout(), "{text}")?;
         }
         Ok(())
     };
@@ -361,7 +379,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         })
         .collect();
     if args.diff {
-        let mut out = io::stdout().lock();
+        let mut out = super::output::stdout();
         for &(job, o) in &outcomes {
             write_diff(
                 &mut out,
@@ -373,7 +391,9 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     } else if !args.check {
         for &(job, o) in &outcomes {
             match &job.target {
-                Target::Stdout => o.write_to(&mut io::stdout().lock())?,
+                Target::Stdout => o
+                    .write_to(&mut super::output::stdout())
+                    .map_err(super::output::program_not_written)?,
                 Target::File(p) => write_atomic(p, |w| o.write_to(w))?,
                 Target::None => {}
             }
@@ -408,6 +428,9 @@ fn transform_one(
     args: &Args,
 ) -> Result<Done, Refusal> {
     let bytes = input.read().map_err(|e| Refusal::new("unreadable", e))?;
+    if let Some(why) = walk::not_text(&bytes) {
+        return Err(Refusal::new("not a text program", why));
+    }
     if (args.check || args.diff)
         && let Some(line) = omm::transformed_line(&bytes)
     {
@@ -561,7 +584,7 @@ fn jobs(args: &Args) -> anyhow::Result<Vec<Job>> {
     let mut jobs = Vec::new();
     let several = args.paths.len() > 1 || args.paths.iter().any(|p| p.is_dir());
     for root in &args.paths {
-        let walked = walk::expand(std::slice::from_ref(root))?;
+        let walked = walk::expand(std::slice::from_ref(root));
         let skipped = if root.is_dir() {
             walked.iter().filter(|i| is_subprogram(i)).count()
         } else {
@@ -583,7 +606,7 @@ fn jobs(args: &Args) -> anyhow::Result<Vec<Job>> {
             } else if args.in_place {
                 match &input {
                     Input::Stdin => bail!("--in-place cannot replace stdin; use -o"),
-                    Input::File(p) => Target::File(p.clone()),
+                    Input::File(p) | Input::Unreadable { path: p, .. } => Target::File(p.clone()),
                 }
             } else if let Some(out) = &args.output {
                 if several {
@@ -596,7 +619,7 @@ fn jobs(args: &Args) -> anyhow::Result<Vec<Job>> {
             } else if args.check {
                 match &input {
                     Input::Stdin => Target::None,
-                    Input::File(p) => Target::File(p.clone()),
+                    Input::File(p) | Input::Unreadable { path: p, .. } => Target::File(p.clone()),
                 }
             } else if several {
                 bail!("several programs need -o DIRECTORY, --in-place, --check or --diff");
@@ -622,14 +645,16 @@ fn mirrored(out: &Path, root: &Path, input: &Input) -> anyhow::Result<PathBuf> {
     Ok(out.join(relative))
 }
 
-/// Writes the file `path` with `write` through a temporary file in the same directory and a rename. A device
+/// Writes the file `path` with `write` through a temporary file in the same directory, synced to disk and
+/// renamed over `path` (`tempfile`'s persist): a reader sees the old file or the new one, never half of
+/// one. A file that existed keeps its permissions and, where the process may give it, its owner. A device
 /// or pipe (`/dev/null`, a FIFO) is written directly, never replaced; a symbolic link keeps pointing where
-/// it did, and its target is replaced.
+/// it did, and its target is replaced. The temporary file is removed when anything fails, and on an
+/// interrupt or termination signal ([`super::signals`]).
 pub(super) fn write_atomic(
     path: &Path,
     write: impl Fn(&mut std::fs::File) -> io::Result<()>,
 ) -> anyhow::Result<()> {
-    let create = |p: &Path| std::fs::File::create(p).and_then(|mut f| write(&mut f));
     let resolved;
     let path = match std::fs::symlink_metadata(path) {
         Ok(m) if m.file_type().is_symlink() => {
@@ -639,8 +664,16 @@ pub(super) fn write_atomic(
         }
         _ => path,
     };
-    if std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
-        return create(path).with_context(|| format!("cannot write {}", path.display()));
+    let existing = std::fs::metadata(path).ok();
+    if existing
+        .as_ref()
+        .is_some_and(|m| !m.is_file() && !m.is_dir())
+    {
+        return std::fs::OpenOptions::new()
+            .write(true)
+            .open(path)
+            .and_then(|mut f| write(&mut f))
+            .with_context(|| format!("cannot write {}", path.display()));
     }
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
@@ -648,16 +681,62 @@ pub(super) fn write_atomic(
     };
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let name = path.file_name().context("output without a file name")?;
-    let tmp = dir.join(format!(
-        ".{}.driftloop-{}.tmp",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    let written = create(&tmp).and_then(|()| std::fs::rename(&tmp, path));
-    if written.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
+    let written = (|| -> io::Result<()> {
+        let mut tmp = tempfile::Builder::new()
+            .prefix(&format!(".{}.", name.to_string_lossy()))
+            .suffix(".driftloop.tmp")
+            .tempfile_in(&dir)?;
+        let _registered = super::signals::remove_on_signal(tmp.path());
+        write(tmp.as_file_mut())?;
+        keep_mode_and_owner(tmp.as_file(), existing.as_ref())?;
+        tmp.as_file().sync_all()?;
+        tmp.persist(path).map_err(|e| e.error)?;
+        // The rename itself is durable once the directory is synced; not every system can sync one.
+        let _ = std::fs::File::open(&dir).and_then(|d| d.sync_all());
+        Ok(())
+    })();
     written.with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// Gives the new file the permissions of the one it replaces (a new file: read-write as the umask allows,
+/// like any file the process creates) and, where allowed, its owner and group.
+fn keep_mode_and_owner(
+    file: &std::fs::File,
+    existing: Option<&std::fs::Metadata>,
+) -> io::Result<()> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::{MetadataExt, PermissionsExt};
+        match existing {
+            Some(meta) => {
+                file.set_permissions(meta.permissions())?;
+                // Only a privileged process may give a file away; others keep it as their own.
+                let _ = std::os::unix::fs::fchown(file, Some(meta.uid()), Some(meta.gid()));
+            }
+            None => {
+                let umask = current_umask();
+                file.set_permissions(std::fs::Permissions::from_mode(0o666 & !umask))?;
+            }
+        }
+    }
+    #[cfg(not(unix))]
+    if let Some(meta) = existing {
+        file.set_permissions(meta.permissions())?;
+    }
+    Ok(())
+}
+
+/// The process's umask, read from /proc where there is one (setting it to read it races with threads).
+#[cfg(unix)]
+fn current_umask() -> u32 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find_map(|l| l.strip_prefix("Umask:"))
+                .and_then(|v| u32::from_str_radix(v.trim(), 8).ok())
+        })
+        .unwrap_or(0o022)
 }
 
 /// A unified diff with the inserted lines; bytes that are not UTF-8 are shown as the replacement character.

@@ -12,9 +12,10 @@ impl FromStr for Minutes {
 
     fn from_str(s: &str) -> Result<Minutes, String> {
         let text = s.trim();
+        // The unit is the trailing run of letters, so an exponent (`1e6`, `2.5e3min`) stays in the number.
         let split = text
-            .find(|c: char| c.is_ascii_alphabetic())
-            .unwrap_or(text.len());
+            .trim_end_matches(|c: char| c.is_ascii_alphabetic())
+            .len();
         let (number, unit) = text.split_at(split);
         let per_unit = match unit.trim().to_ascii_lowercase().as_str() {
             "" | "min" | "m" => 1.0,
@@ -57,5 +58,8 @@ mod tests {
         );
         assert!(m("h").unwrap_err().contains("is not a time"));
         assert!(m("inf").is_err());
+        assert_eq!(m("1e3"), Ok(1000.0));
+        assert_eq!(m("1.5e2min"), Ok(150.0));
+        assert_eq!(m("2e1 h"), Ok(1200.0));
     }
 }

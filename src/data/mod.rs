@@ -89,6 +89,23 @@ pub fn measured(values: &[f64]) -> Vec<bool> {
     values.iter().map(|v| !v.is_nan()).collect()
 }
 
+/// Most rows driftloop makes for one series (a schedule sampled by `predict --step`, a simulated log):
+/// ten million, some 80 MB a column. Asking for more is refused with this limit named, rather than
+/// allocating without bound.
+pub const MOST_ROWS: f64 = 1e7;
+
+/// Refuses a series of `rows` rows beyond [`MOST_ROWS`]; `how` says what asked for it and how to ask for
+/// fewer.
+pub fn check_rows(rows: f64, how: &str) -> Result<(), String> {
+    if rows.is_finite() && rows <= MOST_ROWS {
+        Ok(())
+    } else {
+        Err(format!(
+            "{how} makes {rows:.3e} rows, more than the {MOST_ROWS:.0} driftloop makes for one series"
+        ))
+    }
+}
+
 /// Name of the spindle speed column.
 pub const SPINDLE: &str = "spindle_rpm";
 

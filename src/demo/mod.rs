@@ -180,6 +180,11 @@ pub fn run_demo(settings: &Settings, dir: &Path) -> anyhow::Result<Outcome> {
     let mut profile = Profile::default_profile();
     if let Some(t) = settings.tolerance_um {
         profile.limits.tolerance_um = t;
+        // The same checks a profile file's tolerance gets.
+        profile
+            .validate()
+            .and_then(|()| profile.validate_nc_values())
+            .map_err(|e| anyhow!("--tolerance {t}: {e}"))?;
     }
     // The ambient sensor is logged and, once a model reads it, predicted in NC.
     profile
@@ -509,6 +514,13 @@ fn effect_lines(d: &Diagnosis) -> Vec<String> {
 }
 
 impl Outcome {
+    /// Whether the run after diagnose machined the whole part, without an alarm, within [`TARGET_UM`].
+    pub fn target_met(&self) -> bool {
+        self.stages.last().is_some_and(|st| {
+            st.alarms == 0 && st.end.starts_with("ProgramEnd") && st.max_error_um <= TARGET_UM
+        })
+    }
+
     /// The before/after table and what diagnose found.
     pub fn table(&self) -> String {
         let mut s = String::new();
@@ -586,7 +598,18 @@ production program (a row at every gate, a reading where it measured), then its 
         }
         s.push_str(&self.two_axes.table());
         let last = self.stages.last().map_or(f64::NAN, |st| st.max_error_um);
-        if last <= TARGET_UM {
+        let stopped = self
+            .stages
+            .last()
+            .filter(|st| st.alarms > 0 || !st.end.starts_with("ProgramEnd"));
+        if let Some(st) = stopped {
+            // A run an alarm stopped machined only part of the surface: its error says nothing of the rest.
+            let _ = writeln!(
+                s,
+                "\ntarget NOT met: the run after diagnose stopped ({} alarm(s), {}); its max machined error {last:.2} µm covers only what was cut before",
+                st.alarms, st.end
+            );
+        } else if self.target_met() {
             let _ = writeln!(
                 s,
                 "\ntarget met: max machined error {last:.2} µm ≤ {TARGET_UM} µm after diagnose"

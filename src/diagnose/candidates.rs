@@ -22,6 +22,8 @@ const TAU_POINTS: usize = 8;
 const RATIOS: [f64; 6] = [0.3, 0.5, 0.7, 1.5, 2.0, 3.0];
 /// Step times scanned across the fit window.
 const STEP_POINTS: usize = 48;
+/// Most step times one scan around the grid's best tries (see [`screen`]).
+const FINE_STEP_POINTS: usize = 512;
 
 /// An effect not yet in the model, with a θ to start from and its screening score.
 #[derive(Debug, Clone)]
@@ -187,18 +189,36 @@ pub fn screen(
     let grid = theta_grid(ctx, cand.kind);
     let mut best = best_of(ctx, current, proj, resid, cand, &grid)?;
     if cand.kind == Kind::Step {
+        // The step is placed at a row's time near the grid's best: every row time around it when there
+        // are at most FINE_STEP_POINTS, else that many spread over them and again between the neighbours
+        // of the best, until the rows are few enough to try each. A scan of every row near the grid's
+        // best would cost rows² (a 400 000-row log: 16 000 scans of all rows).
+        let mut times = ctx.fit_rows(&ctx.ds.time_min);
+        times.sort_by(f64::total_cmp);
+        times.dedup();
         let at = best.effect.theta[0];
         let half = ctx.span / STEP_POINTS as f64;
-        let fine: Vec<Vec<f64>> = ctx
-            .fit_rows(&ctx.ds.time_min)
-            .into_iter()
-            .filter(|t| (t - at).abs() <= half)
-            .map(|t| vec![t])
-            .collect();
-        if let Some(b) = best_of(ctx, current, proj, resid, cand, &fine) {
-            if b.delta_bic < best.delta_bic {
+        let (mut lo, mut hi) = (at - half, at + half);
+        loop {
+            let window: Vec<f64> = times
+                .iter()
+                .copied()
+                .filter(|t| (lo..=hi).contains(t))
+                .collect();
+            let stride = window.len().div_ceil(FINE_STEP_POINTS).max(1);
+            let fine: Vec<Vec<f64>> = window.iter().step_by(stride).map(|t| vec![*t]).collect();
+            if let Some(b) = best_of(ctx, current, proj, resid, cand, &fine)
+                && b.delta_bic < best.delta_bic
+            {
                 best = b;
             }
+            if stride == 1 {
+                break;
+            }
+            let at = best.effect.theta[0];
+            let k = fine.partition_point(|t| t[0] < at);
+            lo = fine.get(k.wrapping_sub(1)).map_or(lo, |t| t[0]);
+            hi = fine.get(k + 1).map_or(hi, |t| t[0]);
         }
     }
     Some(best)

@@ -39,6 +39,7 @@ pub mod scenario;
 pub mod stats;
 mod text;
 
+use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::data::{ColumnKind, Dataset};
@@ -337,8 +338,10 @@ fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Optio
     let overlaps = |s: &candidates::Screened| {
         matches!(s.effect.kind, Kind::ExtraMode | Kind::CoolingAsymmetry)
     };
+    // Candidates are screened, and the best refitted, on all cores: each is independent of the others,
+    // and the results are taken in candidate order, so the outcome is the same on any number of cores.
     let mut screened: Vec<_> = candidates::candidates(ctx, current)
-        .iter()
+        .par_iter()
         .filter_map(|c| {
             screen(ctx, current, &proj, &resid, c).or_else(|| {
                 (c.kind == Kind::ExtraMode).then(|| candidates::Screened {
@@ -361,10 +364,16 @@ fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Optio
     let mut folds_without: Option<Vec<candidates::Fold>> = None;
     let rss0 = current.rss;
     let mut best: Option<(Fitted, Added)> = None;
-    for s in refits {
-        let mut joint = current.joint.clone();
-        joint.effects.push(s.effect.clone());
-        let Some(fitted) = joint.refit(ctx) else {
+    let refitted: Vec<Option<Fitted>> = refits
+        .par_iter()
+        .map(|s| {
+            let mut joint = current.joint.clone();
+            joint.effects.push(s.effect.clone());
+            joint.refit(ctx)
+        })
+        .collect();
+    for (s, fitted) in refits.into_iter().zip(refitted) {
+        let Some(fitted) = fitted else {
             continue;
         };
         let r1 = ctx.fit_rows(&residual(ctx, &fitted.prediction));

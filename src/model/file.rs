@@ -5,6 +5,16 @@ use std::path::Path;
 
 use super::{DriftModel, SCHEMA};
 
+/// Shortest time constant a model may carry (min): 60 ms. A shorter one is no thermal mode, and written
+/// into a program as `EXP(-dt/τ)` it would round to a division by zero.
+pub const TAU_SHORTEST_MIN: f64 = 1e-3;
+/// Longest time constant (min): about 19 years.
+pub const TAU_LONGEST_MIN: f64 = 1e7;
+/// Fastest characterised spindle speed (rpm).
+pub const FASTEST_RPM: f64 = 1e6;
+/// Largest drift figure (gain, offset, amplitude) a model may carry (µm): one metre.
+pub const LARGEST_UM: f64 = 1e6;
+
 /// Why a model file could not be read or written.
 #[derive(Debug, thiserror::Error)]
 pub enum ModelFileError {
@@ -13,16 +23,18 @@ pub enum ModelFileError {
         file: String,
         source: std::io::Error,
     },
-    #[error("{file}: not a valid model file: {message}")]
-    Syntax { file: String, message: String },
+    /// `at`: `file:line:column` where the TOML could not be read.
+    #[error("{at}: not a valid model file: {message}")]
+    Syntax { at: String, message: String },
     #[error("{file}: no `schema` number: not a driftloop model file")]
     NoSchema { file: String },
     #[error(
         "{file}: model file schema {found} is not supported: this driftloop reads schema {SCHEMA} only"
     )]
     Schema { file: String, found: i64 },
-    #[error("{file}: {message}")]
-    Invalid { file: String, message: String },
+    /// `message`: `file:line:column: what is wrong` (`file: …` for a key the file does not hold).
+    #[error("{message}")]
+    Invalid { message: String },
 }
 
 impl DriftModel {
@@ -31,11 +43,12 @@ impl DriftModel {
         toml::to_string(self).expect("a model always serialises to TOML")
     }
 
-    /// Parses a model file's text; `file` names it in errors.
+    /// Parses a model file's text; `file` names it in errors, which point at the line and column of the
+    /// value they are about.
     pub fn from_toml(text: &str, file: &str) -> Result<DriftModel, ModelFileError> {
-        let syntax = |e: toml::de::Error| ModelFileError::Syntax {
-            file: file.to_string(),
-            message: e.message().to_string(),
+        let syntax = |e: toml::de::Error| {
+            let (at, message) = crate::toml_span::syntax_error(file, text, &e);
+            ModelFileError::Syntax { at, message }
         };
         let table: toml::Table = toml::from_str(text).map_err(syntax)?;
         match table.get("schema").and_then(toml::Value::as_integer) {
@@ -56,8 +69,7 @@ impl DriftModel {
         model
             .validate()
             .map_err(|message| ModelFileError::Invalid {
-                file: file.to_string(),
-                message,
+                message: crate::toml_span::validation_error(file, text, &message),
             })?;
         Ok(model)
     }
@@ -72,31 +84,37 @@ impl DriftModel {
         DriftModel::from_toml(&text, &file)
     }
 
-    /// Checks what serde cannot: a usable grid, gains per grid speed, positive finite time constants.
+    /// Checks what serde cannot: a usable grid, gains per grid speed, time constants and figures in the
+    /// range a machine has ([`TAU_SHORTEST_MIN`], [`LARGEST_UM`], …), names that fit in an NC program's
+    /// texts. Each message starts with the key path it is about (`spindle.modes[1].tau_min`).
     pub fn validate(&self) -> Result<(), String> {
+        name("channel", &self.channel)?;
         let sp = &self.spindle;
-        if !sp.modes.is_empty() && self.speed_grid().is_none() {
+        if !sp.modes.is_empty() && (sp.grid_rpm.is_empty() || self.speed_grid().is_none()) {
             return Err(format!(
                 "spindle.grid_rpm {:?} must be ascending speeds above 0",
                 sp.grid_rpm
             ));
         }
+        for (i, rpm) in sp.grid_rpm.iter().enumerate() {
+            if *rpm > FASTEST_RPM {
+                return Err(format!(
+                    "spindle.grid_rpm[{i}] {rpm:?} rpm is faster than {FASTEST_RPM} rpm"
+                ));
+            }
+        }
         for (i, m) in sp.modes.iter().enumerate() {
+            let key = format!("spindle.modes[{i}]");
             if m.gain_um.len() != sp.grid_rpm.len() {
                 return Err(format!(
-                    "mode {} has {} gains for {} grid speeds",
-                    i + 1,
+                    "{key}.gain_um has {} gains for {} grid speeds",
                     m.gain_um.len(),
                     sp.grid_rpm.len()
                 ));
             }
-            if !(m.tau_min.is_finite() && m.tau_min > 0.0)
-                || m.gain_um.iter().any(|g| !g.is_finite())
-            {
-                return Err(format!(
-                    "mode {} needs a positive τ and finite gains",
-                    i + 1
-                ));
+            tau(&format!("{key}.tau_min"), m.tau_min)?;
+            for (j, g) in m.gain_um.iter().enumerate() {
+                figure(&format!("{key}.gain_um[{j}]"), *g)?;
             }
         }
         if sp.extrapolation == super::Extrapolation::PowerLaw {
@@ -105,25 +123,85 @@ impl DriftModel {
                 .is_some_and(|t| sp.grid_rpm.iter().any(|n| (n - t).abs() <= 1e-9 * t));
             let p_ok = sp.modes.iter().all(|m| {
                 m.power_law_exponent
-                    .is_some_and(|p| p.is_finite() && p > 0.0)
+                    .is_some_and(|p| p.is_finite() && p > 0.0 && p <= 10.0)
             });
             if !top_ok || !p_ok {
                 return Err(
-                    "spindle.extrapolation = \"power-law\" needs characterised_top_rpm (a grid speed) and a positive power_law_exponent in every mode".into(),
+                    "spindle.extrapolation = \"power-law\" needs characterised_top_rpm (a grid speed) and a power_law_exponent in (0, 10] in every mode".into(),
                 );
             }
         }
-        for i in &self.inputs {
-            if !(i.tau_min.is_finite() && i.tau_min > 0.0 && i.gain_um_per_unit.is_finite()) {
-                return Err(format!(
-                    "input `{}` needs a positive τ and a finite gain",
-                    i.signal
-                ));
+        for (i, input) in self.inputs.iter().enumerate() {
+            let key = format!("inputs[{i}]");
+            name(&format!("{key}.signal"), &input.signal)?;
+            // Earlier `sensors -o` wrote an input acting at once as one with τ far below any step: such
+            // files still predict; only the NC program refuses them (see `validate_for_nc`).
+            if !(input.tau_min > 0.0 && input.tau_min <= TAU_LONGEST_MIN) {
+                tau(&format!("{key}.tau_min"), input.tau_min)?;
+            }
+            figure(&format!("{key}.gain_um_per_unit"), input.gain_um_per_unit)?;
+        }
+        for (i, e) in self.effects.iter().enumerate() {
+            let key = format!("effects[{i}]");
+            for (field, text) in [("signal", &e.signal), ("position", &e.position)] {
+                if let Some(text) = text {
+                    name(&format!("{key}.{field}"), text)?;
+                }
+            }
+            for (param, v) in &e.params {
+                let key = format!("{key}.params.{param}");
+                if param.ends_with("tau_min") {
+                    tau(&key, *v)?;
+                } else {
+                    figure(&key, *v)?;
+                }
             }
         }
-        if !self.offset_um.is_finite() {
-            return Err("offset_um must be finite".into());
+        figure("offset_um", self.offset_um)
+    }
+}
+
+impl DriftModel {
+    /// [`DriftModel::validate`], and what an NC program needs besides: every time constant it divides by
+    /// at least [`TAU_SHORTEST_MIN`] (written with six decimals, a shorter one would be `EXP(-dt/0)`).
+    pub fn validate_for_nc(&self) -> Result<(), String> {
+        self.validate()?;
+        for (i, input) in self.inputs.iter().enumerate() {
+            tau(&format!("inputs[{i}].tau_min"), input.tau_min).map_err(|e| {
+                format!("{e}; a model written by an earlier `driftloop sensors -o` is written again by the current one")
+            })?;
         }
         Ok(())
     }
+}
+
+/// A column name the NC program writes into its log header and comments: letters, digits, `_ . -`.
+fn name(key: &str, text: &str) -> Result<(), String> {
+    let plain = |c: char| c.is_ascii_alphanumeric() || matches!(c, '_' | '.' | '-');
+    if text.is_empty() || !text.chars().all(plain) {
+        return Err(format!(
+            "{key} `{}` must be a column name of letters, digits, `_`, `.` or `-`",
+            text.escape_default()
+        ));
+    }
+    Ok(())
+}
+
+fn tau(key: &str, v: f64) -> Result<(), String> {
+    if !(TAU_SHORTEST_MIN..=TAU_LONGEST_MIN).contains(&v) {
+        return Err(format!(
+            "{key} {v:?} must be a time constant from {TAU_SHORTEST_MIN} to {TAU_LONGEST_MIN} min"
+        ));
+    }
+    Ok(())
+}
+
+/// A finite figure within ±[`LARGEST_UM`] (µm, µm per unit, µm per hour, …).
+fn figure(key: &str, v: f64) -> Result<(), String> {
+    if !(v.is_finite() && v.abs() <= LARGEST_UM) {
+        return Err(format!(
+            "{key} {v:?} must be a finite number within ±{LARGEST_UM}"
+        ));
+    }
+    Ok(())
 }

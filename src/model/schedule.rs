@@ -41,6 +41,12 @@ impl FromStr for Schedule {
                 if !rpm.is_finite() {
                     return Err(bad("speed is not finite"));
                 }
+                if rpm.abs() > super::file::FASTEST_RPM {
+                    return Err(bad(&format!(
+                        "speed is faster than {} rpm",
+                        super::file::FASTEST_RPM
+                    )));
+                }
                 if !(minutes.is_finite() && minutes > 0.0) {
                     return Err(bad("duration must be a positive number of minutes"));
                 }
@@ -60,6 +66,15 @@ impl Schedule {
     /// Highest |speed| in the schedule.
     pub fn max_rpm(&self) -> f64 {
         self.segments.iter().fold(0.0, |a, s| a.max(s.rpm.abs()))
+    }
+
+    /// How many rows [`Schedule::to_dataset`] makes at `step_min` (as a float: it may be beyond any count).
+    pub fn rows(&self, step_min: f64) -> f64 {
+        self.segments
+            .iter()
+            .map(|s| (s.minutes / step_min).ceil().max(1.0))
+            .sum::<f64>()
+            + 1.0
     }
 
     /// The schedule as a one-run dataset with a `spindle_rpm` column: a row every `step_min` minutes and at

@@ -78,6 +78,10 @@ pub enum TransformError {
     LongBlock(String),
     #[error("internal error: an inserted block does not parse: {0}")]
     Emit(#[from] EditError),
+    #[error(
+        "an inserted block would carry the number {0}, which no NC program should (finite, at most ±999999999): check the model, the profile and the program's own values (speeds, feeds, times)"
+    )]
+    Unwritable(String),
 }
 
 impl TransformError {
@@ -97,6 +101,7 @@ impl TransformError {
             TransformError::Other(_) => "profile or registers",
             TransformError::LongBlock(_) => "block too long",
             TransformError::Emit(_) => "internal error",
+            TransformError::Unwritable(_) => "number out of range",
         }
     }
 }
@@ -407,6 +412,9 @@ fn prepare_with<'p>(
     let mut insert = |editor: &mut Editor, block: usize, text: String| {
         if let Some(long) = text.lines().find(|l| l.len() > MAX_BLOCK) {
             return Err(TransformError::LongBlock(long.to_string()));
+        }
+        if let Some(value) = nc::find_unwritable(&text) {
+            return Err(TransformError::Unwritable(value.to_string()));
         }
         inserted += text.lines().count();
         Ok(editor.insert_before(block, &text)?)

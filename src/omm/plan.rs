@@ -229,7 +229,7 @@ impl Predictor {
                 }),
             }
         }
-        model.validate()?;
+        model.validate_for_nc()?;
         let grid = model
             .speed_grid()
             .ok_or_else(|| "the model has no spindle speed grid".to_string())?;

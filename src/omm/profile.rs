@@ -310,10 +310,12 @@ pub enum ProfileError {
         file: String,
         source: std::io::Error,
     },
-    #[error("{file}: not a valid machine profile: {message}")]
-    Syntax { file: String, message: String },
-    #[error("{file}: {message}")]
-    Invalid { file: String, message: String },
+    /// `at`: `file:line:column` where the TOML could not be read.
+    #[error("{at}: not a valid machine profile: {message}")]
+    Syntax { at: String, message: String },
+    /// `message`: `file:line:column: what is wrong` (`file: …` for a key the file does not hold).
+    #[error("{message}")]
+    Invalid { message: String },
 }
 
 impl Profile {
@@ -323,16 +325,18 @@ impl Profile {
             .expect("the shipped profile is valid (a test checks it)")
     }
 
+    /// Reads and validates a profile; `file` names it in errors, which point at the line and column of the
+    /// value they are about.
     pub fn from_toml(text: &str, file: &str) -> Result<Profile, ProfileError> {
-        let profile: Profile = toml::from_str(text).map_err(|e| ProfileError::Syntax {
-            file: file.to_string(),
-            message: e.to_string().trim_end().to_string(),
+        let profile: Profile = toml::from_str(text).map_err(|e| {
+            let (at, message) = crate::toml_span::syntax_error(file, text, &e);
+            ProfileError::Syntax { at, message }
         })?;
         profile
             .validate()
+            .and_then(|()| profile.validate_nc_values())
             .map_err(|message| ProfileError::Invalid {
-                file: file.to_string(),
-                message,
+                message: crate::toml_span::validation_error(file, text, &message),
             })?;
         Ok(profile)
     }
@@ -529,9 +533,15 @@ impl Profile {
             return Err("probe.result must name the variable the cycle writes".into());
         }
         // The result is read in an assignment, so it is checked as one.
-        for text in [self.cycle_call(), format!("R1={}", self.probe.result)] {
+        for (key, text) in [
+            ("probe.cycle", self.cycle_call()),
+            ("probe.result", format!("R1={}", self.probe.result)),
+        ] {
             if let Some(d) = crate::syntax::line_syntax_errors(text.as_bytes()).first() {
-                return Err(format!("`{text}` is not a valid NC block: {}", d.message));
+                return Err(format!(
+                    "{key}: `{text}` is not a valid NC block: {}",
+                    d.message
+                ));
             }
         }
         for (name, n) in &self.log.inputs {
@@ -545,6 +555,132 @@ impl Profile {
         for p in &self.passes.lines {
             if *p == 0 {
                 return Err("passes.lines are 1-based line numbers; 0 is not a line".into());
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Highest R-parameter number a profile may give driftloop (the control's MD28050 decides how many exist).
+const LAST_R: u32 = 9999;
+/// Largest drift-like figure in a profile (µm): one metre.
+const LARGEST_UM: f64 = 1e6;
+/// Longest time in a profile (s): a day.
+const LONGEST_S: f64 = 86_400.0;
+
+impl Profile {
+    /// What reaches the NC program and has to make sense there: texts that cannot break a block or inject
+    /// one (printable ASCII only: no line break, no quote inside a quoted name), numbers in the range a
+    /// machine works in, and an offset frame that is the selected offset's. Messages start with the key.
+    pub fn validate_nc_values(&self) -> Result<(), String> {
+        let texts = [
+            ("name", &self.name, ""),
+            ("probe.tool", &self.probe.tool, "\""),
+            ("probe.cycle", &self.probe.cycle, ""),
+            ("probe.result", &self.probe.result, "\";"),
+            ("offset.select", &self.offset.select, " \";"),
+            ("registers.timer", &self.registers.timer, "\";"),
+            ("registers.log_file", &self.registers.log_file, "\";"),
+            ("passes.marker", &self.passes.marker, ""),
+        ];
+        let dressing = self
+            .passes
+            .dressing
+            .iter()
+            .map(|d| ("passes.dressing", d, "\";"));
+        for (key, text, refused) in texts.into_iter().chain(dressing) {
+            if let Some(c) = text
+                .chars()
+                .find(|c| !(' '..='~').contains(c) || refused.contains(*c))
+            {
+                return Err(format!(
+                    "{key} `{}` holds {c:?}: NC text here must be printable ASCII{}",
+                    text.escape_default(),
+                    if refused.is_empty() {
+                        String::new()
+                    } else {
+                        format!(" without {}", refused.escape_default())
+                    }
+                ));
+            }
+        }
+        let l = &self.limits;
+        for (key, v) in [
+            ("limits.tolerance_um", l.tolerance_um),
+            ("limits.plausibility_um", l.plausibility_um),
+            ("limits.agree_band_um", l.agree_band_um),
+        ] {
+            if v > LARGEST_UM {
+                return Err(format!(
+                    "{key} {v:?} is more than {LARGEST_UM} µm (one metre)"
+                ));
+            }
+        }
+        for (key, v) in [
+            ("probe.measure_s", self.probe.measure_s),
+            ("timeline.tool_change_s", self.timeline.tool_change_s),
+        ] {
+            if v > LONGEST_S {
+                return Err(format!("{key} {v:?} is more than {LONGEST_S} s (a day)"));
+            }
+        }
+        if self.timeline.rapid_mm_per_min > 1e6 {
+            return Err(format!(
+                "timeline.rapid_mm_per_min {} is more than 1000000 mm/min",
+                self.timeline.rapid_mm_per_min
+            ));
+        }
+        if l.agree_count > 100 || l.max_attempts > 1000 {
+            return Err(format!(
+                "limits.max_attempts {} (agree_count {}): at most 1000 probings for at most 100 agreeing values",
+                l.max_attempts, l.agree_count
+            ));
+        }
+        let r = &self.registers;
+        if r.r_last > LAST_R {
+            return Err(format!(
+                "registers.r_last R{} is beyond R{LAST_R}",
+                r.r_last
+            ));
+        }
+        if !(1..=32000).contains(&self.probe.tool_offset) {
+            return Err(format!(
+                "probe.tool_offset D{} is not a tool offset number 1…32000",
+                self.probe.tool_offset
+            ));
+        }
+        let p = &self.position;
+        let start = match p.retract_axis {
+            Axis::X => p.x,
+            Axis::Y => p.y,
+            Axis::Z => p.z,
+        };
+        if p.frame == MeasureFrame::Work
+            && self.probe.kind != ProbeKind::Gauge
+            && p.clearance <= start
+        {
+            return Err(format!(
+                "position.clearance {} is not above the probing start point ({}{start}): a gate travels at the clearance height and descends to the start point",
+                p.clearance,
+                p.retract_axis.name()
+            ));
+        }
+        let g = self.offset_g().unwrap_or(0);
+        let frame_of_select = match g {
+            54..=57 => g - 53,
+            _ => g.saturating_sub(500),
+        };
+        if self.offset.method == OffsetMethod::Frame && self.offset.frame != frame_of_select {
+            return Err(format!(
+                "offset.frame {} is not the frame of {} ($P_UIFR[{frame_of_select}]): the correction would go into another work offset than the one selected",
+                self.offset.frame, self.offset.select
+            ));
+        }
+        for (name, n) in &self.log.inputs {
+            if *n > 999 {
+                return Err(format!(
+                    "log.inputs: `{name} = {n}` is beyond the analog inputs $A_INA[1…999]"
+                ));
             }
         }
         Ok(())

@@ -105,6 +105,12 @@ impl FromStr for Grid {
             ));
         }
         let intervals = (grid.end_mm - grid.start_mm) / grid.step_mm;
+        // Checked as a float first: a count beyond any integer (1e308 mm wide) must not overflow.
+        if intervals.is_nan() || intervals >= MAX_GRID_POINTS as f64 {
+            return Err(format!(
+                "{intervals:.3e} grid intervals is more than the {MAX_GRID_POINTS} allowed"
+            ));
+        }
         if (intervals - intervals.round()).abs() > 1e-6 * intervals.max(1.0) {
             return Err(format!(
                 "END − START = {} is not a whole number of STEP = {}",

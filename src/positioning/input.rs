@@ -143,10 +143,16 @@ pub fn read_samples<R: Read>(
                 Some((index + 1, names[index].clone())),
             )
         };
+        // A figure beyond a metre (a million mm or µm) is a unit or typing error: refused, not tabulated.
         let number = |index: usize, what: &str| -> Result<f64, InputError> {
             let (text, column) = field(index);
             match text.parse::<f64>() {
-                Ok(value) if value.is_finite() => Ok(value),
+                Ok(value) if value.abs() <= 1e6 => Ok(value),
+                Ok(value) if value.is_finite() => Err(error(
+                    line,
+                    column,
+                    format!("expected {what} within ±1e6, found `{text}`"),
+                )),
                 _ => Err(error(
                     line,
                     column,

@@ -34,6 +34,9 @@ use crate::model::{
     DataProvenance, DriftModel, Extrapolation, Interpolation, SCHEMA, SpindleModes,
 };
 
+/// Most temperature columns [`analyse`] takes: a machine carries tens of sensors, a test rig a few hundred.
+pub const MOST_SENSORS: usize = 500;
+
 #[derive(Debug, Clone)]
 pub struct Options {
     pub channel: String,
@@ -70,6 +73,10 @@ pub enum SensorError {
     NoChannel(String),
     #[error("the data has no temperature columns (`*_c`)")]
     NoSensors,
+    #[error(
+        "the data has {0} temperature columns (`*_c`), more than the {MOST_SENSORS} the sensor selection takes (its clustering costs the cube of their number, its correlation matrix the square): keep the candidate sensors in the file"
+    )]
+    TooManySensors(usize),
     #[error("--threshold and --min-correlation must lie in [0, 1]")]
     BadThreshold,
     #[error("{0}")]
@@ -207,6 +214,9 @@ impl Inputs<'_> {
             .iter()
             .filter(|c| c.kind == ColumnKind::Temperature)
             .collect();
+        if sensors.len() > MOST_SENSORS {
+            return Err(SensorError::TooManySensors(sensors.len()));
+        }
         let names: Vec<String> = sensors.iter().map(|c| c.name.clone()).collect();
         let raw = sensors.iter().map(|c| c.values.as_slice()).collect();
         let x = sensors.iter().map(|c| regressors(ds, &c.values)).collect();

@@ -600,11 +600,10 @@ mod tests {
         let mut dirs = vec![root.join("fixtures/nc"), root.join("fixtures/omm")];
         dirs.extend(crate::shared_data::path("corpus"));
         let files: Vec<std::path::PathBuf> = crate::walk::expand(&dirs)
-            .unwrap()
             .into_iter()
             .filter_map(|input| match input {
                 crate::walk::Input::File(f) => Some(f),
-                crate::walk::Input::Stdin => None,
+                _ => None,
             })
             .collect();
         let profile = Profile::default_profile();

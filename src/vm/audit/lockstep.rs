@@ -633,7 +633,7 @@ fn is_continuous(path: u32) -> bool {
 }
 
 pub(super) fn num(v: f64) -> String {
-    crate::omm::nc::number(v)
+    crate::omm::nc::shown(v)
 }
 
 fn describe_key(key: &Key) -> String {
