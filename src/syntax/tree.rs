@@ -207,6 +207,26 @@ impl Node {
         Some((address, number))
     }
 
+    /// The expressions of an argument list `( a, , c )`: `None` for an empty argument. The list's own direct
+    /// punctuation is its parentheses (first and last) and the commas between; an argument is never a bare
+    /// `Punct`.
+    pub fn arguments(&self) -> Vec<Option<&Node>> {
+        let parts: Vec<&Node> = self.significant().collect();
+        let inner = parts.get(1..parts.len().saturating_sub(1)).unwrap_or(&[]);
+        if inner.is_empty() {
+            return Vec::new();
+        }
+        let mut out = vec![None];
+        for &c in inner {
+            match (c.kind, out.last_mut()) {
+                (NodeKind::Punct, _) => out.push(None),
+                (_, Some(slot)) => *slot = Some(c),
+                (_, None) => {}
+            }
+        }
+        out
+    }
+
     /// Indented text dump, one node per line, leaves with their bytes (escaped).
     pub fn dump(&self, src: &[u8], depth: usize, out: &mut String) {
         use std::fmt::Write;

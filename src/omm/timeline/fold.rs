@@ -1,22 +1,31 @@
 //! Folding the blocks, in order, into a [`Timeline`]: time, modal state, passes, gate sites, loops and
-//! the subprograms calls run.
+//! the subprograms calls run. The blocks come as the chunks [`super::read`] made of them, with the runs
+//! of moves [`super::moves`] timed in the parser.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::rc::Rc;
 use std::sync::Arc;
 
+use crate::omm::profile::{Profile, ToolChange};
 use crate::syntax::BlockKind;
 
+use super::modal::{Modal, field, frame, unknown};
 use super::moves::RunRef;
-use super::read::{Chunk, Move, Scan, head};
-use super::{Folders, Modal, Pass, Profile, Site, SiteKind, Timeline, unknown};
-use crate::omm::loops::{Bound, Count, Loop, LoopKind, for_runs};
+use super::read::{Bound, Chunk, Count, Move, Scan, frame_op, head};
+use super::record::{Loop, LoopKind, Pass, Site, SiteKind, Timeline};
+use super::timing::{TICKS_PER_MIN, move_length, ticks};
+
+/// What a call runs, as the fold asks for it.
+pub(super) trait Callees {
+    /// The timeline of subprogram `name`, and whether it is in another file (a folder's) rather than in
+    /// this one (an archive's unit); `None` for a subprogram or cycle whose time is not known.
+    fn timeline(&mut self, name: &str) -> Option<(Rc<Timeline>, bool)>;
+}
 
 pub(super) struct Builder<'p> {
     profile: &'p Profile,
-    /// The archive's subprograms that a call may run, with their timelines.
-    subprograms: &'p HashMap<String, Timeline>,
-    /// The subprograms in the profile's folders, timed when first called.
-    folders: &'p mut Folders,
+    /// The timelines of the subprograms calls may run.
+    callees: &'p mut dyn Callees,
     /// A subprogram or cycle ran since the last tool change: the modal state it left (tool, speed, feed,
     /// frame) is not known, so no gate measures, and restores a state, until the next tool change.
     after_call: bool,
@@ -24,7 +33,7 @@ pub(super) struct Builder<'p> {
     /// runs after each block that moves.
     modal_call: Option<(String, String)>,
     /// Names the unit calls (archive subprograms or not), for the order in which an archive's units are timed.
-    pub(super) called: BTreeSet<String>,
+    called: BTreeSet<String>,
     /// A subprogram called at this block changed the spindle speed: the next block gets a speed-change site,
     /// so that the program's prediction takes the new speed there.
     speed_site_after: Option<usize>,
@@ -81,53 +90,6 @@ struct Label {
     state: Modal,
 }
 
-/// The modal fields a gate restores after measuring, as bits.
-mod field {
-    use super::Modal;
-
-    pub const COUNT: usize = 17;
-    const TOOL: usize = 0;
-    const D: usize = 1;
-    const S: usize = 2;
-    const DIRECTION: usize = 3;
-    pub const FEED: usize = 4;
-    pub const MOTION: usize = 5;
-    const ABSOLUTE: usize = 6;
-    pub const Z: usize = 7;
-    const SELECTED: usize = 8;
-    const FEED_MODE: usize = 9;
-    const PLANE: usize = 10;
-    const PATH_MODE: usize = 11;
-    const COOLANT: usize = 12;
-    const COMP: usize = 13;
-    const FRAMES: usize = 14;
-    const UNKNOWN: usize = 15;
-    const OFFSET: usize = 16;
-
-    /// The fields in which two states differ.
-    pub fn differ(a: &Modal, b: &Modal) -> [bool; COUNT] {
-        let mut d = [false; COUNT];
-        d[TOOL] = a.tool != b.tool;
-        d[D] = a.d != b.d;
-        d[S] = a.s != b.s;
-        d[DIRECTION] = a.direction != b.direction;
-        d[FEED] = a.feed != b.feed;
-        d[MOTION] = a.motion != b.motion;
-        d[ABSOLUTE] = a.absolute != b.absolute;
-        d[Z] = a.z != b.z;
-        d[SELECTED] = a.selected != b.selected;
-        d[FEED_MODE] = a.feed_mode != b.feed_mode;
-        d[PLANE] = a.plane != b.plane;
-        d[PATH_MODE] = a.path_mode != b.path_mode;
-        d[COOLANT] = a.coolant != b.coolant;
-        d[COMP] = a.comp != b.comp;
-        d[FRAMES] = a.frames != b.frames;
-        d[UNKNOWN] = a.unknown != b.unknown;
-        d[OFFSET] = a.offset != b.offset;
-        d
-    }
-}
-
 /// A loop whose closing block has not come yet.
 struct OpenLoop {
     kind: LoopKind,
@@ -139,15 +101,10 @@ struct OpenLoop {
 }
 
 impl<'p> Builder<'p> {
-    pub(super) fn new(
-        profile: &'p Profile,
-        subprograms: &'p HashMap<String, Timeline>,
-        folders: &'p mut Folders,
-    ) -> Self {
+    pub(super) fn new(profile: &'p Profile, callees: &'p mut dyn Callees) -> Self {
         Builder {
             profile,
-            subprograms,
-            folders,
+            callees,
             after_call: false,
             modal_call: None,
             called: BTreeSet::new(),
@@ -187,16 +144,17 @@ impl<'p> Builder<'p> {
         }
     }
 
-    /// Folds the blocks of a chunk, in order; `read(blocks)` reads the blocks of a run of timed moves whose
-    /// assumptions the state at its start does not meet.
-    pub(super) fn fold<'m>(
+    /// Folds the blocks of a chunk, in order, with the runs of timed moves that start in it; `read(blocks)`
+    /// reads the blocks of a run whose assumptions the state at its start does not meet.
+    pub(super) fn fold(
         &mut self,
-        chunk: &Chunk<'m>,
-        read: &dyn Fn(std::ops::Range<usize>) -> Chunk<'m>,
+        chunk: &Chunk,
+        runs: &[RunRef<'_>],
+        read: &dyn Fn(std::ops::Range<usize>) -> Chunk,
     ) {
         let mut numbers = chunk.numbers.iter().copied();
         let mut others = chunk.others.iter();
-        let mut runs = chunk.runs.iter();
+        let mut runs = runs.iter();
         let mut covered = chunk.covered.iter();
         let mut i = chunk.first;
         for &h in &chunk.heads {
@@ -208,7 +166,7 @@ impl<'p> Builder<'p> {
                         .next()
                         .expect("a run starts where its first range does");
                     if !self.timed_run(run) {
-                        self.fold(&read(run.blocks()), read);
+                        self.fold(&read(run.blocks()), &[], read);
                     }
                     self.run_end = run.blocks().end;
                 }
@@ -385,8 +343,7 @@ impl<'p> Builder<'p> {
 
     /// What a block's frame commands leave active.
     fn frames(&mut self, ops: u8) {
-        use super::frame;
-        use super::read::frame_op as op;
+        use frame_op as op;
         let f = &mut self.state.frames;
         if ops & op::CLEAR != 0 {
             *f &= !(frame::TRANSLATION | frame::ROTATION);
@@ -416,22 +373,14 @@ impl<'p> Builder<'p> {
         }
         // A subprogram from a folder is in another file: what it leaves untimed is listed at the call (its
         // own line numbers mean nothing in this program).
-        let from_folder;
-        let found = match self.subprograms.get(name) {
-            Some(sub) => Some((sub, false)),
-            None => {
-                from_folder = self.folders.timeline(name, self.profile);
-                from_folder.as_deref().map(|sub| (sub, true))
-            }
-        };
-        match found {
+        match self.callees.timeline(name) {
             Some((sub, elsewhere)) => {
                 self.t
                     .timed_calls
                     .push((i + 1, shown.to_string(), sub.total_min));
                 let runs = repeats.filter(|p| *p >= 1.0).unwrap_or(1.0).floor();
                 if !sub.spindle_words.is_empty() {
-                    self.replay_spindle(i, sub, runs);
+                    self.replay_spindle(i, &sub, runs);
                 }
                 self.add_minutes(runs * sub.total_min);
                 self.t.inexact_blocks += sub.inexact_blocks;
@@ -1107,13 +1056,14 @@ impl<'p> Builder<'p> {
         self.ticks = self.ticks.saturating_add(ticks(minutes));
     }
 
-    pub(super) fn finish(mut self) -> Timeline {
+    /// The timeline, with the names the unit calls.
+    pub(super) fn finish(mut self) -> (Timeline, BTreeSet<String>) {
         let total = self.time();
         self.t.total_min = total;
         self.t.last_cut_min = self.last_cut as f64 / TICKS_PER_MIN;
         // Without M6 in the program the T word changes the tool.
         let mut starts = self.pass_marks;
-        let t_loads = self.profile.probe.tool_change == crate::omm::profile::ToolChange::T;
+        let t_loads = self.profile.probe.tool_change == ToolChange::T;
         if !self.m6_seen && self.profile.passes.tool_change {
             // On a machine that changes tools with M6, a T alone only selects: no change follows it.
             starts.extend(self.tool_marks.into_iter().map(|m| PassMark {
@@ -1172,7 +1122,7 @@ impl<'p> Builder<'p> {
                 _ => site.pass = pass,
             }
         }
-        self.t
+        (self.t, self.called)
     }
 }
 
@@ -1187,69 +1137,6 @@ struct PassMark {
     tool: Option<Arc<str>>,
 }
 
-/// The timeline counts time in whole ticks of 10^-9 min (60 ns), each block's time rounded to a tick: sums
-/// of ticks do not depend on their order, so the parser can add up a run of moves on its own and the
-/// timeline still equals, bit for bit, the one reading every block gives. Rounding moves a block's time by
-/// at most 30 ns; a decimal tick keeps times that are whole in it (0.65 min) the same decimals in reports.
-pub(super) const TICKS_PER_MIN: f64 = 1e9;
-
-/// `minutes` in whole ticks (negative, NaN: none; beyond `u64`: the most there are).
-pub(super) fn ticks(minutes: f64) -> u64 {
-    (minutes * TICKS_PER_MIN + 0.5) as u64
-}
-
-/// `minutes` rounded to the nearest tick: a time derived from the timeline's (plus a measurement's time, say)
-/// reported in the timeline's own steps.
-pub(crate) fn on_tick(minutes: f64) -> f64 {
-    ticks(minutes) as f64 / TICKS_PER_MIN
-}
-
-/// Length of the move from `a` to `b` (an axis never programmed at 0): straight, or along the arc for
-/// G2/G3 (XY plane).
-pub(super) fn move_length(
-    motion: u32,
-    a: [f64; 3],
-    b: [f64; 3],
-    centre: [Option<f64>; 3],
-    radius: Option<f64>,
-) -> f64 {
-    let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-    let straight = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-    if !matches!(motion, 2 | 3) {
-        return straight;
-    }
-    let cw = motion == 2;
-    let (r, sweep) = match (centre[0], centre[1], radius) {
-        (i, j, _) if i.is_some() || j.is_some() => {
-            let c = [a[0] + i.unwrap_or(0.0), a[1] + j.unwrap_or(0.0)];
-            let r = ((a[0] - c[0]).powi(2) + (a[1] - c[1]).powi(2)).sqrt();
-            let a0 = (a[1] - c[1]).atan2(a[0] - c[0]);
-            let a1 = (b[1] - c[1]).atan2(b[0] - c[0]);
-            let mut sweep = if cw { a0 - a1 } else { a1 - a0 };
-            if sweep <= 1e-12 {
-                sweep += std::f64::consts::TAU;
-            }
-            (r, sweep)
-        }
-        (_, _, Some(cr)) => {
-            let chord = (d[0] * d[0] + d[1] * d[1]).sqrt();
-            let r = cr.abs().max(chord / 2.0);
-            let small = 2.0 * (chord / (2.0 * r)).clamp(-1.0, 1.0).asin();
-            // CR < 0 selects the arc over 180°.
-            (
-                r,
-                if cr < 0.0 {
-                    std::f64::consts::TAU - small
-                } else {
-                    small
-                },
-            )
-        }
-        _ => return straight,
-    };
-    ((r * sweep).powi(2) + d[2] * d[2]).sqrt()
-}
-
 /// Highest speed held at any time in [from, to).
 fn speed_max(speeds: &[(f64, f64)], from: f64, to: f64) -> f64 {
     let mut max: f64 = 0.0;
@@ -1260,4 +1147,18 @@ fn speed_max(speeds: &[(f64, f64)], from: f64, to: f64) -> f64 {
         }
     }
     max
+}
+
+/// The runs of a `FOR from TO to` loop (counting up by one), or why they are not known.
+fn for_runs(from: Option<f64>, to: Option<f64>) -> Result<u64, &'static str> {
+    let (Some(a), Some(b)) = (from, to) else {
+        return Err("bounds computed at run time");
+    };
+    if a.fract() != 0.0 || b.fract() != 0.0 {
+        return Err("bounds are not whole numbers");
+    }
+    if b < a {
+        return Err("the bounds give no run");
+    }
+    Ok(((b - a) as u64).saturating_add(1))
 }

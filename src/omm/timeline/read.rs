@@ -6,11 +6,7 @@ use std::sync::Arc;
 use crate::syntax::{Block, BlockKind, Node, NodeKind, Program, decimal_prefix};
 use crate::views::{AxisMode, Value, VarName, WorkOffset, facts, is_predefined_command};
 
-use super::unknown;
-
-use crate::omm::loops::{Bound, Count};
-
-use super::moves::{Moves, RunRef};
+use super::modal::unknown;
 
 /// What one block says, reduced to what the timeline needs (built in parallel).
 #[derive(Debug, Default, Clone, PartialEq)]
@@ -79,20 +75,42 @@ pub(super) struct Move {
     pub(super) f: Option<f64>,
 }
 
+/// A loop bound or repeat count as written.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum Bound {
+    Number(f64),
+    R(u32),
+    Other,
+}
+
+/// What a FOR header or a section repeat statement says about the count.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) enum Count {
+    For {
+        from: Bound,
+        to: Bound,
+    },
+    /// `REPEAT a [b] P=n` (`single`: REPEATB). `times` is P (1 when absent).
+    Section {
+        labels: Vec<String>,
+        single: bool,
+        times: Bound,
+    },
+}
+
 /// Blocks read as one piece of work.
 pub(super) const CHUNK_BLOCKS: usize = 1 << 15;
 
 /// The blocks of one chunk as the fold needs them: a plain move (the lines CAM output is made of) as a
 /// head of bits and its numbers, any other block as its whole [`Scan`] (4 bytes per typical CAM line
 /// instead of a few hundred).
-pub(super) struct Chunk<'m> {
+pub(super) struct Chunk {
     pub(super) first: usize,
     pub(super) heads: Vec<u16>,
     pub(super) numbers: Vec<f64>,
     pub(super) others: Vec<(BlockKind, Scan)>,
-    /// The runs of timed moves starting in the chunk, and the blocks of the chunk runs cover: not read,
-    /// one head [`head::RUN`] for each range.
-    pub(super) runs: Vec<RunRef<'m>>,
+    /// The blocks of the chunk that runs of moves the parser timed cover: not read, one head
+    /// [`head::RUN`] for each range (the fold takes them from the runs).
     pub(super) covered: Vec<std::ops::Range<usize>>,
 }
 
@@ -106,28 +124,19 @@ pub(super) mod head {
     pub const OTHER: u16 = 1 << 15;
 }
 
-/// Reads the blocks of `blocks` but those in the runs of `moves`.
-pub(super) fn scan_chunk<'m>(
+/// Reads the blocks of `blocks` but those in `covered` (ranges in order, within `blocks`).
+pub(super) fn scan_chunk(
     program: &Program,
     blocks: std::ops::Range<usize>,
     marker: &str,
-    moves: Option<&'m Moves>,
-) -> Chunk<'m> {
-    let overlapping = moves.map_or_else(Vec::new, |m| m.overlapping(blocks.clone()));
-    let covered: Vec<std::ops::Range<usize>> = overlapping
-        .iter()
-        .map(|r| r.run.first.max(blocks.start)..r.blocks().end.min(blocks.end))
-        .collect();
+    covered: Vec<std::ops::Range<usize>>,
+) -> Chunk {
     let uncovered = blocks.len() - covered.iter().map(|c| c.len()).sum::<usize>();
     let mut chunk = Chunk {
         first: blocks.start,
         heads: Vec::with_capacity(uncovered + covered.len()),
         numbers: Vec::with_capacity(uncovered * 4),
         others: Vec::new(),
-        runs: overlapping
-            .into_iter()
-            .filter(|r| r.run.first >= blocks.start)
-            .collect(),
         covered: Vec::new(),
     };
     // One buffer for the word scanner, filled in place line after line: no per-line copies.
@@ -155,7 +164,7 @@ fn scan_block(
     i: usize,
     marker: &str,
     words: &mut Scan,
-    chunk: &mut Chunk<'_>,
+    chunk: &mut Chunk,
 ) {
     let kind = program.block_kind(i);
     let content = program.content_span(i);
@@ -441,7 +450,7 @@ fn swivel_op(block: &Block<'_>, call: &Node) -> u8 {
     let Some(args) = call.find(NodeKind::Args) else {
         return frame_op::SWIVEL_OFF;
     };
-    let args = crate::vm::arg_nodes(args);
+    let args = args.arguments();
     let tilted = args.iter().skip(4).flatten().any(|a| {
         // Strings (the swivel data record's name) and empty arguments do not tilt.
         a.kind != NodeKind::Str && literal(block, a) != Some(0.0)
