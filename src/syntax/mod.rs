@@ -7,7 +7,9 @@ mod grammar;
 mod keyword;
 mod lexeme;
 mod odd_bytes;
+mod parse;
 mod program;
+pub mod structure;
 mod tree;
 
 pub use block_kind::{BlockKind, flag};
@@ -17,6 +19,7 @@ pub(crate) use grammar::control_statements;
 pub use lexeme::Digits;
 pub(crate) use lexeme::{leading_block_number, word_end_with};
 #[cfg(test)]
-pub(crate) use program::parse_owned_in_pieces;
-pub use program::{Block, Program, line_syntax_errors, parse, parse_owned, parse_owned_with};
+pub(crate) use parse::parse_owned_in_pieces;
+pub use parse::{line_syntax_errors, parse, parse_owned, parse_owned_with};
+pub use program::{Block, Program};
 pub use tree::{Node, NodeJson, NodeKind, escape};
