@@ -227,6 +227,13 @@ impl Node {
         out
     }
 
+    /// The arguments of a call or function call (`NAME(a, , c)`): those of its argument list, none
+    /// without one.
+    pub fn call_arguments(&self) -> Vec<Option<&Node>> {
+        self.find(NodeKind::Args)
+            .map_or_else(Vec::new, Node::arguments)
+    }
+
     /// Indented text dump, one node per line, leaves with their bytes (escaped).
     pub fn dump(&self, src: &[u8], depth: usize, out: &mut String) {
         use std::fmt::Write;
@@ -280,5 +287,26 @@ impl Serialize for NodeJson<'_> {
             st.serialize_field("children", &children)?;
         }
         st.end()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn argument_lists_keep_empty_arguments() {
+        let count = |src: &str| {
+            let p = crate::parse(src.as_bytes());
+            let root = p.block(0).root;
+            let call = root.find(NodeKind::Call).unwrap();
+            call.call_arguments()
+                .iter()
+                .map(Option::is_some)
+                .collect::<Vec<bool>>()
+        };
+        assert_eq!(count("SUB(1,,R1+2)"), [true, false, true]);
+        assert_eq!(count("SUB(,)"), [false, false]);
+        assert_eq!(count("SUB()"), Vec::<bool>::new());
     }
 }

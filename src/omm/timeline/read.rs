@@ -447,10 +447,7 @@ fn frame_command_op(name: &str, f: &crate::views::BlockFacts, block: &Block<'_>)
 /// `CYCLE800()` and a CYCLE800 whose every numeric argument from the fifth on (the swivel's offsets and
 /// angles) is 0 or empty end the swivel; any other call swivels (an expression counts as an angle).
 fn swivel_op(block: &Block<'_>, call: &Node) -> u8 {
-    let Some(args) = call.find(NodeKind::Args) else {
-        return frame_op::SWIVEL_OFF;
-    };
-    let args = args.arguments();
+    let args = call.call_arguments();
     let tilted = args.iter().skip(4).flatten().any(|a| {
         // Strings (the swivel data record's name) and empty arguments do not tilt.
         a.kind != NodeKind::Str && literal(block, a) != Some(0.0)

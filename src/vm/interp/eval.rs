@@ -235,10 +235,7 @@ impl Interp<'_> {
 
     fn function(&self, u: &Unit, n: &Node) -> Result<Value, String> {
         let name = u.upper(&n.children[0]);
-        let args = n
-            .find(NodeKind::Args)
-            .map(Node::arguments)
-            .unwrap_or_default();
+        let args = n.call_arguments();
         let mut vals = Vec::with_capacity(args.len());
         for a in &args {
             vals.push(match a {
@@ -364,24 +361,6 @@ pub fn binary(op: &str, l: Value, r: Value) -> Result<Value, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn argument_lists_keep_empty_arguments() {
-        let count = |src: &str| {
-            let p = crate::parse(src.as_bytes());
-            let root = p.block(0).root;
-            let call = root.find(NodeKind::Call).unwrap();
-            call.find(NodeKind::Args)
-                .unwrap()
-                .arguments()
-                .iter()
-                .map(Option::is_some)
-                .collect::<Vec<bool>>()
-        };
-        assert_eq!(count("SUB(1,,R1+2)"), [true, false, true]);
-        assert_eq!(count("SUB(,)"), [false, false]);
-        assert_eq!(count("SUB()"), Vec::<bool>::new());
-    }
 
     #[test]
     fn div_truncates_and_mod_keeps_the_fraction() {

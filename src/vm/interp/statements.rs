@@ -180,10 +180,7 @@ impl Interp<'_> {
                 _ => None,
             };
             if let Some(dim) = dim {
-                let args = value
-                    .find(NodeKind::Args)
-                    .map(Node::arguments)
-                    .unwrap_or_default();
+                let args = value.call_arguments();
                 let [Some(arg)] = args[..] else {
                     return Err(format!("{name}() takes one value"));
                 };
@@ -329,10 +326,7 @@ impl Interp<'_> {
             (NodeKind::Args, _) => Some(init.arguments()),
             (NodeKind::FnCall, Some("SET")) => init.find(NodeKind::Args).map(Node::arguments),
             (NodeKind::FnCall, Some("REP")) => {
-                let args = init
-                    .find(NodeKind::Args)
-                    .map(Node::arguments)
-                    .unwrap_or_default();
+                let args = init.call_arguments();
                 let (v, n) = match args[..] {
                     [Some(v)] => (self.eval(u, v)?, var.data.len()),
                     [Some(v), Some(n)] => (self.eval(u, v)?, self.num(u, n)? as usize),
