@@ -47,7 +47,7 @@ impl BlockKind {
     }
 }
 
-/// Per-block flags, as bits (see [`Program::block_flags`]).
+/// Per-block flags, as bits (see [`Program::block_flags`](super::Program::block_flags)).
 pub mod flag {
     pub const LABEL: u8 = 1;
     pub const JUMP: u8 = 2;

@@ -7,19 +7,19 @@
 //! The program is read once, in order, without running it: loops and jumps are counted once, expressions
 //! as coordinates count as no move (`inexact_blocks` says how many blocks that affected).
 //!
-//! A pipeline, each step a module that uses only the ones above it (`tests/architecture.rs` checks this):
+//! A pipeline, each step a module that uses only the ones before it (`tests/architecture.rs` checks this):
 //!
-//! - [`modal`], [`record`], [`timing`]: what the steps share — the modal state at a block, the
-//!   [`Timeline`] they produce, time in ticks and the length of a move.
-//! - [`read`]: each block reduced to the facts the timeline needs (a word scanner for the plain lines CAM
+//! - `modal`, `record`, `timing`: what the steps share — the modal state at a block, the [`Timeline`]
+//!   they produce, time in ticks and the length of a move.
+//! - `read`: each block reduced to the facts the timeline needs (a word scanner for the plain lines CAM
 //!   output is made of, the syntax tree for any other), packed in chunks.
-//! - [`moves`]: runs of plain moves the parser already timed while it read them ([`parse_timed`]); the
+//! - `moves`: runs of plain moves the parser already timed while it read them ([`parse_timed`]); the
 //!   chunks leave their blocks out.
-//! - [`fold`]: the chunks and runs folded in block order into time, modal state, passes, gate sites,
-//!   loops and calls.
-//! - [`unit`]: one program unit through read and fold, chunks read in parallel, folded in order.
-//! - [`build`](mod@build): the whole file — an archive's units, callees first, and subprograms from the
-//!   profile's folders.
+//! - `fold`: the chunks and runs folded in block order into time, modal state, passes, gate sites, loops
+//!   and calls.
+//! - `unit`: one program unit through read and fold, chunks read in parallel, folded in order.
+//! - `build`: the whole file — an archive's units, callees first, and subprograms from the profile's
+//!   folders ([`build`], [`build_with_moves`]).
 
 mod build;
 mod fold;

@@ -1,19 +1,26 @@
 //! Folding the blocks, in order, into a [`Timeline`]: time, modal state, passes, gate sites, loops and
-//! the subprograms calls run. The blocks come as the chunks [`super::read`] made of them, with the runs
-//! of moves [`super::moves`] timed in the parser.
+//! the subprograms calls run. The blocks come as the chunks `read` made of them, with the runs of moves
+//! `moves` timed in the parser. The fold of one block and its move is here; what a call adds is in
+//! `calls`, how loops are counted in `loops`, where gates may go (sites, passes) in `sites`.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::rc::Rc;
-use std::sync::Arc;
 
-use crate::omm::profile::{Profile, ToolChange};
+use crate::omm::profile::Profile;
 use crate::syntax::BlockKind;
 
 use super::modal::{Modal, field, frame, unknown};
 use super::moves::RunRef;
-use super::read::{Bound, Chunk, Count, Move, Scan, frame_op, head};
-use super::record::{Loop, LoopKind, Pass, Site, SiteKind, Timeline};
+use super::read::{Chunk, Move, Scan, frame_op, head};
+use super::record::{Site, SiteKind, Timeline};
 use super::timing::{TICKS_PER_MIN, move_length, ticks};
+
+mod calls;
+mod loops;
+mod sites;
+
+use loops::{Label, OpenLoop};
+use sites::PassMark;
 
 /// What a call runs, as the fold asks for it.
 pub(super) trait Callees {
@@ -72,32 +79,6 @@ pub(super) struct Builder<'p> {
     start: Option<Site>,
     /// When the last cut (feed move) ended, in ticks.
     last_cut: u64,
-}
-
-/// A repeated section: its blocks, the start and end of its first run (min) and the state it starts in.
-struct Section {
-    body: (usize, usize),
-    start: f64,
-    end: f64,
-    entry: Modal,
-}
-
-/// A label seen: its block, the start and end of its first run (min) and the state before it.
-struct Label {
-    block: usize,
-    start: f64,
-    end: f64,
-    state: Modal,
-}
-
-/// A loop whose closing block has not come yet.
-struct OpenLoop {
-    kind: LoopKind,
-    block: usize,
-    start_min: f64,
-    runs: Result<u64, &'static str>,
-    /// The state the first run starts in.
-    entry: Modal,
 }
 
 impl<'p> Builder<'p> {
@@ -325,22 +306,6 @@ impl<'p> Builder<'p> {
         }
     }
 
-    fn mark(&self, i: usize, tool_change: bool, start: f64, before: &Modal) -> PassMark {
-        PassMark {
-            block: i,
-            tool_change,
-            time: start,
-            idle: self.idle_since_cut(start),
-            before: before.clone(),
-            rpm: self.state.rpm(),
-            tool: self
-                .state
-                .tool
-                .clone()
-                .or_else(|| self.state.selected.clone()),
-        }
-    }
-
     /// What a block's frame commands leave active.
     fn frames(&mut self, ops: u8) {
         use frame_op as op;
@@ -362,163 +327,10 @@ impl<'p> Builder<'p> {
         }
     }
 
-    /// A subprogram or cycle runs at block `i`, `repeats` times: an archive subprogram adds its time, any
-    /// other call is listed as not timed (`shown` is how the list names it).
-    fn call(&mut self, i: usize, name: &str, shown: &str, repeats: Option<f64>) {
-        // The swivel cycle's effect on the frames is followed (see `frames`).
-        self.after_call |= name != "CYCLE800";
-        self.t.moves = true;
-        if !self.called.contains(name) {
-            self.called.insert(name.to_string());
-        }
-        // A subprogram from a folder is in another file: what it leaves untimed is listed at the call (its
-        // own line numbers mean nothing in this program).
-        match self.callees.timeline(name) {
-            Some((sub, elsewhere)) => {
-                self.t
-                    .timed_calls
-                    .push((i + 1, shown.to_string(), sub.total_min));
-                let runs = repeats.filter(|p| *p >= 1.0).unwrap_or(1.0).floor();
-                if !sub.spindle_words.is_empty() {
-                    self.replay_spindle(i, &sub, runs);
-                }
-                self.add_minutes(runs * sub.total_min);
-                self.t.inexact_blocks += sub.inexact_blocks;
-                let line = |own: usize| if elsewhere { i + 1 } else { own };
-                self.t.untimed_calls.extend(
-                    sub.untimed_calls
-                        .iter()
-                        .map(|(own, name)| (line(*own), name.clone())),
-                );
-                // R-parameters are global: those a subprogram from a folder uses are taken, and what it
-                // does that the transform refuses (R indexed by expressions, another work offset) is
-                // refused at the call (the archive's units count whether called or not).
-                if elsewhere {
-                    self.t.used_r.extend(&sub.used_r);
-                    if !sub.computed_r_lines.is_empty() {
-                        self.t.computed_r_lines.push(i + 1);
-                    }
-                    for &(g, _) in &sub.offsets {
-                        self.offset(g, i);
-                    }
-                    if !(sub.computed_r_lines.is_empty() && sub.offsets.is_empty()) {
-                        self.t.found_in_call.insert(i + 1, name.to_string());
-                    }
-                }
-            }
-            None => self.t.untimed_calls.push((i + 1, shown.to_string())),
-        }
-    }
-
-    /// The spindle words of a subprogram called at block `i` and run `runs` times, applied to this
-    /// program's spindle as they come: the speeds follow, and the state after the call is the one it left.
-    /// The program's prediction holds one speed from gate to gate and the subprogram has no gates: a gate
-    /// before the call takes the call's time-weighted mean speed, the block after it the speed it left.
-    fn replay_spindle(&mut self, i: usize, sub: &Timeline, runs: f64) {
-        let (at, rpm_before, state_before) = (self.time(), self.rpm, self.state.clone());
-        let first_change = self.t.speeds.len();
-        // A bound on the speed changes one call adds, for absurd repeat counts.
-        let most = 1_000_000 / sub.spindle_words.len() as u64;
-        for run in 0..(runs as u64).min(most) {
-            let offset = at + run as f64 * sub.total_min;
-            for &(t, s, direction) in &sub.spindle_words {
-                if let Some(s) = s {
-                    self.state.s = s;
-                }
-                if let Some(d) = direction {
-                    self.state.direction = d;
-                }
-                self.t.spindle_words.push((offset + t, s, direction));
-                let rpm = self.state.rpm();
-                if rpm != self.rpm {
-                    self.rpm = rpm;
-                    self.t.speeds.push((offset + t, rpm));
-                }
-            }
-        }
-        let end = at + runs * sub.total_min;
-        let (mut sum, mut from, mut rpm) = (0.0, at, rpm_before);
-        for &(t, next) in &self.t.speeds[first_change..] {
-            sum += rpm * (t.min(end) - from);
-            (from, rpm) = (t.min(end), next);
-        }
-        sum += rpm * (end - from);
-        let mean = if end > at { sum / (end - at) } else { rpm };
-        let mut predicted = rpm_before;
-        if mean != rpm_before {
-            self.note_site(i);
-            self.speed_site(i, at, state_before, mean);
-            predicted = mean;
-        }
-        if self.rpm != predicted {
-            self.speed_site_after = Some(i);
-        }
-    }
-
-    /// A gate site where the program's prediction takes another speed (`rpm` from block `i` on); it
-    /// replaces one a call before this block asked for.
-    fn speed_site(&mut self, i: usize, time_min: f64, before: Modal, rpm: f64) {
-        if self
-            .t
-            .sites
-            .last()
-            .is_some_and(|l| l.block == i && l.kind == SiteKind::SpeedChange)
-        {
-            self.t.sites.pop();
-        }
-        self.t.sites.push(Site {
-            block: i,
-            kind: SiteKind::SpeedChange,
-            time_min,
-            pass: 0,
-            before,
-            rpm_after: rpm,
-            state_varies: false,
-            idle_min: self.idle_since_cut(time_min),
-        });
-    }
-
-    /// The speed-change site a subprogram's speed asks for, at the first block after its call.
-    fn speed_site_after_call(&mut self, i: usize) {
-        if self.speed_site_after.is_some_and(|call| call < i) {
-            self.speed_site_after = None;
-            self.note_site(i);
-            self.speed_site(i, self.time(), self.state.clone(), self.rpm);
-        }
-    }
-
-    /// The site a stop or dressing call before block `i` asked for.
-    fn safe_site_after(&mut self, i: usize) {
-        if let Some((_, kind)) = self.safe_after.take_if(|(at, _)| *at < i) {
-            self.note_site(i);
-            self.t.sites.push(Site {
-                block: i,
-                kind,
-                time_min: self.time(),
-                pass: 0,
-                before: self.state.clone(),
-                rpm_after: self.rpm,
-                idle_min: self.idle_since_cut(self.time()),
-                state_varies: false,
-            });
-        }
-    }
-
     /// A settable work offset selected at block `i` (noted at its first selection).
     fn offset(&mut self, g: u32, i: usize) {
         if matches!(g, 54..=57 | 505..=599) && !self.t.offsets.iter().any(|(o, _)| *o == g) {
             self.t.offsets.push((g, i + 1));
-        }
-    }
-
-    /// After a block that moves, the cycle an `MCALL` made modal runs.
-    #[inline]
-    fn modal_call_after(&mut self, i: usize, mv: &Move) {
-        if mv.axes.iter().any(Option::is_some)
-            && let Some((name, shown)) = self.modal_call.take()
-        {
-            self.call(i, &name, &shown, None);
-            self.modal_call = Some((name, shown));
         }
     }
 
@@ -706,232 +518,11 @@ impl<'p> Builder<'p> {
                 }
             }
             if let Some(l) = &s.label {
-                let end = self.time();
-                // A label defined again: a REPEAT after it searches backward and finds this one.
-                self.label_times.insert(
-                    l.to_ascii_uppercase(),
-                    Label {
-                        block: i,
-                        start,
-                        end,
-                        state: prev,
-                    },
-                );
+                self.label_seen(l, i, start, prev);
             }
         }
         self.loops(i, s, kind, start);
         self.start_site_speed(i);
-    }
-
-    /// Keeps block `i` as the start site while the setup is over and nothing has cut yet; a later setup
-    /// block (work offset, frame) makes the block after it the candidate instead.
-    fn start_site(&mut self, i: usize, time_min: f64) {
-        if self.t.first_cut.is_some() || !(self.header_done && self.preamble_done) {
-            return;
-        }
-        if self
-            .start
-            .as_ref()
-            .is_some_and(|s| s.block >= self.t.setup_end)
-        {
-            return;
-        }
-        // After a call the modal state is not known for sure (as for the other sites, see `call`).
-        if self.after_call {
-            self.varies.insert(i);
-        }
-        self.start = Some(Site {
-            block: i,
-            kind: SiteKind::Start,
-            time_min,
-            pass: 0,
-            before: self.state.clone(),
-            rpm_after: self.rpm,
-            state_varies: false,
-            idle_min: self.idle_since_cut(time_min),
-        });
-    }
-
-    /// The speed from the start site's block on.
-    fn start_site_speed(&mut self, i: usize) {
-        if let Some(site) = self.start.as_mut().filter(|s| s.block == i) {
-            site.rpm_after = self.rpm;
-        }
-    }
-
-    /// Loop statements: a loop opens after its statement; at its end (or at a section repeat statement)
-    /// the further runs are added to the time.
-    fn loops(&mut self, i: usize, s: &Scan, kind: BlockKind, start: f64) {
-        if s.r.contains(&None) {
-            self.r_values.clear();
-        }
-        for &(n, v) in &s.r_set {
-            match v {
-                Some(v) => self.r_values.insert(n, v),
-                None => self.r_values.remove(&n),
-            };
-        }
-        let opened = match kind {
-            BlockKind::For => Some(LoopKind::For),
-            BlockKind::While => Some(LoopKind::While),
-            BlockKind::Loop => Some(LoopKind::Loop),
-            BlockKind::Repeat => Some(LoopKind::RepeatUntil),
-            _ => None,
-        };
-        if let Some(kind) = opened {
-            let runs = match &s.count {
-                Some(Count::For { from, to }) => for_runs(self.value(*from), self.value(*to)),
-                _ if kind == LoopKind::For => Err("bounds computed at run time"),
-                _ => Err("ends on a condition at run time"),
-            };
-            self.open_loops.push(OpenLoop {
-                kind,
-                block: i,
-                start_min: self.time(),
-                runs,
-                entry: self.state.clone(),
-            });
-            return;
-        }
-        let closes = matches!(
-            kind,
-            BlockKind::EndWhile | BlockKind::EndFor | BlockKind::EndLoop | BlockKind::Until
-        );
-        if closes && let Some(open) = self.open_loops.pop() {
-            self.mark_varying(&open.entry, (open.block + 1, i));
-            let (runs, unknown) = match open.runs {
-                Ok(n) => (Some(n), None),
-                Err(why) => (None, Some(why)),
-            };
-            self.repeat(Loop {
-                kind: open.kind,
-                block: open.block,
-                body: (open.block + 1, i),
-                runs,
-                unknown,
-                start_min: open.start_min,
-                body_min: start - open.start_min,
-                repeat_block: i,
-                repeat_min: self.time(),
-            });
-        }
-        if let Some(Count::Section {
-            labels,
-            single,
-            times,
-        }) = &s.count
-        {
-            let section = self.section(i, labels, *single, start);
-            let times = self
-                .value(*times)
-                .filter(|n| *n >= 0.0 && n.fract() == 0.0)
-                .ok_or("repeat count computed at run time");
-            let (body, start_min, body_min, runs, unknown) = match (section, times) {
-                (Ok(sec), Ok(n)) => {
-                    self.mark_varying(&sec.entry, (sec.body.0 + 1, sec.body.1));
-                    (
-                        sec.body,
-                        sec.start,
-                        sec.end - sec.start,
-                        Some((n as u64).saturating_add(1)),
-                        None,
-                    )
-                }
-                (Err(why), _) | (_, Err(why)) => ((i, i), start, 0.0, None, Some(why)),
-            };
-            self.repeat(Loop {
-                kind: if *single {
-                    LoopKind::RepeatBlock
-                } else {
-                    LoopKind::Repeat
-                },
-                block: i,
-                body,
-                runs,
-                unknown,
-                start_min,
-                body_min,
-                repeat_block: i,
-                repeat_min: self.time(),
-            });
-        }
-    }
-
-    /// Records a loop and adds its further runs to the time.
-    fn repeat(&mut self, l: Loop) {
-        self.add_minutes(l.further_runs() as f64 * l.body_min);
-        self.t.loops.push(l);
-    }
-
-    /// The blocks and time span (first run) of the section a REPEAT statement at block `i` repeats: from
-    /// the label to the statement, from the first label to the second, or (REPEATB) the labelled block.
-    /// Only a section the program ran through before the statement is known.
-    /// Returns the blocks, the start and end of the first run and the state it starts in.
-    fn section(
-        &self,
-        i: usize,
-        labels: &[String],
-        single: bool,
-        start: f64,
-    ) -> Result<Section, &'static str> {
-        let seen = |label: &String| {
-            self.label_times
-                .get(label)
-                .ok_or("the section is not before the REPEAT statement")
-        };
-        let first = seen(&labels[0])?;
-        let (last_block, end) = match labels.get(1) {
-            _ if single => (first.block, first.end),
-            Some(end) => {
-                let last = seen(end)?;
-                if last.block < first.block {
-                    return Err("the section's labels are in reverse order");
-                }
-                (last.block, last.end)
-            }
-            None => (i.saturating_sub(1), start),
-        };
-        Ok(Section {
-            body: (first.block, last_block),
-            start: first.start,
-            end,
-            entry: first.state.clone(),
-        })
-    }
-
-    /// Marks the sites of a body that a later run reaches in another modal state: a field in which the state
-    /// at the repeat differs from `entry`, and which the body does not change before the site.
-    fn mark_varying(&mut self, entry: &Modal, body: (usize, usize)) {
-        let differ = field::differ(entry, &self.state);
-        if !differ.contains(&true) {
-            return;
-        }
-        let from = self.site_changes.partition_point(|(b, _)| *b < body.0);
-        for (b, changed) in &self.site_changes[from..] {
-            if *b > body.1 {
-                break;
-            }
-            let set_before = |f: usize| changed[f] > body.0 && changed[f] - 1 < *b;
-            if (0..field::COUNT).any(|f| differ[f] && !set_before(f)) {
-                self.varies.insert(*b);
-            }
-        }
-    }
-
-    /// Notes a block where a site or pass mark arises, with the fields' last changes.
-    fn note_site(&mut self, i: usize) {
-        if !self.open_loops.is_empty() || !self.label_times.is_empty() {
-            self.site_changes.push((i, self.changed));
-        }
-    }
-
-    /// A bound's value: a number, or an R-parameter last assigned a literal.
-    fn value(&self, b: Bound) -> Option<f64> {
-        match b {
-            Bound::Number(v) => Some(v),
-            Bound::R(n) => self.r_values.get(&n).copied(),
-            Bound::Other => None,
-        }
     }
 
     /// The block's move (or dwell, with G4: F seconds or S revolutions) and the tool change's time, with
@@ -1061,104 +652,7 @@ impl<'p> Builder<'p> {
         let total = self.time();
         self.t.total_min = total;
         self.t.last_cut_min = self.last_cut as f64 / TICKS_PER_MIN;
-        // Without M6 in the program the T word changes the tool.
-        let mut starts = self.pass_marks;
-        let t_loads = self.profile.probe.tool_change == ToolChange::T;
-        if !self.m6_seen && self.profile.passes.tool_change {
-            // On a machine that changes tools with M6, a T alone only selects: no change follows it.
-            starts.extend(self.tool_marks.into_iter().map(|m| PassMark {
-                tool_change: t_loads,
-                ..m
-            }));
-        }
-        starts.sort_by_key(|m| m.block);
-        starts.dedup_by_key(|m| m.block);
-        let ends: Vec<f64> = starts
-            .iter()
-            .skip(1)
-            .map(|m| m.time)
-            .chain(std::iter::once(total))
-            .collect();
-        for (k, (m, end)) in starts.into_iter().zip(ends).enumerate() {
-            self.t.passes.push(Pass {
-                number: k + 1,
-                first_block: m.block,
-                start_min: m.time,
-                end_min: end,
-                tool: m.tool,
-                max_rpm: speed_max(&self.t.speeds, m.time, end),
-            });
-            self.t.sites.push(Site {
-                block: m.block,
-                kind: SiteKind::PassStart {
-                    tool_change: m.tool_change,
-                },
-                time_min: m.time,
-                pass: k + 1,
-                before: m.before,
-                rpm_after: m.rpm,
-                state_varies: false,
-                idle_min: m.idle,
-            });
-        }
-        // The start site only counts once it is known to come after the setup.
-        if let Some(site) = self.start.take().filter(|s| s.block >= self.t.setup_end) {
-            self.t.sites.push(site);
-        }
-        // One site per block: a pass start wins over a speed change or retract at the same block.
-        self.t
-            .sites
-            .sort_by_key(|s| (s.block, !matches!(s.kind, SiteKind::PassStart { .. })));
-        self.t.sites.dedup_by_key(|s| s.block);
-        let mut pass = 0;
-        for site in &mut self.t.sites {
-            site.state_varies = self.varies.contains(&site.block);
-            // Without M6 in the program, T loads the tool at once.
-            if t_loads {
-                site.before.tool = site.before.selected.clone();
-            }
-            match site.kind {
-                SiteKind::PassStart { .. } => pass = site.pass,
-                _ => site.pass = pass,
-            }
-        }
+        self.place_passes_and_sites(total);
         (self.t, self.called)
     }
-}
-
-/// A block that may start a pass, with the state around it.
-struct PassMark {
-    block: usize,
-    tool_change: bool,
-    time: f64,
-    idle: f64,
-    before: Modal,
-    rpm: f64,
-    tool: Option<Arc<str>>,
-}
-
-/// Highest speed held at any time in [from, to).
-fn speed_max(speeds: &[(f64, f64)], from: f64, to: f64) -> f64 {
-    let mut max: f64 = 0.0;
-    for (k, &(t, rpm)) in speeds.iter().enumerate() {
-        let next = speeds.get(k + 1).map_or(f64::INFINITY, |s| s.0);
-        if next > from && t < to.max(from + 1e-12) {
-            max = max.max(rpm);
-        }
-    }
-    max
-}
-
-/// The runs of a `FOR from TO to` loop (counting up by one), or why they are not known.
-fn for_runs(from: Option<f64>, to: Option<f64>) -> Result<u64, &'static str> {
-    let (Some(a), Some(b)) = (from, to) else {
-        return Err("bounds computed at run time");
-    };
-    if a.fract() != 0.0 || b.fract() != 0.0 {
-        return Err("bounds are not whole numbers");
-    }
-    if b < a {
-        return Err("the bounds give no run");
-    }
-    Ok(((b - a) as u64).saturating_add(1))
 }
