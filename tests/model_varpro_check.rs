@@ -42,8 +42,7 @@ struct SpindleModes {
 }
 
 impl SpindleModes {
-    fn new(ds: &Dataset, channel: &str, modes: usize, theta: Vec<f64>) -> SpindleModes {
-        assert_eq!(theta.len(), modes);
+    fn new(ds: &Dataset, channel: &str, theta: Vec<f64>) -> SpindleModes {
         let rpm = ds.values(SPINDLE).unwrap();
         let grid = SpeedGrid::from_speeds(rpm);
         let starts: Vec<usize> = ds.runs().map(|r| r.start).collect();
@@ -171,7 +170,7 @@ struct CrateFit {
 
 fn crate_fit(ds: &Dataset, channel: &str, tau_start: &[f64]) -> CrateFit {
     let theta = tau_start.iter().map(|t| t.ln()).collect();
-    let model = SpindleModes::new(ds, channel, tau_start.len(), theta);
+    let model = SpindleModes::new(ds, channel, theta);
     let y = ds.values(channel).unwrap();
     let observed: Vec<f64> = model.observed.iter().map(|&i| y[i]).collect();
     let problem = SeparableProblemBuilder::new(model)

@@ -22,8 +22,8 @@ pub fn build(program: &Program, profile: &Profile) -> Timeline {
     build_with(program, None, profile, &mut Folders::new(profile))
 }
 
-/// [`build`] for a program parsed with [`parse_timed`](super::parse_timed): the runs of moves the parser timed are folded
-/// without reading their blocks again. The timeline is the one [`build`] makes.
+/// [`build`] for a program parsed with [`parse_timed`](super::parse_timed): the runs of moves the parser
+/// timed are folded without reading their blocks again. The timeline is the one [`build`] makes.
 pub fn build_with_moves(program: &Program, moves: &Moves, profile: &Profile) -> Timeline {
     build_with(program, Some(moves), profile, &mut Folders::new(profile))
 }
