@@ -99,7 +99,7 @@ fn big_file(c: &mut Criterion) {
             || source.clone(),
             |src| {
                 let (program, moves) = parse_timed(src);
-                let t = prepare_timed(&program, &moves, model, &profile, false).unwrap();
+                let t = prepare_timed(&program, &moves, &[model], &profile, false).unwrap();
                 t.write_to(&mut io::sink()).unwrap();
                 black_box(t.summary.blocks_inserted)
             },

@@ -1,5 +1,10 @@
-use std::process::ExitCode;
+// The command line lives in the binary, not in the library's public API; its modules name library items
+// as `crate::…`, which this glob import makes resolve to the library.
+#[allow(unused_imports)]
+use driftloop::*;
 
-fn main() -> ExitCode {
-    driftloop::cli::main()
+mod cli;
+
+fn main() -> std::process::ExitCode {
+    cli::main()
 }

@@ -320,18 +320,21 @@ fn reads_stdin() {
 }
 
 #[test]
-fn readme_worked_example_is_the_real_output() {
-    let readme =
-        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md")).unwrap();
-    let marker = "$ driftloop positioning fixtures/positioning/paper_row.csv\n";
+fn documented_worked_example_is_the_real_output() {
+    let readme = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/commands/positioning.md"),
+    )
+    .unwrap();
+    let marker =
+        "```sh\ndriftloop positioning fixtures/positioning/paper_row.csv\n```\n\n```text\n";
     let start = readme
         .find(marker)
-        .expect("README shows the worked example")
+        .expect("docs/commands/positioning.md shows the worked example")
         + marker.len();
     let end = start + readme[start..].find("```").unwrap();
     let out = common::stdout(&common::run(&[
         "positioning",
         "fixtures/positioning/paper_row.csv",
     ]));
-    assert_eq!(&readme[start..end], out, "update the README example");
+    assert_eq!(&readme[start..end], out, "update the documented example");
 }

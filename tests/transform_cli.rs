@@ -91,7 +91,7 @@ fn check_then_write_then_check_again() {
 fn diff_shows_insertions_only() {
     let path = fixtures().join("handwritten.mpf").display().to_string();
     let o = common::run(&["transform", &path, "--model", &model(), "--diff"]);
-    assert_eq!(code(&o), 0);
+    assert_eq!(code(&o), 1, "a diff means the program would change");
     let diff = String::from_utf8(o.stdout).unwrap();
     assert!(diff.contains("+; driftloop-omm"), "{diff}");
     assert!(

@@ -415,7 +415,7 @@ M30
     let long_cut = pause.replace("G0 Z50\nG4 F1500\n", "G1 X50.001 F0.00004\nG0 Z50\n");
     let program = driftloop::parse(long_cut.as_bytes());
     let timeline = driftloop::omm::timeline::build(&program, &profile);
-    let plan = driftloop::omm::plan::plan(&timeline, &model, &profile).unwrap();
+    let plan = driftloop::omm::plan::plan(&timeline, &[&model], &profile).unwrap();
     assert!(
         plan.warnings.iter().any(|w| w.contains("while cutting")),
         "{:?}",

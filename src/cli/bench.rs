@@ -31,7 +31,7 @@ pub struct Args {
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
     runs: u32,
     /// Also write the generated program to this file, to feed other tools the same bytes.
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     save: Option<PathBuf>,
     /// Also time `transform` of the same program (the transform tests' model, the default profile) in the
     /// same alternation, and report it against parse + print (the transform's target is 1.5x).
@@ -143,6 +143,8 @@ fn measure_interleaved(
     let mut driftloop_runs = Vec::new();
     let mut gcode_runs = Vec::new();
     let mut transform_runs = Vec::new();
+    // Between timed runs only, so the line costs no measured time.
+    let progress = super::progress::Progress::new("timed runs", runs as usize);
     for _ in 0..runs {
         let (run, returned) = driftloop_run(source, &expected, &mut sink);
         source = returned;
@@ -153,7 +155,9 @@ fn measure_interleaved(
             source = returned;
             transform_runs.push(run);
         }
+        progress.tick();
     }
+    progress.finish();
 
     let mut parse: Vec<Duration> = driftloop_runs.iter().map(|r| r.parse).collect();
     let mut print: Vec<Duration> = driftloop_runs.iter().map(|r| r.print).collect();

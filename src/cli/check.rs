@@ -10,7 +10,9 @@ use std::process::ExitCode;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use super::progress::Progress;
 use super::render::{Renderer, severity_name};
+use super::style;
 use super::{Format, Global};
 use crate::diagnostic::Severity;
 use crate::walk::{self, Input};
@@ -64,16 +66,22 @@ struct JsonRelated<'a> {
 pub fn run(args: Args, global: &Global) -> anyhow::Result<ExitCode> {
     let inputs = walk::expand(&args.paths)?;
     let color = global.stderr_color();
+    let progress = Progress::new("checked", inputs.len());
     let reports: Vec<FileReport> = inputs
         .par_iter()
-        .map(|input| check_file(input, args.format, color))
+        .map(|input| {
+            let report = check_file(input, args.format, color);
+            progress.tick();
+            report
+        })
         .collect();
+    progress.finish();
 
     let mut stdout = io::stdout().lock();
-    let mut stderr = io::stderr().lock();
+    let mut stderr = anstream::stderr().lock();
     for report in &reports {
         if let Some(err) = &report.read_error {
-            writeln!(stderr, "error: {err}")?;
+            writeln!(stderr, "{} {err}", style::label(Severity::Error))?;
         }
         match args.format {
             Format::Human => stderr.write_all(&report.output)?,

@@ -1,11 +1,14 @@
 //! `driftloop demo`: the paper's stepped-surface experiment replayed on a virtual machine (fit → transform →
-//! run → diagnose → transform → run) and the before/after table.
+//! run → diagnose → transform → run), the before/after table and, with `--plot`, the before/after chart.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use anyhow::Context;
+
 use super::Global;
-use crate::demo::{Settings, run_demo};
+use crate::demo::{Outcome, Settings, TARGET_UM, run_demo};
+use crate::report::{Chart, Mark, Series};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -22,6 +25,51 @@ pub struct Args {
     /// Drawing tolerance Δ of the part in µm (the transform's default profile has 20).
     #[arg(long, value_name = "UM")]
     pub tolerance: Option<f64>,
+    /// Also write the before/after chart (machined error of each pass, µm over min) as an SVG file here.
+    #[arg(long, value_name = "FILE.svg")]
+    pub plot: Option<PathBuf>,
+}
+
+/// The stages of the table a reader compares, as they appear in it.
+const PLOTTED: [&str; 3] = [
+    "uncompensated",
+    "compensated (fitted model)",
+    "compensated after diagnose",
+];
+
+/// Each pass's mean machined error at the middle of its time, one line per stage, and the target.
+fn before_after(outcome: &Outcome) -> Chart {
+    let mut chart = Chart::new(
+        "Stepped surface on a drifting machine: error of each pass",
+        "program time in min",
+        "machined error (cut − nominal depth) in µm",
+    )
+    .size(720.0, 400.0);
+    let mut span = (f64::INFINITY, f64::NEG_INFINITY);
+    for stage in outcome.stages.iter().filter(|s| PLOTTED.contains(&s.name)) {
+        let points: Vec<(f64, f64)> = stage
+            .passes
+            .iter()
+            .map(|p| (0.5 * (p.start_min + p.end_min), p.error_um))
+            .collect();
+        for &(t, _) in &points {
+            span = (span.0.min(t), span.1.max(t));
+        }
+        let name = format!("{} (max {:.1} µm)", stage.name, stage.max_error_um);
+        chart = chart.series(Series::new(name, Mark::LineAndPoints, points));
+    }
+    if span.0 <= span.1 {
+        let target = vec![(span.0, TARGET_UM), (span.1, TARGET_UM)];
+        chart = chart.series(
+            Series::new(
+                format!("target: error ≤ {TARGET_UM} µm"),
+                Mark::Dashed,
+                target,
+            )
+            .with_color("#555555"),
+        );
+    }
+    chart
 }
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
@@ -40,7 +88,12 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         // Best effort: a leftover temp folder is harmless, the demo's result is not.
         let _ = std::fs::remove_dir_all(&dir);
     }
-    print!("{}", outcome?.table());
+    let outcome = outcome?;
+    print!("{}", outcome.table());
+    if let Some(path) = &args.plot {
+        std::fs::write(path, before_after(&outcome).to_svg())
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
     if let Some(out) = &args.out {
         println!("artefacts written to {}", out.display());
     }

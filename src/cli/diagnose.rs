@@ -59,7 +59,7 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = Format::Human)]
     pub format: Format,
     /// Write a self-contained HTML report (inline SVG charts) here.
-    #[arg(long)]
+    #[arg(long, value_name = "FILE.html")]
     pub report: Option<PathBuf>,
     /// Write the refined model (same schema, with the effects) here; `predict` and `diagnose` accept it.
     #[arg(short, long)]

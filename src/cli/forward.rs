@@ -9,6 +9,7 @@ use std::process::ExitCode;
 use serde::Serialize;
 
 use super::fit::Kind;
+use super::progress::Progress;
 use super::{Format, Global};
 use crate::data::{Minutes, Require, read_path};
 use crate::diagnose::holdout::{HoldoutScore, rate};
@@ -60,6 +61,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         None => ds.channels().map(|c| c.name.clone()).collect(),
     };
     let mut lines = Vec::new();
+    let progress = Progress::new("channels fitted and scored", channels.len());
     for ch in &channels {
         let model = match args.kind {
             Kind::Dlag => {
@@ -98,7 +100,9 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             score,
             design,
         });
+        progress.tick();
     }
+    progress.finish();
     match args.format {
         Format::Json => println!("{}", serde_json::to_string_pretty(&lines)?),
         Format::Human => print!("{}", table(&lines, until, args.probe_every.0)),

@@ -6,8 +6,10 @@ use std::process::ExitCode;
 use anyhow::Context;
 
 use super::Global;
+use super::style;
 use crate::data::merge::{Merged, merge, parse_rename};
 use crate::data::{Require, read_path};
+use crate::diagnostic::Severity;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -49,7 +51,7 @@ pub(crate) fn read_merged(
     }
     let Merged { data, notes } = merge(parts, renames)?;
     for n in notes {
-        eprintln!("note: {n}");
+        anstream::eprintln!("{} {n}", style::label(Severity::Note));
     }
     Ok(data)
 }

@@ -4,7 +4,7 @@
 
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand, ValueEnum};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand, ValueEnum};
 
 mod bench;
 mod check;
@@ -18,11 +18,13 @@ mod plan;
 mod positioning;
 mod predict;
 mod profiles;
+mod progress;
 mod render;
 mod run;
 mod sensors;
 mod simulate;
 mod strip;
+mod style;
 mod transform;
 
 /// `-o` of the commands that make a model (`fit`, `sensors`): the model file to `path` and the report to
@@ -51,43 +53,40 @@ fn write_model(
 /// Options every subcommand understands.
 #[derive(Debug, Clone, clap::Args)]
 pub struct Global {
-    /// When to colour diagnostics on stderr (NO_COLOR is honoured under `auto`).
+    /// When to colour what is written to the terminal (NO_COLOR is honoured under `auto`).
     #[arg(long, value_enum, default_value_t = ColorChoice::Auto, global = true)]
     pub color: ColorChoice,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum ColorChoice {
-    Auto,
-    Always,
-    Never,
-}
+pub use style::ColorChoice;
 
 impl Global {
-    /// Whether output written to stderr should carry ANSI colour.
+    /// Whether output written to stderr should carry ANSI colour (decided once, in [`main`]).
     pub fn stderr_color(&self) -> bool {
-        use std::io::IsTerminal;
-        match self.color {
-            ColorChoice::Always => true,
-            ColorChoice::Never => false,
-            ColorChoice::Auto => {
-                std::env::var_os("NO_COLOR").is_none_or(|v| v.is_empty())
-                    && std::io::stderr().is_terminal()
-            }
-        }
+        style::stderr_colored()
     }
 }
 
 /// Output format of commands that report to humans or machines (`--format human|json`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum Format {
+    /// Text for people.
     Human,
+    /// JSON for programs.
     Json,
 }
 
 /// Thermal drift compensation for Sinumerik NC programs.
 #[derive(Debug, Parser)]
-#[command(name = "driftloop", version, about, long_about = None)]
+#[command(
+    name = "driftloop",
+    version,
+    about,
+    long_about = None,
+    after_help = "Exit codes: 0 clean, 1 findings or would change (--check, --diff), 2 usage, I/O or internal error.\n\
+                  `-` reads stdin / writes stdout. Colour: --color auto|always|never; NO_COLOR turns it off under auto.\n\
+                  Documentation: docs/ in the source tree (docs/README.md lists the pages)."
+)]
 struct Cli {
     #[command(flatten)]
     global: Global,
@@ -135,7 +134,11 @@ enum Command {
 
 /// Entry point of the binary.
 pub fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let args: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    let color = style::choice_from_args(&args);
+    style::apply(color);
+    let matches = Cli::command().color(color.into()).get_matches_from(args);
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let result = match cli.command {
         Command::Demo(args) => demo::run(args, &cli.global),
         Command::Positioning(args) => positioning::run(args, &cli.global),
@@ -160,10 +163,32 @@ pub fn main() -> ExitCode {
         // A reader that stops early (`driftloop transform … --diff | head`) is not a failure of ours.
         Err(err) if is_broken_pipe(&err) => ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("error: {err:#}");
+            anstream::eprintln!(
+                "{} {}",
+                style::label(crate::Severity::Error),
+                error_chain(&err)
+            );
             ExitCode::from(2)
         }
     }
+}
+
+/// The error and its causes joined with `: `, leaving out a cause whose text the message before it already
+/// carries (an error that prints its source, as `cannot read x.csv: No such file …`, would repeat the OS
+/// error).
+fn error_chain(err: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in err.chain() {
+        let part = cause.to_string();
+        if text.contains(&part) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&part);
+    }
+    text
 }
 
 fn is_broken_pipe(err: &anyhow::Error) -> bool {
@@ -176,7 +201,7 @@ fn is_broken_pipe(err: &anyhow::Error) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use super::is_broken_pipe;
+    use super::{error_chain, is_broken_pipe};
     use anyhow::Context;
     use std::io;
 
@@ -189,5 +214,16 @@ mod tests {
             &missing.context("cannot read x.mpf").unwrap_err()
         ));
         assert!(!is_broken_pipe(&anyhow::anyhow!("broken pipe")));
+    }
+
+    #[test]
+    fn an_os_error_a_message_already_carries_is_printed_once() {
+        let missing = io::Error::from(io::ErrorKind::NotFound);
+        let os = missing.to_string();
+        let repeated = anyhow::Error::new(missing).context(format!("x.csv: cannot read: {os}"));
+        assert_eq!(error_chain(&repeated), format!("x.csv: cannot read: {os}"));
+        let plain: anyhow::Result<()> = Err(io::Error::from(io::ErrorKind::NotFound).into());
+        let chained = plain.context("cannot read x.mpf").unwrap_err();
+        assert_eq!(error_chain(&chained), format!("cannot read x.mpf: {os}"));
     }
 }

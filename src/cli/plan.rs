@@ -7,8 +7,10 @@ use std::process::ExitCode;
 
 use serde::Serialize;
 
+use super::style;
 use super::transform::Setup;
 use super::{Format, Global};
+use crate::diagnostic::Severity;
 use crate::omm::{self, Plan};
 use crate::walk::Input;
 
@@ -40,7 +42,8 @@ struct JsonPlan<'a> {
 }
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
-    let (model, _sha, profile) = args.setup.load()?;
+    let (models, profile) = args.setup.load()?;
+    let drift: Vec<&crate::model::DriftModel> = models.iter().map(|(m, _)| m).collect();
     let input = if args.program.as_os_str() == "-" {
         Input::Stdin
     } else {
@@ -49,25 +52,29 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     let (program, moves) = omm::parse_timed(input.read()?);
     let name = input.to_string();
     let planned = omm::check_timed(&program, &moves, args.force)
-        .and_then(|()| omm::plan_timed(&program, &moves, &model, &profile));
+        .and_then(|()| omm::plan_timed(&program, &moves, &drift, &profile));
     let (timeline, plan) = match planned {
         Ok(p) => p,
         Err(e) => {
-            eprintln!("error: {name}: {e}");
+            anstream::eprintln!("{} {name}: {e}", style::label(Severity::Error));
             return Ok(ExitCode::from(2));
         }
     };
     for w in &plan.warnings {
-        eprintln!("warning: {name}: {w}");
+        anstream::eprintln!("{} {name}: {w}", style::label(Severity::Warning));
     }
     if args.setup.strict && !plan.warnings.is_empty() {
-        eprintln!("error: {name}: --strict refuses a plan with warnings");
+        anstream::eprintln!(
+            "{} {name}: --strict refuses a plan with warnings",
+            style::label(Severity::Error)
+        );
         return Ok(ExitCode::from(2));
     }
-    let unforeseen = model.signals();
+    let unforeseen: Vec<&str> = models.iter().flat_map(|(m, _)| m.signals()).collect();
     if !unforeseen.is_empty() {
-        eprintln!(
-            "note: the model also reads {}; the plan cannot foresee them and holds them at their values at the zero, so its predicted drift is the spindle part only; the transformed program reads them (`$A_INA`) and corrects with them at every gate",
+        anstream::eprintln!(
+            "{} the model also reads {}; the plan cannot foresee them and holds them at their values at the zero, so its predicted drift is the spindle part only; the transformed program reads them (`$A_INA`) and corrects with them at every gate",
+            style::label(Severity::Note),
             unforeseen.join(", ")
         );
     }

@@ -7,7 +7,9 @@ use std::process::ExitCode;
 
 use anyhow::{Context, bail};
 
+use super::style;
 use super::{Format, Global};
+use crate::diagnostic::Severity;
 use crate::positioning::{
     self, Grid, GridChoice, MIN_APPROACHES, Standard, correction_csv, html_report, read_samples,
     sinumerik_text,
@@ -29,7 +31,7 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = Format::Human)]
     pub format: Format,
     /// Write a self-contained HTML report here.
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, value_name = "FILE.html")]
     pub report: Option<PathBuf>,
     /// Write the correction table here (`-` = stdout, replacing the normal output).
     #[arg(long, value_name = "OUT")]
@@ -81,8 +83,9 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             axis.stats.targets[axis.stats.targets.len() - 1].target_mm,
         );
         if grid.start_mm > first || grid.end_mm < last {
-            eprintln!(
-                "warning: axis {}: grid {grid} mm does not cover the targets {first}…{last} mm; the control holds the end values outside it",
+            anstream::eprintln!(
+                "{} axis {}: grid {grid} mm does not cover the targets {first}…{last} mm; the control holds the end values outside it",
+                style::label(Severity::Warning),
                 axis.stats.axis
             );
         }

@@ -7,7 +7,9 @@ use std::process::ExitCode;
 use anyhow::Context;
 
 use super::Global;
+use super::style;
 use crate::data::{Dataset, Require, SPINDLE, read_path};
+use crate::diagnostic::Severity;
 use crate::model::{DriftModel, Schedule, extrapolation_warning};
 
 #[derive(Debug, clap::Args)]
@@ -94,6 +96,6 @@ fn warn_extrapolation(model: &DriftModel, input: &Dataset) {
         .values(SPINDLE)
         .map_or(0.0, |v| v.iter().fold(0.0f64, |a, s| a.max(s.abs())));
     if let Some(w) = extrapolation_warning(model, fastest) {
-        eprintln!("warning: {w}");
+        anstream::eprintln!("{} {w}", style::label(Severity::Warning));
     }
 }

@@ -9,7 +9,7 @@ use crate::omm::profile::BUILTIN;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Print this profile's TOML (`driftloop profiles tool-setter > my-machine.toml`).
-    #[arg(value_name = "NAME")]
+    #[arg(value_name = "NAME", value_parser = clap::builder::PossibleValuesParser::new(BUILTIN.iter().map(|(name, _, _)| *name)))]
     name: Option<String>,
 }
 

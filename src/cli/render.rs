@@ -18,39 +18,32 @@
 use std::cell::OnceCell;
 use std::io::{self, Write};
 
+use anstyle::Style;
+
+use super::style;
 use crate::diagnostic::{Diagnostic, Severity};
 use crate::source::{LineIndex, Span};
 
-/// ANSI styles, all empty when colour is off.
+/// The styles of one diagnostic (src/cli/style.rs), all plain when colour is off.
 struct Palette {
-    severity: &'static str,
-    gutter: &'static str,
-    related: &'static str,
-    bold: &'static str,
-    reset: &'static str,
+    severity: Style,
+    gutter: Style,
+    bold: Style,
 }
 
 impl Palette {
     fn new(color: bool, severity: Severity) -> Self {
         if !color {
             return Palette {
-                severity: "",
-                gutter: "",
-                related: "",
-                bold: "",
-                reset: "",
+                severity: Style::new(),
+                gutter: Style::new(),
+                bold: Style::new(),
             };
         }
         Palette {
-            severity: match severity {
-                Severity::Error => "\x1b[1;31m",
-                Severity::Warning => "\x1b[1;33m",
-                Severity::Note => "\x1b[1;36m",
-            },
-            gutter: "\x1b[1;34m",
-            related: "\x1b[1;34m",
-            bold: "\x1b[1m",
-            reset: "\x1b[0m",
+            severity: style::severity(severity),
+            gutter: style::GUTTER,
+            bold: style::EMPHASIS,
         }
     }
 }
@@ -107,44 +100,33 @@ impl<'a> Renderer<'a> {
         let width = shown_lines.to_string().len();
         let pad = " ".repeat(width);
 
+        let (severity, gutter, bold) = (p.severity, p.gutter, p.bold);
         writeln!(
             out,
-            "{}{}{}: {}{}{}",
-            p.severity,
+            "{severity}{}{severity:#}: {bold}{}{bold:#}",
             severity_name(diagnostic.severity),
-            p.reset,
-            p.bold,
             diagnostic.message,
-            p.reset
         )?;
-        writeln!(
-            out,
-            "{pad}{}-->{} {}:{line}:{col}",
-            p.gutter, p.reset, self.path
-        )?;
-        writeln!(out, "{pad} {}|{}", p.gutter, p.reset)?;
+        writeln!(out, "{pad}{gutter}-->{gutter:#} {}:{line}:{col}", self.path)?;
+        writeln!(out, "{pad} {gutter}|{gutter:#}")?;
         // Snippets in line order, as they stand in the file; a gap between them is marked with `...`.
-        let mut snippets: Vec<(Span, char, &str, Option<&str>)> =
-            vec![(diagnostic.span, '^', p.severity, None)];
+        let mut snippets: Vec<(Span, char, Style, Option<&str>)> =
+            vec![(diagnostic.span, '^', severity, None)];
         for (span, label) in &diagnostic.related {
-            snippets.push((*span, '-', p.related, Some(label)));
+            snippets.push((*span, '-', gutter, Some(label)));
         }
         snippets.sort_by_key(|(span, ..)| self.line_col(span.start).0);
         let mut last_line = None;
         for (span, marker, style, label) in snippets {
             let line = self.line_col(span.start).0;
             if last_line.is_some_and(|last| line > last + 1) {
-                writeln!(out, "{}...{}", p.gutter, p.reset)?;
+                writeln!(out, "{gutter}...{gutter:#}")?;
             }
             last_line = Some(line);
             self.snippet(out, &p, width, span, marker, style, label)?;
         }
         if let Some(help) = &diagnostic.help {
-            writeln!(
-                out,
-                "{pad} {}={} {}help{}: {help}",
-                p.gutter, p.reset, p.bold, p.reset
-            )?;
+            writeln!(out, "{pad} {gutter}={gutter:#} {bold}help{bold:#}: {help}")?;
         }
         writeln!(out)
     }
@@ -158,7 +140,7 @@ impl<'a> Renderer<'a> {
         width: usize,
         span: Span,
         marker: char,
-        marker_style: &str,
+        marker_style: Style,
         label: Option<&str>,
     ) -> io::Result<()> {
         let start = span.start.min(self.source.len());
@@ -178,18 +160,17 @@ impl<'a> Renderer<'a> {
         let markers = marker
             .to_string()
             .repeat(shown(marked).chars().count().max(1));
+        let gutter = p.gutter;
         writeln!(
             out,
-            "{}{line:>width$} |{} {}",
-            p.gutter,
-            p.reset,
+            "{gutter}{line:>width$} |{gutter:#} {}",
             shown(text).trim_end()
         )?;
         let label = label.map(|l| format!(" {l}")).unwrap_or_default();
         writeln!(
             out,
-            "{}{:width$} |{} {indent}{marker_style}{markers}{label}{}",
-            p.gutter, "", p.reset, p.reset
+            "{gutter}{:width$} |{gutter:#} {indent}{marker_style}{markers}{label}{marker_style:#}",
+            ""
         )
     }
 }
@@ -341,6 +322,10 @@ mod tests {
             &diagnostic(Span { start: 4, end: 4 }, None, vec![]),
             true,
         );
-        assert!(coloured.contains("\x1b[1;31merror\x1b[0m"), "{coloured}");
+        let error = style::ERROR;
+        assert!(
+            coloured.starts_with(&format!("{error}error{error:#}: ")),
+            "{coloured}"
+        );
     }
 }

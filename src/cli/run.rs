@@ -17,8 +17,9 @@ use crate::vm::{self, Config, End, MachineSpec};
 pub struct Args {
     /// The main program (`-` reads stdin; subprograms are then looked up in the current folder).
     pub program: PathBuf,
-    /// Machine file (TOML): timing, probe, initial work offsets, drift (see README); default: no drift.
-    #[arg(long)]
+    /// Machine file (TOML): timing, probe, initial work offsets, drift (docs/commands/run.md); default: a
+    /// machine that does not drift.
+    #[arg(long, value_name = "MACHINE.toml")]
     pub machine: Option<PathBuf>,
     /// Standard deviation of the probe noise in µm (overrides the machine file).
     #[arg(long, value_name = "UM")]
@@ -37,6 +38,11 @@ pub struct Args {
     /// Write the per-block trace (positions, time, spindle speed) as CSV to this file (`-`: stdout).
     #[arg(long, value_name = "FILE", conflicts_with = "audit")]
     pub trace: Option<PathBuf>,
+    /// Write the files the program writes with WRITE (e.g. the DRIFTLOG of a transformed program) into this
+    /// folder, replacing files of the same name: one folder per job (the virtual machine's clock starts at 0
+    /// in every run, so two jobs in one file would share a run label).
+    #[arg(long, value_name = "DIR", conflicts_with = "audit")]
+    pub write_files: Option<PathBuf>,
     /// Safety audit: PROGRAM is a transformed program; run it beside its original and report where the
     /// inserted blocks leave the control in another state than the original would be in (exit 1).
     #[arg(long)]
@@ -46,7 +52,7 @@ pub struct Args {
     pub original: Option<PathBuf>,
     /// The machine profile the program was transformed with (clearance, probe tool and point, corrected
     /// offset): a file or a builtin's name (`driftloop profiles`); the shipped default profile when absent.
-    #[arg(long, value_name = "P.toml", requires = "audit")]
+    #[arg(long, value_name = "MACHINE.toml|NAME", requires = "audit")]
     pub profile: Option<PathBuf>,
     /// The drift model the program was transformed with: the machine then drifts as it predicts, so the
     /// probe values agree with the program's predictions (without it the machine does not drift, and a
@@ -95,6 +101,9 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             &mut machine,
         )?
     } else {
+        // The virtual machine names a file and line; a file that cannot be opened has no line.
+        std::fs::File::open(&args.program)
+            .with_context(|| format!("cannot read {}", args.program.display()))?;
         vm::run_file(&args.program, &cfg, &mut machine)?
     };
     match args.format {
@@ -110,10 +119,30 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 .with_context(|| format!("cannot write {}", path.display()))?;
         }
     }
+    if let Some(dir) = &args.write_files {
+        write_files(dir, &run.files)?;
+    }
     Ok(match run.end {
         End::Alarm { .. } => ExitCode::from(1),
         _ => ExitCode::SUCCESS,
     })
+}
+
+/// Writes each file the program wrote to `dir/NAME`, creating the folder as needed.
+fn write_files(
+    dir: &Path,
+    files: &std::collections::BTreeMap<String, String>,
+) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    for (name, text) in files {
+        anyhow::ensure!(
+            !name.is_empty() && !name.contains(['/', '\\']) && name != "." && name != "..",
+            "the program writes to `{name}`, which is not a plain file name"
+        );
+        let path = dir.join(name);
+        std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    Ok(())
 }
 
 fn read_stdin() -> anyhow::Result<Vec<u8>> {

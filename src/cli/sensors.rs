@@ -4,6 +4,8 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use anyhow::Context;
+
 use super::{Format, Global};
 use crate::data::{Minutes, Require, read_path};
 use crate::sensors::position::analyse_position;
@@ -37,6 +39,10 @@ pub struct Args {
     /// `input_slope` per sensor and `geometric`.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
+    /// Write a self-contained HTML report here (inline SVG charts: measured and predicted, residual, the
+    /// kept sensors over time; the tables).
+    #[arg(long, value_name = "FILE.html")]
+    pub report: Option<PathBuf>,
 }
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
@@ -46,14 +52,15 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     opts.threshold = args.threshold;
     opts.min_correlation = args.min_correlation;
     opts.holdout_from_min = args.holdout_from.map(|m| m.0);
-    let (report, model) = match &args.position_column {
+    let (report, model, html) = match &args.position_column {
         Some(p) => {
             let analysis = analyse_position(&ds, &p.to_ascii_lowercase(), &opts)?;
             let report = match args.format {
                 Format::Human => analysis.human(),
                 Format::Json => analysis.json(),
             };
-            (report, analysis.to_model())
+            let html = args.report.as_ref().map(|_| analysis.html(&ds));
+            (report, analysis.to_model(), html)
         }
         None => {
             let analysis = analyse(&ds, &opts)?;
@@ -61,9 +68,13 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 Format::Human => analysis.human(),
                 Format::Json => analysis.json(),
             };
-            (report, analysis.to_model())
+            let html = args.report.as_ref().map(|_| analysis.html(&ds));
+            (report, analysis.to_model(), html)
         }
     };
+    if let (Some(path), Some(html)) = (&args.report, html) {
+        std::fs::write(path, html).with_context(|| format!("cannot write {}", path.display()))?;
+    }
     super::write_model(args.output.as_deref(), &model, &report)?;
     Ok(ExitCode::SUCCESS)
 }

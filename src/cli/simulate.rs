@@ -9,19 +9,20 @@ use anyhow::Context;
 use super::Global;
 use crate::data::Minutes;
 use crate::diagnose::scenario::{Scenario, simulate};
+use crate::model::effects::Kind;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Directory to write characterisation.csv, production.csv, truth.toml and scenario.json into.
     pub dir: PathBuf,
-    /// Undeclared effect in the production log: input_lag, extra_mode, cooling_asymmetry,
-    /// position_slope, time_trend, periodic, step; none for a control.
-    #[arg(long)]
+    /// Undeclared effect in the production log (none: a control without one).
+    #[arg(long, value_parser = effect_names())]
     pub effect: Option<String>,
+    /// Seed of the random draws (effect parameters, temperatures, speeds, noise).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Measurement noise (standard deviation, µm).
-    #[arg(long, default_value_t = 0.3)]
+    #[arg(long, value_name = "UM", default_value_t = 0.3)]
     pub noise: f64,
     /// The effect's standard deviation over the log, in multiples of the noise.
     #[arg(long, default_value_t = 5.0)]
@@ -39,6 +40,12 @@ pub struct Args {
     /// extra_mode, position_slope), its cooling ratio (cooling_asymmetry) or its time in minutes (step).
     #[arg(long)]
     pub theta: Option<f64>,
+}
+
+/// The kinds `diagnose` looks for, and `none`.
+fn effect_names() -> clap::builder::PossibleValuesParser {
+    let kinds = Kind::DIAGNOSED.iter().map(|k| k.name());
+    clap::builder::PossibleValuesParser::new(kinds.chain(["none"]))
 }
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {

@@ -2,18 +2,20 @@
 //! correction blocks. Programs are transformed in parallel; nothing is written unless every program could
 //! be transformed, so a batch never ends half done.
 
-use std::io::{self, IsTerminal, Write};
+use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use anyhow::{Context, bail};
 use rayon::prelude::*;
 use serde::Serialize;
 use sha2::{Digest, Sha256};
 
+use super::progress::Progress;
+use super::style;
 use super::{Format, Global};
 use crate::Edits;
+use crate::diagnostic::Severity;
 use crate::model::DriftModel;
 use crate::omm::{self, ModelRef, Profile, Summary};
 use crate::walk::{self, Input};
@@ -31,10 +33,12 @@ pub struct Args {
     /// Replace each input file (atomically: temp file in the same directory, then rename).
     #[arg(long, conflicts_with = "output")]
     in_place: bool,
-    /// Write nothing; exit 1 if any output would differ from the file at `-o` (or the input without `-o`).
+    /// Write nothing; exit 1 if any output would differ from the file at `-o` (or the input without `-o`), 0
+    /// if none would; an input that is transformed already counts as unchanged.
     #[arg(long)]
     check: bool,
-    /// Print a unified diff of each input against its output instead of writing.
+    /// Print a unified diff of each input against its output instead of writing; exit 1 if there is a
+    /// difference, 0 if not (an input that is transformed already).
     #[arg(long)]
     diff: bool,
     /// `human`: summary on stderr; `json`: one JSON object per file (on stdout unless the program goes there).
@@ -56,9 +60,10 @@ pub struct Args {
 /// Model and profile, shared by `transform` and `plan`.
 #[derive(Debug, clap::Args)]
 pub struct Setup {
-    /// The drift model file (`driftloop fit` writes it).
-    #[arg(long, value_name = "MODEL.toml")]
-    pub model: PathBuf,
+    /// The drift model file (`driftloop fit` writes it); repeated, one per measured axis when the profile
+    /// measures several (`[[position.also]]` names each further axis's channel).
+    #[arg(long, value_name = "MODEL.toml", required = true)]
+    pub model: Vec<PathBuf>,
     /// The machine profile: a TOML file, or the name of a builtin profile (`driftloop profiles` lists
     /// them: blum-tc50, siemens-cycle978, tool-setter, grinder-gauge, lathe-setter); blum-tc50 when absent.
     #[arg(long, value_name = "MACHINE.toml|NAME")]
@@ -75,17 +80,21 @@ pub struct Setup {
 }
 
 impl Setup {
-    /// The model, the SHA-256 of its file, and the profile.
-    pub fn load(&self) -> anyhow::Result<(DriftModel, String, Profile)> {
-        let bytes = std::fs::read(&self.model)
-            .with_context(|| format!("cannot read {}", self.model.display()))?;
-        let text = String::from_utf8(bytes.clone())
-            .with_context(|| format!("{}: not UTF-8 text", self.model.display()))?;
-        let model = DriftModel::from_toml(&text, &self.model.display().to_string())?;
-        let sha: String = Sha256::digest(&bytes)
-            .iter()
-            .map(|b| format!("{b:02x}"))
-            .collect();
+    /// The models with the SHA-256 of their files, and the profile.
+    pub fn load(&self) -> anyhow::Result<(Vec<(DriftModel, String)>, Profile)> {
+        let mut models = Vec::new();
+        for path in &self.model {
+            let bytes =
+                std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+            let text = String::from_utf8(bytes.clone())
+                .with_context(|| format!("{}: not UTF-8 text", path.display()))?;
+            let model = DriftModel::from_toml(&text, &path.display().to_string())?;
+            let sha: String = Sha256::digest(&bytes)
+                .iter()
+                .map(|b| format!("{b:02x}"))
+                .collect();
+            models.push((model, sha));
+        }
         let mut profile = match &self.profile {
             Some(path) => Profile::read_or_builtin(path)?,
             None => Profile::default_profile(),
@@ -95,7 +104,7 @@ impl Setup {
         if let Some(missing) = dirs.iter().find(|d| !d.is_dir()) {
             anyhow::bail!("subprogram folder {} is not a folder", missing.display());
         }
-        Ok((model, sha, profile))
+        Ok((models, profile))
     }
 }
 
@@ -150,6 +159,15 @@ impl Refusal {
     }
 }
 
+/// What became of one input that was not refused.
+enum Done {
+    Transformed(Box<Outcome>),
+    /// `--check` or `--diff` on a program that carries driftloop's header (line): nothing would change, as
+    /// rustfmt says of a formatted file; written normally it is a refusal, since a second transform would
+    /// measure twice.
+    AlreadyTransformed(usize),
+}
+
 #[derive(Serialize)]
 struct JsonFile<'a> {
     path: String,
@@ -160,10 +178,29 @@ struct JsonFile<'a> {
     reason: Option<&'static str>,
     #[serde(skip_serializing_if = "Option::is_none")]
     changed: Option<bool>,
+    /// The line of driftloop's header in an input `--check`/`--diff` found transformed already.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    already_transformed: Option<usize>,
     #[serde(skip_serializing_if = "Option::is_none")]
     summary: Option<&'a Summary>,
     #[serde(skip_serializing_if = "Option::is_none")]
     audit: Option<&'a AuditNote>,
+}
+
+impl<'a> JsonFile<'a> {
+    /// The record of `path` with nothing said about it yet.
+    fn of(path: String, output: Option<String>) -> JsonFile<'a> {
+        JsonFile {
+            path,
+            output,
+            error: None,
+            reason: None,
+            changed: None,
+            already_transformed: None,
+            summary: None,
+            audit: None,
+        }
+    }
 }
 
 /// What the safety audit said of a transformed program that it accepted.
@@ -179,20 +216,20 @@ struct AuditNote {
 }
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
-    let (model, sha, profile) = args.setup.load()?;
+    let (models, profile) = args.setup.load()?;
     let jobs = jobs(&args)?;
-    let progress = Progress::new(jobs.len());
-    let results: Vec<Result<Outcome, Refusal>> = jobs
+    let progress = Progress::new("transformed", jobs.len());
+    let results: Vec<Result<Done, Refusal>> = jobs
         .par_iter()
         .map(|job| {
-            let r = transform_one(&job.input, &model, &sha, &profile, &args);
+            let r = transform_one(&job.input, &models, &profile, &args);
             progress.tick();
             r
         })
         .collect();
-    progress.done();
+    progress.finish();
 
-    let mut stderr = io::stderr().lock();
+    let mut stderr = anstream::stderr().lock();
     let refused = results.iter().filter(|r| r.is_err()).count();
     let mut changed = 0;
     let mut json = Vec::new();
@@ -206,18 +243,32 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         };
         match result {
             Err(e) => {
-                writeln!(stderr, "error: {path}: {}", e.message)?;
+                writeln!(
+                    stderr,
+                    "{} {path}: {}",
+                    style::label(Severity::Error),
+                    e.message
+                )?;
                 json.push(JsonFile {
-                    path,
-                    output,
                     error: Some(e.message.clone()),
                     reason: Some(e.reason),
-                    changed: None,
-                    summary: None,
-                    audit: None,
+                    ..JsonFile::of(path, output)
                 });
             }
-            Ok(o) => {
+            Ok(Done::AlreadyTransformed(line)) => {
+                if args.format == Format::Human {
+                    writeln!(
+                        stderr,
+                        "{path}: already transformed (driftloop header on line {line}); nothing would change"
+                    )?;
+                }
+                json.push(JsonFile {
+                    changed: Some(false),
+                    already_transformed: Some(*line),
+                    ..JsonFile::of(path, output)
+                });
+            }
+            Ok(Done::Transformed(o)) => {
                 let differs = if args.check {
                     let current = match &job.target {
                         Target::File(p) => std::fs::read(p).ok(),
@@ -231,14 +282,18 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 if args.format == Format::Human {
                     let s = &o.summary;
                     for w in &s.warnings {
-                        writeln!(stderr, "warning: {path}: {w}")?;
+                        writeln!(stderr, "{} {path}: {w}", style::label(Severity::Warning))?;
                     }
                     if let Some(a) = &o.audit {
                         for w in &a.warnings {
-                            writeln!(stderr, "warning: {path}: {w}")?;
+                            writeln!(stderr, "{} {path}: {w}", style::label(Severity::Warning))?;
                         }
                         if let Some(why) = &a.incomplete {
-                            writeln!(stderr, "note: {path}: audit incomplete: {why}")?;
+                            writeln!(
+                                stderr,
+                                "{} {path}: audit incomplete: {why}",
+                                style::label(Severity::Note)
+                            )?;
                         }
                     }
                     writeln!(
@@ -254,7 +309,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                         match s.untimed_calls {
                             0 => String::new(),
                             n => format!(
-                                "; {n} subprogram/cycle call(s) not timed (`plan` lists them)"
+                                "; {n} subprogram/cycle call(s) not timed, 0 min assumed for each (`plan` lists them; give their folder with --subprograms DIR)"
                             ),
                         },
                         if args.check && differs {
@@ -265,13 +320,10 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                     )?;
                 }
                 json.push(JsonFile {
-                    path,
-                    output,
-                    error: None,
-                    reason: None,
-                    changed: args.check.then_some(differs),
+                    changed: (args.check || args.diff).then_some(differs),
                     summary: Some(&o.summary),
                     audit: o.audit.as_ref(),
+                    ..JsonFile::of(path, output)
                 });
             }
         }
@@ -303,7 +355,10 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     let outcomes: Vec<(&Job, &Outcome)> = jobs
         .iter()
         .zip(&results)
-        .filter_map(|(job, r)| Some((job, r.as_ref().ok()?)))
+        .filter_map(|(job, r)| match r {
+            Ok(Done::Transformed(o)) => Some((job, o.as_ref())),
+            _ => None,
+        })
         .collect();
     if args.diff {
         let mut out = io::stdout().lock();
@@ -339,7 +394,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         )?;
         return Ok(ExitCode::from(2));
     }
-    Ok(if args.check && changed > 0 {
+    Ok(if (args.check || args.diff) && changed > 0 {
         ExitCode::from(1)
     } else {
         ExitCode::SUCCESS
@@ -348,15 +403,22 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
 
 fn transform_one(
     input: &Input,
-    model: &DriftModel,
-    sha: &str,
+    models: &[(DriftModel, String)],
     profile: &Profile,
     args: &Args,
-) -> Result<Outcome, Refusal> {
+) -> Result<Done, Refusal> {
     let bytes = input.read().map_err(|e| Refusal::new("unreadable", e))?;
+    if (args.check || args.diff)
+        && let Some(line) = omm::transformed_line(&bytes)
+    {
+        return Ok(Done::AlreadyTransformed(line));
+    }
     let (program, moves) = omm::parse_timed(bytes);
-    let drift = ModelRef { model, sha256: sha };
-    let (edits, summary) = omm::prepare_timed(&program, &moves, drift, profile, args.force)
+    let refs: Vec<ModelRef<'_>> = models
+        .iter()
+        .map(|(model, sha)| ModelRef { model, sha256: sha })
+        .collect();
+    let (edits, summary) = omm::prepare_timed(&program, &moves, &refs, profile, args.force)
         .map_err(|e| Refusal::new(e.reason(), e))?
         .into_edits();
     if args.setup.strict
@@ -370,14 +432,14 @@ fn transform_one(
     let audit = if args.no_audit {
         None
     } else {
-        Some(audit_output(input, &program, &edits, model, profile)?)
+        Some(audit_output(input, &program, &edits, &refs, profile)?)
     };
-    Ok(Outcome {
+    Ok(Done::Transformed(Box::new(Outcome {
         program,
         edits,
         summary,
         audit,
-    })
+    })))
 }
 
 /// Runs the transformed program beside the original on a virtual machine that drifts as the model predicts
@@ -388,19 +450,27 @@ fn audit_output(
     input: &Input,
     program: &crate::Program,
     edits: &Edits,
-    model: &DriftModel,
+    models: &[ModelRef<'_>],
     profile: &Profile,
 ) -> Result<AuditNote, Refusal> {
     use crate::vm::audit::{AuditSettings, Kind, audit_owned};
-    // The virtual machine drifts as the model predicts from the spindle; the terms it reads from sensors
-    // have no signal there and are left out.
-    let mut spindle_part = model.clone();
-    spindle_part.inputs.clear();
-    spindle_part
-        .effects
-        .retain(|e| e.signal.is_none() && e.position.is_none());
+    // The virtual machine drifts as each axis's model predicts from the spindle; the terms it reads from
+    // sensors have no signal there and are left out.
+    let ordered = omm::models_for_axes(profile, models, |m: ModelRef<'_>| m.model.channel.as_str())
+        .map_err(|e| Refusal::new(e.reason(), e))?;
+    let spindle_parts: Vec<DriftModel> = ordered
+        .iter()
+        .map(|m| {
+            let mut part = m.model.clone();
+            part.inputs.clear();
+            part.effects
+                .retain(|e| e.signal.is_none() && e.position.is_none());
+            part
+        })
+        .collect();
+    let parts: Vec<&DriftModel> = spindle_parts.iter().collect();
     let mut settings = AuditSettings::from_profile(profile)
-        .drifting_as(&spindle_part)
+        .drifting_as_axes(&parts)
         .map_err(|e| Refusal::new("audit setup", e))?;
     // Subprograms are looked up beside the program, as the control finds them in its folder.
     if let Input::File(path) = input {
@@ -449,18 +519,25 @@ fn audit_output(
 }
 
 /// The batch's count: how many programs transform, and the refusals by kind.
-fn write_coverage(w: &mut impl Write, results: &[Result<Outcome, Refusal>]) -> io::Result<()> {
+fn write_coverage(w: &mut impl Write, results: &[Result<Done, Refusal>]) -> io::Result<()> {
     let mut reasons: std::collections::BTreeMap<&str, usize> = Default::default();
     for e in results.iter().filter_map(|r| r.as_ref().err()) {
         *reasons.entry(e.reason).or_default() += 1;
     }
-    let ok = results.len() - reasons.values().sum::<usize>();
+    let already = results
+        .iter()
+        .filter(|r| matches!(r, Ok(Done::AlreadyTransformed(_))))
+        .count();
+    let ok = results.len() - reasons.values().sum::<usize>() - already;
     write!(
         w,
         "{ok} of {} programs transform ({:.1} %)",
         results.len(),
         100.0 * ok as f64 / results.len() as f64
     )?;
+    if already > 0 {
+        write!(w, "; already transformed: {already}")?;
+    }
     if !reasons.is_empty() {
         let list: Vec<String> = reasons.iter().map(|(r, n)| format!("{r}: {n}")).collect();
         write!(w, "; refused: {}", list.join(", "))?;
@@ -491,8 +568,9 @@ fn jobs(args: &Args) -> anyhow::Result<Vec<Job>> {
             0
         };
         if skipped > 0 {
-            eprintln!(
-                "note: {}: {skipped} subprogram file(s) (.spf, .def) not transformed: gates go into the main programs, which time the subprograms they call (--subprograms DIR)",
+            anstream::eprintln!(
+                "{} {}: {skipped} subprogram file(s) (.spf, .def) not transformed: gates go into the main programs, which time the subprograms they call (--subprograms DIR)",
+                style::label(Severity::Note),
                 root.display()
             );
         }
@@ -594,34 +672,4 @@ fn write_diff(out: &mut impl Write, name: &str, old: &[u8], new: &[u8]) -> io::R
             .context_radius(2)
             .header(&format!("a/{name}"), &format!("b/{name}"))
     )
-}
-
-/// `transformed k/n` on a terminal's stderr, nothing otherwise.
-struct Progress {
-    total: usize,
-    done: AtomicUsize,
-    shown: bool,
-}
-
-impl Progress {
-    fn new(total: usize) -> Progress {
-        Progress {
-            total,
-            done: AtomicUsize::new(0),
-            shown: total > 1 && io::stderr().is_terminal(),
-        }
-    }
-
-    fn tick(&self) {
-        let n = self.done.fetch_add(1, Ordering::Relaxed) + 1;
-        if self.shown {
-            eprint!("\rtransformed {n}/{}", self.total);
-        }
-    }
-
-    fn done(&self) {
-        if self.shown {
-            eprintln!();
-        }
-    }
 }

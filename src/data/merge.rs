@@ -140,8 +140,14 @@ pub fn merge(mut parts: Vec<Dataset>, renames: &[(String, String)]) -> Result<Me
     out.run_starts.clear();
     let mut labels = Vec::new();
     let mut columns: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
-    for p in &parts {
-        let file = short(&p.source);
+    let shorts: Vec<String> = parts.iter().map(|p| short(&p.source)).collect();
+    for (k, p) in parts.iter().enumerate() {
+        // Two files of the same name (job1/DRIFTLOG, job2/DRIFTLOG) keep their runs apart by their paths.
+        let file = if shorts.iter().filter(|s| **s == shorts[k]).count() > 1 {
+            p.source.clone()
+        } else {
+            shorts[k].clone()
+        };
         for (r, range) in p.runs().enumerate() {
             out.run_starts.push(out.time_min.len());
             labels.push(if several {
@@ -176,6 +182,23 @@ mod tests {
 
     fn read(name: &str, text: &str) -> Dataset {
         read_bytes(name, text.as_bytes(), Require::InputsOnly).unwrap()
+    }
+
+    #[test]
+    fn logs_of_the_same_name_in_two_folders_keep_their_runs_apart() {
+        let job = "time_min,spindle_rpm,drift_z_um,pass,run\n0,3000,0,1,0\n5,3000,1.5,1,0\n";
+        let m = merge(
+            vec![read("job1/DRIFTLOG", job), read("job2/DRIFTLOG", job)],
+            &[],
+        )
+        .unwrap();
+        let labels = m.data.run_labels.clone().unwrap();
+        assert_eq!(labels, ["job1/DRIFTLOG:0", "job2/DRIFTLOG:0"]);
+        // Written and read back, the two jobs are still two runs (not one going back in time).
+        let mut bytes = Vec::new();
+        m.data.write_csv(&mut bytes).unwrap();
+        let back = read_bytes("merged.csv", &bytes, Require::InputsOnly).unwrap();
+        assert_eq!(back.run_starts, vec![0, 2]);
     }
 
     #[test]

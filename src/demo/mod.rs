@@ -4,6 +4,8 @@
 //! ambient-temperature effect the shop's spindle-only characterisation cannot see. Everything is seeded, so
 //! the numbers are the same on every run.
 
+mod axes;
+
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -74,6 +76,8 @@ pub struct Stage {
     pub alarms: usize,
     /// How the program ended, as the dry run reports it.
     pub end: String,
+    /// Each pass's time, machined error and drift, for the before/after plot (`demo --plot`).
+    pub passes: Vec<crate::vm::Pass>,
 }
 
 impl Stage {
@@ -86,6 +90,7 @@ impl Stage {
             corrections: run.corrections.len(),
             alarms: run.alarms.len(),
             end: format!("{:?}", run.end),
+            passes: run.passes.clone(),
         }
     }
 }
@@ -128,6 +133,8 @@ pub struct Outcome {
     pub log_readings: usize,
     /// The production-only route, per number of jobs.
     pub production: Vec<Route>,
+    /// The same part measured and corrected on X and Z together.
+    pub two_axes: axes::TwoAxes,
     /// Where the artefacts were written.
     pub dir: PathBuf,
 }
@@ -262,8 +269,10 @@ pub fn run_demo(settings: &Settings, dir: &Path) -> anyhow::Result<Outcome> {
         });
     }
 
+    let two_axes = axes::two_axes(&fitted, &profile, settings, dir)?;
     let effects = effect_lines(&diagnosis);
     Ok(Outcome {
+        two_axes,
         truth_drift_um: uncompensated.totals.max_abs_drift_um,
         stages: vec![
             Stage::of("uncompensated", &uncompensated),
@@ -437,12 +446,7 @@ fn run(program: &Path, machine: &(Config, MachineSpec), seed: u64) -> anyhow::Re
 
 /// The demo's part program transformed with `model` under `profile`.
 pub fn transform_program(model: &DriftModel, profile: &Profile) -> anyhow::Result<Vec<u8>> {
-    let sha = Sha256::digest(model.to_toml().as_bytes())
-        .iter()
-        .fold(String::new(), |mut s, b| {
-            let _ = write!(s, "{b:02x}");
-            s
-        });
+    let sha = sha256_hex(&model.to_toml());
     let program = crate::parse(PROGRAM.as_bytes());
     let t = transform(
         &program,
@@ -455,6 +459,16 @@ pub fn transform_program(model: &DriftModel, profile: &Profile) -> anyhow::Resul
     )
     .map_err(|e| anyhow!("transform: {e}"))?;
     Ok(t.bytes)
+}
+
+/// The SHA-256 of `text`, in hex: what the transformed program's header names a model by.
+fn sha256_hex(text: &str) -> String {
+    Sha256::digest(text.as_bytes())
+        .iter()
+        .fold(String::new(), |mut s, b| {
+            let _ = write!(s, "{b:02x}");
+            s
+        })
 }
 
 /// Transforms the part program with `model` and writes it as `stepped_surface_<stem>.mpf`.
@@ -570,6 +584,7 @@ production program (a row at every gate, a reading where it measured), then its 
                 );
             }
         }
+        s.push_str(&self.two_axes.table());
         let last = self.stages.last().map_or(f64::NAN, |st| st.max_error_um);
         if last <= TARGET_UM {
             let _ = writeln!(

@@ -177,6 +177,8 @@ pub struct Diagnosis {
     pub refined: DriftModel,
     /// Per row: time (min), measured (NaN where not measured), model before, refined model after.
     pub time_min: Vec<f64>,
+    /// First row of each run (each run's time starts at its own zero), for plots that keep runs apart.
+    pub run_starts: Vec<usize>,
     pub measured: Vec<f64>,
     pub predicted_before: Vec<f64>,
     pub predicted_after: Vec<f64>,
@@ -310,6 +312,7 @@ pub fn diagnose(
         probing,
         refined: current.model,
         time_min: ds.time_min.clone(),
+        run_starts: ds.run_starts.clone(),
         measured: ctx.y.clone(),
         predicted_before: before_pred,
         predicted_after: after_pred,

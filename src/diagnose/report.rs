@@ -4,23 +4,10 @@
 use super::stats::ErrorStats;
 use super::text::{duration, sentence};
 use super::{Diagnosis, Windows};
-use crate::report::{Cell, Chart, Document, Mark, PALETTE, Series, Table};
+use crate::report::{Cell, Chart, Document, Mark, PALETTE, Series, Table, points_by_run};
 
 /// Most points drawn per series; longer series are thinned evenly (every k-th row).
 const MAX_POINTS: usize = 3000;
-
-/// The points of a series, rows without a value (a reading not taken there: NaN) left out, so a line
-/// joins the readings on either side instead of breaking at every row between them.
-fn points(t: &[f64], v: &[f64]) -> Vec<(f64, f64)> {
-    let kept: Vec<(f64, f64)> = t
-        .iter()
-        .zip(v)
-        .filter(|(_, y)| !y.is_nan())
-        .map(|(a, b)| (*a, *b))
-        .collect();
-    let k = kept.len().div_ceil(MAX_POINTS).max(1);
-    kept.into_iter().step_by(k).collect()
-}
 
 impl Diagnosis {
     /// The report as one HTML document.
@@ -100,13 +87,19 @@ impl Diagnosis {
         });
 
         let t = &self.time_min;
+        let points = |t: &[f64], v: &[f64]| points_by_run(t, v, &self.run_starts, MAX_POINTS);
+        let time_label = if self.run_starts.len() > 1 {
+            "time since the run's start in min (runs drawn apart)"
+        } else {
+            "time in min"
+        };
         let marked = |c: Chart| match self.holdout_from_min {
             Some(h) => c.marker(h, "holdout"),
             None => c,
         };
         let chart = marked(Chart::new(
             "Measured and predicted drift",
-            "time in min",
+            time_label,
             "drift in µm",
         ))
         .series(Series::new(
@@ -132,7 +125,7 @@ impl Diagnosis {
             |p: &[f64]| -> Vec<f64> { self.measured.iter().zip(p).map(|(m, q)| m - q).collect() };
         let chart = marked(Chart::new(
             "Residual (measured − predicted)",
-            "time in min",
+            time_label,
             "residual in µm",
         ))
         .series(
@@ -162,7 +155,7 @@ impl Diagnosis {
                 }
                 _ => a.effect.kind.name().to_string(),
             };
-            let chart = marked(Chart::new(title, "time in min", "contribution in µm"))
+            let chart = marked(Chart::new(title, time_label, "contribution in µm"))
                 .series(Series::new("effect", Mark::Line, points(t, c)));
             doc.figure(&chart, sentence(a));
         }
@@ -170,8 +163,8 @@ impl Diagnosis {
             if let (Some(name), Some(values)) = (&a.effect.signal, sig) {
                 let chart = marked(Chart::new(
                     format!("The column {name}"),
-                    "time in min",
-                    name.as_str(),
+                    time_label,
+                    column_axis(name),
                 ))
                 .series(Series::new(name.as_str(), Mark::Line, points(t, values)));
                 doc.figure(
@@ -184,6 +177,17 @@ impl Diagnosis {
             }
         }
         doc.render()
+    }
+}
+
+/// A data column's axis label with the unit its name declares (design.md §3: `_c` °C, `_um` µm, `_mm` mm).
+fn column_axis(name: &str) -> String {
+    let unit = [("_c", "°C"), ("_um", "µm"), ("_mm", "mm"), ("_rpm", "rpm")]
+        .iter()
+        .find(|(suffix, _)| name.to_ascii_lowercase().ends_with(suffix));
+    match unit {
+        Some((_, unit)) => format!("{name} in {unit}"),
+        None => name.to_string(),
     }
 }
 

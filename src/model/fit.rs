@@ -1,4 +1,4 @@
-//! Fitting a [`DriftModel`] to measured data: separable least squares ([`super::varpro`]) started from a
+//! Fitting a [`DriftModel`] to measured data: separable least squares (`varpro`) started from a
 //! scan over a log-spaced grid of time constants, model order by BIC unless fixed, degenerate fits
 //! rejected with a reason, standard errors from the Jacobian.
 
@@ -192,7 +192,7 @@ pub(crate) fn channel_values<'a>(ds: &'a Dataset, channel: &str) -> Result<&'a [
 }
 
 /// ", fitted on N samples of FILE before T unit" for a summary's first line (empty without provenance).
-pub(crate) fn fitted_on(model: &DriftModel) -> String {
+pub fn fitted_on(model: &DriftModel) -> String {
     let (Some(fit), Some(data)) = (&model.fit, &model.data) else {
         return String::new();
     };
@@ -631,8 +631,8 @@ fn standard_errors(
     ((0..q).map(se).collect(), (q..q + np).map(se).collect())
 }
 
-/// τ for messages.
-pub(crate) fn fmt_tau(tau_min: f64) -> String {
+/// A time constant as summaries print it (`2.47 min`, `20.8 min`).
+pub fn fmt_tau(tau_min: f64) -> String {
     if tau_min < 10.0 {
         format!("{tau_min:.2} min")
     } else {

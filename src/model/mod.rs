@@ -8,7 +8,7 @@
 //! - A constant offset (the reading at rest).
 //!
 //! Prediction is the exact update for piecewise-constant inputs ([`lag`]); for a constant speed from cold it
-//! is Σ aₖ(1 − e^(−t/τₖ)). Fitting lives in [`fit`], the model file in [`file`], synthetic data in [`synth`].
+//! is Σ aₖ(1 − e^(−t/τₖ)). Fitting lives in [`mod@fit`], the model file in [`mod@file`], synthetic data in [`synth`].
 //!
 //! ```
 //! use driftloop::data::{Require, read_path};
@@ -57,7 +57,7 @@ pub use speed_law::extrapolation_warning;
 /// The model file schema this version reads and writes.
 pub const SCHEMA: u32 = 1;
 
-/// A fitted drift model of one displacement channel; serialised as the model file (see [`file`]).
+/// A fitted drift model of one displacement channel; serialised as the model file (see [`mod@file`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct DriftModel {
     pub schema: u32,

@@ -2,12 +2,18 @@
 //! the gates (prediction update, Cycle_in decision, measurement module, scrap decision, correction
 //! recalculation, correction) and the restore before the program ends. Every line ends in the comment
 //! [`MARK`] so inserted blocks can be told from the program's own at a glance.
+//!
+//! A gate measures every axis the profile names (`[position]` and its `also` entries), each predicted by
+//! its own model and corrected in its own component of the work offset; time, probing series and the way
+//! in and out are shared.
 
 use std::collections::BTreeSet;
 
 use super::nc::number;
 use super::plan::{Gate, GateKind, Predictor};
-use super::profile::{Axis, MeasureFrame, OffsetMethod, ProbeKind, Profile, TimerUnit, ToolChange};
+use super::profile::{
+    Axis, MeasureFrame, OffsetMethod, Position, ProbeKind, Profile, TimerUnit, ToolChange,
+};
 use super::timeline::Modal;
 
 /// Comment every inserted block ends with.
@@ -17,14 +23,10 @@ const SENTINEL: u32 = 99999;
 /// Text of the header comment; a program that carries it was transformed already.
 pub const SIGNATURE: &str = "driftloop-omm";
 
-/// The R-parameters the inserted blocks use, each with its role.
+/// The registers of one measured axis: its prediction's states, its zero, its correction.
 #[derive(Debug, Clone)]
-pub struct Registers {
-    t0: u32,
-    t_last: u32,
-    dt: u32,
-    /// The part of `dt` until the last cut, and the prediction there.
-    dt_cut: u32,
+struct AxisRegisters {
+    /// The prediction at the last cut.
     pred_cut: u32,
     x: Vec<u32>,
     g: Vec<u32>,
@@ -42,6 +44,72 @@ pub struct Registers {
     applied: u32,
     base: u32,
     zero: u32,
+    delta: u32,
+}
+
+impl AxisRegisters {
+    fn count(p: &Predictor) -> usize {
+        10 + 2 * p.taus().len() + 3 * p.inputs().len() + 2 * p.statics().len()
+    }
+
+    fn take(p: &Predictor, next: &mut impl FnMut() -> u32) -> AxisRegisters {
+        let (modes, inputs, statics) = (p.taus().len(), p.inputs().len(), p.statics().len());
+        let mut many = |n: usize| (0..n).map(|_| next()).collect::<Vec<u32>>();
+        let (x, g) = (many(modes), many(modes));
+        let (input_x, input_g, input_zero) = (many(inputs), many(inputs), many(inputs));
+        let (static_v, static_zero) = (many(statics), many(statics));
+        let mut one = || many(1)[0];
+        AxisRegisters {
+            pred_cut: one(),
+            x,
+            g,
+            input_x,
+            input_g,
+            input_zero,
+            static_v,
+            static_zero,
+            pred: one(),
+            pred_at_measurement: one(),
+            eps: one(),
+            corr: one(),
+            applied: one(),
+            base: one(),
+            zero: one(),
+            delta: one(),
+        }
+    }
+
+    fn all(&self) -> impl Iterator<Item = u32> + '_ {
+        [
+            self.pred_cut,
+            self.pred,
+            self.pred_at_measurement,
+            self.eps,
+            self.corr,
+            self.applied,
+            self.base,
+            self.zero,
+            self.delta,
+        ]
+        .into_iter()
+        .chain(self.x.iter().copied())
+        .chain(self.g.iter().copied())
+        .chain(self.input_x.iter().copied())
+        .chain(self.input_g.iter().copied())
+        .chain(self.input_zero.iter().copied())
+        .chain(self.static_v.iter().copied())
+        .chain(self.static_zero.iter().copied())
+    }
+}
+
+/// The R-parameters the inserted blocks use, each with its role.
+#[derive(Debug, Clone)]
+pub struct Registers {
+    t0: u32,
+    t_last: u32,
+    dt: u32,
+    /// The part of `dt` until the last cut.
+    dt_cut: u32,
     nbl: u32,
     write_error: u32,
     attempts: u32,
@@ -50,27 +118,33 @@ pub struct Registers {
     series_sum: u32,
     value: u32,
     mean: u32,
-    delta: u32,
     /// The position the gate left the program at, one per profile axis, and the height it travels at.
     saved: Vec<u32>,
     height: u32,
     saved_result: Option<u32>,
+    /// One set per measured axis, in the order of [`Profile::measured`].
+    axes: Vec<AxisRegisters>,
 }
 
+/// Registers shared by every axis (not counting the saved position).
+const SHARED: usize = 13;
+
 impl Registers {
-    /// Picks free R-parameters from the profile's range, skipping those the program uses.
+    /// Picks free R-parameters from the profile's range, skipping those the program uses; one predictor
+    /// per measured axis.
     pub fn allocate(
         profile: &Profile,
-        predictor: &Predictor,
+        predictors: &[Predictor],
         used: &BTreeSet<u32>,
     ) -> Result<Registers, String> {
         let r = &profile.registers;
         let result_r = result_r_number(&profile.probe.result);
         let save = result_r.is_some_and(|n| used.contains(&n));
-        let (modes, inputs) = (predictor.taus().len(), predictor.inputs().len());
-        let statics = predictor.statics().len();
         let axes = profile.position.axes.len();
-        let needed = 22 + 2 * modes + 3 * inputs + 2 * statics + axes + usize::from(save);
+        let needed = SHARED
+            + axes
+            + usize::from(save)
+            + predictors.iter().map(AxisRegisters::count).sum::<usize>();
         let free: Vec<u32> = (r.r_first..=r.r_last)
             .filter(|n| !used.contains(n) && Some(*n) != result_r)
             .take(needed)
@@ -89,21 +163,6 @@ impl Registers {
             t_last: next(),
             dt: next(),
             dt_cut: next(),
-            pred_cut: next(),
-            x: (0..modes).map(|_| next()).collect(),
-            g: (0..modes).map(|_| next()).collect(),
-            input_x: (0..inputs).map(|_| next()).collect(),
-            input_g: (0..inputs).map(|_| next()).collect(),
-            input_zero: (0..inputs).map(|_| next()).collect(),
-            static_v: (0..statics).map(|_| next()).collect(),
-            static_zero: (0..statics).map(|_| next()).collect(),
-            pred: next(),
-            pred_at_measurement: next(),
-            eps: next(),
-            corr: next(),
-            applied: next(),
-            base: next(),
-            zero: next(),
             nbl: next(),
             write_error: next(),
             attempts: next(),
@@ -112,10 +171,13 @@ impl Registers {
             series_sum: next(),
             value: next(),
             mean: next(),
-            delta: next(),
-            saved: (0..axes).map(|_| next()).collect(),
             height: next(),
+            saved: (0..axes).map(|_| next()).collect(),
             saved_result: save.then(&mut next),
+            axes: predictors
+                .iter()
+                .map(|p| AxisRegisters::take(p, &mut next))
+                .collect(),
         })
     }
 
@@ -126,14 +188,6 @@ impl Registers {
             self.t_last,
             self.dt,
             self.dt_cut,
-            self.pred_cut,
-            self.pred,
-            self.pred_at_measurement,
-            self.eps,
-            self.corr,
-            self.applied,
-            self.base,
-            self.zero,
             self.nbl,
             self.write_error,
             self.attempts,
@@ -142,18 +196,13 @@ impl Registers {
             self.series_sum,
             self.value,
             self.mean,
-            self.delta,
+            self.height,
         ];
-        v.extend(&self.x);
-        v.extend(&self.g);
-        v.extend(&self.input_x);
-        v.extend(&self.input_g);
-        v.extend(&self.input_zero);
-        v.extend(&self.static_v);
-        v.extend(&self.static_zero);
         v.extend(&self.saved);
-        v.push(self.height);
         v.extend(self.saved_result);
+        for a in &self.axes {
+            v.extend(a.all());
+        }
         v.sort_unstable();
         v
     }
@@ -169,12 +218,20 @@ fn result_r_number(result: &str) -> Option<u32> {
     rest.trim().parse().ok()
 }
 
+/// One measured axis as the emitter sees it: where and what it measures, and its model.
+pub struct MeasuredAxis<'a> {
+    /// Axis, nominal and start point ([`Profile::measured`]).
+    pub at: Position,
+    pub predictor: &'a Predictor,
+    /// The model's channel (the log's column).
+    pub channel: &'a str,
+}
+
 /// Writes the inserted blocks for one program.
 pub struct Emitter<'a> {
     pub profile: &'a Profile,
     pub regs: &'a Registers,
-    pub predictor: &'a Predictor,
-    pub channel: &'a str,
+    pub axes: Vec<MeasuredAxis<'a>>,
     /// Label prefix no label of the program starts with.
     pub label_prefix: String,
 }
@@ -199,12 +256,16 @@ impl Emitter<'_> {
         out
     }
 
-    pub fn header(&self, model_sha: &str) -> String {
+    /// The header comment; `models` are the channels and the SHA-256 of their files.
+    pub fn header(&self, models: &[(&str, &str)]) -> String {
+        let models: Vec<String> = models
+            .iter()
+            .map(|(channel, sha)| format!("model {channel} sha256 {}", &sha[..sha.len().min(16)]))
+            .collect();
         Emitter::finish(vec![format!(
-            "; {SIGNATURE} {}: thermal drift compensation by on-machine measurement; model {} sha256 {}, profile {}",
+            "; {SIGNATURE} {}: thermal drift compensation by on-machine measurement; {}, profile {}",
             env!("CARGO_PKG_VERSION"),
-            self.channel,
-            &model_sha[..model_sha.len().min(16)],
+            models.join(", "),
             self.profile.name
         )])
     }
@@ -213,23 +274,43 @@ impl Emitter<'_> {
         number(um / 1000.0)
     }
 
-    fn frame_target(&self) -> String {
+    fn reg(&self, k: usize) -> &AxisRegisters {
+        &self.regs.axes[k]
+    }
+
+    fn frame_target(&self, k: usize) -> String {
         format!(
             "$P_UIFR[{},{},TR]",
             self.profile.offset.frame,
-            self.profile.position.axis.name()
+            self.axes[k].at.axis.name()
         )
     }
 
-    /// Blocks that put the work offset back to its value before the program.
+    /// The stored value of every corrected offset component as it was before the program.
+    fn restore_values(&self) -> Vec<String> {
+        (0..self.axes.len())
+            .map(|k| {
+                let axis = self.axes[k].at.axis.name();
+                let reg = self.reg(k);
+                match self.profile.offset.method {
+                    OffsetMethod::Frame => format!("{}={}", self.frame_target(k), r(reg.base)),
+                    OffsetMethod::Trans => "TRANS".to_string(),
+                    OffsetMethod::Atrans => format!("ATRANS {axis}=-{}", r(reg.applied)),
+                }
+            })
+            .collect::<Vec<_>>()
+            .into_iter()
+            .fold(Vec::new(), |mut v, line| {
+                if !v.contains(&line) {
+                    v.push(line);
+                }
+                v
+            })
+    }
+
+    /// Blocks that put the work offset back to its value before the program, and select it.
     fn restore_offset(&self) -> Vec<String> {
-        let axis = self.profile.position.axis.name();
-        let reg = &self.regs;
-        let mut v = vec![match self.profile.offset.method {
-            OffsetMethod::Frame => format!("{}={}", self.frame_target(), r(reg.base)),
-            OffsetMethod::Trans => "TRANS".to_string(),
-            OffsetMethod::Atrans => format!("ATRANS {axis}=-{}", r(reg.applied)),
-        }];
+        let mut v = self.restore_values();
         v.push(self.profile.offset.select.clone());
         v
     }
@@ -243,29 +324,33 @@ impl Emitter<'_> {
         }
     }
 
-    /// Blocks that apply the correction `corr` and re-select the work offset.
+    /// Blocks that apply every axis's correction `corr` and re-select the work offset.
     fn apply_correction(&self) -> Vec<String> {
-        let axis = self.profile.position.axis.name();
-        let reg = &self.regs;
         let mut v = Vec::new();
-        match self.profile.offset.method {
-            OffsetMethod::Frame => v.push(format!(
-                "{}={}+{}",
-                self.frame_target(),
-                r(reg.base),
-                self.offset_value(reg.corr)
-            )),
-            OffsetMethod::Trans => v.push(format!("TRANS {axis}={}", self.offset_value(reg.corr))),
-            OffsetMethod::Atrans => {
-                let change = if self.profile.offset.diameter {
-                    format!("2*({}-{})", r(reg.corr), r(reg.applied))
-                } else {
-                    format!("{}-{}", r(reg.corr), r(reg.applied))
-                };
-                v.push(format!("ATRANS {axis}={change}"));
+        for k in 0..self.axes.len() {
+            let axis = self.axes[k].at.axis.name();
+            let reg = self.reg(k);
+            match self.profile.offset.method {
+                OffsetMethod::Frame => v.push(format!(
+                    "{}={}+{}",
+                    self.frame_target(k),
+                    r(reg.base),
+                    self.offset_value(reg.corr)
+                )),
+                OffsetMethod::Trans => {
+                    v.push(format!("TRANS {axis}={}", self.offset_value(reg.corr)))
+                }
+                OffsetMethod::Atrans => {
+                    let change = if self.profile.offset.diameter {
+                        format!("2*({}-{})", r(reg.corr), r(reg.applied))
+                    } else {
+                        format!("{}-{}", r(reg.corr), r(reg.applied))
+                    };
+                    v.push(format!("ATRANS {axis}={change}"));
+                }
             }
+            v.push(format!("{}={}", r(reg.applied), r(reg.corr)));
         }
-        v.push(format!("{}={}", r(reg.applied), r(reg.corr)));
         v.push(self.profile.offset.select.clone());
         v
     }
@@ -297,23 +382,39 @@ impl Emitter<'_> {
         v
     }
 
-    /// The exact state update of every mode and input lag over `dt`, then the targets for the speed and
-    /// inputs from here on. With `idle` (a gate that can measure, some minutes after the last cut) the
-    /// update goes in two steps and keeps the prediction at the cut in `pred_cut`: the same result, as the
-    /// update is exact for a constant target.
+    /// The exact state update of every axis's modes and input lags over `dt`, then the targets for the
+    /// speed and inputs from here on. With `idle` (a gate that can measure, some minutes after the last cut)
+    /// the update goes in two steps and keeps each prediction at the cut in `pred_cut`: the same result, as
+    /// the update is exact for a constant target.
     fn update_prediction(&self, rpm: f64, idle: Option<f64>) -> Vec<String> {
-        let reg = &self.regs;
+        let mut v = Vec::new();
+        if let Some(idle) = idle {
+            let (dt, cut) = (r(self.regs.dt), r(self.regs.dt_cut));
+            v.push(format!("{cut}={dt}-{}", number(idle)));
+            v.push(format!("IF {cut}<0"));
+            v.push(format!("{cut}=0"));
+            v.push("ENDIF".into());
+        }
+        for k in 0..self.axes.len() {
+            v.extend(self.update_axis(k, rpm, idle.is_some()));
+        }
+        v
+    }
+
+    fn update_axis(&self, k: usize, rpm: f64, split: bool) -> Vec<String> {
+        let reg = self.reg(k);
+        let predictor = self.axes[k].predictor;
         let lags: Vec<(u32, u32, f64)> = reg
             .x
             .iter()
             .zip(&reg.g)
-            .zip(self.predictor.taus())
+            .zip(predictor.taus())
             .map(|((x, g), tau)| (*x, *g, *tau))
             .chain(
                 reg.input_x
                     .iter()
                     .zip(&reg.input_g)
-                    .zip(self.predictor.inputs())
+                    .zip(predictor.inputs())
                     .map(|((x, g), term)| (*x, *g, term.tau_min)),
             )
             .collect();
@@ -330,26 +431,21 @@ impl Emitter<'_> {
                 .collect()
         };
         let mut v = Vec::new();
-        match idle {
-            Some(idle) => {
-                let (dt, cut) = (r(reg.dt), r(reg.dt_cut));
-                v.push(format!("{cut}={dt}-{}", number(idle)));
-                v.push(format!("IF {cut}<0"));
-                v.push(format!("{cut}=0"));
-                v.push("ENDIF".into());
-                v.extend(step(&cut));
-                v.push(format!("{}={}", r(reg.pred_cut), self.prediction_sum()));
-                v.extend(step(&format!("({dt}-{cut})")));
-            }
-            None => v.extend(step(&r(reg.dt))),
+        let (dt, cut) = (r(self.regs.dt), r(self.regs.dt_cut));
+        if split {
+            v.extend(step(&cut));
+            v.push(format!("{}={}", r(reg.pred_cut), self.prediction_sum(k)));
+            v.extend(step(&format!("({dt}-{cut})")));
+        } else {
+            v.extend(step(&dt));
         }
-        v.extend(self.set_targets(rpm));
+        v.extend(self.set_targets(k, rpm));
         // The input holds from here to the next gate, as a log row's inputs do.
         for ((g, zero), term) in reg
             .input_g
             .iter()
             .zip(&reg.input_zero)
-            .zip(self.predictor.inputs())
+            .zip(predictor.inputs())
         {
             v.push(format!(
                 "{}={}*($A_INA[{n}]-{zero}) ; {}",
@@ -365,7 +461,7 @@ impl Emitter<'_> {
             .static_v
             .iter()
             .zip(&reg.static_zero)
-            .zip(self.predictor.statics())
+            .zip(predictor.statics())
         {
             v.push(format!(
                 "{}={}*($A_INA[{n}]-{zero}) ; {}",
@@ -376,20 +472,20 @@ impl Emitter<'_> {
                 zero = r(*zero)
             ));
         }
-        v.push(format!("{}={}", r(reg.pred), self.prediction_sum()));
+        v.push(format!("{}={}", r(reg.pred), self.prediction_sum(k)));
         v
     }
 
-    /// The predicted drift from the states: modes, input lags, static inputs and the trend.
-    fn prediction_sum(&self) -> String {
-        let reg = &self.regs;
+    /// The predicted drift of axis `k` from its states: modes, input lags, static inputs and the trend.
+    fn prediction_sum(&self, k: usize) -> String {
+        let reg = self.reg(k);
         let sum: Vec<String> = reg
             .x
             .iter()
             .chain(&reg.input_x)
             .chain(&reg.static_v)
             .map(|x| r(*x))
-            .chain(self.trend())
+            .chain(self.trend(k))
             .collect();
         if sum.is_empty() {
             "0".into()
@@ -398,10 +494,9 @@ impl Emitter<'_> {
         }
     }
 
-    /// The `time_trend` term: µm per hour times the time since the zero.
-    fn trend(&self) -> Option<String> {
-        let per_h = self.predictor.trend_um_per_h();
-        let reg = &self.regs;
+    /// The `time_trend` term of axis `k`: µm per hour times the time since the zero.
+    fn trend(&self, k: usize) -> Option<String> {
+        let per_h = self.axes[k].predictor.trend_um_per_h();
         // mm per hour keeps the written rate's precision (a slow creep is a few nm per minute).
         let timer_units_per_h = match self.profile.registers.timer_unit {
             TimerUnit::Min => 60,
@@ -411,17 +506,17 @@ impl Emitter<'_> {
             format!(
                 "{}*({}-{})/{timer_units_per_h}",
                 Emitter::mm(per_h),
-                r(reg.t_last),
-                r(reg.t0)
+                r(self.regs.t_last),
+                r(self.regs.t0)
             )
         })
     }
 
-    fn set_targets(&self, rpm: f64) -> Vec<String> {
-        self.regs
+    fn set_targets(&self, k: usize, rpm: f64) -> Vec<String> {
+        self.reg(k)
             .g
             .iter()
-            .zip(self.predictor.targets_at(rpm))
+            .zip(self.axes[k].predictor.targets_at(rpm))
             .map(|(g, um)| format!("{}={} ; {} rpm", r(*g), Emitter::mm(um), number(rpm)))
             .collect()
     }
@@ -449,11 +544,14 @@ impl Emitter<'_> {
     /// back, whatever loop run or expression led there; and the height to travel at: the clearance height,
     /// or the program's own where that is higher (the tool never moves down to travel). Nothing when the
     /// gate does not move the machine.
-    fn save_position(&self) -> Vec<String> {
+    fn save_position(&self, gate: &Gate) -> Vec<String> {
         let p = &self.profile.position;
         if self.profile.probe.kind == ProbeKind::Gauge {
             return Vec::new();
         }
+        // In radius from here to the modal line: the saved X, the clearance and every move of the gate
+        // mean the same on any control, whatever $AA_IW reports under DIAMON.
+        let radius = gate.before.diameter.then(|| "DIAMOF".to_string());
         let saves: Vec<String> = p
             .axes
             .iter()
@@ -461,13 +559,16 @@ impl Emitter<'_> {
             .map(|(a, reg)| format!("{}=$AA_IW[{}]", r(*reg), a.name()))
             .collect();
         let (h, clearance) = (r(self.regs.height), number(p.clearance));
-        vec![
-            saves.join(" "),
-            format!("{h}={}", r(self.regs.saved[self.retract_index()])),
-            format!("IF {h}<{clearance}"),
-            format!("{h}={clearance}"),
-            "ENDIF".into(),
-        ]
+        radius
+            .into_iter()
+            .chain([
+                saves.join(" "),
+                format!("{h}={}", r(self.regs.saved[self.retract_index()])),
+                format!("IF {h}<{clearance}"),
+                format!("{h}={clearance}"),
+                "ENDIF".into(),
+            ])
+            .collect()
     }
 
     /// Index of the retract axis in the profile's axes (and the saved position).
@@ -479,13 +580,14 @@ impl Emitter<'_> {
             .expect("validated: the axes list the retract axis")
     }
 
-    /// Travel at the clearance height to the probing start point, then along the tool axis to it.
-    fn to_start_point(&self) -> Vec<String> {
+    /// Travel at the travel height to the start point of axis `k`'s probing, then along the tool axis to it.
+    fn to_start_point(&self, k: usize) -> Vec<String> {
         let p = &self.profile.position;
+        let at = &self.axes[k].at;
         let coordinate = |a: Axis| match a {
-            Axis::X => p.x,
-            Axis::Y => p.y,
-            Axis::Z => p.z,
+            Axis::X => at.x,
+            Axis::Y => at.y,
+            Axis::Z => at.z,
         };
         let supa = match p.frame {
             MeasureFrame::Work => "",
@@ -515,8 +617,9 @@ impl Emitter<'_> {
         }
     }
 
-    /// From the program's position to the probing start point: up along the tool axis with the cutting
-    /// tool, spindle and coolant off, the probe in (spindle probe), across at the clearance height, down.
+    /// From the program's position to the first probing start point: up along the tool axis with the
+    /// cutting tool, spindle and coolant off, the probe in (spindle probe), across at the travel height,
+    /// down.
     fn probe_in(&self, gate: &Gate) -> Vec<String> {
         let p = self.profile;
         let mut v = Vec::new();
@@ -533,16 +636,42 @@ impl Emitter<'_> {
             v.push(format!("D{}", p.probe.tool_offset));
             v.push(self.clear());
         }
-        v.extend(self.to_start_point());
+        v.extend(self.to_start_point(0));
         v
     }
 
-    /// The measurement module: repeat the probing until N plausible values agree within the band; abort
-    /// when the attempts are used up. `expected` is the value the prediction expects (NC expression).
-    fn measure(&self, expected: &str, what: &str) -> Vec<String> {
+    /// Measures every axis in turn: the first from where [`Emitter::probe_in`] left the probe, each next
+    /// one after a retract and the travel to its start point; `expected(k)` is the value the prediction
+    /// expects, `done(k)` what follows each axis's mean (its zero, or its measured drift).
+    fn measure_axes(
+        &self,
+        what: &str,
+        expected: impl Fn(usize) -> String,
+        done: impl Fn(usize) -> String,
+    ) -> Vec<String> {
+        let mut v = Vec::new();
+        for k in 0..self.axes.len() {
+            if k > 0 && self.profile.probe.kind != ProbeKind::Gauge {
+                v.extend(self.to_start_point(k));
+            }
+            v.extend(self.measure(k, &expected(k), what));
+            v.push(done(k));
+        }
+        v
+    }
+
+    /// The measurement module of axis `k`: repeat the probing until N plausible values agree within the
+    /// band; abort when the attempts are used up. `expected` is the value the prediction expects (NC
+    /// expression).
+    fn measure(&self, k: usize, expected: &str, what: &str) -> Vec<String> {
         let reg = &self.regs;
         let l = &self.profile.limits;
         let n = l.agree_count;
+        let axis = if self.axes.len() > 1 {
+            format!(" on {}", self.axes[k].at.axis.name())
+        } else {
+            String::new()
+        };
         let mut v = vec![
             format!("{}=0", r(reg.attempts)),
             format!("{}=0", r(reg.agreeing)),
@@ -556,7 +685,7 @@ impl Emitter<'_> {
         v.push(format!("IF {}>{}", r(reg.attempts), l.max_attempts));
         v.extend(self.abort(
             &format!(
-                "driftloop: no {n} agreeing probe values in {} attempts at {what}: stopped",
+                "driftloop: no {n} agreeing probe values{axis} in {} attempts at {what}: stopped",
                 l.max_attempts
             ),
             self.profile.registers.alarm_implausible,
@@ -565,7 +694,7 @@ impl Emitter<'_> {
         v.push(format!("{}={}+1 ; NBL", r(reg.nbl), r(reg.nbl)));
         // A cycle that returns nothing must not leave the last value looking like a new one.
         v.push(format!("{}={SENTINEL}", self.profile.probe.result));
-        v.push(self.profile.cycle_call());
+        v.push(self.profile.cycle_call_at(&self.axes[k].at));
         v.push("STOPRE".into());
         v.push(format!("{}={}", r(reg.value), self.profile.probe.result));
         v.push(format!(
@@ -617,26 +746,27 @@ impl Emitter<'_> {
         }
     }
 
-    /// The result the prediction expects (NC expression): the zero plus the predicted drift, less the
-    /// correction in force when the measured point moves with the work offset.
-    fn expected(&self) -> String {
-        let reg = &self.regs;
-        let k = self.result_factor();
+    /// The result the prediction expects on axis `k` (NC expression): the zero plus the predicted drift,
+    /// less the correction in force when the measured point moves with the work offset.
+    fn expected(&self, k: usize) -> String {
+        let reg = self.reg(k);
+        let f = self.result_factor();
         match self.profile.position.frame {
             MeasureFrame::Work => {
-                format!("{}+{k}({}-{})", r(reg.zero), r(reg.pred), r(reg.applied))
+                format!("{}+{f}({}-{})", r(reg.zero), r(reg.pred), r(reg.applied))
             }
-            MeasureFrame::Machine => format!("{}+{k}{}", r(reg.zero), r(reg.pred)),
+            MeasureFrame::Machine => format!("{}+{f}{}", r(reg.zero), r(reg.pred)),
         }
     }
 
-    /// The measured drift since the zero (mm), from the mean reading.
-    fn measured_drift(&self) -> String {
-        let reg = &self.regs;
+    /// The measured drift of axis `k` since the zero (mm), from the mean reading.
+    fn measured_drift(&self, k: usize) -> String {
+        let reg = self.reg(k);
+        let mean = r(self.regs.mean);
         let change = if self.profile.position.diameter {
-            format!("({}-{})/2", r(reg.mean), r(reg.zero))
+            format!("({mean}-{})/2", r(reg.zero))
         } else {
-            format!("{}-{}", r(reg.mean), r(reg.zero))
+            format!("{mean}-{}", r(reg.zero))
         };
         match self.profile.position.frame {
             MeasureFrame::Work => format!("{}={change}+{}", r(reg.delta), r(reg.applied)),
@@ -644,9 +774,10 @@ impl Emitter<'_> {
         }
     }
 
-    /// One CSV line of the measurement log: time_min, spindle_rpm, drift (µm), pass, run. Without
-    /// `measured` the drift cell is empty: a gate that did not measure still logs the time and the inputs
-    /// from here on, which hold until the next row, so the log keeps the whole spindle and input history.
+    /// One CSV line of the measurement log: time_min, spindle_rpm, one drift (µm) per axis, pass, run.
+    /// Without `measured` the drift cells are empty: a gate that did not measure still logs the time and
+    /// the inputs from here on, which hold until the next row, so the log keeps the whole spindle and input
+    /// history.
     fn log(&self, rpm: f64, pass: usize, measured: bool) -> String {
         let reg = &self.regs;
         let minutes = match self.profile.registers.timer_unit {
@@ -660,16 +791,21 @@ impl Emitter<'_> {
             .values()
             .map(|n| format!("<<\",\"<<$A_INA[{n}]"))
             .collect();
-        let drift = if measured {
-            format!("\"<<{}*1000<<\"", r(reg.delta))
-        } else {
-            String::new()
-        };
+        let drifts: Vec<String> = (0..self.axes.len())
+            .map(|k| {
+                if measured {
+                    format!("\"<<{}*1000<<\"", r(self.reg(k).delta))
+                } else {
+                    String::new()
+                }
+            })
+            .collect();
         format!(
-            "WRITE({},\"{}\",\"\"<<{minutes}<<\",{},{drift},{pass},\"<<{}{inputs})",
+            "WRITE({},\"{}\",\"\"<<{minutes}<<\",{},{},{pass},\"<<{}{inputs})",
             r(reg.write_error),
             self.profile.registers.log_file,
             number(rpm),
+            drifts.join(","),
             r(reg.t0)
         )
     }
@@ -750,6 +886,9 @@ impl Emitter<'_> {
         }
         words.push(format!("G{}", b.motion));
         words.push(if b.absolute { "G90" } else { "G91" }.to_string());
+        if b.diameter && self.profile.probe.kind != ProbeKind::Gauge {
+            words.push("DIAMON".into());
+        }
         if let Some(f) = b.feed {
             words.push(format!("F{}", number(f)));
         }
@@ -771,9 +910,9 @@ impl Emitter<'_> {
         }
     }
 
-    /// The initial block: stage 1 (initial data) and stage 4 (reference measurement, the zero).
-    /// `cut_rpm` is the speed the first pass cuts at: a log row's inputs hold until the next row, and the
-    /// spindle is only stopped for the zero itself.
+    /// The initial block: stage 1 (initial data) and stage 4 (reference measurement, the zero of every
+    /// axis). `cut_rpm` is the speed the first pass cuts at: a log row's inputs hold until the next row,
+    /// and the spindle is only stopped for the zero itself.
     pub fn reference(&self, gate: &Gate, pass_tool: Option<&str>, cut_rpm: f64) -> String {
         let reg = &self.regs;
         let p = self.profile;
@@ -783,45 +922,52 @@ impl Emitter<'_> {
             "STOPRE".into(),
             format!("{}={}", r(reg.t0), p.registers.timer),
             format!("{}={}", r(reg.t_last), r(reg.t0)),
+            format!("{}=0", r(reg.nbl)),
         ];
-        for x in reg.x.iter().chain(&reg.input_x).chain(&reg.input_g) {
-            v.push(format!("{}=0", r(*x)));
+        for (k, axis) in self.axes.iter().enumerate() {
+            let a = self.reg(k);
+            for x in a.x.iter().chain(&a.input_x).chain(&a.input_g) {
+                v.push(format!("{}=0", r(*x)));
+            }
+            let lagged = axis.predictor.inputs().iter().map(|t| (t.input, &t.signal));
+            let statics = axis
+                .predictor
+                .statics()
+                .iter()
+                .map(|t| (t.input, &t.signal));
+            for (zero, (input, signal)) in a
+                .input_zero
+                .iter()
+                .chain(&a.static_zero)
+                .zip(lagged.chain(statics))
+            {
+                v.push(format!("{}=$A_INA[{input}] ; {signal}", r(*zero)));
+            }
+            for reg_n in [
+                a.pred,
+                a.pred_at_measurement,
+                a.eps,
+                a.corr,
+                a.applied,
+                a.delta,
+            ] {
+                v.push(format!("{}=0", r(reg_n)));
+            }
+            v.push(match p.offset.method {
+                OffsetMethod::Frame => format!("{}={}", r(a.base), self.frame_target(k)),
+                OffsetMethod::Trans | OffsetMethod::Atrans => format!("{}=0", r(a.base)),
+            });
         }
-        let lagged = self.predictor.inputs().iter().map(|t| (t.input, &t.signal));
-        let statics = self
-            .predictor
-            .statics()
+        let channels: String = self
+            .axes
             .iter()
-            .map(|t| (t.input, &t.signal));
-        for (zero, (input, signal)) in reg
-            .input_zero
-            .iter()
-            .chain(&reg.static_zero)
-            .zip(lagged.chain(statics))
-        {
-            v.push(format!("{}=$A_INA[{input}] ; {signal}", r(*zero)));
-        }
-        for reg_n in [
-            reg.pred,
-            reg.pred_at_measurement,
-            reg.eps,
-            reg.corr,
-            reg.applied,
-            reg.nbl,
-            reg.delta,
-        ] {
-            v.push(format!("{}=0", r(reg_n)));
-        }
-        v.push(match p.offset.method {
-            OffsetMethod::Frame => format!("{}={}", r(reg.base), self.frame_target()),
-            OffsetMethod::Trans | OffsetMethod::Atrans => format!("{}=0", r(reg.base)),
-        });
+            .map(|a| format!(",{}", a.channel))
+            .collect();
         v.push(format!(
-            "WRITE({},\"{}\",\"time_min,{},{},pass,run{}\")",
+            "WRITE({},\"{}\",\"time_min,{}{channels},pass,run{}\")",
             r(reg.write_error),
             p.registers.log_file,
             crate::data::SPINDLE,
-            self.channel,
             p.log
                 .inputs
                 .keys()
@@ -829,21 +975,25 @@ impl Emitter<'_> {
                 .collect::<String>()
         ));
         v.push(p.offset.select.clone());
-        v.extend(self.save_position());
+        v.extend(self.save_position(gate));
         v.extend(self.probe_in(gate));
         v.push("; driftloop stage 4: reference measurement, the zero".into());
-        v.extend(self.measure(&number(p.position.nominal), &what));
-        v.push(format!("{}={}", r(reg.zero), r(reg.mean)));
+        v.extend(self.measure_axes(
+            &what,
+            |k| number(self.axes[k].at.nominal),
+            |k| format!("{}={}", r(self.reg(k).zero), r(reg.mean)),
+        ));
         v.extend(self.log_checked(cut_rpm, gate.pass, true));
         v.extend(self.give_back(gate));
-        v.extend(self.set_targets(gate.rpm));
+        for k in 0..self.axes.len() {
+            v.extend(self.set_targets(k, gate.rpm));
+        }
         Emitter::finish(v)
     }
 
     /// A gate: prediction update; if it can measure, the Cycle_in decision and the measurement module;
     /// then the correction.
     pub fn gate(&self, gate: &Gate, pass_tool: Option<&str>) -> String {
-        let reg = &self.regs;
         let l = &self.profile.limits;
         let what = Emitter::describe(gate, pass_tool);
         let mut v = vec![format!(
@@ -857,47 +1007,64 @@ impl Emitter<'_> {
         if gate.can_measure {
             let skip = format!("{}SKIP{}", self.label_prefix, gate.number);
             if !self.profile.log.measure_every_gate {
-                let cycle_in = format!(
-                    "IF ABS({}-{})<{}",
-                    r(reg.pred),
-                    r(reg.pred_at_measurement),
-                    Emitter::mm(l.working_limit_um())
-                );
+                // Cycle_in: no axis's prediction changed by δ' since its last measurement.
+                let calm: Vec<String> = (0..self.axes.len())
+                    .map(|k| {
+                        let a = self.reg(k);
+                        format!(
+                            "ABS({}-{})<{}",
+                            r(a.pred),
+                            r(a.pred_at_measurement),
+                            Emitter::mm(l.working_limit_um())
+                        )
+                    })
+                    .collect();
+                let cycle_in = format!("IF {}", calm.join(" AND "));
                 // Cycle_in machines on without measuring but still logs its row, without a reading.
                 v.push(cycle_in.clone());
                 v.extend(self.log_checked(gate.rpm, gate.pass, false));
                 v.push("ENDIF".into());
                 v.push(format!("{cycle_in} GOTOF {skip}"));
             }
-            v.extend(self.save_position());
+            v.extend(self.save_position(gate));
             v.extend(self.probe_in(gate));
-            v.extend(self.measure(&self.expected(), &what));
-            v.push(self.measured_drift());
-            // The error of the part cut since the last gate: the measured drift at its last cut (the
-            // drift since then without cutting, as the model predicts it, taken off) against the
+            v.extend(self.measure_axes(&what, |k| self.expected(k), |k| self.measured_drift(k)));
+            // The error of the part cut since the last gate: on each axis the measured drift at its last
+            // cut (the drift since then without cutting, as the model predicts it, taken off) against the
             // correction in force while it was cut.
-            let since_cut = match idle {
-                Some(_) => format!("-({}-{})", r(reg.pred), r(reg.pred_cut)),
-                None => String::new(),
-            };
-            v.push(format!(
-                "IF ABS({}{since_cut}-{})>{}",
-                r(reg.delta),
-                r(reg.applied),
-                Emitter::mm(l.tolerance_um)
-            ));
-            // The scrap reading is logged before the stop, for the record and for `diagnose`.
-            v.extend(self.log_checked(gate.rpm, gate.pass, true));
-            v.extend(self.abort(
-                &format!(
-                    "driftloop: measured error beyond the tolerance {} um at {what}: part is scrap",
-                    number(l.tolerance_um)
-                ),
-                self.profile.registers.alarm_scrap,
-            ));
-            v.push("ENDIF".into());
-            v.push(format!("{}={}-{}", r(reg.eps), r(reg.delta), r(reg.pred)));
-            v.push(format!("{}={}", r(reg.pred_at_measurement), r(reg.pred)));
+            for k in 0..self.axes.len() {
+                let a = self.reg(k);
+                let since_cut = match idle {
+                    Some(_) => format!("-({}-{})", r(a.pred), r(a.pred_cut)),
+                    None => String::new(),
+                };
+                v.push(format!(
+                    "IF ABS({}{since_cut}-{})>{}",
+                    r(a.delta),
+                    r(a.applied),
+                    Emitter::mm(l.tolerance_um)
+                ));
+                // The scrap reading is logged before the stop, for the record and for `diagnose`.
+                v.extend(self.log_checked(gate.rpm, gate.pass, true));
+                let axis = if self.axes.len() > 1 {
+                    format!(" on {}", self.axes[k].at.axis.name())
+                } else {
+                    String::new()
+                };
+                v.extend(self.abort(
+                    &format!(
+                        "driftloop: measured error{axis} beyond the tolerance {} um at {what}: part is scrap",
+                        number(l.tolerance_um)
+                    ),
+                    self.profile.registers.alarm_scrap,
+                ));
+                v.push("ENDIF".into());
+            }
+            for k in 0..self.axes.len() {
+                let a = self.reg(k);
+                v.push(format!("{}={}-{}", r(a.eps), r(a.delta), r(a.pred)));
+                v.push(format!("{}={}", r(a.pred_at_measurement), r(a.pred)));
+            }
             // The speed the prediction runs on from here (the targets above), as the unmeasured rows log it.
             v.extend(self.log_checked(gate.rpm, gate.pass, true));
             v.extend(self.give_back(gate));
@@ -905,7 +1072,10 @@ impl Emitter<'_> {
         } else {
             v.extend(self.log_checked(gate.rpm, gate.pass, false));
         }
-        v.push(format!("{}={}+{}", r(reg.corr), r(reg.pred), r(reg.eps)));
+        for k in 0..self.axes.len() {
+            let a = self.reg(k);
+            v.push(format!("{}={}+{}", r(a.corr), r(a.pred), r(a.eps)));
+        }
         v.extend(self.apply_correction());
         Emitter::finish(v)
     }
@@ -914,8 +1084,8 @@ impl Emitter<'_> {
     pub fn end(&self) -> String {
         let mut v =
             vec!["; driftloop: work offset back to its value before the program".to_string()];
-        // The stored value only: the program ends here, and may not be running in the offset now.
-        v.extend(self.restore_offset().into_iter().take(1));
+        // The stored values only: the program ends here, and may not be running in the offset now.
+        v.extend(self.restore_values());
         Emitter::finish(v)
     }
 }

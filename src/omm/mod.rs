@@ -65,6 +65,10 @@ pub enum TransformError {
     UnknownTool(usize),
     #[error(transparent)]
     Plan(#[from] PlanError),
+    #[error(
+        "the program writes a frame itself at line {0}, after the zero: the corrections driftloop writes into the work offset and its restore at the end would overwrite it (or be overwritten); move the write before the first cut"
+    )]
+    FrameWrite(usize),
     #[error("{0}")]
     Other(String),
     #[error(
@@ -88,6 +92,7 @@ impl TransformError {
             TransformError::Plan(PlanError::NothingToCompensate) => "moves no axis",
             TransformError::Plan(PlanError::NoReference(_)) => "no place for the reference",
             TransformError::Plan(PlanError::Model(_)) => "model not predictable in NC",
+            TransformError::FrameWrite(_) => "writes a work offset itself",
             TransformError::Other(_) => "profile or registers",
             TransformError::LongBlock(_) => "block too long",
             TransformError::Emit(_) => "internal error",
@@ -193,7 +198,48 @@ pub fn plan_program(
     model: &DriftModel,
     profile: &Profile,
 ) -> Result<(Timeline, Plan), TransformError> {
-    plan_with(program, None, model, profile)
+    plan_with(program, None, &[model], profile)
+}
+
+/// The models in the order of the profile's measured axes ([`Profile::measured`]): an `also` axis takes
+/// the model of the channel it names, `[position]`'s axis the one model left.
+pub fn models_for_axes<'m, M: Copy>(
+    profile: &Profile,
+    models: &[M],
+    channel: impl Fn(M) -> &'m str,
+) -> Result<Vec<M>, TransformError> {
+    let also = &profile.position.also;
+    let find = |name: &str| models.iter().copied().find(|m| channel(*m) == name);
+    let mut out = Vec::new();
+    let rest: Vec<M> = models
+        .iter()
+        .copied()
+        .filter(|m| !also.iter().any(|a| a.channel == channel(*m)))
+        .collect();
+    match rest.as_slice() {
+        [one] => out.push(*one),
+        _ => {
+            return Err(TransformError::Other(format!(
+                "the profile measures {} with the model left over after its `also` channels ({}), but {} model(s) are left: give one model per measured axis",
+                profile.position.axis.name(),
+                also.iter()
+                    .map(|a| a.channel.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                rest.len()
+            )));
+        }
+    }
+    for a in also {
+        out.push(find(&a.channel).ok_or_else(|| {
+            TransformError::Other(format!(
+                "the profile measures {} with the model of channel `{}`, which no --model file holds",
+                a.axis.name(),
+                a.channel
+            ))
+        })?);
+    }
+    Ok(out)
 }
 
 /// [`plan_program`] for a program parsed with [`timeline::parse_timed`]: the same plan, without reading the
@@ -201,24 +247,25 @@ pub fn plan_program(
 pub fn plan_timed(
     program: &Program,
     moves: &Moves,
-    model: &DriftModel,
+    models: &[&DriftModel],
     profile: &Profile,
 ) -> Result<(Timeline, Plan), TransformError> {
-    plan_with(program, Some(moves), model, profile)
+    plan_with(program, Some(moves), models, profile)
 }
 
 fn plan_with(
     program: &Program,
     moves: Option<&Moves>,
-    model: &DriftModel,
+    models: &[&DriftModel],
     profile: &Profile,
 ) -> Result<(Timeline, Plan), TransformError> {
+    let models = models_for_axes(profile, models, |m: &DriftModel| m.channel.as_str())?;
     let timeline = match moves {
         Some(moves) => timeline::build_with_moves(program, moves, profile),
         None => timeline::build(program, profile),
     };
     refusals(&timeline, profile)?;
-    let plan = plan::plan(&timeline, model, profile)?;
+    let plan = plan::plan(&timeline, &models, profile)?;
     Ok((timeline, plan))
 }
 
@@ -288,7 +335,7 @@ pub fn prepare<'p>(
     profile: &Profile,
     force: bool,
 ) -> Result<Prepared<'p>, TransformError> {
-    prepare_with(program, None, model, profile, force)
+    prepare_with(program, None, &[model], profile, force)
 }
 
 /// [`prepare`] for a program parsed with [`timeline::parse_timed`] (what the `transform` command does): the
@@ -296,30 +343,41 @@ pub fn prepare<'p>(
 pub fn prepare_timed<'p>(
     program: &'p Program,
     moves: &Moves,
-    model: ModelRef<'_>,
+    models: &[ModelRef<'_>],
     profile: &Profile,
     force: bool,
 ) -> Result<Prepared<'p>, TransformError> {
-    prepare_with(program, Some(moves), model, profile, force)
+    prepare_with(program, Some(moves), models, profile, force)
 }
 
 fn prepare_with<'p>(
     program: &'p Program,
     moves: Option<&Moves>,
-    model: ModelRef<'_>,
+    models: &[ModelRef<'_>],
     profile: &Profile,
     force: bool,
 ) -> Result<Prepared<'p>, TransformError> {
+    let models = models_for_axes(profile, models, |m: ModelRef<'_>| m.model.channel.as_str())?;
+    let drift: Vec<&DriftModel> = models.iter().map(|m| m.model).collect();
     // The checks search the source (outside the timed moves, when there are) while the timeline is folded.
     let (checked, planned) = rayon::join(
         || check_with(program, moves, force),
-        || plan_with(program, moves, model.model, profile),
+        || plan_with(program, moves, &drift, profile),
     );
     checked?;
     let (timeline, plan) = planned?;
-    let predictor = Predictor::new(model.model, &profile.log.inputs, &profile.position)
+    let zero = plan.gates.first().map_or(0, |g| g.block);
+    if let Some(&b) = timeline.frame_writes.iter().find(|&&b| b >= zero) {
+        return Err(TransformError::FrameWrite(b + 1));
+    }
+    let measured = profile.measured();
+    let predictors: Vec<Predictor> = models
+        .iter()
+        .zip(&measured)
+        .map(|(m, at)| Predictor::new(m.model, &profile.log.inputs, at))
+        .collect::<Result<_, _>>()
         .map_err(TransformError::Other)?;
-    let regs = Registers::allocate(profile, &predictor, &timeline.used_r)
+    let regs = Registers::allocate(profile, &predictors, &timeline.used_r)
         .map_err(TransformError::Other)?;
     let label_prefix = ["DL", "DLOMM", "DRIFTLOOP"]
         .into_iter()
@@ -331,8 +389,16 @@ fn prepare_with<'p>(
     let emitter = Emitter {
         profile,
         regs: &regs,
-        predictor: &predictor,
-        channel: &model.model.channel,
+        axes: measured
+            .into_iter()
+            .zip(&predictors)
+            .zip(&models)
+            .map(|((at, predictor), m)| emit::MeasuredAxis {
+                at,
+                predictor,
+                channel: &m.model.channel,
+            })
+            .collect(),
         label_prefix,
     };
     let mut editor = Editor::new(program);
@@ -353,7 +419,11 @@ fn prepare_with<'p>(
     let header_at = timeline
         .header_end
         .min(program.block_count().saturating_sub(1));
-    insert(&mut editor, header_at, emitter.header(model.sha256))?;
+    let shas: Vec<(&str, &str)> = models
+        .iter()
+        .map(|m| (m.model.channel.as_str(), m.sha256))
+        .collect();
+    insert(&mut editor, header_at, emitter.header(&shas))?;
     let mut labels = Vec::new();
     let cut_rpm = plan
         .gates

@@ -8,10 +8,10 @@ use std::sync::Arc;
 
 use serde::Serialize;
 
-use crate::model::DriftModel;
 use crate::model::effects::{Effect, Kind};
 use crate::model::lag::step;
 use crate::model::speed_grid::SpeedGrid;
+use crate::model::{DriftModel, extrapolation_warning};
 
 use super::loops::{Loop, site_runs};
 use super::nc::number;
@@ -486,10 +486,54 @@ fn unfit_for_measuring(
     }
 }
 
-pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Result<Plan, PlanError> {
+/// The predictors of every measured axis, stepped together.
+struct Axes(Vec<Predictor>);
+
+impl Axes {
+    fn set_rpm(&mut self, rpm: f64) {
+        self.0.iter_mut().for_each(|p| p.set_rpm(rpm));
+    }
+
+    fn advance(&mut self, minutes: f64) {
+        self.0.iter_mut().for_each(|p| p.advance(minutes));
+    }
+
+    fn drifts(&self) -> Vec<f64> {
+        self.0.iter().map(Predictor::drift).collect()
+    }
+}
+
+/// The largest change on any axis between two predictions.
+fn largest_change(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max)
+}
+
+/// The plan for one model per measured axis ([`Profile::measured`], in that order).
+pub fn plan(
+    timeline: &Timeline,
+    models: &[&DriftModel],
+    profile: &Profile,
+) -> Result<Plan, PlanError> {
+    let measured = profile.measured();
+    if models.len() != measured.len() {
+        return Err(PlanError::Model(format!(
+            "the profile measures {} axis/axes but {} model(s) were given: one model per measured axis",
+            measured.len(),
+            models.len()
+        )));
+    }
     // The plan cannot know the inputs ahead: they are taken to stay at their value at the zero.
-    let mut p =
-        Predictor::new(model, &profile.log.inputs, &profile.position).map_err(PlanError::Model)?;
+    let mut p = Axes(
+        models
+            .iter()
+            .zip(&measured)
+            .map(|(m, at)| Predictor::new(m, &profile.log.inputs, at))
+            .collect::<Result<_, _>>()
+            .map_err(PlanError::Model)?,
+    );
     let limit = profile.limits.working_limit_um();
     let first = reference_site(timeline, profile)?;
     let reference_tool = timeline.sites[first].before.tool.clone();
@@ -507,18 +551,30 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
     let mut pending = 0.0;
     let mut last_time = runs.sites[start].1;
     let mut rpm = 0.0;
-    let mut at_last_measurement = 0.0;
+    let mut at_last_measurement = vec![0.0; models.len()];
     let mut max: f64 = 0.0;
+    // Speeds the model was never characterised at: say so, with the law its gains follow there.
+    let mut speeds: Vec<f64> = timeline.speeds.iter().map(|s| s.1).collect();
+    speeds.sort_by(f64::total_cmp);
+    speeds.dedup();
+    let speed_warnings: Vec<String> = models
+        .iter()
+        .flat_map(|m| {
+            speeds
+                .iter()
+                .filter_map(|rpm| extrapolation_warning(m, *rpm))
+        })
+        .collect();
     let mut watch = Watch {
         chance: (
             format!("line {}", timeline.sites[first].block + 1),
             runs.sites[start].1,
-            0.0,
+            vec![0.0; models.len()],
         ),
         cut: None,
         limit,
         tolerance: profile.limits.tolerance_um,
-        warnings: Vec::new(),
+        warnings: speed_warnings,
     };
     for (n, &(k, time)) in runs.sites[start..].iter().enumerate() {
         let site = &timeline.sites[k];
@@ -537,15 +593,16 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
         let cut_end = time - site.idle_min;
         if cut_end > last_time {
             p.advance(cut_end - last_time + pending);
-            watch.cut = Some((cut_end, p.drift()));
+            watch.cut = Some((cut_end, p.drifts()));
             p.advance(time - cut_end);
         } else {
             p.advance(time - last_time + pending);
         }
         last_time = time;
         pending = 0.0;
-        let predicted = p.drift();
-        max = max.max(predicted.abs());
+        let drifts = p.drifts();
+        let predicted = drifts[0];
+        max = drifts.iter().fold(max, |m, d| m.max(d.abs()));
         visits[k] += 1;
         // The zero is planned once; should its block lie in a loop body, its further runs are not planned.
         if reference && n > 0 {
@@ -571,12 +628,12 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
             SiteKind::Start => (GateKind::Update, false),
         };
         if can_measure && !reference {
-            watch.chance(format!("line {}", site.block + 1), time, predicted);
+            watch.chance(format!("line {}", site.block + 1), time, drifts.clone());
         }
         let measure = kind == GateKind::Reference
             || (can_measure
                 && (profile.log.measure_every_gate
-                    || (predicted - at_last_measurement).abs() >= limit));
+                    || largest_change(&drifts, &at_last_measurement) >= limit));
         let in_loop = matches!(
             site.kind,
             SiteKind::Retract {
@@ -592,7 +649,7 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
             continue;
         }
         if measure {
-            at_last_measurement = predicted;
+            at_last_measurement = drifts;
             pending = per_measurement;
         }
         rpm = site.rpm_after;
@@ -621,17 +678,14 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
     let cut_end = timeline.last_cut_min;
     if cut_end > last_time {
         p.advance(cut_end - last_time + pending);
-        watch.cut = Some((cut_end, p.drift()));
+        watch.cut = Some((cut_end, p.drifts()));
         p.advance(timeline.total_min - cut_end);
     } else {
         p.advance(timeline.total_min - last_time + pending);
     }
-    max = max.max(p.drift().abs());
-    watch.chance(
-        "the program's end".to_string(),
-        timeline.total_min,
-        p.drift(),
-    );
+    let drifts = p.drifts();
+    max = drifts.iter().fold(max, |m, d| m.max(d.abs()));
+    watch.chance("the program's end".to_string(), timeline.total_min, drifts);
     let gates: Vec<Gate> = gates
         .into_iter()
         .enumerate()
@@ -660,10 +714,10 @@ pub fn plan(timeline: &Timeline, model: &DriftModel, profile: &Profile) -> Resul
 /// The stretches of cutting between two places that can measure: where the predicted drift changes by
 /// more than δ' while cutting, parts are cut that no measurement watches.
 struct Watch {
-    /// The last place that could measure: line, time, prediction.
-    chance: (String, f64, f64),
-    /// The end of the last cut since then: time, prediction.
-    cut: Option<(f64, f64)>,
+    /// The last place that could measure: line, time, prediction of every axis.
+    chance: (String, f64, Vec<f64>),
+    /// The end of the last cut since then: time, prediction of every axis.
+    cut: Option<(f64, Vec<f64>)>,
     limit: f64,
     tolerance: f64,
     warnings: Vec<String>,
@@ -672,12 +726,12 @@ struct Watch {
 impl Watch {
     /// A place that can measure (or the program's end): warns when the cut since the last one drifted
     /// too far, and starts the next stretch here.
-    fn chance(&mut self, at: String, time: f64, predicted: f64) {
+    fn chance(&mut self, at: String, time: f64, predicted: Vec<f64>) {
         let (from, from_time, from_pred) = &self.chance;
         if let Some((cut_time, cut_pred)) = self.cut.take()
             && cut_time > *from_time
         {
-            let change = (cut_pred - from_pred).abs();
+            let change = largest_change(&cut_pred, from_pred);
             if change > self.limit {
                 let what = if change > self.tolerance {
                     format!("more than the tolerance Δ = {} µm", number(self.tolerance))
@@ -721,6 +775,7 @@ mod tests {
             axes: vec![Axis::X, Axis::Y, Axis::Z],
             retract_axis: Axis::Z,
             diameter: false,
+            also: Vec::new(),
             axis: Axis::Z,
             nominal: -5.0,
         }

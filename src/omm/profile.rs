@@ -152,6 +152,22 @@ pub struct Position {
     /// their change.
     #[serde(default)]
     pub diameter: bool,
+    /// Further axes every measuring gate measures and corrects, each with its own model channel.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub also: Vec<AlsoMeasured>,
+}
+
+/// A further measured axis: the nominal of its surface, the probing start point, and the model channel
+/// that predicts its drift (`--model` of that channel).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AlsoMeasured {
+    pub axis: Axis,
+    pub nominal: f64,
+    pub x: f64,
+    pub y: f64,
+    pub z: f64,
+    pub channel: String,
 }
 
 fn xyz() -> Vec<Axis> {
@@ -365,10 +381,33 @@ impl Profile {
 
     /// The probe cycle call with its placeholders filled in.
     pub fn cycle_call(&self) -> String {
+        self.cycle_call_at(&self.position)
+    }
+
+    /// The probe cycle call measuring the axis of `at` (one of [`Profile::measured`]).
+    pub fn cycle_call_at(&self, at: &Position) -> String {
         self.probe
             .cycle
-            .replace("{axis}", &self.position.axis.number().to_string())
-            .replace("{nominal}", &super::nc::number(self.position.nominal))
+            .replace("{axis}", &at.axis.number().to_string())
+            .replace("{nominal}", &super::nc::number(at.nominal))
+    }
+
+    /// The measured axes, each as a position of its own (axis, nominal, start point): `[position]` first,
+    /// then its `also` entries.
+    pub fn measured(&self) -> Vec<Position> {
+        let first = Position {
+            also: Vec::new(),
+            ..self.position.clone()
+        };
+        let more = self.position.also.iter().map(|a| Position {
+            axis: a.axis,
+            nominal: a.nominal,
+            x: a.x,
+            y: a.y,
+            z: a.z,
+            ..first.clone()
+        });
+        std::iter::once(first.clone()).chain(more).collect()
     }
 
     /// What serde cannot check.
@@ -456,6 +495,22 @@ impl Profile {
                 p.axes.iter().map(|a| a.name()).collect::<Vec<_>>(),
                 p.retract_axis.name()
             ));
+        }
+        let mut seen = vec![p.axis];
+        for a in &p.also {
+            if seen.contains(&a.axis) {
+                return Err(format!(
+                    "position.also measures {} twice: every measured axis once",
+                    a.axis.name()
+                ));
+            }
+            seen.push(a.axis);
+            if a.channel.trim().is_empty() {
+                return Err(format!(
+                    "position.also ({}) must name the model channel that predicts its drift",
+                    a.axis.name()
+                ));
+            }
         }
         for (name, v) in [
             ("position.x", p.x),

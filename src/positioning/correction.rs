@@ -32,7 +32,7 @@ impl Grid {
 
     /// The default when the user gives none: from the first to past the last target with the largest
     /// 1-2-5 step that is not coarser than the closest pair of targets, but with at most
-    /// [`DEFAULT_MAX_INTERVALS`] intervals.
+    /// `DEFAULT_MAX_INTERVALS` intervals.
     pub fn covering(targets_mm: &[f64]) -> Grid {
         let first = targets_mm[0];
         let last = targets_mm[targets_mm.len() - 1];

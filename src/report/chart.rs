@@ -75,6 +75,36 @@ impl Series {
     }
 }
 
+/// The points of a time series measured in several runs, at most about `max_points` of them: each run's rows
+/// in order, rows without a value (NaN: no reading there) left out so a line joins the readings on either
+/// side within a run, and a break (a non-finite point) between runs, so no line joins the end of one run to
+/// the start of the next. Long series are thinned evenly, every k-th row of each run.
+pub fn points_by_run(
+    time: &[f64],
+    values: &[f64],
+    run_starts: &[usize],
+    max_points: usize,
+) -> Vec<(f64, f64)> {
+    let n = time.len().min(values.len());
+    let measured = values[..n].iter().filter(|v| !v.is_nan()).count();
+    let k = measured.div_ceil(max_points.max(1)).max(1);
+    let mut bounds: Vec<usize> = run_starts.iter().copied().filter(|&s| s < n).collect();
+    bounds.push(n);
+    let mut points = Vec::with_capacity(measured / k + run_starts.len());
+    for run in bounds.windows(2) {
+        let kept = (run[0]..run[1]).filter(|&i| !values[i].is_nan());
+        let mut first = true;
+        for i in kept.step_by(k) {
+            if first && !points.is_empty() {
+                points.push((f64::NAN, f64::NAN));
+            }
+            first = false;
+            points.push((time[i], values[i]));
+        }
+    }
+    points
+}
+
 /// A chart: title, axis labels (put units in them), size in px and the series.
 #[derive(Debug, Clone)]
 pub struct Chart {
@@ -603,6 +633,40 @@ impl AxisRange {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn runs_are_drawn_apart_and_gaps_within_a_run_are_joined() {
+        let t = [0.0, 1.0, 2.0, 0.0, 1.0, 2.0];
+        let v = [1.0, f64::NAN, 3.0, 4.0, 5.0, f64::NAN];
+        let p = points_by_run(&t, &v, &[0, 3], 100);
+        assert_eq!(p.len(), 5, "{p:?}");
+        assert_eq!((p[0], p[1]), ((0.0, 1.0), (2.0, 3.0)));
+        assert!(p[2].0.is_nan(), "a break between the runs: {p:?}");
+        assert_eq!((p[3], p[4]), ((0.0, 4.0), (1.0, 5.0)));
+        let svg = Chart::new("t", "time in min", "drift in µm")
+            .series(Series::new("runs", Mark::Line, p))
+            .to_svg();
+        assert_eq!(svg.matches("<path d=\"M").count(), 2, "one line per run");
+        // A run without a reading adds no break of its own.
+        let p = points_by_run(
+            &t,
+            &[1.0, 2.0, 3.0, f64::NAN, f64::NAN, f64::NAN],
+            &[0, 3],
+            100,
+        );
+        assert_eq!(p.len(), 3);
+        assert!(p.iter().all(|(x, _)| x.is_finite()));
+    }
+
+    #[test]
+    fn long_series_are_thinned_without_losing_the_breaks() {
+        let t: Vec<f64> = (0..1000).map(|i| f64::from(i % 500)).collect();
+        let v: Vec<f64> = (0..1000).map(f64::from).collect();
+        let p = points_by_run(&t, &v, &[0, 500], 100);
+        assert!(p.len() <= 102, "{}", p.len());
+        assert_eq!(p.iter().filter(|(x, _)| x.is_nan()).count(), 1);
+        assert_eq!(p[0], (0.0, 0.0));
+    }
 
     fn small_chart() -> Chart {
         Chart::new("Deviation <X> & more", "position in mm", "deviation in µm")

@@ -5,7 +5,8 @@
 //! images from anywhere.
 //!
 //! - [`Document`]: title, sections, paragraphs, [`Table`]s, [`Chart`] figures, a "how to read this" block.
-//! - [`Chart`] with [`Series`]: line / scatter charts, optional bands (x̄ ± k·s) and error bars, nice ticks.
+//! - [`Chart`] with [`Series`]: line / scatter charts, optional bands (x̄ ± k·s) and error bars, nice ticks;
+//!   [`points_by_run`] draws a series measured in several runs with a break between runs.
 //! - [`nice_ticks`], [`escape`], [`fmt_num`]: the building blocks, public for other renderers.
 
 mod chart;
@@ -13,7 +14,7 @@ mod document;
 mod format;
 mod ticks;
 
-pub use chart::{Chart, Mark, PALETTE, Series};
+pub use chart::{Chart, Mark, PALETTE, Series, points_by_run};
 pub use document::{Cell, Document, Table};
 pub use format::{escape, fmt_num};
 pub use ticks::{Ticks, nice_ticks};

@@ -97,6 +97,17 @@ pub struct Cluster {
     pub dropped: Option<String>,
 }
 
+impl Cluster {
+    /// `keep SENSOR`, or `drop (why)`, as the reports print it.
+    pub fn verdict(&self) -> String {
+        match (&self.kept, &self.dropped) {
+            (Some(k), _) => format!("keep {k}"),
+            (None, Some(why)) => format!("drop ({why})"),
+            (None, None) => "drop".into(),
+        }
+    }
+}
+
 #[derive(Debug, Clone, Serialize)]
 pub struct Coefficient {
     /// `offset` for the intercept, else the sensor.
@@ -508,4 +519,5 @@ impl Analysis {
     }
 }
 
+mod report;
 mod text;

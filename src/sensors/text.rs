@@ -51,11 +51,7 @@ fn clusters(s: &mut String, clusters: &[Cluster], threshold: f64) {
         "\nclusters (complete linkage, |r| ≥ {threshold} inside a cluster):"
     );
     for c in clusters {
-        let verdict = match (&c.kept, &c.dropped) {
-            (Some(k), _) => format!("keep {k}"),
-            (None, Some(why)) => format!("drop ({why})"),
-            (None, None) => "drop".into(),
-        };
+        let verdict = c.verdict();
         let _ = writeln!(s, "  {:<40} {verdict}", c.sensors.join(" "));
     }
 }

@@ -54,6 +54,15 @@ pub struct Config {
     pub probe_axis: String,
     /// Machine coordinate of the surface the probe touches.
     pub probe_surface_mm: f64,
+    /// The probe cycle's argument (0-based) that names the measured axis (1, 2, 3 for X, Y, Z), as
+    /// driftloop's `{axis}` placeholder does: a program that measures several axes says which at each call.
+    pub probe_axis_arg: Option<usize>,
+    /// Run on past a call of a subprogram or cycle that is not found (a manufacturer's cycle, a folder not
+    /// given) as if it did nothing, with a message, instead of stopping: the audit compares two runs that
+    /// skip it alike.
+    pub skip_missing_calls: bool,
+    /// Machine coordinate of the surface probed along each axis other than `probe_axis`.
+    pub probe_surfaces: std::collections::BTreeMap<String, f64>,
     /// The cycle reports machine coordinates (a reference fixed on the table), not work coordinates.
     pub probe_machine_frame: bool,
     /// The cycle reports a diameter: the surface is a diameter and the drift counts twice.
@@ -92,6 +101,9 @@ impl Default for Config {
             probe_result: ProbeTarget::R(2),
             probe_axis: "Z".into(),
             probe_surface_mm: 0.0,
+            probe_axis_arg: None,
+            skip_missing_calls: false,
+            probe_surfaces: std::collections::BTreeMap::new(),
             probe_machine_frame: false,
             probe_diameter: false,
             probe_min: 0.05,
@@ -172,6 +184,10 @@ struct Probe {
     result: Option<ResultSpec>,
     axis: Option<String>,
     surface_mm: Option<f64>,
+    /// 1-based position of the argument naming the axis; `surfaces`: the surface per further axis.
+    axis_arg: Option<usize>,
+    #[serde(default)]
+    surfaces: BTreeMap<String, f64>,
     machine_frame: Option<bool>,
     diameter: Option<bool>,
     noise_um: Option<f64>,
@@ -284,6 +300,12 @@ pub fn parse_machine_file(
     }
     cfg.probe_axis = p.axis.map_or(cfg.probe_axis, |a| a.to_ascii_uppercase());
     cfg.probe_surface_mm = p.surface_mm.unwrap_or(cfg.probe_surface_mm);
+    if let Some(n) = p.axis_arg {
+        cfg.probe_axis_arg = Some(n.checked_sub(1).ok_or("probe.axis_arg counts from 1")?);
+    }
+    for (axis, mm) in p.surfaces {
+        cfg.probe_surfaces.insert(axis.to_ascii_uppercase(), mm);
+    }
     cfg.probe_machine_frame = p.machine_frame.unwrap_or(cfg.probe_machine_frame);
     cfg.probe_diameter = p.diameter.unwrap_or(cfg.probe_diameter);
     cfg.trans_is_correction = file.corrections.include_trans;

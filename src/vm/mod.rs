@@ -32,7 +32,9 @@ use std::path::Path;
 pub use config::{Config, MachineSpec, ProbeTarget, offset_frame, parse_machine_file};
 pub use machine::{Machine, ProbeCall, ProbeFault, ProbeResult, SimpleMachine, SpindleHistory};
 pub use passes::Pass;
-pub use report::{Alarm, At, Correction, End, Measurement, Message, Run, Totals, TraceRow};
+pub use report::{
+    Alarm, At, AxisError, Correction, End, Measurement, Message, Run, Totals, TraceRow,
+};
 pub use truth::ModelDrift;
 
 /// A program the dry run cannot carry on with: unsupported construct, undefined variable, missing jump target,

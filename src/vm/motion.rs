@@ -178,6 +178,9 @@ pub struct Modal {
     pub exact_stop: u32,
     /// Cutter radius compensation: 40, 41, 42.
     pub compensation: u32,
+    /// Constant cutting speed (G96): S is m/min, the spindle turns 1000·S / (π·D), at most `lims`.
+    pub css: bool,
+    pub lims: Option<f64>,
 }
 
 /// Feed type (G group 15).
@@ -270,6 +273,8 @@ pub struct State {
     pub mist: bool,
     pub flood: bool,
     pub kinematics: Kinematics,
+    /// DIAMON / DIAM90: the axis (X) whose programmed values are diameters; the machine moves half.
+    pub diameter_axis: Option<usize>,
 }
 
 impl State {
@@ -290,6 +295,8 @@ impl State {
                 path: 60,
                 exact_stop: 601,
                 compensation: 40,
+                css: false,
+                lims: None,
             },
             frames: Frames::new(axes),
             s: 0.0,
@@ -300,6 +307,7 @@ impl State {
             mist: false,
             flood: false,
             kinematics: Kinematics::default(),
+            diameter_axis: None,
         }
     }
 
@@ -308,13 +316,28 @@ impl State {
     pub fn work_position(&self, axis: usize) -> f64 {
         if self.frames.is_linear() {
             self.local[axis]
+        } else if self.diameter_axis == Some(axis) {
+            2.0 * (self.machine[axis] - self.frames.offset(axis))
         } else {
             self.machine[axis] - self.frames.offset(axis)
         }
     }
 
     pub fn spindle_rpm(&self) -> f64 {
-        if self.rotation == 0 { 0.0 } else { self.s }
+        if self.rotation == 0 {
+            0.0
+        } else if self.modal.css {
+            // The diameter the tool stands at: twice its distance from the turning axis.
+            let d = self.frames.geo[0].map_or(0.0, |x| 2.0 * self.machine[x].abs());
+            let n = if d > 1.0 {
+                1000.0 * self.s.abs() / (std::f64::consts::PI * d)
+            } else {
+                self.modal.lims.unwrap_or(self.s)
+            };
+            self.modal.lims.map_or(n, |l| n.min(l))
+        } else {
+            self.s
+        }
     }
 
     /// Places the geometry axes X, Y, Z through the programmable frame's rotation, scale and mirror.

@@ -110,8 +110,39 @@ pub struct Run {
     /// Files written with `WRITE`, by name.
     pub files: BTreeMap<String, String>,
     pub spindle: SpindleHistory,
+    /// The tool centre point's error while cutting, per geometry axis (X, Y, Z): the
+    /// machined error of each axis (a wall's position along X, a floor's depth along Z).
+    pub cutting_error: BTreeMap<String, AxisError>,
     #[serde(skip)]
     pub trace: Vec<TraceRow>,
+}
+
+/// Drift minus correction along one axis over the time the tool cut (feed moves with the spindle on),
+/// sampled at each move's middle and weighted by its time.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct AxisError {
+    pub max_abs_um: f64,
+    pub rms_um: f64,
+    /// The same for the drift alone: the error had nothing been corrected.
+    pub max_abs_drift_um: f64,
+    pub rms_drift_um: f64,
+    pub cutting_min: f64,
+    #[serde(skip)]
+    sums: (f64, f64),
+}
+
+impl AxisError {
+    pub fn add(&mut self, error_um: f64, drift_um: f64, minutes: f64) {
+        self.max_abs_um = self.max_abs_um.max(error_um.abs());
+        self.max_abs_drift_um = self.max_abs_drift_um.max(drift_um.abs());
+        self.sums.0 += error_um * error_um * minutes;
+        self.sums.1 += drift_um * drift_um * minutes;
+        self.cutting_min += minutes;
+        if self.cutting_min > 0.0 {
+            self.rms_um = (self.sums.0 / self.cutting_min).sqrt();
+            self.rms_drift_um = (self.sums.1 / self.cutting_min).sqrt();
+        }
+    }
 }
 
 impl Run {
@@ -132,6 +163,7 @@ impl Run {
             aux_functions: BTreeMap::new(),
             files: BTreeMap::new(),
             spindle: SpindleHistory::default(),
+            cutting_error: BTreeMap::new(),
             trace: Vec::new(),
         }
     }
@@ -183,6 +215,17 @@ impl Run {
             "machined error over {} passes: max {:.2} µm, RMS {:.2} µm (drift during them: max {:.2} µm, RMS {:.2} µm)",
             t.passes, t.max_abs_error_um, t.rms_error_um, t.max_abs_drift_um, t.rms_drift_um
         );
+        let drifted = self
+            .cutting_error
+            .iter()
+            .filter(|(_, e)| e.max_abs_um > 0.0 || e.max_abs_drift_um > 0.0);
+        for (axis, e) in drifted {
+            let _ = writeln!(
+                o,
+                "cutting error along {axis} over {:.1} min of cutting: max {:.2} µm, RMS {:.2} µm (drift: max {:.2} µm, RMS {:.2} µm)",
+                e.cutting_min, e.max_abs_um, e.rms_um, e.max_abs_drift_um, e.rms_drift_um
+            );
+        }
         if !self.passes.is_empty() {
             let _ = writeln!(
                 o,

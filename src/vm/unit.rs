@@ -145,9 +145,18 @@ impl Unit {
     pub fn new(name: String, dir: Option<PathBuf>, program: Program) -> Self {
         let name: Rc<str> = name.into();
         let source = Rc::new(Source::new(name.clone(), program));
-        let first = usize::from(
-            source.program.block_count() > 0 && source.program.block_kind(0) == BlockKind::Header,
-        );
+        // The main program starts after its `%` header, which comment lines may precede (a title).
+        let program = &source.program;
+        let src = program.source();
+        let first = (0..program.block_count())
+            .take_while(|&i| {
+                let text = program.content_span(i).slice(src).trim_ascii();
+                program.block_kind(i) == BlockKind::Header
+                    || text.is_empty()
+                    || text.starts_with(b";")
+            })
+            .find(|&i| program.block_kind(i) == BlockKind::Header)
+            .map_or(0, |h| h + 1);
         Unit::at(name, dir, source, first)
     }
 

@@ -51,7 +51,9 @@ pub struct Crate {
 }
 
 impl Crate {
-    /// Reads the library crate whose root is `src/lib.rs` (the binary's `main.rs` is left out).
+    /// Reads the crate whose root is `src/lib.rs`. The binary's own modules (`src/cli/`, which name the
+    /// library's items as `crate::…` through `main.rs`'s glob import) are read as children of that root;
+    /// `main.rs` itself is left out.
     pub fn read(src: &Path) -> Crate {
         let mut files = Vec::new();
         rust_files(src, &mut files);

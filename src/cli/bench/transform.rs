@@ -50,7 +50,7 @@ pub(super) fn transform_run(
     let cpu_before = process::cpu_time();
     let started = Instant::now();
     let (program, moves) = omm::parse_timed(source);
-    let prepared = omm::prepare_timed(&program, &moves, model, &setup.profile, false)?;
+    let prepared = omm::prepare_timed(&program, &moves, &[model], &setup.profile, false)?;
     prepared.write_to(sink)?;
     let time = started.elapsed();
     let run = TransformRun {

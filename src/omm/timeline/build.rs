@@ -119,8 +119,21 @@ fn callees_first(names: &[Option<String>], calls: &[&BTreeSet<String>]) -> Vec<u
 /// The block ranges of the program's units: a new one starts at each `%` header after the first block.
 fn units(program: &Program) -> Vec<std::ops::Range<usize>> {
     let count = program.block_count();
+    let src = program.source();
+    // Comments and blank lines before the first header belong to its unit (a title above `%_N_…_MPF`).
+    let only_comments = |blocks: std::ops::Range<usize>| {
+        blocks.into_iter().all(|i| {
+            let text = program.content_span(i).slice(src).trim_ascii();
+            text.is_empty() || text.starts_with(b";")
+        })
+    };
     let mut starts = vec![0];
-    starts.extend(program.header_blocks().iter().filter(|&&h| h > 0));
+    starts.extend(
+        program
+            .header_blocks()
+            .iter()
+            .filter(|&&h| h > 0 && !only_comments(0..h)),
+    );
     starts.push(count);
     starts.windows(2).map(|w| w[0]..w[1]).collect()
 }

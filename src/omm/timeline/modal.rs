@@ -32,6 +32,11 @@ pub struct Modal {
     pub comp: u32,
     /// The work offset selected (54 … 57, 505 … 599, or 500 for none), when the program selected one.
     pub offset: Option<u32>,
+    /// X is programmed in diameters (DIAMON, DIAM90).
+    pub diameter: bool,
+    /// Under constant cutting speed (G96, `s` in m/min): the spindle speed estimated where S was set,
+    /// n = 1000·v / (π·D) at the diameter the tool stood at, capped by LIMS.
+    pub css_rpm: Option<f64>,
     /// Frames and transformations active ([`frame`] bits).
     pub frames: u8,
     /// Fields the program set by an expression the timeline cannot evaluate ([`unknown`] bits): a gate
@@ -63,7 +68,7 @@ impl Modal {
     /// Speed the spindle turns at (rpm, 0 when stopped).
     pub fn rpm(&self) -> f64 {
         if matches!(self.direction, 3 | 4) {
-            self.s.abs()
+            self.css_rpm.unwrap_or(self.s).abs()
         } else {
             0.0
         }
@@ -111,7 +116,7 @@ impl Modal {
 pub(super) mod field {
     use super::Modal;
 
-    pub const COUNT: usize = 17;
+    pub const COUNT: usize = 18;
     pub const FEED: usize = 4;
     pub const MOTION: usize = 5;
     pub const Z: usize = 7;
@@ -121,7 +126,7 @@ pub(super) mod field {
         [
             a.tool != b.tool,
             a.d != b.d,
-            a.s != b.s,
+            a.s != b.s || a.css_rpm != b.css_rpm,
             a.direction != b.direction,
             a.feed != b.feed,
             a.motion != b.motion,
@@ -136,6 +141,7 @@ pub(super) mod field {
             a.frames != b.frames,
             a.unknown != b.unknown,
             a.offset != b.offset,
+            a.diameter != b.diameter,
         ]
     }
 }
@@ -183,6 +189,8 @@ mod tests {
             coolant: Some(8),
             comp: 41,
             offset: Some(54),
+            diameter: true,
+            css_rpm: None,
             frames: 1,
             unknown: 1,
         };

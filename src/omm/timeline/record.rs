@@ -105,6 +105,8 @@ pub struct Timeline {
     pub last_cut_min: f64,
     /// The program moves an axis, or calls a subprogram or cycle that may.
     pub moves: bool,
+    /// Blocks that write a frame variable themselves (`$P_UIFR[…]=`, `$P_PFRAME=`, …).
+    pub frame_writes: Vec<usize>,
     /// One past the last block before the first cut that selects a work offset or changes frames or
     /// transformations: the reference measurement goes after the program's own setup.
     pub setup_end: usize,

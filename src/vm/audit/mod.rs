@@ -58,6 +58,10 @@ pub struct AuditSettings {
     pub diameter: bool,
     /// `position.axis`: 0, 1, 2 for X, Y, Z.
     pub axis: usize,
+    /// `position.also`: the further measured and corrected axes (0, 1, 2) with their surfaces' nominals.
+    pub also: Vec<(usize, f64)>,
+    /// The probe cycle's argument (0-based) that names the axis (`{axis}` in the profile's template).
+    pub probe_axis_arg: Option<usize>,
     /// `offset.method` and `offset.frame`: the entry the correction writes, the one difference allowed.
     pub method: OffsetMethod,
     pub frame: usize,
@@ -91,6 +95,12 @@ impl AuditSettings {
     pub fn from_profile(profile: &Profile) -> AuditSettings {
         let p = &profile.position;
         let axis = p.axis.number() as usize - 1;
+        // The argument of the cycle template that holds `{axis}`, for several measured axes.
+        let probe_axis_arg = profile
+            .probe
+            .cycle
+            .split_once('(')
+            .and_then(|(_, args)| args.split(',').position(|a| a.contains("{axis}")));
         let mut point = [p.x, p.y, p.z];
         point[axis] = p.nominal;
         let call = profile.cycle_call();
@@ -106,6 +116,12 @@ impl AuditSettings {
             nominal: p.nominal,
             diameter: p.diameter,
             axis,
+            also: p
+                .also
+                .iter()
+                .map(|a| (a.axis.number() as usize - 1, a.nominal))
+                .collect(),
+            probe_axis_arg,
             method: profile.offset.method,
             frame: profile.offset.frame as usize,
             reset_selects: profile.offset.reset_selects,
@@ -127,11 +143,26 @@ impl AuditSettings {
     /// schedule, so the probe sees what the program's predictions expect and the clean run does not abort
     /// as scrap. A model that takes other inputs (ambient temperature, sensors) needs their signals: give a
     /// machine file instead.
-    pub fn drifting_as(mut self, model: &DriftModel) -> Result<AuditSettings, String> {
-        let truth = ModelDrift::new(model.clone(), 1.0, &BTreeMap::new())?;
-        let axis = ["X", "Y", "Z"][self.axis].to_string();
-        self.machine.models.insert(axis, truth);
+    pub fn drifting_as(self, model: &DriftModel) -> Result<AuditSettings, String> {
+        self.drifting_as_axes(&[model])
+    }
+
+    /// [`AuditSettings::drifting_as`] with one model per measured axis (`[position]`'s, then `also`'s).
+    pub fn drifting_as_axes(mut self, models: &[&DriftModel]) -> Result<AuditSettings, String> {
+        for (axis, model) in self.corrected().into_iter().zip(models) {
+            let truth = ModelDrift::new((*model).clone(), 1.0, &BTreeMap::new())?;
+            self.machine
+                .models
+                .insert(["X", "Y", "Z"][axis].to_string(), truth);
+        }
         Ok(self)
+    }
+
+    /// The measured and corrected axes (0, 1, 2): `position.axis` first.
+    pub fn corrected(&self) -> Vec<usize> {
+        std::iter::once(self.axis)
+            .chain(self.also.iter().map(|a| a.0))
+            .collect()
     }
 
     /// The interpreter settings for both runs: `cfg` with the profile's probe cycle, result, probed surface
@@ -140,6 +171,8 @@ impl AuditSettings {
         let mut cfg = cfg.clone();
         cfg.trace = false;
         cfg.passes = false;
+        // Both runs skip a cycle neither can find alike: what the inserted blocks do is still compared.
+        cfg.skip_missing_calls = true;
         if !cfg.probe_cycles.contains(&self.probe_cycle) {
             cfg.probe_cycles.push(self.probe_cycle.clone());
         }
@@ -156,17 +189,28 @@ impl AuditSettings {
         // the corrected work offset as it stands at the start.
         cfg.probe_machine_frame = self.probe_point_in_machine;
         cfg.probe_diameter = self.diameter;
-        let start_offset: f64 = cfg
-            .offsets
-            .iter()
-            .filter(|(frame, a, _)| *frame == self.frame && a == axis)
-            .map(|o| o.2)
-            .sum();
-        cfg.probe_surface_mm = if self.probe_point_in_machine {
-            self.nominal
-        } else {
-            self.nominal + start_offset
+        let surface = |axis: &str, nominal: f64| {
+            let start: f64 = cfg
+                .offsets
+                .iter()
+                .filter(|(frame, a, _)| *frame == self.frame && a == axis)
+                .map(|o| o.2)
+                .sum();
+            if self.probe_point_in_machine {
+                nominal
+            } else {
+                nominal + start
+            }
         };
+        cfg.probe_surface_mm = surface(axis, self.nominal);
+        for &(a, nominal) in &self.also {
+            let name = ["X", "Y", "Z"][a];
+            let mm = surface(name, nominal);
+            cfg.probe_surfaces.insert(name.to_string(), mm);
+        }
+        if !self.also.is_empty() {
+            cfg.probe_axis_arg = self.probe_axis_arg;
+        }
         cfg.subprogram_dirs.splice(0..0, self.dir.iter().cloned());
         cfg
     }

@@ -59,6 +59,15 @@ pub(super) fn tools(t: &State, o: &State) -> Vec<Difference> {
     v
 }
 
+fn diameter(s: &State) -> String {
+    if s.diameter_axis.is_some() {
+        "DIAMON"
+    } else {
+        "DIAMOF"
+    }
+    .into()
+}
+
 fn coolant(s: &State) -> String {
     match (s.mist, s.flood) {
         (false, false) => "off (M9)".into(),
@@ -142,6 +151,7 @@ pub(super) fn modal(t: &State, o: &State, s: &AuditSettings, axes: &[String]) ->
         ),
         ("transformation", transformation(t), transformation(o)),
         ("swivel", swivel(t), swivel(o)),
+        ("diameter programming", diameter(t), diameter(o)),
         (
             "rotation/scale/mirror",
             linear(&t.frames.linear),
@@ -194,11 +204,12 @@ fn frames(t: &Frames, o: &Frames, s: &AuditSettings, axes: &[String]) -> Vec<Dif
     if t.selected != o.selected {
         v.push(item("work offset", select(t.selected), select(o.selected)));
     }
-    // The corrected entry's axis.
-    let axis = t.geo[s.axis];
+    // The corrected entries' axes.
+    let corrected: Vec<Option<usize>> = s.corrected().into_iter().map(|k| t.geo[k]).collect();
+    let is_corrected = |a: usize| corrected.contains(&Some(a));
     let frame_method = s.method == OffsetMethod::Frame;
     for (a, name) in axes.iter().enumerate() {
-        let skip_active = frame_method && Some(a) == axis && t.selected == s.frame;
+        let skip_active = frame_method && is_corrected(a) && t.selected == s.frame;
         if !skip_active && t.selected == o.selected && differ(t.active[a], o.active[a]) {
             v.push(item(
                 &format!("active work offset {name}"),
@@ -206,7 +217,7 @@ fn frames(t: &Frames, o: &Frames, s: &AuditSettings, axes: &[String]) -> Vec<Dif
                 num(o.active[a]),
             ));
         }
-        let skip_trans = !frame_method && Some(a) == axis;
+        let skip_trans = !frame_method && is_corrected(a);
         if !skip_trans && differ(t.trans[a], o.trans[a]) {
             v.push(item(
                 &format!("programmable translation {name}"),
@@ -216,7 +227,7 @@ fn frames(t: &Frames, o: &Frames, s: &AuditSettings, axes: &[String]) -> Vec<Dif
         }
     }
     if let Some(c) = table_difference(t, o, axes, |f, a, fine| {
-        frame_method && !fine && f == s.frame && Some(a) == axis
+        frame_method && !fine && f == s.frame && is_corrected(a)
     }) {
         v.push(item(&c.name(), num(c.transformed), num(c.original)));
     }

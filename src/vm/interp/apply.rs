@@ -37,6 +37,7 @@ impl Interp<'_> {
                 93 => modal.feed_mode = FeedMode::InverseTime,
                 94 => modal.feed_mode = FeedMode::PerMinute,
                 95 => modal.feed_mode = FeedMode::PerRevolution,
+                96 | 97 => modal.css = g == 96,
                 _ => return Err(format!("G{g} is not supported by the dry run")),
             }
         }
@@ -63,11 +64,16 @@ impl Interp<'_> {
             };
             self.motion.modal.feed = Some(f * unit);
         }
+        if let Some(l) = w.lims {
+            self.motion.modal.lims = Some(l);
+        }
         if let Some(s) = w.s.filter(|_| !dwell) {
             self.motion.s = s;
-            if self.motion.rotation != 0 {
-                self.spindle.set(self.time_min, s);
-            }
+        }
+        if (w.s.is_some() || w.g.iter().any(|g| matches!(g, 96 | 97)) || w.lims.is_some())
+            && self.motion.rotation != 0
+        {
+            self.spindle.set(self.time_min, self.motion.spindle_rpm());
         }
         if let Some(t) = w.tool.take() {
             if self.cfg.tool_change_on_t {
@@ -87,7 +93,7 @@ impl Interp<'_> {
             match m {
                 3 | 4 => {
                     self.motion.rotation = m;
-                    self.spindle.set(self.time_min, self.motion.s);
+                    self.spindle.set(self.time_min, self.motion.spindle_rpm());
                 }
                 6 => {
                     self.passes.end_segment();
@@ -180,13 +186,24 @@ impl Interp<'_> {
             return Ok(Flow::Return);
         }
         if let Some((name, args, refs)) = w.call {
-            let unit = self.load(u, &name)?;
-            return Ok(Flow::Call {
-                unit,
-                args,
-                refs,
-                repeats: w.repeat.unwrap_or(1).max(1),
-            });
+            match self.load(u, &name) {
+                Ok(unit) => {
+                    return Ok(Flow::Call {
+                        unit,
+                        args,
+                        refs,
+                        repeats: w.repeat.unwrap_or(1).max(1),
+                    });
+                }
+                Err(why) if self.cfg.skip_missing_calls => {
+                    let at = self.at(u, i);
+                    self.run.messages.push(Message {
+                        at,
+                        text: format!("skipped as doing nothing: {why}"),
+                    });
+                }
+                Err(why) => return Err(why),
+            }
         }
         if let Some((start, end)) = w.section {
             let passes = w.repeat.unwrap_or(1);
@@ -310,7 +327,12 @@ impl Interp<'_> {
             };
             let offset = if suppress { 0.0 } else { st.frames.offset(a) };
             st.local[a] = if absolute { v } else { st.local[a] + v };
-            st.machine[a] = st.local[a] + offset;
+            let radius = if st.diameter_axis == Some(a) {
+                st.local[a] / 2.0
+            } else {
+                st.local[a]
+            };
+            st.machine[a] = radius + offset;
             st.moved |= 1 << a;
             if suppress {
                 st.suppressed |= 1 << a;
@@ -402,13 +424,29 @@ impl Interp<'_> {
             return Ok(());
         }
         let rpm = self.motion.spindle_rpm();
-        let Some(z) = self.axis_index("Z") else {
-            return Ok(());
-        };
         if rpm <= 0.0 || length == 0.0 {
             return Ok(());
         }
         let mid = (t0 + self.time_min) / 2.0;
+        for name in ["X", "Y", "Z"] {
+            let Some(a) = self.axis_index(name) else {
+                continue;
+            };
+            let drift = self.machine.drift_um(name, mid, &self.spindle);
+            let correction = if suppress {
+                0.0
+            } else {
+                self.motion.frames.correction(a) * 1000.0
+            };
+            self.run
+                .cutting_error
+                .entry(name.to_string())
+                .or_default()
+                .add(drift - correction, drift, minutes);
+        }
+        let Some(z) = self.axis_index("Z") else {
+            return Ok(());
+        };
         let drift = self.machine.drift_um("Z", mid, &self.spindle);
         let correction = if suppress {
             0.0
@@ -432,7 +470,19 @@ impl Interp<'_> {
 
     pub(super) fn probe(&mut self, u: &Unit, i: usize, cycle: &str, args: &[Option<f64>]) {
         self.passes.end_segment();
-        let axis = self.cfg.probe_axis.clone();
+        let named = self
+            .cfg
+            .probe_axis_arg
+            .and_then(|k| args.get(k).copied().flatten())
+            .filter(|n| matches!(*n as i64, 1..=3) && n.fract() == 0.0)
+            .map(|n| ["X", "Y", "Z"][n as usize - 1].to_string());
+        let axis = named.unwrap_or_else(|| self.cfg.probe_axis.clone());
+        let surface = self
+            .cfg
+            .probe_surfaces
+            .get(&axis)
+            .copied()
+            .unwrap_or(self.cfg.probe_surface_mm);
         let t = self.time_min;
         let true_drift = self.machine.drift_um(&axis, t, &self.spindle);
         let result = self.machine.probe(&ProbeCall {
@@ -455,7 +505,7 @@ impl Interp<'_> {
                     offset
                 };
                 let scale = if self.cfg.probe_diameter { 2.0 } else { 1.0 };
-                Some(self.cfg.probe_surface_mm - frame + scale * d / 1000.0)
+                Some(surface - frame + scale * d / 1000.0)
             }
             ProbeResult::Raw(v) => Some(v),
             ProbeResult::Nothing => None,

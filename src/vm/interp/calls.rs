@@ -15,7 +15,13 @@ impl Interp<'_> {
         let mut values = Vec::with_capacity(args.len());
         for a in &args {
             values.push(match a {
-                Some(a) => Some(self.eval(u, a)?),
+                Some(a) => match self.eval(u, a) {
+                    Ok(v) => Some(v),
+                    // A cycle's symbolic arguments (`_ORI_FINISH`) come from definitions the dry run
+                    // does not have: when missing calls are skipped, such a call is skipped too.
+                    Err(_) if self.cfg.skip_missing_calls && !self.is_builtin(&name) => None,
+                    Err(e) => return Err(e),
+                },
                 None => None,
             });
         }
@@ -95,6 +101,10 @@ impl Interp<'_> {
             }
             "TRAFOOF" => self.motion.kinematics.transformation = None,
             "SUPA" => w.suppress_frames = true,
+            "DIAMON" | "DIAM90" => {
+                self.motion.diameter_axis = self.cfg.axes.iter().position(|a| a == "X")
+            }
+            "DIAMOF" => self.motion.diameter_axis = None,
             "BSPLINE" | "ASPLINE" | "CSPLINE" => w.spline = true,
             "TRANS" | "ATRANS" | "ROT" | "AROT" | "SCALE" | "ASCALE" | "MIRROR" | "AMIRROR" => {
                 w.frame_command = Some(name)
@@ -122,8 +132,18 @@ impl Interp<'_> {
                 w.call = Some((name, Vec::new(), Vec::new()));
                 Ok(())
             }
+            // A modal cycle call runs a machining cycle after every move: skipped like a missing cycle.
+            ("MCALL", _) if self.cfg.skip_missing_calls => Ok(()),
             _ => Err(format!("{keyword} is not supported by the dry run")),
         }
+    }
+
+    /// The procedures and cycles the dry run carries out itself.
+    fn is_builtin(&self, name: &str) -> bool {
+        matches!(
+            name,
+            "MSG" | "SETAL" | "WRITE" | "SETMS" | "CYCLE800" | "TRAORI" | "TRANSMIT" | "TRACYL"
+        ) || self.cfg.probe_cycles.iter().any(|c| c == name)
     }
 
     /// Finds `NAME.SPF` / `NAME.MPF` (any case, or `_N_NAME_SPF`) beside the calling program, then in the

@@ -95,6 +95,8 @@ struct Words {
     /// I, J, K (index 0..3) and whether given as AC().
     centre: [Option<(f64, bool)>; 3],
     cr: Option<f64>,
+    /// `LIMS=`: the speed limit under constant cutting speed.
+    lims: Option<f64>,
     frame_command: Option<String>,
     suppress_frames: bool,
     call: Option<(String, CallArgs, Vec<Option<Ref>>)>,

@@ -117,6 +117,7 @@ impl Interp<'_> {
             "S" | "S1" => w.s = Some(self.num(u, value)?),
             "D" => w.d = Some(self.num(u, value)?),
             "CR" => w.cr = Some(self.num(u, value)?),
+            "LIMS" => w.lims = Some(self.num(u, value)?),
             "T" => {
                 w.tool = Some(match self.eval(u, value)? {
                     Value::Num(n) => Tool::Number(n),

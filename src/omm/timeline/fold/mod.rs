@@ -77,6 +77,8 @@ pub(super) struct Builder<'p> {
     run_end: usize,
     /// Until the first cut: the first block after the setup so far, as a [`SiteKind::Start`] site.
     start: Option<Site>,
+    /// The speed limit under constant cutting speed (`LIMS=`).
+    lims: Option<f64>,
     /// When the last cut (feed move) ended, in ticks.
     last_cut: u64,
 }
@@ -121,6 +123,7 @@ impl<'p> Builder<'p> {
             varies: BTreeSet::new(),
             run_end: 0,
             start: None,
+            lims: None,
             last_cut: 0,
         }
     }
@@ -290,10 +293,12 @@ impl<'p> Builder<'p> {
 
     /// Header lines (`%…`, `;$PATH`) and the declarations after them: no gate may come before their end.
     fn header_and_preamble(&mut self, i: usize, header: bool, declaration: bool, blank: bool) {
+        // Comments and blank lines may stand around the `%` header lines: driftloop's header goes after the
+        // last of those header lines.
         if !self.header_done {
             if header {
                 self.t.header_end = i + 1;
-            } else {
+            } else if !blank {
                 self.header_done = true;
             }
         }
@@ -424,8 +429,14 @@ impl<'p> Builder<'p> {
         {
             self.state.offset = Some(g);
         }
+        if s.frame_ops & frame_op::WRITE != 0 {
+            self.t.frame_writes.push(i);
+        }
         self.frames(s.frame_ops);
         self.t.moves |= s.other_axes;
+        if let Some(on) = s.diameter {
+            self.state.diameter = on;
+        }
         // Modal words first: they hold for this block's move.
         for g in s.g.iter() {
             match g {
@@ -453,6 +464,16 @@ impl<'p> Builder<'p> {
         if let Some(v) = s.s {
             self.state.s = v;
             self.state.unknown &= !unknown::S;
+        }
+        if let Some(l) = s.lims {
+            self.lims = Some(l);
+        }
+        if s.g.contains(97) {
+            self.state.css_rpm = None;
+        } else if s.g.contains(96)
+            || (self.state.css_rpm.is_some() && (s.s.is_some() || s.lims.is_some()))
+        {
+            self.state.css_rpm = Some(self.css_rpm());
         }
         if let Some(d) = s.d {
             self.state.d = Some(d);
@@ -613,15 +634,17 @@ impl<'p> Builder<'p> {
             minutes += self.profile.timeline.tool_change_s / 60.0;
         }
         self.t.inexact_blocks += usize::from(inexact);
-        self.last_was_z_retract = moved
-            && self.state.motion == 0
-            && mv.axes[0].is_none()
-            && mv.axes[1].is_none()
-            && match (from[2], to[2]) {
-                (Some(a), Some(b)) => b > a,
-                (None, Some(_)) => true,
-                _ => false,
-            };
+        // A dwell leaves the tool where the retract put it: the rapid after it is still clear of the part.
+        self.last_was_z_retract = (dwell && self.last_was_z_retract)
+            || moved
+                && self.state.motion == 0
+                && mv.axes[0].is_none()
+                && mv.axes[1].is_none()
+                && match (from[2], to[2]) {
+                    (Some(a), Some(b)) => b > a,
+                    (None, Some(_)) => true,
+                    _ => false,
+                };
         self.pos = to;
         if self.state.z != to[2] {
             self.state.z = to[2];
@@ -631,6 +654,24 @@ impl<'p> Builder<'p> {
         if moves_somehow && !g4 && self.state.motion != 0 {
             self.last_cut = self.ticks;
         }
+    }
+
+    /// The spindle speed under constant cutting speed (G96): 1000·v / (π·D) at the diameter the tool stands
+    /// at (X, a diameter under DIAMON), capped by LIMS; LIMS (or v itself) where no diameter is known yet.
+    fn css_rpm(&self) -> f64 {
+        let v = self.state.s.abs();
+        let diameter = self.pos[0].map(|x| {
+            if self.state.diameter {
+                x.abs()
+            } else {
+                2.0 * x.abs()
+            }
+        });
+        let n = match diameter {
+            Some(d) if d > 1.0 => 1000.0 * v / (std::f64::consts::PI * d),
+            _ => self.lims.unwrap_or(v),
+        };
+        self.lims.map_or(n, |l| n.min(l))
     }
 
     /// Minutes from the end of the last cut to `at_min`.

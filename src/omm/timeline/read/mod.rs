@@ -50,6 +50,10 @@ pub(super) struct Scan {
     pub(super) statement: bool,
     /// The block moves an axis other than X, Y, Z (a rotary axis, say).
     pub(super) other_axes: bool,
+    /// DIAMON / DIAM90 (true) or DIAMOF (false): X values are diameters from here on.
+    pub(super) diameter: Option<bool>,
+    /// `LIMS=`: the speed limit under constant cutting speed (rpm).
+    pub(super) lims: Option<f64>,
 }
 
 /// Bits of [`Scan::frame_ops`].

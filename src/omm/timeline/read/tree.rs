@@ -124,6 +124,11 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
             NodeKind::Command => {
                 let name = String::from_utf8_lossy(block.text(node)).to_ascii_uppercase();
                 s.frame_ops |= transformation_op(&name) | frame_command_op(&name, &f, &block);
+                match name.as_str() {
+                    "DIAMON" | "DIAM90" => s.diameter = Some(true),
+                    "DIAMOF" => s.diameter = Some(false),
+                    _ => {}
+                }
                 if !is_predefined_command(&name) {
                     s.call = Some(name);
                 }
@@ -334,6 +339,7 @@ fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
             }
         }
         b"CR" => s.mv.radius = v,
+        b"LIMS" => s.lims = v,
         b"D" => match v {
             Some(d) if d >= 0.0 && d.fract() == 0.0 => s.d = Some(d as u32),
             _ => s.unknown |= unknown::D,
