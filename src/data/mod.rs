@@ -94,6 +94,11 @@ pub fn measured(values: &[f64]) -> Vec<bool> {
 /// allocating without bound.
 pub const MOST_ROWS: f64 = 1e7;
 
+/// Fastest spindle speed a log or a model may carry (rpm).
+pub const FASTEST_RPM: f64 = 1e6;
+/// Largest drift figure (reading, gain, offset, amplitude) a log, model or profile may carry (µm): one metre.
+pub const LARGEST_UM: f64 = 1e6;
+
 /// Refuses a series of `rows` rows beyond [`MOST_ROWS`]; `how` says what asked for it and how to ask for
 /// fewer.
 pub fn check_rows(rows: f64, how: &str) -> Result<(), String> {

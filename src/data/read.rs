@@ -387,8 +387,8 @@ impl<'a> Cell<'a> {
 /// unit or typing error, and would only make the fits ill-conditioned (an SVD of 1e200 rpm does not end).
 fn largest(name: &str) -> (f64, &'static str) {
     match ColumnKind::of(name) {
-        ColumnKind::Spindle => (crate::model::file::FASTEST_RPM, " rpm"),
-        ColumnKind::Displacement => (crate::model::file::LARGEST_UM, " µm"),
+        ColumnKind::Spindle => (super::FASTEST_RPM, " rpm"),
+        ColumnKind::Displacement => (super::LARGEST_UM, " µm"),
         _ => (1e9, ""),
     }
 }

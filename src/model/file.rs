@@ -10,10 +10,7 @@ use super::{DriftModel, SCHEMA};
 pub const TAU_SHORTEST_MIN: f64 = 1e-3;
 /// Longest time constant (min): about 19 years.
 pub const TAU_LONGEST_MIN: f64 = 1e7;
-/// Fastest characterised spindle speed (rpm).
-pub const FASTEST_RPM: f64 = 1e6;
-/// Largest drift figure (gain, offset, amplitude) a model may carry (µm): one metre.
-pub const LARGEST_UM: f64 = 1e6;
+pub use crate::data::{FASTEST_RPM, LARGEST_UM};
 
 /// Why a model file could not be read or written.
 #[derive(Debug, thiserror::Error)]

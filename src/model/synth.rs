@@ -6,7 +6,8 @@ use crate::data::{Dataset, SPINDLE, TimeUnit};
 
 use super::{DriftModel, PredictError};
 
-/// SplitMix64: tiny, seedable, good enough for test noise.
+/// The crate's one pseudo-random generator, SplitMix64: tiny, seedable, the same numbers on every machine.
+/// Noise of synthetic data, simulated inputs and probes, generated benchmark programs.
 #[derive(Debug, Clone)]
 pub struct Rng(u64);
 

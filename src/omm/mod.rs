@@ -9,7 +9,6 @@ pub mod nc;
 pub mod plan;
 pub mod profile;
 pub mod report;
-mod subprograms;
 pub mod timeline;
 
 use serde::Serialize;

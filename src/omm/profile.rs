@@ -6,6 +6,8 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use crate::data::LARGEST_UM;
+
 /// The profile shipped inside the binary (fixtures/omm/blum-tc50.toml), used when `--profile` is absent.
 pub const DEFAULT_PROFILE: &str = include_str!("../../fixtures/omm/blum-tc50.toml");
 
@@ -563,8 +565,6 @@ impl Profile {
 
 /// Highest R-parameter number a profile may give driftloop (the control's MD28050 decides how many exist).
 const LAST_R: u32 = 9999;
-/// Largest drift-like figure in a profile (µm): one metre.
-const LARGEST_UM: f64 = 1e6;
 /// Longest time in a profile (s): a day.
 const LONGEST_S: f64 = 86_400.0;
 

@@ -294,25 +294,18 @@ impl Chart {
     ) {
         svg.push_str(r##"<g stroke="#dddddd" stroke-width="1">"##);
         svg.push('\n');
-        for &x in &x_ticks.values {
+        // A vertical line at each x tick, then a horizontal one at each y tick: (x1, y1, x2, y2).
+        let vertical = x_ticks.values.iter().map(|&x| {
             let px = scale.x(x);
-            let _ = writeln!(
-                svg,
-                r#"<line x1="{0}" y1="{1}" x2="{0}" y2="{2}"/>"#,
-                c(px),
-                c(plot.top),
-                c(plot.bottom)
-            );
-        }
-        for &y in &y_ticks.values {
+            (px, plot.top, px, plot.bottom)
+        });
+        let horizontal = y_ticks.values.iter().map(|&y| {
             let py = scale.y(y);
-            let _ = writeln!(
-                svg,
-                r#"<line x1="{1}" y1="{0}" x2="{2}" y2="{0}"/>"#,
-                c(py),
-                c(plot.left),
-                c(plot.right)
-            );
+            (plot.left, py, plot.right, py)
+        });
+        for (x1, y1, x2, y2) in vertical.chain(horizontal) {
+            let (x1, y1, x2, y2) = (c(x1), c(y1), c(x2), c(y2));
+            let _ = writeln!(svg, r#"<line x1="{x1}" y1="{y1}" x2="{x2}" y2="{y2}"/>"#);
         }
         svg.push_str("</g>\n");
         let _ = writeln!(

@@ -84,8 +84,8 @@ mod tests {
 
     use super::plain_block;
     use crate::source::{Span, raw_lines};
+    use crate::syntax::BlockKind;
     use crate::syntax::grammar::parse_block;
-    use crate::syntax::program::BlockKind;
 
     /// Every line the fast path accepts, the full grammar accepts as a plain block without diagnostics.
     fn check_agreement(src: &[u8]) -> usize {

@@ -5,13 +5,13 @@
 use nom::Parser;
 use nom::bytes::complete::tag;
 
+use super::block_kind::{BlockKind, flag};
 use super::keyword::{Kw, keyword};
 use super::lexeme::{
     PErr, R, bit_literal, blanks, block_number_at, fail, ident, is_control, is_ident_char,
     signed_number, skip_blanks, skip_level_len, string, sysvar_name, unsigned_number, word,
 };
 use super::odd_bytes::{ControlCharacters, name_odd_bytes, utf8_len};
-use super::program::{BlockKind, flag};
 use super::tree::{Node, NodeKind as K};
 use crate::diagnostic::Diagnostic;
 use crate::source::Span;

@@ -207,6 +207,33 @@ impl Node {
         Some((address, number))
     }
 
+    /// The expressions of an argument list `( a, , c )`: `None` for an empty argument. The list's own direct
+    /// punctuation is its parentheses (first and last) and the commas between; an argument is never a bare
+    /// `Punct`.
+    pub fn arguments(&self) -> Vec<Option<&Node>> {
+        let parts: Vec<&Node> = self.significant().collect();
+        let inner = parts.get(1..parts.len().saturating_sub(1)).unwrap_or(&[]);
+        if inner.is_empty() {
+            return Vec::new();
+        }
+        let mut out = vec![None];
+        for &c in inner {
+            match (c.kind, out.last_mut()) {
+                (NodeKind::Punct, _) => out.push(None),
+                (_, Some(slot)) => *slot = Some(c),
+                (_, None) => {}
+            }
+        }
+        out
+    }
+
+    /// The arguments of a call or function call (`NAME(a, , c)`): those of its argument list, none
+    /// without one.
+    pub fn call_arguments(&self) -> Vec<Option<&Node>> {
+        self.find(NodeKind::Args)
+            .map_or_else(Vec::new, Node::arguments)
+    }
+
     /// Indented text dump, one node per line, leaves with their bytes (escaped).
     pub fn dump(&self, src: &[u8], depth: usize, out: &mut String) {
         use std::fmt::Write;
@@ -260,5 +287,26 @@ impl Serialize for NodeJson<'_> {
             st.serialize_field("children", &children)?;
         }
         st.end()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn argument_lists_keep_empty_arguments() {
+        let count = |src: &str| {
+            let p = crate::parse(src.as_bytes());
+            let root = p.block(0).root;
+            let call = root.find(NodeKind::Call).unwrap();
+            call.call_arguments()
+                .iter()
+                .map(Option::is_some)
+                .collect::<Vec<bool>>()
+        };
+        assert_eq!(count("SUB(1,,R1+2)"), [true, false, true]);
+        assert_eq!(count("SUB(,)"), [false, false]);
+        assert_eq!(count("SUB()"), Vec::<bool>::new());
     }
 }

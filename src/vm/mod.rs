@@ -18,7 +18,6 @@
 
 pub mod audit;
 mod config;
-mod eval;
 mod interp;
 mod machine;
 mod motion;
@@ -31,7 +30,6 @@ mod value;
 use std::path::Path;
 
 pub use config::{Config, MachineSpec, ProbeTarget, offset_frame, parse_machine_file};
-pub(crate) use eval::arg_nodes;
 pub use machine::{Machine, ProbeCall, ProbeFault, ProbeResult, SimpleMachine, SpindleHistory};
 pub use passes::Pass;
 pub use report::{

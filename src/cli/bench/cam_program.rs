@@ -5,22 +5,11 @@
 
 use std::fmt::Write;
 
-/// SplitMix64: tiny, fast, good enough to vary coordinates; determinism is what matters here.
-struct SplitMix64(u64);
+use crate::model::synth::Rng;
 
-impl SplitMix64 {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `-span..span` with three decimals, the resolution CAM output uses for millimetres.
-    fn step(&mut self, span: i64) -> i64 {
-        (self.next() % (2 * span as u64 + 1)) as i64 - span
-    }
+/// Uniform in `-span..span` with three decimals, the resolution CAM output uses for millimetres.
+fn step(rng: &mut Rng, span: i64) -> i64 {
+    (rng.next_u64() % (2 * span as u64 + 1)) as i64 - span
 }
 
 /// Appends `value / 1000` with exactly three decimals (integer maths: no float formatting cost or rounding).
@@ -32,22 +21,22 @@ fn push_mm(out: &mut String, letter: char, value: i64) {
 
 /// Generates at least `target_bytes` bytes (it finishes the line and adds the program end); LF line endings.
 pub fn generate(target_bytes: usize, seed: u64) -> Vec<u8> {
-    let mut rng = SplitMix64(seed);
+    let mut rng = Rng::new(seed);
     let mut out = String::with_capacity(target_bytes + 64);
     out.push_str("N1 G90 G17 G54 G71\nN2 T1 M6\nN3 S12000 M3\nN4 G0 X0.000 Y0.000 Z50.000\n");
     let (mut x, mut y, mut z) = (0i64, 0i64, 5_000i64);
     let mut feed = 0u32;
     let mut n = 5u64;
     while out.len() < target_bytes {
-        x = (x + rng.step(2_000)).clamp(-250_000, 250_000);
-        y = (y + rng.step(2_000)).clamp(-250_000, 250_000);
-        z = (z + rng.step(200)).clamp(-40_000, 5_000);
+        x = (x + step(&mut rng, 2_000)).clamp(-250_000, 250_000);
+        y = (y + step(&mut rng, 2_000)).clamp(-250_000, 250_000);
+        z = (z + step(&mut rng, 200)).clamp(-40_000, 5_000);
         let _ = write!(out, "N{n} G1");
         push_mm(&mut out, 'X', x);
         push_mm(&mut out, 'Y', y);
         push_mm(&mut out, 'Z', z);
-        if feed == 0 || rng.next() % 8 == 0 {
-            feed = 500 + (rng.next() % 40) as u32 * 100;
+        if feed == 0 || rng.next_u64() % 8 == 0 {
+            feed = 500 + (rng.next_u64() % 40) as u32 * 100;
             let _ = write!(out, " F{feed}");
         }
         out.push('\n');

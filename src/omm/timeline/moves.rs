@@ -8,8 +8,8 @@
 
 use crate::syntax::{Decimal, Program, Words, parse_owned_with, word_end_with};
 
-use super::fold::{move_length, ticks};
 use super::read::{at_radius, radius_at};
+use super::timing::{move_length, ticks};
 
 /// Parses `src` and times its plain moves in the same pass (see [`super::build_with_moves`]).
 pub fn parse_timed(src: Vec<u8>) -> (Program, Moves) {
@@ -154,6 +154,24 @@ impl Moves {
             out.push(from..program.source().len());
         }
         out
+    }
+
+    /// The runs for a chunk of blocks the timeline reads: those that start in it, and the ranges of the
+    /// chunk that runs cover (a run begun in an earlier chunk covers the start of this one), in order.
+    pub(super) fn in_chunk(
+        &self,
+        blocks: std::ops::Range<usize>,
+    ) -> (Vec<RunRef<'_>>, Vec<std::ops::Range<usize>>) {
+        let runs = self.overlapping(blocks.clone());
+        let covered = runs
+            .iter()
+            .map(|r| r.run.first.max(blocks.start)..r.blocks().end.min(blocks.end))
+            .collect();
+        let starting = runs
+            .into_iter()
+            .filter(|r| r.run.first >= blocks.start)
+            .collect();
+        (starting, covered)
     }
 
     /// The runs that cover any of `blocks`, in order.

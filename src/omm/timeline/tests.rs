@@ -1,8 +1,12 @@
 //! Tests of the timeline: the word scanner against the tree, times, passes, sites, loops and calls.
-use super::read::{Scan, decimal, scan_tree, scan_words_into};
+use std::rc::Rc;
+
+use super::fold::{Builder, Callees};
+use super::read::{CHUNK_BLOCKS, Scan, decimal, scan_tree, scan_words_into};
+use super::timing::{TICKS_PER_MIN, ticks};
 use super::*;
-use crate::omm::loops::LoopKind;
-use crate::syntax::BlockKind;
+use crate::omm::profile::Profile;
+use crate::syntax::{BlockKind, Program};
 
 /// Every line the word scanner accepts gives the same facts as the syntax tree.
 #[test]
@@ -45,9 +49,14 @@ fn word_scanner_agrees_with_the_tree() {
 
 /// The timeline of a program folded block by block from whole scans, as before chunks existed.
 fn block_by_block(program: &Program, profile: &Profile) -> Timeline {
-    let subprograms = HashMap::new();
-    let mut folders = Folders::new(profile);
-    let mut b = Builder::new(profile, &subprograms, &mut folders);
+    struct NoCalls;
+    impl Callees for NoCalls {
+        fn timeline(&mut self, _: &str) -> Option<(Rc<Timeline>, bool)> {
+            None
+        }
+    }
+    let mut none = NoCalls;
+    let mut b = Builder::new(profile, &mut none);
     let mut words = Scan::default();
     for i in 0..program.block_count() {
         let span = program.content_span(i);
@@ -59,7 +68,7 @@ fn block_by_block(program: &Program, profile: &Profile) -> Timeline {
             b.block(i, &scan_tree(program, i, "PASS"), kind);
         }
     }
-    let mut t = b.finish();
+    let mut t = b.finish().0;
     t.unit_end = program.block_count();
     t
 }
@@ -479,7 +488,6 @@ fn a_dwell_after_a_retract_is_a_site() {
 /// program whose times overflow them stays at the most there are instead of failing.
 #[test]
 fn times_are_whole_ticks_that_saturate() {
-    use super::fold::{TICKS_PER_MIN, ticks};
     assert_eq!(ticks(1.0), 1_000_000_000);
     assert_eq!(
         ticks(0.65) as f64 / TICKS_PER_MIN,

@@ -1,10 +1,14 @@
 //! The two runs side by side: the transformed run executes its inserted blocks (checked as they go), then
 //! both execute the same original block; the states are compared where the original resumes and at the end.
+//! Before a gate's first probe call, `aborts` follows the abort paths the clean run does not take.
+
+mod aborts;
 
 use std::rc::Rc;
 
 use super::state::{self, Correction, Difference};
-use super::{Audit, AuditSettings, Finding, Kind, aborts, geometry};
+use super::{Audit, AuditSettings, Finding, Kind, geometry};
+use crate::omm::nc::shown as num;
 use crate::vm::VmError;
 use crate::vm::config::Config;
 use crate::vm::interp::{Done, Interp, Movement};
@@ -630,10 +634,6 @@ fn is_feed(motion: u32) -> bool {
 
 fn is_continuous(path: u32) -> bool {
     matches!(path, 64 | 641..=645)
-}
-
-pub(super) fn num(v: f64) -> String {
-    crate::omm::nc::shown(v)
 }
 
 fn describe_key(key: &Key) -> String {

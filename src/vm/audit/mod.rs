@@ -21,7 +21,6 @@
 //! assert_eq!(found.findings[0].line, 5);
 //! ```
 
-mod aborts;
 mod geometry;
 mod lockstep;
 mod report;

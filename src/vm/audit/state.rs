@@ -2,7 +2,7 @@
 //! transformed run's value, the original's.
 
 use super::AuditSettings;
-use super::lockstep::num;
+use crate::omm::nc::shown as num;
 use crate::omm::profile::OffsetMethod;
 use crate::vm::motion::{FRAMES, Frames, IDENTITY, Matrix, State, Tool};
 

@@ -11,7 +11,7 @@ impl Interp<'_> {
         w: &mut Words,
     ) -> Result<(), String> {
         let name = u.upper(&node.children[0]);
-        let args = node.find(NodeKind::Args).map(arg_nodes).unwrap_or_default();
+        let args = node.call_arguments();
         let mut values = Vec::with_capacity(args.len());
         for a in &args {
             values.push(match a {

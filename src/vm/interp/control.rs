@@ -179,7 +179,7 @@ impl Interp<'_> {
                 continue;
             };
             let hit = head.kind == NodeKind::Keyword
-                || crate::vm::eval::binary("==", selector.clone(), self.eval(u, head)?)?.truth()?;
+                || eval::binary("==", selector.clone(), self.eval(u, head)?)?.truth()?;
             if hit {
                 return self.goto(u, i, goto);
             }

@@ -6,6 +6,7 @@
 mod apply;
 mod calls;
 mod control;
+mod eval;
 mod statements;
 
 use std::collections::HashMap;
@@ -16,7 +17,6 @@ use crate::syntax::{BlockKind, Node, NodeKind};
 
 use super::VmError;
 use super::config::{Config, ProbeTarget};
-use super::eval::{R_COUNT, arg_nodes, index_nodes};
 use super::machine::{Machine, ProbeCall, ProbeResult, SpindleHistory};
 use super::motion::{
     ArcSpec, Dim, FeedMode, IDENTITY, Matrix, SPLINE, Saved, State, Tool, arc_length, multiply,
@@ -26,6 +26,7 @@ use super::passes::{Cut, PassTracker};
 use super::report::{Alarm, At, Correction, End, Measurement, Message, Run, Totals, TraceRow};
 use super::unit::{JumpTarget, Unit};
 use super::value::{Value, VarType, Variable};
+use eval::{R_COUNT, index_nodes};
 
 #[derive(Clone)]
 pub(super) struct Frame {

@@ -50,7 +50,7 @@ impl Interp<'_> {
     pub(super) fn word(&mut self, u: &Unit, node: &Node, w: &mut Words) -> Result<(), String> {
         let (address, number) = node.address_and_number().ok_or("malformed word")?;
         let letter = u.upper(address);
-        let value = crate::vm::eval::parse_number(&String::from_utf8_lossy(u.text(number)))?;
+        let value = eval::parse_number(&String::from_utf8_lossy(u.text(number)))?;
         let whole = || {
             if value >= 0.0 && value.fract() == 0.0 {
                 Ok(value as u32)
@@ -181,10 +181,7 @@ impl Interp<'_> {
                 _ => None,
             };
             if let Some(dim) = dim {
-                let args = value
-                    .find(NodeKind::Args)
-                    .map(arg_nodes)
-                    .unwrap_or_default();
+                let args = value.call_arguments();
                 let [Some(arg)] = args[..] else {
                     return Err(format!("{name}() takes one value"));
                 };
@@ -327,10 +324,10 @@ impl Interp<'_> {
     ) -> Result<(), String> {
         let fn_name = (init.kind == NodeKind::FnCall).then(|| u.upper(&init.children[0]));
         let list = match (init.kind, fn_name.as_deref()) {
-            (NodeKind::Args, _) => Some(arg_nodes(init)),
-            (NodeKind::FnCall, Some("SET")) => init.find(NodeKind::Args).map(arg_nodes),
+            (NodeKind::Args, _) => Some(init.arguments()),
+            (NodeKind::FnCall, Some("SET")) => init.find(NodeKind::Args).map(Node::arguments),
             (NodeKind::FnCall, Some("REP")) => {
-                let args = init.find(NodeKind::Args).map(arg_nodes).unwrap_or_default();
+                let args = init.call_arguments();
                 let (v, n) = match args[..] {
                     [Some(v)] => (self.eval(u, v)?, var.data.len()),
                     [Some(v), Some(n)] => (self.eval(u, v)?, self.num(u, n)? as usize),

@@ -2,31 +2,14 @@
 
 use crate::syntax::{Node, NodeKind};
 
-use super::interp::Interp;
-use super::unit::Unit;
-use super::value::{Value, Variable};
+use crate::vm::motion::FRAMES;
+use crate::vm::unit::Unit;
+use crate::vm::value::{Value, Variable};
+
+use super::Interp;
 
 /// Highest R parameter number (R0 … R999).
 pub const R_COUNT: usize = 1000;
-
-/// The expressions of an argument list `( a, , c )`: `None` for an empty argument. The list's own direct
-/// punctuation is its parentheses (first and last) and the commas between; an argument is never a bare `Punct`.
-pub fn arg_nodes(args: &Node) -> Vec<Option<&Node>> {
-    let parts: Vec<&Node> = args.significant().collect();
-    let inner = parts.get(1..parts.len().saturating_sub(1)).unwrap_or(&[]);
-    if inner.is_empty() {
-        return Vec::new();
-    }
-    let mut out = vec![None];
-    for &c in inner {
-        match (c.kind, out.last_mut()) {
-            (NodeKind::Punct, _) => out.push(None),
-            (_, Some(slot)) => *slot = Some(c),
-            (_, None) => {}
-        }
-    }
-    out
-}
 
 /// The expressions of an index `[a, b]`.
 pub fn index_nodes(index: &Node) -> Vec<&Node> {
@@ -235,7 +218,7 @@ impl Interp<'_> {
         part: &Node,
     ) -> Result<(usize, usize, bool), String> {
         let f = self.num(u, frame)?;
-        if !(0.0..super::motion::FRAMES as f64).contains(&f) || f.fract() != 0.0 {
+        if !(0.0..FRAMES as f64).contains(&f) || f.fract() != 0.0 {
             return Err(format!("$P_UIFR frame number {f} out of range 0…99"));
         }
         let fine = match u.upper(part).as_str() {
@@ -252,7 +235,7 @@ impl Interp<'_> {
 
     fn function(&self, u: &Unit, n: &Node) -> Result<Value, String> {
         let name = u.upper(&n.children[0]);
-        let args = n.find(NodeKind::Args).map(arg_nodes).unwrap_or_default();
+        let args = n.call_arguments();
         let mut vals = Vec::with_capacity(args.len());
         for a in &args {
             vals.push(match a {
@@ -378,22 +361,6 @@ pub fn binary(op: &str, l: Value, r: Value) -> Result<Value, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn argument_lists_keep_empty_arguments() {
-        let count = |src: &str| {
-            let p = crate::parse(src.as_bytes());
-            let root = p.block(0).root;
-            let call = root.find(NodeKind::Call).unwrap();
-            arg_nodes(call.find(NodeKind::Args).unwrap())
-                .iter()
-                .map(Option::is_some)
-                .collect::<Vec<bool>>()
-        };
-        assert_eq!(count("SUB(1,,R1+2)"), [true, false, true]);
-        assert_eq!(count("SUB(,)"), [false, false]);
-        assert_eq!(count("SUB()"), Vec::<bool>::new());
-    }
 
     #[test]
     fn div_truncates_and_mod_keeps_the_fraction() {

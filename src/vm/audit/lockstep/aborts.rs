@@ -3,9 +3,10 @@
 //! off (1e6 mm), and one that sees a drift between the tolerance and the plausibility limit (scrap); each copy
 //! runs until it stops in inserted blocks (an abort) or reaches an original block again (no abort there).
 
-use super::lockstep::{At, Key, Runner, num};
-use super::{Kind, state};
+use super::{At, Key, Runner};
+use crate::omm::nc::shown as num;
 use crate::vm::VmError;
+use crate::vm::audit::{Kind, state};
 use crate::vm::interp::Interp;
 use crate::vm::machine::{Machine, ProbeCall, ProbeResult, SimpleMachine, SpindleHistory};
 

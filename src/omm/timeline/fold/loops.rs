@@ -1,0 +1,233 @@
+//! How the fold counts loops: a FOR with bounds known before the program runs, a section repeat with its
+//! count, any other loop once; the further runs are added to the time at the loop's end, and the sites in
+//! a body that a later run reaches in another modal state are marked.
+
+use crate::omm::timeline::modal::{Modal, field};
+use crate::omm::timeline::read::{Bound, Count, Scan};
+use crate::omm::timeline::record::{Loop, LoopKind};
+use crate::syntax::BlockKind;
+
+use super::Builder;
+
+impl Builder<'_> {
+    /// Label `label` at block `i`, whose first run took from `start` to now (min) from state `before`. A
+    /// label defined again: a REPEAT after it searches backward and finds this one.
+    pub(super) fn label_seen(&mut self, label: &str, i: usize, start: f64, before: Modal) {
+        let end = self.time();
+        let seen = Label {
+            block: i,
+            start,
+            end,
+            state: before,
+        };
+        self.label_times.insert(label.to_ascii_uppercase(), seen);
+    }
+
+    /// Loop statements: a loop opens after its statement; at its end (or at a section repeat statement)
+    /// the further runs are added to the time.
+    pub(super) fn loops(&mut self, i: usize, s: &Scan, kind: BlockKind, start: f64) {
+        if s.r.contains(&None) {
+            self.r_values.clear();
+        }
+        for &(n, v) in &s.r_set {
+            match v {
+                Some(v) => self.r_values.insert(n, v),
+                None => self.r_values.remove(&n),
+            };
+        }
+        let opened = match kind {
+            BlockKind::For => Some(LoopKind::For),
+            BlockKind::While => Some(LoopKind::While),
+            BlockKind::Loop => Some(LoopKind::Loop),
+            BlockKind::Repeat => Some(LoopKind::RepeatUntil),
+            _ => None,
+        };
+        if let Some(kind) = opened {
+            let runs = match &s.count {
+                Some(Count::For { from, to }) => for_runs(self.value(*from), self.value(*to)),
+                _ if kind == LoopKind::For => Err("bounds computed at run time"),
+                _ => Err("ends on a condition at run time"),
+            };
+            self.open_loops.push(OpenLoop {
+                kind,
+                block: i,
+                start_min: self.time(),
+                runs,
+                entry: self.state.clone(),
+            });
+            return;
+        }
+        let closes = matches!(
+            kind,
+            BlockKind::EndWhile | BlockKind::EndFor | BlockKind::EndLoop | BlockKind::Until
+        );
+        if closes && let Some(open) = self.open_loops.pop() {
+            self.mark_varying(&open.entry, (open.block + 1, i));
+            let (runs, unknown) = match open.runs {
+                Ok(n) => (Some(n), None),
+                Err(why) => (None, Some(why)),
+            };
+            self.repeat(Loop {
+                kind: open.kind,
+                block: open.block,
+                body: (open.block + 1, i),
+                runs,
+                unknown,
+                start_min: open.start_min,
+                body_min: start - open.start_min,
+                repeat_block: i,
+                repeat_min: self.time(),
+            });
+        }
+        if let Some(Count::Section {
+            labels,
+            single,
+            times,
+        }) = &s.count
+        {
+            let section = self.section(i, labels, *single, start);
+            let times = self
+                .value(*times)
+                .filter(|n| *n >= 0.0 && n.fract() == 0.0)
+                .ok_or("repeat count computed at run time");
+            let (body, start_min, body_min, runs, unknown) = match (section, times) {
+                (Ok(sec), Ok(n)) => {
+                    self.mark_varying(&sec.entry, (sec.body.0 + 1, sec.body.1));
+                    (
+                        sec.body,
+                        sec.start,
+                        sec.end - sec.start,
+                        Some((n as u64).saturating_add(1)),
+                        None,
+                    )
+                }
+                (Err(why), _) | (_, Err(why)) => ((i, i), start, 0.0, None, Some(why)),
+            };
+            self.repeat(Loop {
+                kind: if *single {
+                    LoopKind::RepeatBlock
+                } else {
+                    LoopKind::Repeat
+                },
+                block: i,
+                body,
+                runs,
+                unknown,
+                start_min,
+                body_min,
+                repeat_block: i,
+                repeat_min: self.time(),
+            });
+        }
+    }
+
+    /// Records a loop and adds its further runs to the time.
+    fn repeat(&mut self, l: Loop) {
+        self.add_minutes(l.further_runs() as f64 * l.body_min);
+        self.t.loops.push(l);
+    }
+
+    /// The blocks and time span (first run) of the section a REPEAT statement at block `i` repeats: from
+    /// the label to the statement, from the first label to the second, or (REPEATB) the labelled block.
+    /// Only a section the program ran through before the statement is known.
+    /// Returns the blocks, the start and end of the first run and the state it starts in.
+    fn section(
+        &self,
+        i: usize,
+        labels: &[String],
+        single: bool,
+        start: f64,
+    ) -> Result<Section, &'static str> {
+        let seen = |label: &String| {
+            self.label_times
+                .get(label)
+                .ok_or("the section is not before the REPEAT statement")
+        };
+        let first = seen(&labels[0])?;
+        let (last_block, end) = match labels.get(1) {
+            _ if single => (first.block, first.end),
+            Some(end) => {
+                let last = seen(end)?;
+                if last.block < first.block {
+                    return Err("the section's labels are in reverse order");
+                }
+                (last.block, last.end)
+            }
+            None => (i.saturating_sub(1), start),
+        };
+        Ok(Section {
+            body: (first.block, last_block),
+            start: first.start,
+            end,
+            entry: first.state.clone(),
+        })
+    }
+
+    /// Marks the sites of a body that a later run reaches in another modal state: a field in which the state
+    /// at the repeat differs from `entry`, and which the body does not change before the site.
+    fn mark_varying(&mut self, entry: &Modal, body: (usize, usize)) {
+        let differ = field::differ(entry, &self.state);
+        if !differ.contains(&true) {
+            return;
+        }
+        let from = self.site_changes.partition_point(|(b, _)| *b < body.0);
+        for (b, changed) in &self.site_changes[from..] {
+            if *b > body.1 {
+                break;
+            }
+            let set_before = |f: usize| changed[f] > body.0 && changed[f] - 1 < *b;
+            if (0..field::COUNT).any(|f| differ[f] && !set_before(f)) {
+                self.varies.insert(*b);
+            }
+        }
+    }
+
+    /// A bound's value: a number, or an R-parameter last assigned a literal.
+    fn value(&self, b: Bound) -> Option<f64> {
+        match b {
+            Bound::Number(v) => Some(v),
+            Bound::R(n) => self.r_values.get(&n).copied(),
+            Bound::Other => None,
+        }
+    }
+}
+
+/// A repeated section: its blocks, the start and end of its first run (min) and the state it starts in.
+struct Section {
+    body: (usize, usize),
+    start: f64,
+    end: f64,
+    entry: Modal,
+}
+
+/// A label seen: its block, the start and end of its first run (min) and the state before it.
+pub(super) struct Label {
+    block: usize,
+    start: f64,
+    end: f64,
+    state: Modal,
+}
+
+/// A loop whose closing block has not come yet.
+pub(super) struct OpenLoop {
+    kind: LoopKind,
+    block: usize,
+    start_min: f64,
+    runs: Result<u64, &'static str>,
+    /// The state the first run starts in.
+    entry: Modal,
+}
+
+/// The runs of a `FOR from TO to` loop (counting up by one), or why they are not known.
+fn for_runs(from: Option<f64>, to: Option<f64>) -> Result<u64, &'static str> {
+    let (Some(a), Some(b)) = (from, to) else {
+        return Err("bounds computed at run time");
+    };
+    if a.fract() != 0.0 || b.fract() != 0.0 {
+        return Err("bounds are not whole numbers");
+    }
+    if b < a {
+        return Err("the bounds give no run");
+    }
+    Ok(((b - a) as u64).saturating_add(1))
+}

@@ -1,0 +1,699 @@
+//! Folding the blocks, in order, into a [`Timeline`]: time, modal state, passes, gate sites, loops and
+//! the subprograms calls run. The blocks come as the chunks `read` made of them, with the runs of moves
+//! `moves` timed in the parser. The fold of one block and its move is here; what a call adds is in
+//! `calls`, how loops are counted in `loops`, where gates may go (sites, passes) in `sites`.
+
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::rc::Rc;
+
+use crate::omm::profile::Profile;
+use crate::syntax::BlockKind;
+
+use super::modal::{Modal, field, frame, unknown};
+use super::moves::RunRef;
+use super::read::{Chunk, Move, Scan, frame_op, head};
+use super::record::{Site, SiteKind, Timeline};
+use super::timing::{TICKS_PER_MIN, move_length, ticks};
+
+mod calls;
+mod loops;
+mod sites;
+
+use loops::{Label, OpenLoop};
+use sites::PassMark;
+
+/// What a call runs, as the fold asks for it.
+pub(super) trait Callees {
+    /// The timeline of subprogram `name`, and whether it is in another file (a folder's) rather than in
+    /// this one (an archive's unit); `None` for a subprogram or cycle whose time is not known.
+    fn timeline(&mut self, name: &str) -> Option<(Rc<Timeline>, bool)>;
+}
+
+pub(super) struct Builder<'p> {
+    profile: &'p Profile,
+    /// The timelines of the subprograms calls may run.
+    callees: &'p mut dyn Callees,
+    /// A subprogram or cycle ran since the last tool change: the modal state it left (tool, speed, feed,
+    /// frame) is not known, so no gate measures, and restores a state, until the next tool change.
+    after_call: bool,
+    /// The cycle or subprogram an `MCALL` made modal, and how the call lists name it (`MCALL NAME`): it
+    /// runs after each block that moves.
+    modal_call: Option<(String, String)>,
+    /// Names the unit calls (archive subprograms or not), for the order in which an archive's units are timed.
+    called: BTreeSet<String>,
+    /// A subprogram called at this block changed the spindle speed: the next block gets a speed-change site,
+    /// so that the program's prediction takes the new speed there.
+    speed_site_after: Option<usize>,
+    /// A stop or dressing call at this block: the next block gets a site of that kind.
+    safe_after: Option<(usize, SiteKind)>,
+    t: Timeline,
+    state: Modal,
+    pos: [Option<f64>; 3],
+    per_rev: bool,
+    /// The time so far, in [`TICKS_PER_MIN`] ticks.
+    ticks: u64,
+    last_was_z_retract: bool,
+    header_done: bool,
+    preamble_done: bool,
+    pass_marks: Vec<PassMark>,
+    tool_marks: Vec<PassMark>,
+    m6_seen: bool,
+    rpm: f64,
+    loop_depth: usize,
+    /// A loop started and no retract site in its body yet.
+    loop_gate_pending: bool,
+    open_loops: Vec<OpenLoop>,
+    /// R-parameters whose last assignment (in program order) was a literal.
+    r_values: BTreeMap<u32, f64>,
+    /// Labels seen: block, start and end of its first run (min).
+    label_times: HashMap<String, Label>,
+    /// Block (+1) where each of the modal fields a gate restores last changed (see [`field`]).
+    changed: [usize; field::COUNT],
+    /// Blocks that may get a site or pass mark, with `changed` there.
+    site_changes: Vec<(usize, [usize; field::COUNT])>,
+    /// Blocks whose modal state differs between the runs of a loop around them.
+    varies: BTreeSet<usize>,
+    /// End of the last run of timed moves folded (its blocks in later chunks are skipped).
+    run_end: usize,
+    /// Until the first cut: the first block after the setup so far, as a [`SiteKind::Start`] site.
+    start: Option<Site>,
+    /// The speed limit under constant cutting speed (`LIMS=`).
+    lims: Option<f64>,
+    /// When the last cut (feed move) ended, in ticks.
+    last_cut: u64,
+}
+
+impl<'p> Builder<'p> {
+    pub(super) fn new(profile: &'p Profile, callees: &'p mut dyn Callees) -> Self {
+        Builder {
+            profile,
+            callees,
+            after_call: false,
+            modal_call: None,
+            called: BTreeSet::new(),
+            speed_site_after: None,
+            safe_after: None,
+            t: Timeline {
+                speeds: vec![(0.0, 0.0)],
+                ..Timeline::default()
+            },
+            state: Modal {
+                direction: 5,
+                absolute: true,
+                comp: 40,
+                ..Modal::default()
+            },
+            pos: [None; 3],
+            per_rev: false,
+            ticks: 0,
+            last_was_z_retract: false,
+            header_done: false,
+            preamble_done: false,
+            pass_marks: Vec::new(),
+            tool_marks: Vec::new(),
+            m6_seen: false,
+            rpm: 0.0,
+            loop_depth: 0,
+            loop_gate_pending: false,
+            open_loops: Vec::new(),
+            r_values: BTreeMap::new(),
+            label_times: HashMap::new(),
+            changed: [0; field::COUNT],
+            site_changes: Vec::new(),
+            varies: BTreeSet::new(),
+            run_end: 0,
+            start: None,
+            lims: None,
+            last_cut: 0,
+        }
+    }
+
+    /// Folds the blocks of a chunk, in order, with the runs of timed moves that start in it; `read(blocks)`
+    /// reads the blocks of a run whose assumptions the state at its start does not meet.
+    pub(super) fn fold(
+        &mut self,
+        chunk: &Chunk,
+        runs: &[RunRef<'_>],
+        read: &dyn Fn(std::ops::Range<usize>) -> Chunk,
+    ) {
+        let mut numbers = chunk.numbers.iter().copied();
+        let mut others = chunk.others.iter();
+        let mut runs = runs.iter();
+        let mut covered = chunk.covered.iter();
+        let mut i = chunk.first;
+        for &h in &chunk.heads {
+            if h & head::RUN != 0 {
+                let blocks = covered.next().expect("one range per run head");
+                // A run begun in an earlier chunk was folded there.
+                if blocks.start >= self.run_end {
+                    let run = runs
+                        .next()
+                        .expect("a run starts where its first range does");
+                    if !self.timed_run(run) {
+                        self.fold(&read(run.blocks()), &[], read);
+                    }
+                    self.run_end = run.blocks().end;
+                }
+                i = blocks.end;
+                continue;
+            }
+            if h & head::OTHER != 0 {
+                let (kind, scan) = others.next().expect("one scan per other block");
+                self.block(i, scan, *kind);
+            } else {
+                let motion =
+                    (h & head::MOTION != 0).then_some(u32::from(h >> head::MOTION_CODE & 3));
+                self.plain_move(i, motion, &Move::decode(h, &mut numbers));
+            }
+            i += 1;
+        }
+    }
+
+    /// A block that only moves (see [`Scan::pack_move`]): most of what [`Builder::block`] looks at is absent.
+    fn plain_move(&mut self, i: usize, motion: Option<u32>, mv: &Move) {
+        if self.speed_site_after.is_some() {
+            self.speed_site_after_call(i);
+        }
+        if self.safe_after.is_some() {
+            self.safe_site_after(i);
+        }
+        let before = if self.last_was_z_retract || !self.profile.passes.lines.is_empty() {
+            self.state.clone()
+        } else {
+            Modal::default()
+        };
+        let start = self.time();
+        let blank = motion.is_none() && mv.axes.iter().all(Option::is_none);
+        self.header_and_preamble(i, false, false, blank);
+        self.start_site(i, start);
+        if let Some(g) = motion
+            && g != self.state.motion
+        {
+            self.state.motion = g;
+            self.changed[field::MOTION] = i + 1;
+        }
+        if let Some(f) = mv.f
+            && self.state.feed != Some(f)
+        {
+            self.state.feed = Some(f);
+            self.changed[field::FEED] = i + 1;
+        }
+        if mv.f.is_some() {
+            self.state.unknown &= !unknown::FEED;
+        }
+        if self.profile.passes.lines.contains(&(i + 1)) {
+            let mark = self.mark(i, false, start, &before);
+            self.pass_marks.push(mark);
+            self.note_site(i);
+        }
+        self.movement(i, start, &before, mv, false, None, false, false);
+        self.modal_call_after(i, mv);
+        self.start_site_speed(i);
+    }
+
+    /// A run of moves the parser timed (see [`super::moves`]): what [`Builder::plain_move`] would make of its
+    /// blocks, at once. False, with nothing folded, when the state at its start is not the one the run
+    /// assumed (incremental dimensions, feeds per revolution), or its blocks need more than a plain move's
+    /// fold (a pass line, a modal call, the header or preamble not yet over, a possible retract site).
+    fn timed_run(&mut self, r: &RunRef<'_>) -> bool {
+        let run = r.run;
+        let blocks = r.blocks();
+        let plain = self.header_done
+            && self.preamble_done
+            && self.t.first_cut.is_some()
+            && self.state.absolute
+            && !self.per_rev
+            && self.modal_call.is_none()
+            && self.speed_site_after.is_none()
+            && self.safe_after.is_none()
+            && !(self.last_was_z_retract && run.first_could_retract)
+            // Pass lines are 1-based.
+            && !self
+                .profile
+                .passes
+                .lines
+                .iter()
+                .any(|&l| l > blocks.start && l <= blocks.end);
+        if !plain {
+            return false;
+        }
+        if let Some((b, g)) = run.motion.first
+            && g != self.state.motion
+        {
+            self.changed[field::MOTION] = b + 1;
+        }
+        if let Some((b, f)) = run.feed.first
+            && self.state.feed != Some(f)
+        {
+            self.changed[field::FEED] = b + 1;
+        }
+        if self.state.z != run.first_z.or(self.pos[2]) {
+            self.changed[field::Z] = run.first + 1;
+        }
+        for (k, change) in [
+            (field::MOTION, run.motion.change),
+            (field::FEED, run.feed.change),
+            (field::Z, run.z_change),
+        ] {
+            if let Some(b) = change {
+                self.changed[k] = b + 1;
+            }
+        }
+        if let Some(g) = run.motion.last {
+            self.state.motion = g;
+        }
+        if let Some(f) = run.feed.last {
+            self.state.feed = Some(f);
+            self.state.unknown &= !unknown::FEED;
+        }
+        let rapid = self.profile.timeline.rapid_mm_per_min;
+        self.t.moves = true;
+        self.ticks = self.ticks.saturating_add(run.feed_ticks);
+        // Ticks add up in any order: the run's cut ends after its feed moves and the rapids before the
+        // last of them.
+        let (during, after) = r.rapids.split_at(r.rapids.len() - run.rapids_after_cut);
+        for &length in during {
+            self.add_minutes(length / rapid);
+        }
+        if run.cuts {
+            self.last_cut = self.ticks;
+        }
+        for &length in after {
+            self.add_minutes(length / rapid);
+        }
+        for (p, end) in self.pos.iter_mut().zip(run.end_pos) {
+            if end.is_some() {
+                *p = end;
+            }
+        }
+        self.state.z = self.pos[2];
+        self.last_was_z_retract = run.end_retract;
+        true
+    }
+
+    /// Header lines (`%…`, `;$PATH`) and the declarations after them: no gate may come before their end.
+    fn header_and_preamble(&mut self, i: usize, header: bool, declaration: bool, blank: bool) {
+        // Comments and blank lines may stand around the `%` header lines: driftloop's header goes after the
+        // last of those header lines.
+        if !self.header_done {
+            if header {
+                self.t.header_end = i + 1;
+            } else if !blank {
+                self.header_done = true;
+            }
+        }
+        if !self.preamble_done {
+            if declaration || blank {
+                self.t.preamble_end = i + 1;
+            } else {
+                self.preamble_done = true;
+            }
+        }
+    }
+
+    /// What a block's frame commands leave active.
+    fn frames(&mut self, ops: u8) {
+        use frame_op as op;
+        let f = &mut self.state.frames;
+        if ops & op::CLEAR != 0 {
+            *f &= !(frame::TRANSLATION | frame::ROTATION);
+        }
+        for (on, off, bit) in [
+            (op::TRANSLATE, 0, frame::TRANSLATION),
+            (op::ROTATE, 0, frame::ROTATION),
+            (op::TRANSFORM_ON, op::TRANSFORM_OFF, frame::TRANSFORMATION),
+            (op::SWIVEL_ON, op::SWIVEL_OFF, frame::SWIVEL),
+        ] {
+            if ops & on != 0 {
+                *f |= bit;
+            } else if ops & off != 0 {
+                *f &= !bit;
+            }
+        }
+    }
+
+    /// A settable work offset selected at block `i` (noted at its first selection).
+    fn offset(&mut self, g: u32, i: usize) {
+        if matches!(g, 54..=57 | 505..=599) && !self.t.offsets.iter().any(|(o, _)| *o == g) {
+            self.t.offsets.push((g, i + 1));
+        }
+    }
+
+    pub(super) fn block(&mut self, i: usize, s: &Scan, kind: BlockKind) {
+        self.speed_site_after_call(i);
+        self.safe_site_after(i);
+        if let Some(name) = &s.call {
+            self.call(i, name, name, s.repeats);
+            if self
+                .profile
+                .passes
+                .dressing
+                .iter()
+                .any(|d| d.eq_ignore_ascii_case(name))
+            {
+                self.safe_after = Some((i, SiteKind::Dressing));
+            }
+        }
+        if s.m.iter().any(|m| m <= 1) {
+            self.safe_after = Some((i, SiteKind::Stop));
+        }
+        // Changes matter only inside a loop body or a section that may be repeated.
+        let tracked =
+            (!self.open_loops.is_empty() || !self.label_times.is_empty() || s.label.is_some())
+                .then(|| self.state.clone());
+        match kind {
+            BlockKind::While | BlockKind::For | BlockKind::Loop | BlockKind::Repeat => {
+                self.loop_depth += 1;
+                self.loop_gate_pending = true;
+            }
+            BlockKind::EndWhile | BlockKind::EndFor | BlockKind::EndLoop | BlockKind::Until => {
+                self.loop_depth = self.loop_depth.saturating_sub(1);
+            }
+            _ => {}
+        }
+        // The state before the block is kept only where a site or pass mark can arise: a copy per block
+        // would cost more than the rest of the scan.
+        let may_mark = !s.m.is_empty()
+            || s.s.is_some()
+            || s.tool.is_some()
+            || s.marker
+            || self.last_was_z_retract
+            || !self.profile.passes.lines.is_empty();
+        let before = if may_mark {
+            self.state.clone()
+        } else {
+            Modal::default()
+        };
+        let start = self.time();
+        let blank = !s.statement
+            && !s.inexact
+            && s.g.is_empty()
+            && s.mv.axes.iter().all(Option::is_none)
+            && s.m.is_empty()
+            && s.tool.is_none()
+            && s.s.is_none()
+            && s.r.is_empty();
+        self.header_and_preamble(
+            i,
+            s.kind_header || s.path_comment,
+            s.declaration || s.kind_header,
+            blank,
+        );
+        self.start_site(i, start);
+        for r in &s.r {
+            match r {
+                Some(n) => {
+                    self.t.used_r.insert(*n);
+                }
+                None => self.t.computed_r_lines.push(i + 1),
+            }
+        }
+        if let Some(l) = &s.label {
+            self.t.labels.insert(l.clone());
+        }
+        for &g in &s.offsets {
+            self.offset(g, i);
+        }
+        let setup = s.frame_ops != 0
+            || s.offsets
+                .iter()
+                .any(|g| matches!(g, 500 | 54..=57 | 505..=599));
+        if setup && self.t.first_cut.is_none() {
+            self.t.setup_end = i + 1;
+        }
+        if let Some(&g) = s
+            .offsets
+            .iter()
+            .rev()
+            .find(|g| matches!(g, 500 | 54..=57 | 505..=599))
+        {
+            self.state.offset = Some(g);
+        }
+        if s.frame_ops & frame_op::WRITE != 0 {
+            self.t.frame_writes.push(i);
+        }
+        self.frames(s.frame_ops);
+        self.t.moves |= s.other_axes;
+        if let Some(on) = s.diameter {
+            self.state.diameter = on;
+        }
+        // Modal words first: they hold for this block's move.
+        for g in s.g.iter() {
+            match g {
+                0..=3 => self.state.motion = g,
+                90 => self.state.absolute = true,
+                91 => self.state.absolute = false,
+                93..=95 => {
+                    self.per_rev = g == 95;
+                    self.state.feed_mode = Some(g);
+                }
+                17..=19 => self.state.plane = Some(g),
+                40..=42 => self.state.comp = g,
+                60 | 64 | 641..=645 => self.state.path_mode = Some(g),
+                _ => {}
+            }
+        }
+        let dwell = s.g.contains(4);
+        self.state.unknown |= s.unknown;
+        if let Some(f) = s.mv.f
+            && !dwell
+        {
+            self.state.feed = Some(f);
+            self.state.unknown &= !unknown::FEED;
+        }
+        if let Some(v) = s.s {
+            self.state.s = v;
+            self.state.unknown &= !unknown::S;
+        }
+        if let Some(l) = s.lims {
+            self.lims = Some(l);
+        }
+        if s.g.contains(97) {
+            self.state.css_rpm = None;
+        } else if s.g.contains(96)
+            || (self.state.css_rpm.is_some() && (s.s.is_some() || s.lims.is_some()))
+        {
+            self.state.css_rpm = Some(self.css_rpm());
+        }
+        if let Some(d) = s.d {
+            self.state.d = Some(d);
+            self.state.unknown &= !unknown::D;
+        }
+        let mut direction = None;
+        for m in s.m.iter() {
+            match m {
+                3..=5 => direction = Some(m),
+                6 => self.m6_seen = true,
+                2 | 30 => self.t.ends.push(i),
+                7..=9 => self.state.coolant = Some(m),
+                _ => {}
+            }
+        }
+        if let Some(d) = direction {
+            self.state.direction = d;
+        }
+        if s.s.is_some() || direction.is_some() {
+            self.t.spindle_words.push((start, s.s, direction));
+        }
+        let tool_change = s.m.contains(6);
+        if let Some(tool) = &s.tool {
+            self.state.selected = Some(tool.clone());
+            self.state.unknown &= !unknown::TOOL;
+        }
+        if tool_change {
+            // M6 loads the selected tool (T alone only selects it, in a program that uses M6).
+            self.state.tool = self.state.selected.clone();
+        }
+        let rpm = self.state.rpm();
+        if s.tool.is_some() {
+            let mark = self.mark(i, true, start, &before);
+            self.tool_marks.push(mark);
+        }
+        let p = &self.profile.passes;
+        let marked = s.marker || p.lines.contains(&(i + 1));
+        if (p.tool_change && tool_change) || marked {
+            let mark = self.mark(i, tool_change, start, &before);
+            self.pass_marks.push(mark);
+            if self.after_call && !tool_change {
+                self.varies.insert(i);
+            }
+        }
+        self.after_call &= !tool_change;
+        if s.tool.is_some() || (p.tool_change && tool_change) || marked || rpm != self.rpm {
+            self.note_site(i);
+        }
+        if rpm != self.rpm {
+            self.rpm = rpm;
+            self.t.speeds.push((start, rpm));
+            self.speed_site(i, start, before.clone(), rpm);
+        }
+        if let Some(modal) = &s.modal_call {
+            self.modal_call = modal.as_ref().map(|n| (n.clone(), format!("MCALL {n}")));
+        }
+        self.movement(i, start, &before, &s.mv, dwell, s.s, s.inexact, tool_change);
+        self.modal_call_after(i, &s.mv);
+        if let Some(prev) = tracked {
+            for (f, differs) in field::differ(&prev, &self.state).into_iter().enumerate() {
+                if differs {
+                    self.changed[f] = i + 1;
+                }
+            }
+            if let Some(l) = &s.label {
+                self.label_seen(l, i, start, prev);
+            }
+        }
+        self.loops(i, s, kind, start);
+        self.start_site_speed(i);
+    }
+
+    /// The block's move (or dwell, with G4: F seconds or S revolutions) and the tool change's time, with
+    /// the modal state already updated by the block's words.
+    #[allow(clippy::too_many_arguments)]
+    fn movement(
+        &mut self,
+        i: usize,
+        start: f64,
+        before: &Modal,
+        mv: &Move,
+        g4: bool,
+        revolutions: Option<f64>,
+        mut inexact: bool,
+        tool_change: bool,
+    ) {
+        let rpm = self.state.rpm();
+        let moved = mv.axes.iter().any(Option::is_some);
+        // Axes written as expressions move too, by an amount the timeline does not know.
+        let moves_somehow = moved || inexact;
+        // A dwell right after the retract is as clear of the part as the next rapid, and a gate before it is
+        // the only one a long dwell can have.
+        let dwell = g4 && !moved;
+        let retract_candidate = self.last_was_z_retract
+            && self.state.motion == 0
+            && self.state.absolute
+            && (dwell || (moved && mv.axes[2].is_none()));
+        if retract_candidate {
+            if self.after_call {
+                self.varies.insert(i);
+            }
+            self.note_site(i);
+            let first_in_loop = self.loop_depth > 0 && self.loop_gate_pending;
+            self.loop_gate_pending &= !first_in_loop;
+            self.t.sites.push(Site {
+                block: i,
+                kind: SiteKind::Retract { first_in_loop },
+                time_min: start,
+                pass: 0,
+                before: before.clone(),
+                rpm_after: rpm,
+                state_varies: false,
+                idle_min: self.idle_since_cut(start),
+            });
+        }
+        let from = self.pos;
+        let mut to = self.pos;
+        for k in 0..3 {
+            if let Some((v, absolute)) = mv.axes[k] {
+                to[k] = if absolute || self.state.absolute {
+                    Some(v)
+                } else {
+                    Some(from[k].unwrap_or(0.0) + v)
+                };
+            }
+        }
+        self.t.moves |= moves_somehow;
+        if self.t.first_cut.is_none() && moves_somehow && !g4 && self.state.motion != 0 {
+            self.t.first_cut = Some(i);
+        }
+        let mut minutes = 0.0;
+        if g4 {
+            minutes += match (mv.f, revolutions) {
+                (Some(sec), _) => sec / 60.0,
+                (None, Some(rev)) if rpm > 0.0 => rev / rpm,
+                _ => {
+                    inexact = true;
+                    0.0
+                }
+            };
+        } else if moved {
+            let (a, b) = (from.map(|v| v.unwrap_or(0.0)), to.map(|v| v.unwrap_or(0.0)));
+            let length = move_length(self.state.motion, a, b, mv.centre, mv.radius);
+            if self.state.motion == 0 {
+                minutes += length / self.profile.timeline.rapid_mm_per_min;
+            } else {
+                let feed = self
+                    .state
+                    .feed
+                    .map(|f| if self.per_rev { f * rpm } else { f });
+                match feed {
+                    Some(f) if f > 0.0 => minutes += length / f,
+                    _ => inexact = true,
+                }
+            }
+        }
+        if tool_change {
+            minutes += self.profile.timeline.tool_change_s / 60.0;
+        }
+        self.t.inexact_blocks += usize::from(inexact);
+        // A dwell leaves the tool where the retract put it: the rapid after it is still clear of the part.
+        self.last_was_z_retract = (dwell && self.last_was_z_retract)
+            || moved
+                && self.state.motion == 0
+                && mv.axes[0].is_none()
+                && mv.axes[1].is_none()
+                && match (from[2], to[2]) {
+                    (Some(a), Some(b)) => b > a,
+                    (None, Some(_)) => true,
+                    _ => false,
+                };
+        self.pos = to;
+        if self.state.z != to[2] {
+            self.state.z = to[2];
+            self.changed[field::Z] = i + 1;
+        }
+        self.add_minutes(minutes);
+        if moves_somehow && !g4 && self.state.motion != 0 {
+            self.last_cut = self.ticks;
+        }
+    }
+
+    /// The spindle speed under constant cutting speed (G96): 1000·v / (π·D) at the diameter the tool stands
+    /// at (X, a diameter under DIAMON), capped by LIMS; LIMS (or v itself) where no diameter is known yet.
+    fn css_rpm(&self) -> f64 {
+        let v = self.state.s.abs();
+        let diameter = self.pos[0].map(|x| {
+            if self.state.diameter {
+                x.abs()
+            } else {
+                2.0 * x.abs()
+            }
+        });
+        let n = match diameter {
+            Some(d) if d > 1.0 => 1000.0 * v / (std::f64::consts::PI * d),
+            _ => self.lims.unwrap_or(v),
+        };
+        self.lims.map_or(n, |l| n.min(l))
+    }
+
+    /// Minutes from the end of the last cut to `at_min`.
+    fn idle_since_cut(&self, at_min: f64) -> f64 {
+        (at_min - self.last_cut as f64 / TICKS_PER_MIN).max(0.0)
+    }
+
+    /// The time so far (min).
+    fn time(&self) -> f64 {
+        self.ticks as f64 / TICKS_PER_MIN
+    }
+
+    fn add_minutes(&mut self, minutes: f64) {
+        self.ticks = self.ticks.saturating_add(ticks(minutes));
+    }
+
+    /// The timeline, with the names the unit calls.
+    pub(super) fn finish(mut self) -> (Timeline, BTreeSet<String>) {
+        let total = self.time();
+        self.t.total_min = total;
+        self.t.last_cut_min = self.last_cut as f64 / TICKS_PER_MIN;
+        self.place_passes_and_sites(total);
+        (self.t, self.called)
+    }
+}

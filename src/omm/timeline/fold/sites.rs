@@ -1,0 +1,211 @@
+//! Where gates may go: the sites the fold notes as it reads (speed changes, stops, dressing, the start
+//! after the setup), the pass starts, and at the end the passes and the sites in block order.
+
+use std::sync::Arc;
+
+use crate::omm::profile::ToolChange;
+use crate::omm::timeline::modal::Modal;
+use crate::omm::timeline::record::{Pass, Site, SiteKind};
+
+use super::Builder;
+
+impl Builder<'_> {
+    pub(super) fn mark(&self, i: usize, tool_change: bool, start: f64, before: &Modal) -> PassMark {
+        PassMark {
+            block: i,
+            tool_change,
+            time: start,
+            idle: self.idle_since_cut(start),
+            before: before.clone(),
+            rpm: self.state.rpm(),
+            tool: self
+                .state
+                .tool
+                .clone()
+                .or_else(|| self.state.selected.clone()),
+        }
+    }
+
+    /// A gate site where the program's prediction takes another speed (`rpm` from block `i` on); it
+    /// replaces one a call before this block asked for.
+    pub(super) fn speed_site(&mut self, i: usize, time_min: f64, before: Modal, rpm: f64) {
+        if self
+            .t
+            .sites
+            .last()
+            .is_some_and(|l| l.block == i && l.kind == SiteKind::SpeedChange)
+        {
+            self.t.sites.pop();
+        }
+        self.t.sites.push(Site {
+            block: i,
+            kind: SiteKind::SpeedChange,
+            time_min,
+            pass: 0,
+            before,
+            rpm_after: rpm,
+            state_varies: false,
+            idle_min: self.idle_since_cut(time_min),
+        });
+    }
+
+    /// The speed-change site a subprogram's speed asks for, at the first block after its call.
+    pub(super) fn speed_site_after_call(&mut self, i: usize) {
+        if self.speed_site_after.is_some_and(|call| call < i) {
+            self.speed_site_after = None;
+            self.note_site(i);
+            self.speed_site(i, self.time(), self.state.clone(), self.rpm);
+        }
+    }
+
+    /// The site a stop or dressing call before block `i` asked for.
+    pub(super) fn safe_site_after(&mut self, i: usize) {
+        if let Some((_, kind)) = self.safe_after.take_if(|(at, _)| *at < i) {
+            self.note_site(i);
+            self.t.sites.push(Site {
+                block: i,
+                kind,
+                time_min: self.time(),
+                pass: 0,
+                before: self.state.clone(),
+                rpm_after: self.rpm,
+                idle_min: self.idle_since_cut(self.time()),
+                state_varies: false,
+            });
+        }
+    }
+
+    /// Keeps block `i` as the start site while the setup is over and nothing has cut yet; a later setup
+    /// block (work offset, frame) makes the block after it the candidate instead.
+    pub(super) fn start_site(&mut self, i: usize, time_min: f64) {
+        if self.t.first_cut.is_some() || !(self.header_done && self.preamble_done) {
+            return;
+        }
+        if self
+            .start
+            .as_ref()
+            .is_some_and(|s| s.block >= self.t.setup_end)
+        {
+            return;
+        }
+        // After a call the modal state is not known for sure (as for the other sites, see `call`).
+        if self.after_call {
+            self.varies.insert(i);
+        }
+        self.start = Some(Site {
+            block: i,
+            kind: SiteKind::Start,
+            time_min,
+            pass: 0,
+            before: self.state.clone(),
+            rpm_after: self.rpm,
+            state_varies: false,
+            idle_min: self.idle_since_cut(time_min),
+        });
+    }
+
+    /// The speed from the start site's block on.
+    pub(super) fn start_site_speed(&mut self, i: usize) {
+        if let Some(site) = self.start.as_mut().filter(|s| s.block == i) {
+            site.rpm_after = self.rpm;
+        }
+    }
+
+    /// Notes a block where a site or pass mark arises, with the fields' last changes.
+    pub(super) fn note_site(&mut self, i: usize) {
+        if !self.open_loops.is_empty() || !self.label_times.is_empty() {
+            self.site_changes.push((i, self.changed));
+        }
+    }
+
+    /// The passes from the pass marks (ending at `total`, min), their start sites with the others, one
+    /// site per block in block order, each with its pass.
+    pub(super) fn place_passes_and_sites(&mut self, total: f64) {
+        // Without M6 in the program the T word changes the tool.
+        let mut starts = std::mem::take(&mut self.pass_marks);
+        let t_loads = self.profile.probe.tool_change == ToolChange::T;
+        if !self.m6_seen && self.profile.passes.tool_change {
+            // On a machine that changes tools with M6, a T alone only selects: no change follows it.
+            let tool_marks = std::mem::take(&mut self.tool_marks);
+            starts.extend(tool_marks.into_iter().map(|m| PassMark {
+                tool_change: t_loads,
+                ..m
+            }));
+        }
+        starts.sort_by_key(|m| m.block);
+        starts.dedup_by_key(|m| m.block);
+        let ends: Vec<f64> = starts
+            .iter()
+            .skip(1)
+            .map(|m| m.time)
+            .chain(std::iter::once(total))
+            .collect();
+        for (k, (m, end)) in starts.into_iter().zip(ends).enumerate() {
+            self.t.passes.push(Pass {
+                number: k + 1,
+                first_block: m.block,
+                start_min: m.time,
+                end_min: end,
+                tool: m.tool,
+                max_rpm: speed_max(&self.t.speeds, m.time, end),
+            });
+            self.t.sites.push(Site {
+                block: m.block,
+                kind: SiteKind::PassStart {
+                    tool_change: m.tool_change,
+                },
+                time_min: m.time,
+                pass: k + 1,
+                before: m.before,
+                rpm_after: m.rpm,
+                state_varies: false,
+                idle_min: m.idle,
+            });
+        }
+        // The start site only counts once it is known to come after the setup.
+        if let Some(site) = self.start.take().filter(|s| s.block >= self.t.setup_end) {
+            self.t.sites.push(site);
+        }
+        // One site per block: a pass start wins over a speed change or retract at the same block.
+        self.t
+            .sites
+            .sort_by_key(|s| (s.block, !matches!(s.kind, SiteKind::PassStart { .. })));
+        self.t.sites.dedup_by_key(|s| s.block);
+        let mut pass = 0;
+        for site in &mut self.t.sites {
+            site.state_varies = self.varies.contains(&site.block);
+            // Without M6 in the program, T loads the tool at once.
+            if t_loads {
+                site.before.tool = site.before.selected.clone();
+            }
+            match site.kind {
+                SiteKind::PassStart { .. } => pass = site.pass,
+                _ => site.pass = pass,
+            }
+        }
+    }
+}
+
+/// A block that may start a pass, with the state around it.
+pub(super) struct PassMark {
+    block: usize,
+    tool_change: bool,
+    time: f64,
+    idle: f64,
+    before: Modal,
+    rpm: f64,
+    tool: Option<Arc<str>>,
+}
+
+/// Highest speed held at any time in [from, to).
+fn speed_max(speeds: &[(f64, f64)], from: f64, to: f64) -> f64 {
+    // The schedule is in time order: the speeds in force from `from` on start with the last one set at
+    // or before it, found by bisection, so a pass costs its own speeds, not the whole program's (60 000
+    // passes scanned 60 000 speeds each).
+    let first = speeds.partition_point(|s| s.0 <= from).saturating_sub(1);
+    let until = to.max(from + 1e-12);
+    speeds[first..]
+        .iter()
+        .take_while(|s| s.0 < until)
+        .fold(0.0, |max: f64, s| max.max(s.1))
+}

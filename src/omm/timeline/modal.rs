@@ -1,0 +1,199 @@
+//! The modal state the timeline follows through the program: what a gate must give back after it moved
+//! the machine (tool, spindle, feed, plane, offset, frames …), and what makes a place unfit for a gate.
+
+use std::sync::Arc;
+
+/// The modal state a gate must restore after it moved the machine, and what makes a place unfit for a gate.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Modal {
+    /// The tool in the spindle as written after `T=` or `T` (`"DRILL 8.5"` with quotes, or `12`).
+    pub tool: Option<Arc<str>>,
+    /// The tool the last `T` selected: the preselection a later bare `M6` loads (equal to `tool` after a
+    /// change).
+    pub selected: Option<Arc<str>>,
+    pub d: Option<u32>,
+    /// Programmed spindle speed and direction (3, 4 or 5 = stopped).
+    pub s: f64,
+    pub direction: u32,
+    pub feed: Option<f64>,
+    /// Modal motion G code (0, 1, 2, 3).
+    pub motion: u32,
+    pub absolute: bool,
+    pub z: Option<f64>,
+    /// G93 / G94 / G95 (G96 / G97 keep G95), when the program set it.
+    pub feed_mode: Option<u32>,
+    /// G17 / G18 / G19, when the program set it.
+    pub plane: Option<u32>,
+    /// Exact stop or continuous path: G60, G64, G641 … G645, when the program set it.
+    pub path_mode: Option<u32>,
+    /// M7 / M8 (on) or M9 (off), when the program set it.
+    pub coolant: Option<u32>,
+    /// Cutter radius compensation: 40, 41 or 42.
+    pub comp: u32,
+    /// The work offset selected (54 … 57, 505 … 599, or 500 for none), when the program selected one.
+    pub offset: Option<u32>,
+    /// X is programmed in diameters (DIAMON, DIAM90).
+    pub diameter: bool,
+    /// Under constant cutting speed (G96, `s` in m/min): the spindle speed estimated where S was set,
+    /// n = 1000·v / (π·D) at the diameter the tool stood at, capped by LIMS.
+    pub css_rpm: Option<f64>,
+    /// Frames and transformations active ([`frame`] bits).
+    pub frames: u8,
+    /// Fields the program set by an expression the timeline cannot evaluate ([`unknown`] bits): a gate
+    /// cannot write them back.
+    pub unknown: u8,
+}
+
+/// Bits of [`Modal::frames`].
+pub mod frame {
+    /// A programmable translation (TRANS, ATRANS, CTRANS with values).
+    pub const TRANSLATION: u8 = 1;
+    /// A programmable rotation, scale or mirror (ROT, AROT, SCALE, MIRROR, … with values).
+    pub const ROTATION: u8 = 2;
+    /// A kinematic transformation: TRAORI, TRANSMIT, TRACYL, TRAANG.
+    pub const TRANSFORMATION: u8 = 4;
+    /// A swivelled plane: CYCLE800 with an angle.
+    pub const SWIVEL: u8 = 8;
+}
+
+/// Bits of [`Modal::unknown`].
+pub mod unknown {
+    pub const TOOL: u8 = 1;
+    pub const D: u8 = 2;
+    pub const S: u8 = 4;
+    pub const FEED: u8 = 8;
+}
+
+impl Modal {
+    /// Speed the spindle turns at (rpm, 0 when stopped).
+    pub fn rpm(&self) -> f64 {
+        if matches!(self.direction, 3 | 4) {
+            self.css_rpm.unwrap_or(self.s).abs()
+        } else {
+            0.0
+        }
+    }
+
+    /// Why no inserted block may run here (a STOPRE, a work-offset write or a move would spoil the
+    /// contour or move along a tilted axis); `None` when the place is fit.
+    pub fn unfit(&self) -> Option<&'static str> {
+        if matches!(self.comp, 41 | 42) {
+            Some("cutter radius compensation (G41/G42) is active")
+        } else if self.frames & frame::SWIVEL != 0 {
+            Some("a swivelled plane (CYCLE800) is active")
+        } else if self.frames & frame::TRANSFORMATION != 0 {
+            Some("a transformation (TRAORI, TRANSMIT, TRACYL) is active")
+        } else if self.frames & frame::ROTATION != 0 {
+            Some("a rotated, scaled or mirrored frame is active")
+        } else {
+            None
+        }
+    }
+
+    /// Why a gate here cannot measure and give the state back, beyond [`Modal::unfit`]; `None` when it can.
+    pub fn not_restorable(&self) -> Option<&'static str> {
+        if let Some(why) = self.unfit() {
+            Some(why)
+        } else if self.motion >= 2 {
+            Some("a circle (G2/G3) is the modal motion")
+        } else if self.unknown & unknown::TOOL != 0 {
+            Some("the tool is set by an expression")
+        } else if self.d == Some(0) {
+            Some("D0 is active: heights are the spindle's, not the tool tip's")
+        } else if self.unknown & unknown::D != 0 {
+            Some("the D number is set by an expression")
+        } else if self.unknown & unknown::S != 0 && self.rpm() > 0.0 {
+            Some("the spindle speed is set by an expression")
+        } else if self.unknown & unknown::FEED != 0 {
+            Some("the feed is set by an expression")
+        } else {
+            None
+        }
+    }
+}
+
+/// The fields of [`Modal`] by number, for the fold's record of the block where each last changed.
+pub(super) mod field {
+    use super::Modal;
+
+    pub const COUNT: usize = 18;
+    pub const FEED: usize = 4;
+    pub const MOTION: usize = 5;
+    pub const Z: usize = 7;
+
+    /// The fields in which two states differ, by number.
+    pub fn differ(a: &Modal, b: &Modal) -> [bool; COUNT] {
+        [
+            a.tool != b.tool,
+            a.d != b.d,
+            a.s != b.s || a.css_rpm != b.css_rpm,
+            a.direction != b.direction,
+            a.feed != b.feed,
+            a.motion != b.motion,
+            a.absolute != b.absolute,
+            a.z != b.z,
+            a.selected != b.selected,
+            a.feed_mode != b.feed_mode,
+            a.plane != b.plane,
+            a.path_mode != b.path_mode,
+            a.coolant != b.coolant,
+            a.comp != b.comp,
+            a.frames != b.frames,
+            a.unknown != b.unknown,
+            a.offset != b.offset,
+            a.diameter != b.diameter,
+        ]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Modal, field};
+
+    /// The named field numbers are the places `differ` reports those fields at.
+    #[test]
+    fn field_numbers_name_their_fields() {
+        let base = Modal::default();
+        let only = |changed: Modal| -> Vec<usize> {
+            let d = field::differ(&base, &changed);
+            (0..field::COUNT).filter(|&f| d[f]).collect()
+        };
+        let feed = Modal {
+            feed: Some(100.0),
+            ..Modal::default()
+        };
+        let motion = Modal {
+            motion: 1,
+            ..Modal::default()
+        };
+        let z = Modal {
+            z: Some(5.0),
+            ..Modal::default()
+        };
+        assert_eq!(only(feed), [field::FEED]);
+        assert_eq!(only(motion), [field::MOTION]);
+        assert_eq!(only(z), [field::Z]);
+        let all = Modal {
+            tool: Some("1".into()),
+            selected: Some("2".into()),
+            d: Some(1),
+            s: 1.0,
+            direction: 3,
+            feed: Some(1.0),
+            motion: 1,
+            absolute: true,
+            z: Some(1.0),
+            feed_mode: Some(94),
+            plane: Some(17),
+            path_mode: Some(64),
+            coolant: Some(8),
+            comp: 41,
+            offset: Some(54),
+            diameter: true,
+            css_rpm: None,
+            frames: 1,
+            unknown: 1,
+        };
+        assert_eq!(only(all).len(), field::COUNT);
+    }
+}

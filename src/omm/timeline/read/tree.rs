@@ -1,0 +1,369 @@
+//! Reading a block from its syntax tree: any block the word scanner does not take (assignments, control
+//! statements, calls, frames, expressions), reduced to the same [`Scan`].
+
+use std::sync::Arc;
+
+use crate::syntax::{Block, BlockKind, Node, NodeKind, Program};
+use crate::views::{AxisMode, Value, VarName, WorkOffset, facts, is_predefined_command};
+
+use super::{Bound, Count, Scan, comment, frame_op};
+use crate::omm::timeline::modal::unknown;
+
+pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
+    let block = program.block(i);
+    let f = facts(&block);
+    let mut s = Scan {
+        kind_header: block.kind == BlockKind::Header,
+        label: f.label.clone(),
+        statement: block.root.significant().any(|n| match n.kind {
+            NodeKind::Comment
+            | NodeKind::BlockNumber
+            | NodeKind::Def
+            | NodeKind::Proc
+            | NodeKind::Extern
+            | NodeKind::Define
+            | NodeKind::Header
+            | NodeKind::Word => false,
+            // `CR=5`, `X=R1`: an address with a value, read like a word.
+            NodeKind::Assign => !n.children.first().is_some_and(|t| {
+                let name = block.text(t);
+                t.kind == NodeKind::Var
+                    && name.len() <= 2
+                    && name.iter().all(u8::is_ascii_alphabetic)
+            }),
+            _ => true,
+        }),
+        ..Scan::default()
+    };
+    for v in &f.variables {
+        if let VarName::R(n) = v.name {
+            s.r.push(n);
+        }
+    }
+    for a in &f.axes {
+        let k = match a.axis.as_str() {
+            "X" => 0,
+            "Y" => 1,
+            "Z" => 2,
+            _ => {
+                s.other_axes = true;
+                continue;
+            }
+        };
+        match (&a.value, a.mode) {
+            (Value::Number(v), AxisMode::Modal | AxisMode::Ac) => {
+                s.mv.axes[k] = Some((*v, a.mode == AxisMode::Ac))
+            }
+            (Value::Number(v), AxisMode::Ic) => s.mv.axes[k] = Some((*v, false)),
+            _ => s.inexact = true,
+        }
+    }
+    let num = |v: &Value| match v {
+        Value::Number(x) => Some(*x),
+        _ => None,
+    };
+    s.mv.f = f.feed.as_ref().and_then(|a| num(&a.value));
+    if f.feed.is_some() && s.mv.f.is_none() {
+        s.unknown |= unknown::FEED;
+    }
+    let speed = f
+        .spindle_speeds
+        .iter()
+        .find(|a| a.extension.is_none_or(|e| e == 1));
+    s.s = speed.and_then(|a| num(&a.value));
+    if speed.is_some() && s.s.is_none() {
+        s.unknown |= unknown::S;
+    }
+    for v in f
+        .m_codes
+        .iter()
+        .filter(|a| a.extension.is_none_or(|e| e == 1))
+        .filter_map(|a| num(&a.value))
+    {
+        s.m.push(v as u32);
+    }
+    if let Some(a) = f.tools.first() {
+        let text = tool_text(&block, a.span);
+        if is_tool_literal(text) {
+            s.tool = Some(Arc::from(String::from_utf8_lossy(text).as_ref()));
+        } else {
+            s.unknown |= unknown::TOOL;
+        }
+    }
+    for &g in &f.g_codes {
+        if !s.g.contains(g) {
+            s.g.push(g);
+        }
+    }
+    for w in &f.work_offsets {
+        if let WorkOffset::G(g) = w {
+            s.offsets.push(*g);
+        }
+    }
+    for node in block.root.children.iter() {
+        match node.kind {
+            NodeKind::Word => word(&block, node, &mut s),
+            NodeKind::Assign => assign(&block, node, &mut s),
+            NodeKind::Comment => comment(block.text(node), marker, &mut s),
+            NodeKind::Def | NodeKind::Proc | NodeKind::Extern | NodeKind::Define => {
+                s.declaration = true
+            }
+            NodeKind::For => s.count = for_bounds(&block, node),
+            NodeKind::Repeat => s.count = section_repeat(&block, node),
+            NodeKind::Call => {
+                let name = String::from_utf8_lossy(block.text(&node.children[0]));
+                let name = name.to_ascii_uppercase();
+                s.frame_ops |= transformation_op(&name);
+                if name == "CYCLE800" {
+                    s.frame_ops |= swivel_op(&block, node);
+                }
+                if !TIMELESS_PROCEDURES.contains(&name.as_str()) {
+                    s.call = Some(name);
+                }
+            }
+            NodeKind::Command => {
+                let name = String::from_utf8_lossy(block.text(node)).to_ascii_uppercase();
+                s.frame_ops |= transformation_op(&name) | frame_command_op(&name, &f, &block);
+                match name.as_str() {
+                    "DIAMON" | "DIAM90" => s.diameter = Some(true),
+                    "DIAMOF" => s.diameter = Some(false),
+                    _ => {}
+                }
+                if !is_predefined_command(&name) {
+                    s.call = Some(name);
+                }
+            }
+            NodeKind::ProgramCall => match program_call(&block, node) {
+                Some(ProgramCall::Once(name)) => s.call = s.call.take().or(Some(name)),
+                Some(ProgramCall::Modal(name)) => s.modal_call = Some(name),
+                None => {}
+            },
+            _ => {}
+        }
+    }
+    if f.work_offsets
+        .iter()
+        .any(|w| matches!(w, WorkOffset::FrameWrite(_)))
+    {
+        s.frame_ops |= frame_op::WRITE;
+    }
+    // The axis words of a frame command are its values, not a move.
+    if s.frame_ops & (frame_op::TRANSLATE | frame_op::ROTATE) != 0 {
+        s.mv.axes = [None; 3];
+        s.inexact = false;
+    }
+    s
+}
+
+/// A tool written as a name in quotes or a number: what a gate can write back as it is.
+fn is_tool_literal(text: &[u8]) -> bool {
+    let quoted = text.len() >= 2 && text[0] == b'"' && text[text.len() - 1] == b'"';
+    quoted || (!text.is_empty() && text.iter().all(u8::is_ascii_digit))
+}
+
+/// TRAORI, TRANSMIT, TRACYL, TRAANG switch a transformation on, TRAFOOF off.
+fn transformation_op(name: &str) -> u8 {
+    match name {
+        "TRAORI" | "TRANSMIT" | "TRACYL" | "TRAANG" => frame_op::TRANSFORM_ON,
+        "TRAFOOF" => frame_op::TRANSFORM_OFF,
+        _ => 0,
+    }
+}
+
+/// A frame command with its values (axis words, `RPL=`), or an absolute one alone, which deletes the
+/// programmable frame.
+fn frame_command_op(name: &str, f: &crate::views::BlockFacts, block: &Block<'_>) -> u8 {
+    let rpl = block.root.significant().any(|n| {
+        n.kind == NodeKind::Assign
+            && n.children
+                .first()
+                .is_some_and(|t| block.text(t).eq_ignore_ascii_case(b"RPL"))
+    });
+    let valued = !f.axes.is_empty() || rpl;
+    match name {
+        "TRANS" | "ATRANS" | "CTRANS" if valued => frame_op::TRANSLATE,
+        "ROT" | "AROT" | "CROT" | "ROTS" | "AROTS" | "CROTS" | "SCALE" | "ASCALE" | "CSCALE"
+        | "MIRROR" | "AMIRROR" | "CMIRROR"
+            if valued =>
+        {
+            frame_op::ROTATE
+        }
+        "TRANS" | "ROT" | "SCALE" | "MIRROR" => frame_op::CLEAR,
+        _ => 0,
+    }
+}
+
+/// `CYCLE800()` and a CYCLE800 whose every numeric argument from the fifth on (the swivel's offsets and
+/// angles) is 0 or empty end the swivel; any other call swivels (an expression counts as an angle).
+fn swivel_op(block: &Block<'_>, call: &Node) -> u8 {
+    let args = call.call_arguments();
+    let tilted = args.iter().skip(4).flatten().any(|a| {
+        // Strings (the swivel data record's name) and empty arguments do not tilt.
+        a.kind != NodeKind::Str && literal(block, a) != Some(0.0)
+    });
+    if tilted {
+        frame_op::SWIVEL_ON
+    } else {
+        frame_op::SWIVEL_OFF
+    }
+}
+
+/// Built-in procedures called like cycles that take no machine time: no note that they are not timed.
+const TIMELESS_PROCEDURES: &[&str] = &[
+    "MSG", "SETAL", "WRITE", "SETMS", "GETT", "GETSELT", "STOPRE",
+];
+
+/// What a `CALL`, `PCALL`, `EXTCALL`, `ISOCALL` or `MCALL` statement does.
+enum ProgramCall {
+    /// Runs the program now: `NAME` for `CALL`, `KEYWORD NAME` for the others.
+    Once(String),
+    /// `MCALL NAME` (the cycle's name) or `MCALL` alone, which ends the modal call.
+    Modal(Option<String>),
+}
+
+fn program_call(block: &Block<'_>, node: &Node) -> Option<ProgramCall> {
+    let mut parts = node.significant();
+    let keyword = String::from_utf8_lossy(block.text(parts.next()?)).to_ascii_uppercase();
+    let Some(target) = parts.next() else {
+        return (keyword == "MCALL").then_some(ProgramCall::Modal(None));
+    };
+    // A cycle with its arguments (`MCALL CYCLE82(…)`) is named by its name.
+    let target = match target.kind {
+        NodeKind::FnCall => &target.children[0],
+        _ => target,
+    };
+    let text = String::from_utf8_lossy(block.text(target));
+    let name = text.trim_matches('"').to_ascii_uppercase();
+    Some(match keyword.as_str() {
+        "CALL" => ProgramCall::Once(name),
+        "MCALL" => ProgramCall::Modal(Some(name)),
+        _ => ProgramCall::Once(format!("{keyword} {name}")),
+    })
+}
+
+/// `FOR var = from TO to`: the bounds.
+fn for_bounds(block: &Block<'_>, node: &Node) -> Option<Count> {
+    let parts: Vec<&Node> = node.significant().collect();
+    match parts.as_slice() {
+        [_, _, _, from, _, to] => Some(Count::For {
+            from: bound(block, from),
+            to: bound(block, to),
+        }),
+        _ => None,
+    }
+}
+
+/// `REPEAT a [b]` / `REPEATB a` with its labels (`P=n` follows as an assignment); `None` for the REPEAT
+/// that opens a REPEAT … UNTIL loop.
+fn section_repeat(block: &Block<'_>, node: &Node) -> Option<Count> {
+    let mut parts = node.significant();
+    let keyword = block.text(parts.next()?);
+    let labels: Vec<String> = parts
+        .filter(|n| n.kind == NodeKind::Name)
+        .map(|n| String::from_utf8_lossy(block.text(n)).to_ascii_uppercase())
+        .collect();
+    (!labels.is_empty()).then(|| Count::Section {
+        labels,
+        single: keyword.eq_ignore_ascii_case(b"REPEATB"),
+        times: Bound::Number(1.0),
+    })
+}
+
+fn bound(block: &Block<'_>, node: &Node) -> Bound {
+    if let Some(v) = literal(block, node) {
+        return Bound::Number(v);
+    }
+    match node.kind {
+        NodeKind::RParam => r_number(block.text(node)).map_or(Bound::Other, Bound::R),
+        _ => Bound::Other,
+    }
+}
+
+/// `R12` → 12 (not `R[…]`).
+fn r_number(text: &[u8]) -> Option<u32> {
+    let digits = text
+        .strip_prefix(b"R")
+        .or_else(|| text.strip_prefix(b"r"))?;
+    std::str::from_utf8(digits).ok()?.parse().ok()
+}
+
+/// The text after `T`/`T=` in a tool word or assignment.
+fn tool_text<'a>(block: &'a Block<'_>, span: crate::Span) -> &'a [u8] {
+    let node = Node::leaf(NodeKind::Text, span);
+    let text = block.text(&node);
+    let text = &text[1..];
+    let text = text.strip_prefix(b"=").unwrap_or(text);
+    text.trim_ascii()
+}
+
+fn word(block: &Block<'_>, node: &Node, s: &mut Scan) {
+    let Some((address, number)) = node.address_and_number() else {
+        return;
+    };
+    let letter = block.text(address).to_ascii_uppercase();
+    let value = std::str::from_utf8(block.text(number))
+        .ok()
+        .and_then(|t| t.parse::<f64>().ok());
+    match (letter.as_slice(), value) {
+        (b"D", Some(d)) if d >= 0.0 && d.fract() == 0.0 => s.d = Some(d as u32),
+        (b"D", _) => s.unknown |= unknown::D,
+        (b"I", Some(v)) => s.mv.centre[0] = Some(v),
+        (b"J", Some(v)) => s.mv.centre[1] = Some(v),
+        (b"K", Some(v)) => s.mv.centre[2] = Some(v),
+        // `L123 P3`: subprogram 123, run three times.
+        (b"P", Some(p)) => s.repeats = Some(p),
+        (b"L", Some(_)) => {
+            s.call = Some(format!("L{}", String::from_utf8_lossy(block.text(number))))
+        }
+        _ => {}
+    }
+}
+
+fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
+    let mut parts = node.significant();
+    let (Some(target), _, Some(value)) = (parts.next(), parts.next(), parts.next()) else {
+        return;
+    };
+    let name = block.text(target).to_ascii_uppercase();
+    let v = literal(block, value);
+    if target.kind == NodeKind::RParam {
+        if let Some(n) = r_number(&name) {
+            s.r_set.push((n, v));
+        }
+        return;
+    }
+    match name.as_slice() {
+        b"P" => {
+            if let Some(Count::Section { times, .. }) = &mut s.count {
+                *times = bound(block, value);
+            }
+        }
+        b"CR" => s.mv.radius = v,
+        b"LIMS" => s.lims = v,
+        b"D" => match v {
+            Some(d) if d >= 0.0 && d.fract() == 0.0 => s.d = Some(d as u32),
+            _ => s.unknown |= unknown::D,
+        },
+        b"I" => s.mv.centre[0] = v,
+        b"J" => s.mv.centre[1] = v,
+        b"K" => s.mv.centre[2] = v,
+        _ => {}
+    }
+}
+
+/// A number written as such, with an optional sign (`12.5`, `-3`); `None` for any other expression.
+fn literal(block: &Block<'_>, node: &Node) -> Option<f64> {
+    match node.kind {
+        NodeKind::Number => std::str::from_utf8(block.text(node)).ok()?.parse().ok(),
+        NodeKind::Unary => {
+            let mut parts = node.significant();
+            let sign = match block.text(parts.next()?) {
+                b"-" => -1.0,
+                b"+" => 1.0,
+                _ => return None,
+            };
+            Some(sign * literal(block, parts.next()?)?)
+        }
+        _ => None,
+    }
+}

@@ -1,0 +1,187 @@
+//! What the timeline says about a program: its time, passes, gate sites with the modal state at each,
+//! loops, calls, and the registers, labels and offsets it uses.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::sync::Arc;
+
+use serde::Serialize;
+
+use super::modal::Modal;
+
+/// Why a gate site exists.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SiteKind {
+    /// A technological pass starts at this block; `tool_change` when the block itself changes the tool.
+    PassStart { tool_change: bool },
+    /// A rapid move or a dwell right after a Z-only retract: the tool is clear of the part. `first_in_loop`: the first
+    /// such move in the body of a loop of the program (the timeline counts a loop once, so the plan
+    /// cannot know how long it really runs; a gate there lets the program decide on every iteration).
+    Retract { first_in_loop: bool },
+    /// The spindle speed changes at this block.
+    SpeedChange,
+    /// The block after a programmed stop (M0, M1): the program waits there, the tool clear of the part.
+    Stop,
+    /// The block after a call of a dressing cycle the profile names: the wheel is off the part.
+    Dressing,
+    /// The first block after the program's own setup (declarations, work offset, frames) and before its
+    /// first cut: where a reference measurement can go when no other site lies between the two.
+    Start,
+}
+
+/// A block before which driftloop may insert a gate, with the state the program is in there.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Site {
+    pub block: usize,
+    pub kind: SiteKind,
+    /// Estimated time the block starts (min from program start).
+    pub time_min: f64,
+    /// Pass the block belongs to (1-based; 0 before the first pass).
+    pub pass: usize,
+    /// The state before the block.
+    pub before: Modal,
+    /// Minutes from the end of the last cut (feed move) before the block to its start: the part drifts
+    /// in that time without being cut.
+    pub idle_min: f64,
+    /// Spindle speed from this block on (rpm).
+    pub rpm_after: f64,
+    /// The block is in the body of a loop (or a repeated section) whose later runs reach it in another modal
+    /// state than the first (a value the body changes after this block and does not set before it): a gate
+    /// here could not restore the state after measuring.
+    pub state_varies: bool,
+}
+
+/// One technological pass.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Pass {
+    pub number: usize,
+    pub first_block: usize,
+    pub start_min: f64,
+    pub end_min: f64,
+    /// Tool of the pass as written, when known.
+    pub tool: Option<Arc<str>>,
+    /// Highest spindle speed in the pass (rpm).
+    pub max_rpm: f64,
+}
+
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Timeline {
+    pub total_min: f64,
+    pub passes: Vec<Pass>,
+    /// Pass starts, retracts and speed changes, in block order.
+    pub sites: Vec<Site>,
+    /// Spindle speed from each time on: (min, rpm), starting at (0, 0).
+    pub speeds: Vec<(f64, f64)>,
+    /// Blocks that end the program (M2, M30).
+    pub ends: Vec<usize>,
+    /// First block after the transfer header (`%…`, `;$PATH=…`).
+    pub header_end: usize,
+    /// First block after the declarations (DEF, PROC, EXTERN, DEFINE) at the top.
+    pub preamble_end: usize,
+    pub used_r: BTreeSet<u32>,
+    /// Lines (1-based) that index R-parameters by an expression.
+    pub computed_r_lines: Vec<usize>,
+    pub labels: BTreeSet<String>,
+    /// Settable work offsets the program selects, with the first line selecting each.
+    pub offsets: Vec<(u32, usize)>,
+    /// Lines (1-based) of `computed_r_lines` and `offsets` that call a subprogram from a folder in which the
+    /// thing was found, with the subprogram's name.
+    pub found_in_call: BTreeMap<usize, String>,
+    /// Blocks whose moves could not be timed (expressions, unknown feed).
+    pub inexact_blocks: usize,
+    /// The program's loops in the order they close (a section repeat at its REPEAT statement).
+    pub loops: Vec<Loop>,
+    /// Subprogram and cycle calls, whose time the timeline does not know: (line, 1-based; called name).
+    pub untimed_calls: Vec<(usize, String)>,
+    /// Calls of subprograms the timeline timed (the archive's, or a folder's): (line, name, min per run).
+    pub timed_calls: Vec<(usize, String, f64)>,
+    /// Where the unit programs the spindle: (min from its start, S, M3/M4/M5). A call of the unit replays
+    /// them onto the caller's spindle (a subprogram may set only S, or only M3, and inherit the rest).
+    pub spindle_words: Vec<(f64, Option<f64>, Option<u32>)>,
+    /// First block after the unit the timeline covers (the block count, unless the file is an archive).
+    pub unit_end: usize,
+    /// First block that moves at feed (G1, G2, G3): the first cut.
+    pub first_cut: Option<usize>,
+    /// When the last cut ended (min from the start).
+    pub last_cut_min: f64,
+    /// The program moves an axis, or calls a subprogram or cycle that may.
+    pub moves: bool,
+    /// Blocks that write a frame variable themselves (`$P_UIFR[…]=`, `$P_PFRAME=`, …).
+    pub frame_writes: Vec<usize>,
+    /// One past the last block before the first cut that selects a work offset or changes frames or
+    /// transformations: the reference measurement goes after the program's own setup.
+    pub setup_end: usize,
+}
+
+/// The statement that makes a loop.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LoopKind {
+    For,
+    While,
+    /// `LOOP … ENDLOOP`: endless unless left by a jump.
+    Loop,
+    /// `REPEAT … UNTIL condition`.
+    RepeatUntil,
+    /// `REPEAT label [label] P=n`: a section repeated.
+    Repeat,
+    /// `REPEATB label P=n`: one block repeated.
+    RepeatBlock,
+}
+
+impl LoopKind {
+    pub fn keyword(self) -> &'static str {
+        match self {
+            LoopKind::For => "FOR",
+            LoopKind::While => "WHILE",
+            LoopKind::Loop => "LOOP",
+            LoopKind::RepeatUntil => "REPEAT…UNTIL",
+            LoopKind::Repeat => "REPEAT",
+            LoopKind::RepeatBlock => "REPEATB",
+        }
+    }
+}
+
+/// One loop of the program, as the timeline counts it. A loop whose count is known before the program
+/// runs — `FOR var = a TO b` with literal bounds (or R-parameters last assigned a literal), a section
+/// repeat `REPEAT label [label] P=n` / `REPEATB label P=n` — is counted that often: its further runs are
+/// added to the program time where they happen (and `omm::loops::site_runs` lists the sites of its body
+/// once per run). Any other loop (WHILE, LOOP, REPEAT … UNTIL, computed bounds) is counted once, and
+/// says so.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Loop {
+    pub kind: LoopKind,
+    /// Block of the loop statement (`FOR …`, `WHILE …`, the `REPEAT` statement).
+    pub block: usize,
+    /// First and last block of the body or repeated section.
+    pub body: (usize, usize),
+    /// How often the body runs in all (the run in the program's flow included), when known before the
+    /// program runs; `None`: counted once.
+    pub runs: Option<u64>,
+    /// Why the count is not known.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub unknown: Option<&'static str>,
+    /// Start of the first run and length of one run (min, measurements not included).
+    pub start_min: f64,
+    pub body_min: f64,
+    /// The further runs happen after this block (ENDFOR, the REPEAT statement), from this time on.
+    #[serde(skip)]
+    pub repeat_block: usize,
+    #[serde(skip)]
+    pub repeat_min: f64,
+}
+
+impl Loop {
+    /// The blocks whose gates run again with the body: a gate goes before its block, so the one before a
+    /// section's labelled first block stays outside the section.
+    pub fn gate_blocks(&self) -> (usize, usize) {
+        match self.kind {
+            LoopKind::Repeat | LoopKind::RepeatBlock => (self.body.0 + 1, self.body.1),
+            _ => self.body,
+        }
+    }
+
+    /// Runs beyond the one the program's flow makes anyway.
+    pub fn further_runs(&self) -> u64 {
+        self.runs.map_or(0, |n| n.saturating_sub(1))
+    }
+}
