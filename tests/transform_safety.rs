@@ -351,7 +351,12 @@ M30
         o.lines().any(|l| l.contains(")/2+R") && l.ends_with(MARK)),
         "{o}"
     );
-    assert!(o.contains("$P_UIFR[1,X,TR]=R"), "{o}");
+    // The builtin gauge profile corrects the offset in force, and selects none.
+    assert!(
+        o.contains("$P_IFRAME[X,TR]=$P_UIFR[$P_UIFRNUM,X,TR]+R"),
+        "{o}"
+    );
+    assert!(!o.lines().any(|l| l == "G54 ;DL"), "{o}");
     // The dressing call is a place to measure.
     let gate = gate_before(&o, "G0 X45");
     assert!(gate.iter().any(|l| l.starts_with("DL_GAUGE(")), "{gate:#?}");

@@ -279,11 +279,31 @@ impl Emitter<'_> {
     }
 
     fn frame_target(&self, k: usize) -> String {
+        let axis = self.axes[k].at.axis.name();
+        match self.profile.offset.method {
+            OffsetMethod::Active => format!("$P_IFRAME[{axis},TR]"),
+            _ => format!("$P_UIFR[{},{axis},TR]", self.profile.offset.frame),
+        }
+    }
+
+    /// The stored coarse translation of the work offset in force on axis `k` (`method = "active"`).
+    fn stored_in_force(&self, k: usize) -> String {
+        format!("$P_UIFR[$P_UIFRNUM,{},TR]", self.axes[k].at.axis.name())
+    }
+
+    /// `method = "active"`: sets the offset in force to its stored value plus the correction in `reg`.
+    fn set_in_force(&self, k: usize, reg: u32) -> String {
         format!(
-            "$P_UIFR[{},{},TR]",
-            self.profile.offset.frame,
-            self.axes[k].at.axis.name()
+            "{}={}+{}",
+            self.frame_target(k),
+            self.stored_in_force(k),
+            self.offset_value(reg)
         )
+    }
+
+    /// Whether a correction must select the offset again to act (`active` writes the offset in force).
+    fn selects(&self) -> bool {
+        self.profile.offset.method != OffsetMethod::Active
     }
 
     /// The stored value of every corrected offset component as it was before the program.
@@ -294,6 +314,9 @@ impl Emitter<'_> {
                 let reg = self.reg(k);
                 match self.profile.offset.method {
                     OffsetMethod::Frame => format!("{}={}", self.frame_target(k), r(reg.base)),
+                    OffsetMethod::Active => {
+                        format!("{}={}", self.frame_target(k), self.stored_in_force(k))
+                    }
                     OffsetMethod::Trans => "TRANS".to_string(),
                     OffsetMethod::Atrans => format!("ATRANS {axis}=-{}", r(reg.applied)),
                 }
@@ -311,7 +334,9 @@ impl Emitter<'_> {
     /// Blocks that put the work offset back to its value before the program, and select it.
     fn restore_offset(&self) -> Vec<String> {
         let mut v = self.restore_values();
-        v.push(self.profile.offset.select.clone());
+        if self.selects() {
+            v.push(self.profile.offset.select.clone());
+        }
         v
     }
 
@@ -337,6 +362,7 @@ impl Emitter<'_> {
                     r(reg.base),
                     self.offset_value(reg.corr)
                 )),
+                OffsetMethod::Active => v.push(self.set_in_force(k, reg.corr)),
                 OffsetMethod::Trans => {
                     v.push(format!("TRANS {axis}={}", self.offset_value(reg.corr)))
                 }
@@ -351,8 +377,51 @@ impl Emitter<'_> {
             }
             v.push(format!("{}={}", r(reg.applied), r(reg.corr)));
         }
-        v.push(self.profile.offset.select.clone());
+        if self.selects() {
+            v.push(self.profile.offset.select.clone());
+        }
         v
+    }
+
+    /// `method = "active"`: the correction in force now, read back from the offset, as the program's own
+    /// selection of a work offset (or a RESET) drops it.
+    fn correction_in_force(&self) -> Vec<String> {
+        if self.selects() {
+            return Vec::new();
+        }
+        (0..self.axes.len())
+            .map(|k| {
+                let change = format!("{}-{}", self.frame_target(k), self.stored_in_force(k));
+                let change = if self.profile.offset.diameter {
+                    format!("({change})/2")
+                } else {
+                    change
+                };
+                format!("{}={change}", r(self.reg(k).applied))
+            })
+            .collect()
+    }
+
+    /// `method = "active"`, once before the program's first statement: no correction applied yet (an
+    /// R-parameter keeps its value from an earlier program, which a selection must not apply).
+    pub fn no_correction_yet(&self) -> Option<String> {
+        (!self.selects()).then(|| {
+            let mut v = vec!["; driftloop: no correction applied yet".to_string()];
+            v.extend((0..self.axes.len()).map(|k| format!("{}=0", r(self.reg(k).applied))));
+            Emitter::finish(v)
+        })
+    }
+
+    /// `method = "active"`, after a block that selects a work offset: the correction again, on the newly
+    /// selected offset.
+    pub fn reapply(&self) -> Option<String> {
+        (!self.selects()).then(|| {
+            let mut v = vec![
+                "; driftloop: the program selected a work offset: the correction again".to_string(),
+            ];
+            v.extend((0..self.axes.len()).map(|k| self.set_in_force(k, self.reg(k).applied)));
+            Emitter::finish(v)
+        })
     }
 
     /// Stops the program for good: the work offset back to its value before the program first — SETAL stops
@@ -955,7 +1024,9 @@ impl Emitter<'_> {
             }
             v.push(match p.offset.method {
                 OffsetMethod::Frame => format!("{}={}", r(a.base), self.frame_target(k)),
-                OffsetMethod::Trans | OffsetMethod::Atrans => format!("{}=0", r(a.base)),
+                OffsetMethod::Trans | OffsetMethod::Atrans | OffsetMethod::Active => {
+                    format!("{}=0", r(a.base))
+                }
             });
         }
         let channels: String = self
@@ -974,7 +1045,9 @@ impl Emitter<'_> {
                 .map(|k| format!(",{k}"))
                 .collect::<String>()
         ));
-        v.push(p.offset.select.clone());
+        if self.selects() {
+            v.push(p.offset.select.clone());
+        }
         v.extend(self.save_position(gate));
         v.extend(self.probe_in(gate));
         v.push("; driftloop stage 4: reference measurement, the zero".into());
@@ -1002,6 +1075,7 @@ impl Emitter<'_> {
             gate.planned()
         )];
         v.extend(self.read_timer());
+        v.extend(self.correction_in_force());
         let idle = (gate.can_measure && gate.idle_min > 0.0).then_some(gate.idle_min);
         v.extend(self.update_prediction(gate.rpm, idle));
         if gate.can_measure {

@@ -18,7 +18,7 @@ use crate::model::DriftModel;
 use crate::syntax::Program;
 
 pub use plan::{Gate, GateKind, Plan, PlanError, Predictor};
-pub use profile::{DEFAULT_PROFILE, ProbeKind, Profile, ProfileError};
+pub use profile::{DEFAULT_PROFILE, OffsetMethod, ProbeKind, Profile, ProfileError};
 pub use timeline::{Moves, Timeline, parse_timed};
 
 use emit::{Emitter, Registers, SIGNATURE};
@@ -285,7 +285,13 @@ fn refusals(timeline: &Timeline, profile: &Profile) -> Result<(), TransformError
         return Err(TransformError::ComputedR(at(line)));
     }
     let wanted = profile.offset_g().expect("validated profile");
-    if let Some(&(g, line)) = timeline.offsets.iter().find(|(g, _)| *g != wanted) {
+    // `active` corrects whichever offset is in force.
+    let one_offset = profile.offset.method != OffsetMethod::Active;
+    if let Some(&(g, line)) = timeline
+        .offsets
+        .iter()
+        .find(|(g, _)| one_offset && *g != wanted)
+    {
         return Err(TransformError::OtherOffset {
             found: format!("G{g}"),
             at: at(line).trim_end_matches(',').to_string(),
@@ -432,6 +438,9 @@ fn prepare_with<'p>(
         .map(|m| (m.model.channel.as_str(), m.sha256))
         .collect();
     insert(&mut editor, header_at, emitter.header(&shas))?;
+    if let Some(text) = emitter.no_correction_yet() {
+        insert(&mut editor, timeline.preamble_end, text)?;
+    }
     let mut labels = Vec::new();
     let cut_rpm = plan
         .gates
@@ -470,6 +479,16 @@ fn prepare_with<'p>(
         let end = emitter.end();
         inserted += end.lines().count();
         editor.insert_after(timeline.unit_end - 1, &end)?;
+    }
+    if let Some(text) = emitter.reapply() {
+        for &b in timeline
+            .offset_selections
+            .iter()
+            .filter(|&&b| b >= timeline.preamble_end)
+        {
+            inserted += text.lines().count();
+            editor.insert_after(b, &text)?;
+        }
     }
     Ok(Prepared {
         editor,

@@ -15,7 +15,7 @@ use crate::model::{DriftModel, extrapolation_warning};
 
 use super::loops::{Loop, site_runs};
 use super::nc::number;
-use super::profile::{Axis, MeasureFrame, Position, ProbeKind, Profile};
+use super::profile::{Axis, MeasureFrame, OffsetMethod, Position, ProbeKind, Profile};
 use super::timeline::{self, Modal, Site, SiteKind, Timeline};
 
 /// What a gate does.
@@ -362,28 +362,71 @@ fn frame_blocks(site: &Site, profile: &Profile) -> Option<&'static str> {
         )
 }
 
+/// Which work offset a gate needs selected.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum OffsetRule {
+    /// The profile's (`method = "frame"`, which corrects it and selects it again); `None`: the program
+    /// selected none there, which is the profile's only where the control's reset selects it.
+    Profile,
+    /// The one in force at the first cut (`method = "active"` measuring in work coordinates: the zero and
+    /// later readings compare only under one offset); `None`: the program selected none.
+    AtFirstCut(Option<u32>),
+    /// Any (`method = "active"` measuring in machine coordinates or with a gauge).
+    Any,
+}
+
+impl OffsetRule {
+    fn of(timeline: &Timeline, profile: &Profile) -> OffsetRule {
+        let in_work =
+            profile.position.frame == MeasureFrame::Work && profile.probe.kind != ProbeKind::Gauge;
+        match profile.offset.method {
+            OffsetMethod::Active if in_work => {
+                let cut = timeline.first_cut.unwrap_or(usize::MAX);
+                OffsetRule::AtFirstCut(
+                    timeline
+                        .sites
+                        .iter()
+                        .take_while(|s| s.block <= cut)
+                        .last()
+                        .and_then(|s| s.before.offset),
+                )
+            }
+            OffsetMethod::Active => OffsetRule::Any,
+            _ => OffsetRule::Profile,
+        }
+    }
+}
+
 /// Why no gate may go here for this profile: the place is unfit ([`Modal::unfit`]), or the work offset the
-/// gates correct and select again is not the one selected.
-fn unfit_for_gate(site: &Site, profile: &Profile) -> Option<&'static str> {
+/// gates correct is not the one `rule` wants selected.
+fn unfit_for_gate(site: &Site, profile: &Profile, rule: OffsetRule) -> Option<&'static str> {
     if let Some(why) = site.before.unfit() {
         return Some(why);
     }
-    let selected = match site.before.offset {
-        Some(g) => Some(g),
-        None if profile.offset.reset_selects => profile.offset_g(),
-        None => None,
-    };
-    (selected != profile.offset_g()).then_some(
-        "the profile's work offset is not selected there (a gate selects it again after correcting it, which would move every coordinate of a program that runs without it; where the control's reset selects it, set [offset] reset_selects = true)",
-    )
+    match rule {
+        OffsetRule::Any => None,
+        OffsetRule::AtFirstCut(g) => (site.before.offset != g).then_some(
+            "another work offset is selected there than at the first cut, and the probe point is in work coordinates (measure in machine coordinates, [position] frame = \"machine\", to gate under any offset)",
+        ),
+        OffsetRule::Profile => {
+            let selected = match site.before.offset {
+                Some(g) => Some(g),
+                None if profile.offset.reset_selects => profile.offset_g(),
+                None => None,
+            };
+            (selected != profile.offset_g()).then_some(
+                "the profile's work offset is not selected there (a gate selects it again after correcting it, which would move every coordinate of a program that runs without it; where the control's reset selects it, set [offset] reset_selects = true, or correct the offset in force with [offset] method = \"active\")",
+            )
+        }
+    }
 }
 
 const TOOL_UNKNOWN: &str = "the tool in the spindle is not known there (no tool change before it), so the probe could not be swapped for it again";
 
 /// Why a site cannot carry the reference measurement with this profile's probe; `None` when it can.
-fn unfit_for_reference(site: &Site, profile: &Profile) -> Option<&'static str> {
+fn unfit_for_reference(site: &Site, profile: &Profile, rule: OffsetRule) -> Option<&'static str> {
     let tool_change_follows = matches!(site.kind, SiteKind::PassStart { tool_change: true });
-    if let Some(why) = unfit_for_gate(site, profile).or_else(|| frame_blocks(site, profile)) {
+    if let Some(why) = unfit_for_gate(site, profile, rule).or_else(|| frame_blocks(site, profile)) {
         return Some(why);
     }
     if site.state_varies {
@@ -404,7 +447,11 @@ fn unfit_for_reference(site: &Site, profile: &Profile) -> Option<&'static str> {
 
 /// The site of the reference measurement: the first fit one after the program's own setup (declarations,
 /// work offset, frames) and not after its first cut; else the first fit pass start.
-fn reference_site(timeline: &Timeline, profile: &Profile) -> Result<usize, PlanError> {
+fn reference_site(
+    timeline: &Timeline,
+    profile: &Profile,
+    rule: OffsetRule,
+) -> Result<usize, PlanError> {
     if !timeline.moves {
         return Err(PlanError::NothingToCompensate);
     }
@@ -415,7 +462,7 @@ fn reference_site(timeline: &Timeline, profile: &Profile) -> Result<usize, PlanE
         if site.block < from || site.block > to {
             continue;
         }
-        match unfit_for_reference(site, profile) {
+        match unfit_for_reference(site, profile, rule) {
             None => return Ok(k),
             Some(why) => {
                 unfit.get_or_insert((site.block, why));
@@ -423,7 +470,8 @@ fn reference_site(timeline: &Timeline, profile: &Profile) -> Result<usize, PlanE
         }
     }
     if let Some(k) = timeline.sites.iter().position(|s| {
-        matches!(s.kind, SiteKind::PassStart { .. }) && unfit_for_reference(s, profile).is_none()
+        matches!(s.kind, SiteKind::PassStart { .. })
+            && unfit_for_reference(s, profile, rule).is_none()
     }) {
         return Ok(k);
     }
@@ -456,12 +504,13 @@ fn reference_site(timeline: &Timeline, profile: &Profile) -> Result<usize, PlanE
 fn unfit_for_measuring(
     site: &Site,
     profile: &Profile,
+    rule: OffsetRule,
     reference_tool: Option<&Arc<str>>,
 ) -> Option<&'static str> {
     let tool_change_follows = matches!(site.kind, SiteKind::PassStart { tool_change: true });
     // A gauge moves nothing and restores nothing: only the place must be fit.
     if profile.probe.kind == ProbeKind::Gauge {
-        return unfit_for_gate(site, profile);
+        return unfit_for_gate(site, profile, rule);
     }
     if site.state_varies {
         return Some(
@@ -535,7 +584,8 @@ pub fn plan(
             .map_err(PlanError::Model)?,
     );
     let limit = profile.limits.working_limit_um();
-    let first = reference_site(timeline, profile)?;
+    let rule = OffsetRule::of(timeline, profile);
+    let first = reference_site(timeline, profile, rule)?;
     let reference_tool = timeline.sites[first].before.tool.clone();
     let per_measurement = measurement_min(profile);
     // The sites in the order the program runs them: a counted loop's body comes once per run.
@@ -585,7 +635,7 @@ pub fn plan(
             && site.before.motion != 0
             && site.before.rpm() > 0.0
             && site.rpm_after > 0.0;
-        if !reference && (unfit_for_gate(site, profile).is_some() || mid_cut) {
+        if !reference && (unfit_for_gate(site, profile, rule).is_some() || mid_cut) {
             continue;
         }
         // The program's own update uses the real time, measurements included, at the speed set last.
@@ -616,7 +666,8 @@ pub fn plan(
         } else {
             site.block
         };
-        let restorable = unfit_for_measuring(site, profile, reference_tool.as_ref()).is_none();
+        let restorable =
+            unfit_for_measuring(site, profile, rule, reference_tool.as_ref()).is_none();
         let (kind, can_measure) = match site.kind {
             _ if reference => (GateKind::Reference, true),
             SiteKind::PassStart { .. } => (GateKind::PassStart, restorable),

@@ -217,10 +217,12 @@ impl Axis {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Offset {
-    /// `G54` … `G57`, `G505` … `G599`.
+    /// `G54` … `G57`, `G505` … `G599` (default G54); not used by the `active` method.
+    #[serde(default = "Offset::g54")]
     pub select: String,
     pub method: OffsetMethod,
-    /// Index of the settable frame `$P_UIFR[frame, …]` (G54 = 1); used by the `frame` method.
+    /// Index of the settable frame `$P_UIFR[frame, …]` (G54 = 1, the default); used by the `frame` method.
+    #[serde(default = "Offset::first_frame")]
     pub frame: u32,
     /// The control's reset selects this work offset (MD20150 GCODE_RESET_VALUES): a program that selects
     /// none runs in it, and gates may select it again. Off (the Siemens default resets to G500): a gate goes
@@ -234,6 +236,16 @@ pub struct Offset {
     pub diameter: bool,
 }
 
+impl Offset {
+    fn g54() -> String {
+        "G54".into()
+    }
+
+    fn first_frame() -> u32 {
+        1
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum OffsetMethod {
@@ -243,6 +255,11 @@ pub enum OffsetMethod {
     Trans,
     /// `ATRANS axis=change of the correction` (adds to the programmable frame).
     Atrans,
+    /// `$P_IFRAME[axis,TR]` = the stored value of the work offset in force (`$P_UIFR[$P_UIFRNUM,…]`) +
+    /// correction: corrects whichever offset the program runs in (G500 included) and acts at once, without
+    /// selecting anything; the stored offsets are never written, so a RESET or the program's next selection
+    /// of an offset drops the correction (driftloop applies it again after each selection it sees).
+    Active,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

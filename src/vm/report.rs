@@ -40,7 +40,8 @@ pub struct Measurement {
     pub value_mm: f64,
 }
 
-/// A write to a settable frame (`$P_UIFR[n, axis, TR | FI]`): a work-offset correction.
+/// A write to a settable frame (`$P_UIFR[n, axis, TR | FI]`), or to the one in force (`$P_IFRAME[axis, TR
+/// | FI]`): a work-offset correction.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Correction {
     pub at: At,
@@ -50,6 +51,9 @@ pub struct Correction {
     pub axis: String,
     pub old_mm: f64,
     pub new_mm: f64,
+    /// Written to the frame in force (`$P_IFRAME`), not to the stored one.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub in_force: bool,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -270,11 +274,15 @@ impl Run {
         if !self.corrections.is_empty() {
             let _ = writeln!(o, "\ncorrections (settable frame writes)");
             for c in &self.corrections {
+                let frame = if c.in_force {
+                    "$P_IFRAME[".to_string()
+                } else {
+                    format!("$P_UIFR[{},", c.frame)
+                };
                 let _ = writeln!(
                     o,
-                    "  {}  $P_UIFR[{},{},{}] {:.4} → {:.4} mm ({:+.2} µm)",
+                    "  {}  {frame}{},{}] {:.4} → {:.4} mm ({:+.2} µm)",
                     at(&c.at),
-                    c.frame,
                     c.axis,
                     c.component,
                     c.old_mm,

@@ -83,6 +83,8 @@ pub struct Timeline {
     pub labels: BTreeSet<String>,
     /// Settable work offsets the program selects, with the first line selecting each.
     pub offsets: Vec<(u32, usize)>,
+    /// Blocks that select a settable work offset (G500, G54 …), or call a subprogram from a folder that does.
+    pub offset_selections: Vec<usize>,
     /// Lines (1-based) of `computed_r_lines` and `offsets` that call a subprogram from a folder in which the
     /// thing was found, with the subprogram's name.
     pub found_in_call: BTreeMap<usize, String>,

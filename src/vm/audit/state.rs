@@ -209,7 +209,13 @@ fn frames(t: &Frames, o: &Frames, s: &AuditSettings, axes: &[String]) -> Vec<Dif
     let is_corrected = |a: usize| corrected.contains(&Some(a));
     let frame_method = s.method == OffsetMethod::Frame;
     for (a, name) in axes.iter().enumerate() {
-        let skip_active = frame_method && is_corrected(a) && t.selected == s.frame;
+        // `active` corrects the offset in force, whichever is selected; a wild value is no correction.
+        let skip_active = is_corrected(a)
+            && match s.method {
+                OffsetMethod::Frame => t.selected == s.frame,
+                OffsetMethod::Active => (t.active[a] - o.active[a]).abs() <= WILD_MM,
+                OffsetMethod::Trans | OffsetMethod::Atrans => false,
+            };
         if !skip_active && t.selected == o.selected && differ(t.active[a], o.active[a]) {
             v.push(item(
                 &format!("active work offset {name}"),

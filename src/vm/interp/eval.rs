@@ -161,7 +161,7 @@ impl Interp<'_> {
     }
 
     /// An axis named in a system-variable index: `$AA_IM[Z]`.
-    fn axis_arg(&self, u: &Unit, n: &Node) -> Result<usize, String> {
+    pub(super) fn axis_arg(&self, u: &Unit, n: &Node) -> Result<usize, String> {
         let name = u.upper(n);
         self.axis_index(&name)
             .ok_or_else(|| format!("{name} is not an axis of this machine"))
@@ -187,6 +187,14 @@ impl Interp<'_> {
             ("$AA_IW", [axis]) => m.work_position(self.axis_arg(u, axis)?),
             ("$P_EP", [axis]) => m.local[self.axis_arg(u, axis)?],
             ("$P_UIFRNUM", []) => m.frames.selected as f64,
+            ("$P_IFRAME", [axis, part]) => {
+                let (a, f) = (self.axis_arg(u, axis)?, m.frames.selected);
+                if Interp::fine_part(u, part)? {
+                    m.frames.active[a] - m.frames.table[f][a]
+                } else {
+                    m.frames.active[a] - m.frames.fine[f][a]
+                }
+            }
             ("$AN_POWERON_TIME" | "$AN_SETUP_TIME", []) => self.time_min,
             ("$AC_CYCLE_TIME" | "$AC_OPERATING_TIME", []) => self.time_min * 60.0,
             ("$P_F", []) => m.modal.feed.unwrap_or(0.0),
@@ -221,16 +229,22 @@ impl Interp<'_> {
         if !(0.0..FRAMES as f64).contains(&f) || f.fract() != 0.0 {
             return Err(format!("$P_UIFR frame number {f} out of range 0…99"));
         }
-        let fine = match u.upper(part).as_str() {
-            "TR" => false,
-            "FI" => true,
-            other => {
-                return Err(format!(
-                    "$P_UIFR component {other} is not supported (translations TR and FI only)"
-                ));
-            }
-        };
-        Ok((f as usize, self.axis_arg(u, axis)?, fine))
+        Ok((
+            f as usize,
+            self.axis_arg(u, axis)?,
+            Interp::fine_part(u, part)?,
+        ))
+    }
+
+    /// A frame component: `TR` (coarse translation, false) or `FI` (fine, true).
+    pub(super) fn fine_part(u: &Unit, part: &Node) -> Result<bool, String> {
+        match u.upper(part).as_str() {
+            "TR" => Ok(false),
+            "FI" => Ok(true),
+            other => Err(format!(
+                "frame component {other} is not supported (translations TR and FI only)"
+            )),
+        }
     }
 
     fn function(&self, u: &Unit, n: &Node) -> Result<Value, String> {

@@ -258,6 +258,31 @@ impl Interp<'_> {
                     axis: self.cfg.axes[a].clone(),
                     old_mm: old,
                     new_mm: new,
+                    in_force: false,
+                });
+                Ok(())
+            }
+            ("$P_IFRAME", [axis, part]) => {
+                let (a, fine) = (self.axis_arg(u, axis)?, Interp::fine_part(u, part)?);
+                let new = self.num(u, value)?;
+                let frames = &mut self.motion.frames;
+                let f = frames.selected;
+                // The frame in force is kept as coarse plus fine: the part not written stays as stored.
+                let kept = if fine {
+                    frames.table[f][a]
+                } else {
+                    frames.fine[f][a]
+                };
+                let old = frames.active[a] - kept;
+                frames.active[a] = new + kept;
+                self.run.corrections.push(Correction {
+                    at: self.at(u, i),
+                    frame: f,
+                    component: if fine { "FI" } else { "TR" }.to_string(),
+                    axis: self.cfg.axes[a].clone(),
+                    old_mm: old,
+                    new_mm: new,
+                    in_force: true,
                 });
                 Ok(())
             }

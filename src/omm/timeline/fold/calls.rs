@@ -30,6 +30,9 @@ impl Builder<'_> {
                 self.add_minutes(runs * sub.total_min);
                 self.t.inexact_blocks += sub.inexact_blocks;
                 let line = |own: usize| if elsewhere { i + 1 } else { own };
+                if !sub.offset_selections.is_empty() {
+                    self.t.offset_selections.push(i);
+                }
                 self.t.untimed_calls.extend(
                     sub.untimed_calls
                         .iter()

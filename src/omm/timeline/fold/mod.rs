@@ -414,6 +414,12 @@ impl<'p> Builder<'p> {
         for &g in &s.offsets {
             self.offset(g, i);
         }
+        if s.offsets
+            .iter()
+            .any(|g| matches!(g, 500 | 54..=57 | 505..=599))
+        {
+            self.t.offset_selections.push(i);
+        }
         let setup = s.frame_ops != 0
             || s.offsets
                 .iter()
