@@ -5,6 +5,7 @@
 //! translation (TRANS/ATRANS) the program's next incremental move still has to traverse. The counts are
 //! printed (`cargo test --test corpus_audit -- --nocapture`) and stated in docs/results.md.
 
+mod common;
 mod shared_data;
 
 use std::path::{Path, PathBuf};
@@ -13,25 +14,6 @@ use driftloop::model::DriftModel;
 use driftloop::omm::profile::BUILTIN;
 use driftloop::omm::{ModelRef, Profile, transform};
 use driftloop::vm::audit::{AuditSettings, Kind, audit};
-
-fn programs(dir: &Path, out: &mut Vec<PathBuf>) {
-    let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .collect();
-    entries.sort();
-    for p in entries {
-        if p.is_dir() {
-            programs(&p, out);
-        } else if p
-            .extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| e.eq_ignore_ascii_case("mpf") || e.eq_ignore_ascii_case("arc"))
-        {
-            out.push(p);
-        }
-    }
-}
 
 #[test]
 fn every_transformed_corpus_program_passes_the_audit() {
@@ -42,8 +24,7 @@ fn every_transformed_corpus_program_passes_the_audit() {
         &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("fixtures/omm/model.toml"),
     )
     .unwrap();
-    let mut files = Vec::new();
-    programs(&corpus, &mut files);
+    let files = common::files_under(&corpus, &["mpf", "arc"]);
     assert!(files.len() >= 40, "{}", files.len());
     let mut total = 0;
     for (name, _, _) in BUILTIN {

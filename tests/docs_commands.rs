@@ -15,6 +15,7 @@
 //! Also checked: every flag of every command's `--help` is in its reference page, and every relative link
 //! of the documentation points at a file and heading that exist.
 
+mod common;
 mod shared_data;
 
 use std::path::{Path, PathBuf};
@@ -27,22 +28,8 @@ fn root() -> PathBuf {
 
 /// README.md and every Markdown file under docs/, sorted.
 fn pages() -> Vec<PathBuf> {
-    fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
-        let mut entries: Vec<_> = std::fs::read_dir(dir)
-            .unwrap()
-            .map(|e| e.unwrap().path())
-            .collect();
-        entries.sort();
-        for p in entries {
-            if p.is_dir() {
-                walk(&p, out);
-            } else if p.extension().is_some_and(|e| e == "md") {
-                out.push(p);
-            }
-        }
-    }
     let mut out = vec![root().join("README.md")];
-    walk(&root().join("docs"), &mut out);
+    out.extend(common::files_under(&root().join("docs"), &["md"]));
     out
 }
 

@@ -216,9 +216,8 @@ M30
     assert_eq!(gate[modal], "G18 G95 G64 G0 G91 F0.2");
 }
 
-#[test]
-fn no_gate_under_a_swivel_a_transformation_a_rotated_frame_or_cutter_compensation() {
-    let src = "\
+/// A milling start that swivels the table and cuts under the swivel.
+const SWIVELLED_CUT: &str = "\
 G17 G90 G94 G54
 T=\"MILL\" M6
 D1
@@ -227,6 +226,12 @@ G0 X0 Y0 Z50
 CYCLE800(1,\"TABLE\",0,57,0,0,0,0,30,0,0,0,0,1,,1)
 G0 Z5
 G1 Z-1 F500
+";
+
+#[test]
+fn no_gate_under_a_swivel_a_transformation_a_rotated_frame_or_cutter_compensation() {
+    let src = &format!(
+        "{SWIVELLED_CUT}\
 G1 X100 S4000
 G0 Z50
 G0 X10
@@ -250,7 +255,8 @@ G0 X10
 G40
 M5
 M30
-";
+"
+    );
     let o = out(src);
     assert_eq!(gates_between(&o, "CYCLE800(1", "CYCLE800()"), 0, "{o}");
     assert_eq!(gates_between(&o, "TRAORI", "TRAFOOF"), 0, "{o}");
@@ -436,15 +442,8 @@ M30
 
 #[test]
 fn gates_around_a_preselected_tool_a_swivel_g41_and_g95() {
-    let swivel_g41_g95 = "\
-G17 G90 G94 G54
-T=\"MILL\" M6
-D1
-S6000 M3
-G0 X0 Y0 Z50
-CYCLE800(1,\"TABLE\",0,57,0,0,0,0,30,0,0,0,0,1,,1)
-G0 Z5
-G1 Z-1 F500
+    let swivel_g41_g95 = &format!(
+        "{SWIVELLED_CUT}\
 G0 Z50
 G0 X10
 CYCLE800()
@@ -460,7 +459,8 @@ G1 Z-1 F0.1
 G0 Z50
 G0 X40
 M30
-";
+"
+    );
     insta::assert_snapshot!("preselected_tool", out(PRESELECTED));
     insta::assert_snapshot!("swivel_g41_g95", out(swivel_g41_g95));
 }

@@ -3,7 +3,7 @@
 #![allow(dead_code)]
 
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
 /// Runs `driftloop ARGS` in `dir`, feeding `stdin`, with colour off unless the test asks for it.
@@ -37,4 +37,29 @@ pub fn run(args: &[&str]) -> Output {
 pub fn stdout(output: &Output) -> String {
     assert!(output.status.success(), "failed: {}", stderr(output));
     String::from_utf8(output.stdout.clone()).unwrap()
+}
+
+/// The files under `dir` (recursively, in name order) whose extension is one of `extensions` (any case).
+pub fn files_under(dir: &Path, extensions: &[&str]) -> Vec<PathBuf> {
+    fn walk(dir: &Path, extensions: &[&str], out: &mut Vec<PathBuf>) {
+        let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        entries.sort();
+        for p in entries {
+            if p.is_dir() {
+                walk(&p, extensions, out);
+            } else if p
+                .extension()
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| extensions.iter().any(|x| e.eq_ignore_ascii_case(x)))
+            {
+                out.push(p);
+            }
+        }
+    }
+    let mut out = Vec::new();
+    walk(dir, extensions, &mut out);
+    out
 }

@@ -251,15 +251,7 @@ impl Interp<'_> {
                     &mut frames.table[f][a]
                 };
                 let old = std::mem::replace(slot, new);
-                self.run.corrections.push(Correction {
-                    at: self.at(u, i),
-                    frame: f,
-                    component: if fine { "FI" } else { "TR" }.to_string(),
-                    axis: self.cfg.axes[a].clone(),
-                    old_mm: old,
-                    new_mm: new,
-                    in_force: false,
-                });
+                self.record_correction(u, i, (f, a, fine), (old, new), false);
                 Ok(())
             }
             ("$P_IFRAME", [axis, part]) => {
@@ -275,19 +267,31 @@ impl Interp<'_> {
                 };
                 let old = frames.active[a] - kept;
                 frames.active[a] = new + kept;
-                self.run.corrections.push(Correction {
-                    at: self.at(u, i),
-                    frame: f,
-                    component: if fine { "FI" } else { "TR" }.to_string(),
-                    axis: self.cfg.axes[a].clone(),
-                    old_mm: old,
-                    new_mm: new,
-                    in_force: true,
-                });
+                self.record_correction(u, i, (f, a, fine), (old, new), true);
                 Ok(())
             }
             _ => Err(format!("writing {name} is not supported by the dry run")),
         }
+    }
+
+    /// Notes a write to entry (frame, axis, fine) of a settable frame, stored or `in_force`.
+    fn record_correction(
+        &mut self,
+        u: &Unit,
+        i: usize,
+        (frame, axis, fine): (usize, usize, bool),
+        (old_mm, new_mm): (f64, f64),
+        in_force: bool,
+    ) {
+        self.run.corrections.push(Correction {
+            at: self.at(u, i),
+            frame,
+            component: if fine { "FI" } else { "TR" }.to_string(),
+            axis: self.cfg.axes[axis].clone(),
+            old_mm,
+            new_mm,
+            in_force,
+        });
     }
 
     pub(super) fn def(&mut self, u: &Unit, node: &Node) -> Result<(), String> {
