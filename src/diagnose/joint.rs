@@ -513,15 +513,12 @@ pub fn normal_equations(
 ) -> (DMatrix<f64>, DMatrix<f64>) {
     let n = y.len();
     let p = phi.ncols();
-    let mask = |c: &[f64]| -> Vec<f64> {
-        c.iter()
-            .zip(rows)
-            .map(|(v, r)| if *r { *v } else { 0.0 })
-            .collect()
-    };
-    let masked: Vec<Vec<f64>> = phi.as_slice().chunks(n).map(mask).collect();
-    // Rows left out may hold no reading (NaN): masked, not multiplied by zero.
-    let y = mask(y);
+    // Only the selected rows, gathered once: rows left out may hold no reading (NaN), and a long log's
+    // holdout need not be carried through the p² products.
+    let keep: Vec<usize> = (0..n).filter(|&r| rows[r]).collect();
+    let gather = |c: &[f64]| -> Vec<f64> { keep.iter().map(|&r| c[r]).collect() };
+    let masked: Vec<Vec<f64>> = phi.as_slice().chunks(n).map(gather).collect();
+    let y = gather(y);
     let mut gram = DMatrix::zeros(p, p);
     let mut b = DMatrix::zeros(p, 1);
     for i in 0..p {
@@ -581,15 +578,21 @@ fn levenberg_marquardt(
     let mut lambda = 1e-2;
     for _ in 0..40 {
         let h = 1e-4;
-        let mut jac: Vec<Vec<f64>> = Vec::with_capacity(q);
-        for k in 0..q {
-            let mut t = theta.clone();
-            // Step inward at an upper bound so the difference stays inside.
-            t[k] += if theta[k] + h > bounds[k].1 { -h } else { h };
-            let rk = resid_at(&t)?;
-            let d = t[k] - theta[k];
-            jac.push(r.iter().zip(&rk).map(|(a, b)| (a - b) / d).collect());
-        }
+        // One basis and projection per parameter, independent of each other: on all cores.
+        let jac: Vec<Vec<f64>> = {
+            use rayon::prelude::*;
+            (0..q)
+                .into_par_iter()
+                .map(|k| {
+                    let mut t = theta.clone();
+                    // Step inward at an upper bound so the difference stays inside.
+                    t[k] += if theta[k] + h > bounds[k].1 { -h } else { h };
+                    let rk = resid_at(&t)?;
+                    let d = t[k] - theta[k];
+                    Some(r.iter().zip(&rk).map(|(a, b)| (a - b) / d).collect())
+                })
+                .collect::<Option<_>>()?
+        };
         // Gauss–Newton on r(θ) ≈ r − J δ (J = −∂r/∂θ as built above).
         let jtj = DMatrix::from_fn(q, q, |a, b| dot(&jac[a], &jac[b]));
         let jtr = DMatrix::from_fn(q, 1, |a, _| dot(&jac[a], &r));
