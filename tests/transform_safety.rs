@@ -464,3 +464,38 @@ M30
     insta::assert_snapshot!("preselected_tool", out(PRESELECTED));
     insta::assert_snapshot!("swivel_g41_g95", out(swivel_g41_g95));
 }
+
+#[test]
+fn no_gate_between_a_frame_change_and_the_incremental_move_that_traverses_it() {
+    // The incremental X move after TRANS carries the translation's 10 mm (MD42440 = 1): a gate in between
+    // would go back to where X is and take the traverse away. After the absolute move gates come back.
+    let src = "\
+G17 G90 G94 G54
+T=\"MILL\" M6
+D1
+S6000 M3
+G0 X0 Y0 Z50
+G0 Z5
+G1 Z-1 F500
+G1 X100
+G0 Z50
+TRANS X10
+G0 Y20
+; PASS after the translation
+G91 G0 X5
+G90
+G0 Z5
+G1 Z-1 F500
+G1 X100 S4000
+G0 Z50
+; PASS later
+G0 X0 Y0
+G1 Z-1 F500
+G1 X100
+G0 Z50
+M30
+";
+    let o = out(src);
+    assert_eq!(gates_between(&o, "TRANS X10", "G91 G0 X5"), 0, "{o}");
+    assert!(gates_between(&o, "G90", "M30") > 0, "{o}");
+}

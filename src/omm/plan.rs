@@ -403,6 +403,11 @@ fn unfit_for_gate(site: &Site, profile: &Profile, rule: OffsetRule) -> Option<&'
     if let Some(why) = site.before.unfit() {
         return Some(why);
     }
+    if site.frame_traverse {
+        return Some(
+            "a frame change (TRANS, ATRANS, G54 …) is not yet traversed: the program's next incremental move carries it, and a gate, which goes back to where the axes are, would take it away",
+        );
+    }
     match rule {
         OffsetRule::Any => None,
         OffsetRule::AtFirstCut(g) => (site.before.offset != g).then_some(

@@ -48,6 +48,9 @@ pub struct Site {
     /// state than the first (a value the body changes after this block and does not set before it): a gate
     /// here could not restore the state after measuring.
     pub state_varies: bool,
+    /// The block lies between a frame change and the incremental move that traverses it
+    /// ([`Timeline::frame_traverses`]).
+    pub frame_traverse: bool,
 }
 
 /// One technological pass.
@@ -109,6 +112,9 @@ pub struct Timeline {
     pub moves: bool,
     /// Blocks that write a frame variable themselves (`$P_UIFR[…]=`, `$P_PFRAME=`, …).
     pub frame_writes: Vec<usize>,
+    /// Blocks (change, move): a frame change and the incremental move that first traverses it on an axis;
+    /// a gate at a block after the change and up to the move could not give the traverse back.
+    pub frame_traverses: Vec<(usize, usize)>,
     /// One past the last block before the first cut that selects a work offset or changes frames or
     /// transformations: the reference measurement goes after the program's own setup.
     pub setup_end: usize,

@@ -81,6 +81,9 @@ pub(super) struct Builder<'p> {
     lims: Option<f64>,
     /// When the last cut (feed move) ended, in ticks.
     last_cut: u64,
+    /// Per axis X, Y, Z: the first block of a frame change (TRANS, ROT, G54 …) the axis has not been
+    /// programmed absolutely since.
+    frame_pending: [Option<usize>; 3],
 }
 
 impl<'p> Builder<'p> {
@@ -125,6 +128,7 @@ impl<'p> Builder<'p> {
             start: None,
             lims: None,
             last_cut: 0,
+            frame_pending: [None; 3],
         }
     }
 
@@ -438,6 +442,13 @@ impl<'p> Builder<'p> {
         if s.frame_ops & frame_op::WRITE != 0 {
             self.t.frame_writes.push(i);
         }
+        let frame_changes =
+            frame_op::TRANSLATE | frame_op::ROTATE | frame_op::CLEAR | frame_op::WRITE;
+        if setup && (s.frame_ops & frame_changes != 0 || !s.offsets.is_empty()) {
+            for pending in &mut self.frame_pending {
+                pending.get_or_insert(i);
+            }
+        }
         self.frames(s.frame_ops);
         self.t.moves |= s.other_axes;
         if let Some(on) = s.diameter {
@@ -592,18 +603,28 @@ impl<'p> Builder<'p> {
                 before: before.clone(),
                 rpm_after: rpm,
                 state_varies: false,
+                frame_traverse: false,
                 idle_min: self.idle_since_cut(start),
             });
         }
         let from = self.pos;
         let mut to = self.pos;
         for k in 0..3 {
-            if let Some((v, absolute)) = mv.axes[k] {
-                to[k] = if absolute || self.state.absolute {
+            if let Some((v, ac)) = mv.axes[k] {
+                let absolute = ac || (self.state.absolute && !mv.incremental[k]);
+                to[k] = if absolute {
                     Some(v)
                 } else {
                     Some(from[k].unwrap_or(0.0) + v)
                 };
+                // An incremental move carries the frame change not yet traversed on its axis
+                // (MD42440 FRAME_OFFSET_INCR_PROG = 1): a gate in between, which goes back to where
+                // the axis is, would take that traverse away.
+                if let Some(change) = self.frame_pending[k].take()
+                    && !absolute
+                {
+                    self.t.frame_traverses.push((change, i));
+                }
             }
         }
         self.t.moves |= moves_somehow;

@@ -45,6 +45,7 @@ impl Builder<'_> {
             before,
             rpm_after: rpm,
             state_varies: false,
+            frame_traverse: false,
             idle_min: self.idle_since_cut(time_min),
         });
     }
@@ -71,6 +72,7 @@ impl Builder<'_> {
                 rpm_after: self.rpm,
                 idle_min: self.idle_since_cut(self.time()),
                 state_varies: false,
+                frame_traverse: false,
             });
         }
     }
@@ -100,6 +102,7 @@ impl Builder<'_> {
             before: self.state.clone(),
             rpm_after: self.rpm,
             state_varies: false,
+            frame_traverse: false,
             idle_min: self.idle_since_cut(time_min),
         });
     }
@@ -159,6 +162,7 @@ impl Builder<'_> {
                 before: m.before,
                 rpm_after: m.rpm,
                 state_varies: false,
+                frame_traverse: false,
                 idle_min: m.idle,
             });
         }
@@ -174,6 +178,11 @@ impl Builder<'_> {
         let mut pass = 0;
         for site in &mut self.t.sites {
             site.state_varies = self.varies.contains(&site.block);
+            site.frame_traverse = self
+                .t
+                .frame_traverses
+                .iter()
+                .any(|&(change, mv)| change < site.block && site.block <= mv);
             // Without M6 in the program, T loads the tool at once.
             if t_loads {
                 site.before.tool = site.before.selected.clone();

@@ -80,6 +80,8 @@ pub(super) mod frame_op {
 #[derive(Debug, Default, Clone, Copy, PartialEq)]
 pub(super) struct Move {
     pub(super) axes: [Option<(f64, bool)>; 3],
+    /// The axis is written with IC(…): incremental whatever G90/G91 say.
+    pub(super) incremental: [bool; 3],
     pub(super) centre: [Option<f64>; 3],
     pub(super) radius: Option<f64>,
     pub(super) f: Option<f64>,
@@ -216,7 +218,9 @@ impl Scan {
             && self.modal_call.is_none()
             && self.frame_ops == 0
             && self.unknown == 0
-            && !self.statement;
+            && !self.statement
+            // The head has no room for IC(…): such a block keeps its whole scan.
+            && !self.mv.incremental.contains(&true);
         if !only_moves {
             return None;
         }
@@ -271,6 +275,7 @@ impl Move {
             centre: [v[3], v[4], v[5]],
             radius: v[6],
             f: v[7],
+            incremental: [false; 3],
         }
     }
 }

@@ -54,7 +54,10 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
             (Value::Number(v), AxisMode::Modal | AxisMode::Ac) => {
                 s.mv.axes[k] = Some((*v, a.mode == AxisMode::Ac))
             }
-            (Value::Number(v), AxisMode::Ic) => s.mv.axes[k] = Some((*v, false)),
+            (Value::Number(v), AxisMode::Ic) => {
+                s.mv.axes[k] = Some((*v, false));
+                s.mv.incremental[k] = true;
+            }
             _ => s.inexact = true,
         }
     }
