@@ -3,6 +3,7 @@
 //! [`profile`]. [`transform`] puts them together: every original block stays byte for byte, in order; only
 //! new blocks are inserted, each parsed again before it is accepted.
 
+pub mod continuous;
 pub mod emit;
 pub mod loops;
 pub mod nc;
@@ -447,6 +448,7 @@ fn prepare_with<'p>(
             .par_iter()
             .map(|gate| match gate.kind {
                 GateKind::Reference => emitter.reference(gate, pass_tool(gate.pass), cut_rpm),
+                GateKind::Refresh => emitter.refresh(gate),
                 _ => emitter.gate(gate, pass_tool(gate.pass)),
             })
             .collect()

@@ -8,6 +8,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::data::LARGEST_UM;
 
+use super::continuous::Continuous;
+
 /// The profile shipped inside the binary (fixtures/omm/blum-tc50.toml), used when `--profile` is absent.
 pub const DEFAULT_PROFILE: &str = include_str!("../../fixtures/omm/blum-tc50.toml");
 
@@ -54,6 +56,9 @@ pub struct Profile {
     /// Optional: without the section the log holds the measured gates only.
     #[serde(default)]
     pub log: LogSettings,
+    /// Optional: continuous compensation through the control's temperature compensation between gates.
+    #[serde(default, skip_serializing_if = "Continuous::is_default")]
+    pub continuous: Continuous,
 }
 
 /// How dense DRIFTLOG is and which analog inputs it carries, for `diagnose` to work with.
@@ -546,6 +551,8 @@ impl Profile {
                 ));
             }
         }
+        self.continuous
+            .validate(self.position.diameter || self.offset.diameter)?;
         for (name, n) in &self.log.inputs {
             let plain = name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
             if name.is_empty() || !plain || *n == 0 {

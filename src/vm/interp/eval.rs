@@ -161,7 +161,7 @@ impl Interp<'_> {
     }
 
     /// An axis named in a system-variable index: `$AA_IM[Z]`.
-    fn axis_arg(&self, u: &Unit, n: &Node) -> Result<usize, String> {
+    pub(super) fn axis_arg(&self, u: &Unit, n: &Node) -> Result<usize, String> {
         let name = u.upper(n);
         self.axis_index(&name)
             .ok_or_else(|| format!("{name} is not an axis of this machine"))
@@ -199,6 +199,11 @@ impl Interp<'_> {
                 })?
             }
             ("$P_TOOL", []) => m.d,
+            ("$MA_TEMP_COMP_TYPE", [axis]) => f64::from(
+                self.cfg
+                    .temp_comp_type(&self.cfg.axes[self.axis_arg(u, axis)?]),
+            ),
+            ("$SA_TEMP_COMP_ABS_VALUE", [axis]) => m.temp_comp[self.axis_arg(u, axis)?],
             _ => {
                 return Err(format!(
                     "system variable {name} with {} index value(s) is not supported by the dry run",

@@ -7,7 +7,11 @@
 //! its own model and corrected in its own component of the work offset; time, probing series and the way
 //! in and out are shared.
 
+mod temp_comp;
+
 use std::collections::BTreeSet;
+
+use temp_comp::TempCompRegisters;
 
 use super::nc::number;
 use super::plan::{Gate, GateKind, Predictor};
@@ -124,6 +128,8 @@ pub struct Registers {
     saved_result: Option<u32>,
     /// One set per measured axis, in the order of [`Profile::measured`].
     axes: Vec<AxisRegisters>,
+    /// Continuous compensation's, when the profile turns it on.
+    temp_comp: Option<TempCompRegisters>,
 }
 
 /// Registers shared by every axis (not counting the saved position).
@@ -141,10 +147,16 @@ impl Registers {
         let result_r = result_r_number(&profile.probe.result);
         let save = result_r.is_some_and(|n| used.contains(&n));
         let axes = profile.position.axes.len();
+        let continuous = profile.continuous.on();
         let needed = SHARED
             + axes
             + usize::from(save)
-            + predictors.iter().map(AxisRegisters::count).sum::<usize>();
+            + predictors.iter().map(AxisRegisters::count).sum::<usize>()
+            + if continuous {
+                TempCompRegisters::count(predictors.len())
+            } else {
+                0
+            };
         let free: Vec<u32> = (r.r_first..=r.r_last)
             .filter(|n| !used.contains(n) && Some(*n) != result_r)
             .take(needed)
@@ -178,6 +190,7 @@ impl Registers {
                 .iter()
                 .map(|p| AxisRegisters::take(p, &mut next))
                 .collect(),
+            temp_comp: continuous.then(|| TempCompRegisters::take(predictors.len(), &mut next)),
         })
     }
 
@@ -202,6 +215,9 @@ impl Registers {
         v.extend(self.saved_result);
         for a in &self.axes {
             v.extend(a.all());
+        }
+        if let Some(t) = &self.temp_comp {
+            v.extend(t.all());
         }
         v.sort_unstable();
         v
@@ -286,8 +302,15 @@ impl Emitter<'_> {
         )
     }
 
-    /// The stored value of every corrected offset component as it was before the program.
+    /// The stored value of every corrected offset component as it was before the program, and of the
+    /// temperature compensation.
     fn restore_values(&self) -> Vec<String> {
+        let mut v = self.restore_offset_values();
+        v.extend(self.temp_comp_restore());
+        v
+    }
+
+    fn restore_offset_values(&self) -> Vec<String> {
         (0..self.axes.len())
             .map(|k| {
                 let axis = self.axes[k].at.axis.name();
@@ -752,10 +775,22 @@ impl Emitter<'_> {
         let reg = self.reg(k);
         let f = self.result_factor();
         match self.profile.position.frame {
-            MeasureFrame::Work => {
-                format!("{}+{f}({}-{})", r(reg.zero), r(reg.pred), r(reg.applied))
-            }
-            MeasureFrame::Machine => format!("{}+{f}{}", r(reg.zero), r(reg.pred)),
+            MeasureFrame::Work => format!(
+                "{}+{f}({}-{}{})",
+                r(reg.zero),
+                r(reg.pred),
+                r(reg.applied),
+                self.minus_temp_comp(k)
+            ),
+            MeasureFrame::Machine => match self.regs.temp_comp {
+                Some(_) => format!(
+                    "{}+{f}({}{})",
+                    r(reg.zero),
+                    r(reg.pred),
+                    self.minus_temp_comp(k)
+                ),
+                None => format!("{}+{f}{}", r(reg.zero), r(reg.pred)),
+            },
         }
     }
 
@@ -769,8 +804,13 @@ impl Emitter<'_> {
             format!("{mean}-{}", r(reg.zero))
         };
         match self.profile.position.frame {
-            MeasureFrame::Work => format!("{}={change}+{}", r(reg.delta), r(reg.applied)),
-            MeasureFrame::Machine => format!("{}={change}", r(reg.delta)),
+            MeasureFrame::Work => format!(
+                "{}={change}+{}{}",
+                r(reg.delta),
+                r(reg.applied),
+                self.plus_temp_comp(k)
+            ),
+            MeasureFrame::Machine => format!("{}={change}{}", r(reg.delta), self.plus_temp_comp(k)),
         }
     }
 
@@ -920,10 +960,13 @@ impl Emitter<'_> {
         let mut v = vec![
             "; driftloop stage 1: initial data".to_string(),
             "STOPRE".into(),
+        ];
+        v.extend(self.temp_comp_start());
+        v.extend([
             format!("{}={}", r(reg.t0), p.registers.timer),
             format!("{}={}", r(reg.t_last), r(reg.t0)),
             format!("{}=0", r(reg.nbl)),
-        ];
+        ]);
         for (k, axis) in self.axes.iter().enumerate() {
             let a = self.reg(k);
             for x in a.x.iter().chain(&a.input_x).chain(&a.input_g) {
@@ -1039,9 +1082,10 @@ impl Emitter<'_> {
                     None => String::new(),
                 };
                 v.push(format!(
-                    "IF ABS({}{since_cut}-{})>{}",
+                    "IF ABS({}{since_cut}-{}{})>{}",
                     r(a.delta),
                     r(a.applied),
+                    self.minus_temp_comp(k),
                     Emitter::mm(l.tolerance_um)
                 ));
                 // The scrap reading is logged before the stop, for the record and for `diagnose`.
@@ -1076,6 +1120,7 @@ impl Emitter<'_> {
             let a = self.reg(k);
             v.push(format!("{}={}+{}", r(a.corr), r(a.pred), r(a.eps)));
         }
+        v.extend(self.temp_comp_at_gate());
         v.extend(self.apply_correction());
         Emitter::finish(v)
     }
