@@ -215,3 +215,97 @@ fn a_bad_continuous_key_names_its_line_and_column() {
         "{err}"
     );
 }
+
+/// Two jobs 30 min apart with continuous compensation, the second started warm or cold.
+fn second_job(profile_extra: &str, model: &str) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let profile = dir.path().join("p.toml");
+    std::fs::write(&profile, continuous_profile(profile_extra)).unwrap();
+    let machine = dir.path().join("m.toml");
+    let truth = root.join(MODEL);
+    std::fs::write(
+        &machine,
+        format!(
+            "[probe]\nnoise_um = 0.5\n[models]\nZ = {{ file = {:?} }}\n",
+            truth.to_str().unwrap()
+        ),
+    )
+    .unwrap();
+    let out = dir.path().join("t.mpf");
+    let model = root.join(model);
+    let o = run(&[
+        "transform",
+        "--model",
+        model.to_str().unwrap(),
+        root.join(PROGRAM).to_str().unwrap(),
+        "--profile",
+        profile.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&run(&[
+        "run",
+        out.to_str().unwrap(),
+        "--machine",
+        machine.to_str().unwrap(),
+        "--jobs",
+        "2",
+        "--pause",
+        "30",
+    ]));
+    let job2 = text.split("job 2 of 2").nth(1).unwrap();
+    job2.lines().nth(1).unwrap().to_string()
+}
+
+fn rms(line: &str) -> f64 {
+    let at = line.find("RMS ").unwrap() + 4;
+    line[at..].split(' ').next().unwrap().parse().unwrap()
+}
+
+#[test]
+fn a_warm_start_predicts_the_second_job_of_a_warm_machine() {
+    let cold = second_job("", MODEL);
+    let warm = second_job("[warm_start]\nr_first = 900\n", MODEL);
+    println!("job 2, cold start: {cold}\njob 2, warm start: {warm}");
+    assert!(rms(&warm) < rms(&cold) / 2.0, "{warm} vs {cold}");
+}
+
+#[test]
+fn the_store_is_written_and_a_program_using_it_is_refused() {
+    let t = transformed(
+        std::fs::read(PROGRAM).unwrap().as_slice(),
+        &continuous_profile("[warm_start]\nr_first = 900\n"),
+    );
+    let text = String::from_utf8(t).unwrap();
+    // The marker goes last, after the stamp and the states.
+    let store: Vec<&str> = text.lines().filter(|l| l.starts_with("R90")).collect();
+    assert!(
+        store.iter().any(|l| l.starts_with("R900=271828")),
+        "{store:?}"
+    );
+    assert!(text.contains("IF (R900==271828) AND (R901=="), "{text}");
+    let program = "G17 G90 G94 G54\nR902=1\nT1 M6 D1\nS4000 M3\nG0 X20 Y20\nG0 Z2\nG1 Z0 F300\nG1 X220 F150\nG0 Z5\nM30\n";
+    let profile = Profile::from_toml(
+        &continuous_profile("[warm_start]\nr_first = 900\n"),
+        "p.toml",
+    )
+    .unwrap();
+    let model = model();
+    let err = transform(
+        &driftloop::parse(program.as_bytes()),
+        ModelRef {
+            model: &model,
+            sha256: "00",
+        },
+        &profile,
+        false,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        err.contains("R902, which lies in the warm-start store"),
+        "{err}"
+    );
+}

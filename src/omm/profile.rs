@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 use crate::data::LARGEST_UM;
 
 use super::continuous::Continuous;
+use super::warm::WarmStart;
 
 /// The profile shipped inside the binary (fixtures/omm/blum-tc50.toml), used when `--profile` is absent.
 pub const DEFAULT_PROFILE: &str = include_str!("../../fixtures/omm/blum-tc50.toml");
@@ -59,6 +60,9 @@ pub struct Profile {
     /// Optional: continuous compensation through the control's temperature compensation between gates.
     #[serde(default, skip_serializing_if = "Continuous::is_default")]
     pub continuous: Continuous,
+    /// Optional: the model's states carried from one job to the next.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub warm_start: Option<WarmStart>,
 }
 
 /// How dense DRIFTLOG is and which analog inputs it carries, for `diagnose` to work with.
@@ -553,6 +557,9 @@ impl Profile {
         }
         self.continuous
             .validate(self.position.diameter || self.offset.diameter)?;
+        if let Some(w) = &self.warm_start {
+            w.validate((self.registers.r_first, self.registers.r_last))?;
+        }
         for (name, n) in &self.log.inputs {
             let plain = name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
             if name.is_empty() || !plain || *n == 0 {
@@ -571,7 +578,7 @@ impl Profile {
 }
 
 /// Highest R-parameter number a profile may give driftloop (the control's MD28050 decides how many exist).
-const LAST_R: u32 = 9999;
+pub const LAST_R: u32 = 9999;
 /// Longest time in a profile (s): a day.
 const LONGEST_S: f64 = 86_400.0;
 

@@ -96,6 +96,10 @@ pub struct Config {
     /// SD43900 `$SA_TEMP_COMP_ABS_VALUE` per upper-cased axis at the start (mm; not listed: 0). The drift is
     /// counted from the start, so only a change of the value moves the tool.
     pub temp_comp_start: BTreeMap<String, f64>,
+    /// The control's clock at the start (`$A_YEAR` … `$A_SECOND`), minutes since 1970-01-01 00:00.
+    pub clock_start_min: f64,
+    /// R-parameters at the start (retentive on the control: what the last job left); empty: all 0.
+    pub r_initial: Vec<f64>,
 }
 
 impl Config {
@@ -133,6 +137,9 @@ impl Default for Config {
             tool_change_on_t: false,
             temp_comp_type: BTreeMap::new(),
             temp_comp_start: BTreeMap::new(),
+            // Monday 2025-01-06 06:00.
+            clock_start_min: 20_094.0 * 1440.0 + 360.0,
+            r_initial: Vec::new(),
         }
     }
 }

@@ -30,7 +30,9 @@ mod value;
 use std::path::Path;
 
 pub use config::{Config, MachineSpec, ProbeTarget, offset_frame, parse_machine_file};
-pub use machine::{Machine, ProbeCall, ProbeFault, ProbeResult, SimpleMachine, SpindleHistory};
+pub use machine::{
+    LaterJob, Machine, ProbeCall, ProbeFault, ProbeResult, SimpleMachine, SpindleHistory,
+};
 pub use passes::Pass;
 pub use report::{
     Alarm, At, AxisError, Correction, End, Measurement, Message, Run, TempCompWrite, Totals,

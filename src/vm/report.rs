@@ -127,6 +127,9 @@ pub struct Run {
     pub cutting_error: BTreeMap<String, AxisError>,
     #[serde(skip)]
     pub trace: Vec<TraceRow>,
+    /// The R-parameters at the end: retentive, what the next job starts with.
+    #[serde(skip)]
+    pub r_final: Vec<f64>,
 }
 
 /// Drift minus correction along one axis over the time the tool cut (feed moves with the spindle on),
@@ -178,6 +181,7 @@ impl Run {
             spindle: SpindleHistory::default(),
             cutting_error: BTreeMap::new(),
             trace: Vec::new(),
+            r_final: Vec::new(),
         }
     }
 }

@@ -8,10 +8,12 @@
 //! in and out are shared.
 
 mod temp_comp;
+mod warm;
 
 use std::collections::BTreeSet;
 
 use temp_comp::TempCompRegisters;
+use warm::WarmRegisters;
 
 use super::nc::number;
 use super::plan::{Gate, GateKind, Predictor};
@@ -130,6 +132,8 @@ pub struct Registers {
     axes: Vec<AxisRegisters>,
     /// Continuous compensation's, when the profile turns it on.
     temp_comp: Option<TempCompRegisters>,
+    /// The warm start's, when the profile turns it on.
+    warm: Option<WarmRegisters>,
 }
 
 /// Registers shared by every axis (not counting the saved position).
@@ -148,12 +152,18 @@ impl Registers {
         let save = result_r.is_some_and(|n| used.contains(&n));
         let axes = profile.position.axes.len();
         let continuous = profile.continuous.on();
+        let warm = profile.warm_start.is_some();
         let needed = SHARED
             + axes
             + usize::from(save)
             + predictors.iter().map(AxisRegisters::count).sum::<usize>()
             + if continuous {
                 TempCompRegisters::count(predictors.len())
+            } else {
+                0
+            }
+            + if warm {
+                WarmRegisters::count(predictors.len())
             } else {
                 0
             };
@@ -191,6 +201,7 @@ impl Registers {
                 .map(|p| AxisRegisters::take(p, &mut next))
                 .collect(),
             temp_comp: continuous.then(|| TempCompRegisters::take(predictors.len(), &mut next)),
+            warm: warm.then(|| WarmRegisters::take(predictors.len(), &mut next)),
         })
     }
 
@@ -218,6 +229,9 @@ impl Registers {
         }
         if let Some(t) = &self.temp_comp {
             v.extend(t.all());
+        }
+        if let Some(w) = &self.warm {
+            v.extend(w.all());
         }
         v.sort_unstable();
         v
@@ -250,6 +264,8 @@ pub struct Emitter<'a> {
     pub axes: Vec<MeasuredAxis<'a>>,
     /// Label prefix no label of the program starts with.
     pub label_prefix: String,
+    /// Tells the models apart in the warm-start store ([`crate::omm::warm::fingerprint`]).
+    pub fingerprint: u32,
 }
 
 fn r(n: u32) -> String {
@@ -510,10 +526,14 @@ impl Emitter<'_> {
             .map(|x| r(*x))
             .chain(self.trend(k))
             .collect();
-        if sum.is_empty() {
+        let sum = if sum.is_empty() {
             "0".into()
         } else {
             sum.join("+")
+        };
+        match self.minus_at_zero(k) {
+            Some(zero) => format!("{sum}{zero}"),
+            None => sum,
         }
     }
 
@@ -1001,6 +1021,7 @@ impl Emitter<'_> {
                 OffsetMethod::Trans | OffsetMethod::Atrans => format!("{}=0", r(a.base)),
             });
         }
+        v.extend(self.warm_load());
         let channels: String = self
             .axes
             .iter()
@@ -1047,6 +1068,7 @@ impl Emitter<'_> {
         v.extend(self.read_timer());
         let idle = (gate.can_measure && gate.idle_min > 0.0).then_some(gate.idle_min);
         v.extend(self.update_prediction(gate.rpm, idle));
+        v.extend(self.warm_store());
         if gate.can_measure {
             let skip = format!("{}SKIP{}", self.label_prefix, gate.number);
             if !self.profile.log.measure_every_gate {
@@ -1125,10 +1147,16 @@ impl Emitter<'_> {
         Emitter::finish(v)
     }
 
-    /// Before the program ends: the work offset back to its value before the program.
-    pub fn end(&self) -> String {
+    /// Before the program ends: the work offset back to its value before the program; with a warm start
+    /// the states first brought up to now (the speed of the last gate held till here) and stored.
+    pub fn end(&self, rpm: f64) -> String {
         let mut v =
             vec!["; driftloop: work offset back to its value before the program".to_string()];
+        if self.regs.warm.is_some() {
+            v.extend(self.read_timer());
+            v.extend(self.update_prediction(rpm, None));
+            v.extend(self.warm_store());
+        }
         // The stored values only: the program ends here, and may not be running in the offset now.
         v.extend(self.restore_values());
         Emitter::finish(v)

@@ -200,7 +200,11 @@ impl<'m> Interp<'m> {
         Interp {
             cfg,
             machine,
-            r: vec![0.0; R_COUNT],
+            r: {
+                let mut r = cfg.r_initial.clone();
+                r.resize(R_COUNT, 0.0);
+                r
+            },
             globals: match &cfg.probe_result {
                 ProbeTarget::Array(name, index) => HashMap::from([(
                     name.clone(),
@@ -349,6 +353,7 @@ impl<'m> Interp<'m> {
         run.passes = self.passes.passes;
         run.totals = Totals::of(&run.passes);
         run.spindle = self.spindle;
+        run.r_final = self.r;
         run
     }
 
