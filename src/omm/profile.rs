@@ -558,7 +558,7 @@ impl Profile {
         self.continuous
             .validate(self.position.diameter || self.offset.diameter)?;
         if let Some(w) = &self.warm_start {
-            w.validate((self.registers.r_first, self.registers.r_last))?;
+            w.validate((self.registers.r_first, self.registers.r_last), LAST_R)?;
         }
         for (name, n) in &self.log.inputs {
             let plain = name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
@@ -578,7 +578,7 @@ impl Profile {
 }
 
 /// Highest R-parameter number a profile may give driftloop (the control's MD28050 decides how many exist).
-pub const LAST_R: u32 = 9999;
+const LAST_R: u32 = 9999;
 /// Longest time in a profile (s): a day.
 const LONGEST_S: f64 = 86_400.0;
 

@@ -26,7 +26,8 @@ pub const HEADER: u32 = 4;
 
 impl WarmStart {
     /// What serde cannot check; `range` is the profile's own R range (`registers.r_first..=r_last`).
-    pub fn validate(&self, range: (u32, u32)) -> Result<(), String> {
+    /// `last` is the highest R-parameter a profile may name.
+    pub fn validate(&self, range: (u32, u32), last: u32) -> Result<(), String> {
         if !(self.max_age_tau.is_finite() && self.max_age_tau > 0.0 && self.max_age_tau <= 1000.0) {
             return Err(format!(
                 "warm_start.max_age_tau must be in (0, 1000], not {}",
@@ -39,11 +40,10 @@ impl WarmStart {
                 self.r_first, range.0, range.1
             ));
         }
-        if self.r_first > super::profile::LAST_R {
+        if self.r_first > last {
             return Err(format!(
-                "warm_start.r_first R{} is above R{}",
-                self.r_first,
-                super::profile::LAST_R
+                "warm_start.r_first R{} is above R{last}",
+                self.r_first
             ));
         }
         Ok(())
@@ -77,11 +77,11 @@ mod tests {
             max_age_tau: 10.0,
         };
         assert!(
-            w.validate((50, 99))
+            w.validate((50, 99), 9999)
                 .unwrap_err()
                 .starts_with("warm_start.r_first")
         );
         let ok = WarmStart { r_first: 900, ..w };
-        assert_eq!(ok.validate((50, 99)), Ok(()));
+        assert_eq!(ok.validate((50, 99), 9999), Ok(()));
     }
 }
