@@ -59,6 +59,13 @@ pub struct Args {
     /// program whose model predicts more than the tolerance stops as scrap at its first measurement).
     #[arg(long, value_name = "MODEL.toml", requires = "audit")]
     pub model: Option<PathBuf>,
+    /// Run the program this many times in a row on the same machine: R-parameters (retentive on the
+    /// control) and the machine's warmth carry from one job to the next, the clock runs on.
+    #[arg(long, default_value_t = 1, value_name = "N", conflicts_with = "audit")]
+    pub jobs: u32,
+    /// Minutes between the end of one job and the start of the next (spindle stopped), with `--jobs`.
+    #[arg(long, default_value_t = 0.0, value_name = "MIN", requires = "jobs")]
+    pub pause: f64,
     /// A cutting move of the original this close to the probe point (mm, across the measured axis) touches it.
     #[arg(long, value_name = "MM", default_value_t = vm::audit::DEFAULT_PROBE_MARGIN_MM, requires = "audit")]
     pub probe_margin: f64,
@@ -95,6 +102,9 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         return audit(&args, &cfg, spec);
     }
     let mut machine = spec.build(args.seed);
+    if args.jobs > 1 {
+        return jobs(&args, cfg, &mut machine);
+    }
     let run = if args.program == Path::new("-") {
         vm::run_source(
             "<stdin>",
@@ -129,6 +139,59 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     }
     Ok(match run.end {
         End::Alarm { .. } => ExitCode::from(1),
+        _ => ExitCode::SUCCESS,
+    })
+}
+
+/// `--jobs N`: the program run N times, each job starting `--pause` minutes after the last ended, with the
+/// R-parameters the last left, on a machine still as warm as the history makes it. Each job's report in
+/// turn (JSON: an array); the exit code of the last.
+fn jobs(args: &Args, mut cfg: Config, machine: &mut vm::SimpleMachine) -> anyhow::Result<ExitCode> {
+    anyhow::ensure!(
+        args.pause >= 0.0 && args.pause.is_finite(),
+        "--pause must be minutes ≥ 0"
+    );
+    anyhow::ensure!(
+        args.program != Path::new("-"),
+        "--jobs needs a program file"
+    );
+    std::fs::File::open(&args.program)
+        .with_context(|| format!("cannot read {}", args.program.display()))?;
+    let mut before = vm::SpindleHistory::default();
+    let mut start = 0.0;
+    let mut runs = Vec::new();
+    for _ in 0..args.jobs {
+        let mut job = vm::LaterJob {
+            machine: &mut *machine,
+            before: before.clone(),
+            start_min: start,
+        };
+        let run = vm::run_file(&args.program, &cfg, &mut job)?;
+        for &(t, rpm) in &run.spindle.steps {
+            before.set(start + t, rpm);
+        }
+        before.set(start + run.time_min, 0.0);
+        let clock = cfg.clock_start_min;
+        cfg.r_initial = run.r_final.clone();
+        cfg.clock_start_min = clock + run.time_min + args.pause;
+        start += run.time_min + args.pause;
+        runs.push(run);
+    }
+    match args.format {
+        Format::Human => {
+            let text: Vec<String> = runs
+                .iter()
+                .enumerate()
+                .map(|(k, r)| format!("job {} of {}: {}", k + 1, runs.len(), r.human()))
+                .collect();
+            super::output::print(&text.join("\n"))?
+        }
+        Format::Json => {
+            super::output::print(&format!("{}\n", serde_json::to_string_pretty(&runs)?))?
+        }
+    }
+    Ok(match runs.last().map(|r| &r.end) {
+        Some(End::Alarm { .. }) => ExitCode::from(1),
         _ => ExitCode::SUCCESS,
     })
 }

@@ -3,6 +3,7 @@
 //! [`profile`]. [`transform`] puts them together: every original block stays byte for byte, in order; only
 //! new blocks are inserted, each parsed again before it is accepted.
 
+pub mod continuous;
 pub mod emit;
 pub mod loops;
 pub mod nc;
@@ -10,6 +11,7 @@ pub mod plan;
 pub mod profile;
 pub mod report;
 pub mod timeline;
+pub mod warm;
 
 use serde::Serialize;
 
@@ -411,7 +413,18 @@ fn prepare_with<'p>(
             })
             .collect(),
         label_prefix,
+        fingerprint: warm::fingerprint(&models.iter().map(|m| m.sha256).collect::<Vec<_>>()),
     };
+    if let Some(w) = &profile.warm_start {
+        let store = w.r_first..w.r_first + emitter.store_len();
+        if let Some(n) = timeline.used_r.iter().find(|n| store.contains(n)) {
+            return Err(TransformError::Other(format!(
+                "the program uses R{n}, which lies in the warm-start store R{}…R{} ([warm_start] r_first): no other program may use it",
+                store.start,
+                store.end - 1
+            )));
+        }
+    }
     let mut editor = Editor::new(program);
     let mut inserted = 0;
     let mut insert = |editor: &mut Editor, block: usize, text: String| {
@@ -456,6 +469,7 @@ fn prepare_with<'p>(
             .par_iter()
             .map(|gate| match gate.kind {
                 GateKind::Reference => emitter.reference(gate, pass_tool(gate.pass), cut_rpm),
+                GateKind::Refresh => emitter.refresh(gate),
                 _ => emitter.gate(gate, pass_tool(gate.pass)),
             })
             .collect()
@@ -472,11 +486,12 @@ fn prepare_with<'p>(
         }
         insert(&mut editor, gate.block, text)?;
     }
+    let last_rpm = plan.gates.last().map_or(0.0, |g| g.rpm);
     for &end in &timeline.ends {
-        insert(&mut editor, end, emitter.end())?;
+        insert(&mut editor, end, emitter.end(last_rpm))?;
     }
     if timeline.ends.is_empty() && timeline.unit_end > 0 {
-        let end = emitter.end();
+        let end = emitter.end(last_rpm);
         inserted += end.lines().count();
         editor.insert_after(timeline.unit_end - 1, &end)?;
     }
@@ -504,7 +519,13 @@ fn prepare_with<'p>(
             labels,
             inexact_blocks: timeline.inexact_blocks,
             untimed_calls: timeline.untimed_calls.len(),
-            r_parameters_needed: regs.all().last().map_or(0, |r| r + 1),
+            // The warm-start store lies above the profile's range.
+            r_parameters_needed: regs.all().last().map_or(0, |r| r + 1).max(
+                profile
+                    .warm_start
+                    .as_ref()
+                    .map_or(0, |w| w.r_first + emitter.store_len()),
+            ),
             warnings: plan.warnings.clone(),
         },
         plan,

@@ -30,6 +30,9 @@ pub enum GateKind {
     Extra,
     /// The spindle speed changes: update the prediction and the correction only.
     Update,
+    /// Continuous compensation (`[continuous]`): update the prediction and the temperature compensation
+    /// only, at a safe place between gates once the profile's interval has passed.
+    Refresh,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -606,6 +609,8 @@ pub fn plan(
     let mut pending = 0.0;
     let mut last_time = runs.sites[start].1;
     let mut rpm = 0.0;
+    // Planned time of the last gate or refresh: continuous compensation refreshes once its interval passed.
+    let mut last_update = runs.sites[start].1;
     let mut at_last_measurement = vec![0.0; models.len()];
     let mut max: f64 = 0.0;
     // Speeds the model was never characterised at: say so, with the law its gains follow there.
@@ -697,13 +702,25 @@ pub fn plan(
             }
         );
         let gate_exists = gates.contains_key(&k);
-        if kind == GateKind::Extra
+        let continuous = &profile.continuous;
+        let kind = if kind == GateKind::Extra
             && !gate_exists
             && !((measure || in_loop) && profile.passes.extra_gates)
         {
-            rpm = site.rpm_after;
-            continue;
-        }
+            let due = time - last_update >= continuous.interval_min || in_loop;
+            if !(continuous.on() && due) {
+                rpm = site.rpm_after;
+                continue;
+            }
+            GateKind::Refresh
+        } else {
+            kind
+        };
+        let (measure, can_measure) = match kind {
+            GateKind::Refresh => (false, false),
+            _ => (measure, can_measure),
+        };
+        last_update = time;
         if measure {
             at_last_measurement = drifts;
             pending = per_measurement;
@@ -727,6 +744,11 @@ pub fn plan(
             idle_min: site.idle_min,
             before: site.before.clone(),
         });
+        // A refresh a later run of a loop measures at becomes that run's gate.
+        if gate.kind == GateKind::Refresh && measure {
+            gate.kind = kind;
+            gate.can_measure = can_measure;
+        }
         gate.measure |= measure;
         gate.measurements += usize::from(measure);
     }

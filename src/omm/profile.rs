@@ -8,6 +8,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::data::LARGEST_UM;
 
+use super::continuous::Continuous;
+use super::warm::WarmStart;
+
 /// The profile shipped inside the binary (fixtures/omm/blum-tc50.toml), used when `--profile` is absent.
 pub const DEFAULT_PROFILE: &str = include_str!("../../fixtures/omm/blum-tc50.toml");
 
@@ -54,6 +57,12 @@ pub struct Profile {
     /// Optional: without the section the log holds the measured gates only.
     #[serde(default)]
     pub log: LogSettings,
+    /// Optional: continuous compensation through the control's temperature compensation between gates.
+    #[serde(default, skip_serializing_if = "Continuous::is_default")]
+    pub continuous: Continuous,
+    /// Optional: the model's states carried from one job to the next.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub warm_start: Option<WarmStart>,
 }
 
 /// How dense DRIFTLOG is and which analog inputs it carries, for `diagnose` to work with.
@@ -562,6 +571,11 @@ impl Profile {
                     d.message
                 ));
             }
+        }
+        self.continuous
+            .validate(self.position.diameter || self.offset.diameter)?;
+        if let Some(w) = &self.warm_start {
+            w.validate((self.registers.r_first, self.registers.r_last), LAST_R)?;
         }
         for (name, n) in &self.log.inputs {
             let plain = name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');

@@ -75,6 +75,7 @@ pub fn write_table(out: &mut impl Write, program: &Program, plan: &Plan) -> io::
             GateKind::PassStart => "pass",
             GateKind::Extra => "extra",
             GateKind::Update => "update",
+            GateKind::Refresh => "refresh",
         };
         let measure = match (g.measurements, g.runs, g.can_measure) {
             (0, 1, true) => "no".to_string(),

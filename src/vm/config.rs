@@ -23,6 +23,9 @@
 //! [signals.ambient_c]       # a model input over time, [minutes, value]; `input = 1`: $A_INA[1] reads it
 //! input = 1
 //! points = [[0, 20.0], [240, 23.5]]
+//! [machine_data]            # MD32750 per axis (not listed: 1, on) and SD43900 at the start (mm)
+//! temp_comp_type = { Z = 1 }
+//! temp_comp_abs_value = { Z = 0.0 }
 //! [drift]                   # plus piecewise-linear drift per axis, [minutes, µm] points: effects the
 //! Z = [[0, 0], [240, -3]]   # model does not declare, or the whole truth when there is no model
 //! ```
@@ -87,6 +90,23 @@ pub struct Config {
     pub passes: bool,
     /// `T` loads the tool at once (turrets; TOOL_CHANGE_MODE 0) instead of preselecting it for `M6`.
     pub tool_change_on_t: bool,
+    /// MD32750 `$MA_TEMP_COMP_TYPE` per upper-cased axis; an axis not listed has 1 (position-independent
+    /// temperature compensation on), so SD43900 acts.
+    pub temp_comp_type: BTreeMap<String, u32>,
+    /// SD43900 `$SA_TEMP_COMP_ABS_VALUE` per upper-cased axis at the start (mm; not listed: 0). The drift is
+    /// counted from the start, so only a change of the value moves the tool.
+    pub temp_comp_start: BTreeMap<String, f64>,
+    /// The control's clock at the start (`$A_YEAR` … `$A_SECOND`), minutes since 1970-01-01 00:00.
+    pub clock_start_min: f64,
+    /// R-parameters at the start (retentive on the control: what the last job left); empty: all 0.
+    pub r_initial: Vec<f64>,
+}
+
+impl Config {
+    /// MD32750 of `axis`.
+    pub fn temp_comp_type(&self, axis: &str) -> u32 {
+        self.temp_comp_type.get(axis).copied().unwrap_or(1)
+    }
 }
 
 impl Default for Config {
@@ -115,6 +135,11 @@ impl Default for Config {
             trace: true,
             passes: true,
             tool_change_on_t: false,
+            temp_comp_type: BTreeMap::new(),
+            temp_comp_start: BTreeMap::new(),
+            // Monday 2025-01-06 06:00.
+            clock_start_min: 20_094.0 * 1440.0 + 360.0,
+            r_initial: Vec::new(),
         }
     }
 }
@@ -136,7 +161,21 @@ struct MachineFile {
     corrections: Corrections,
     #[serde(default)]
     signals: BTreeMap<String, SignalSpec>,
+    #[serde(default)]
+    machine_data: MachineData,
     axes: Option<Vec<String>>,
+}
+
+/// Machine and setting data the program reads, per axis.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MachineData {
+    /// MD32750 `$MA_TEMP_COMP_TYPE`.
+    #[serde(default)]
+    temp_comp_type: BTreeMap<String, u32>,
+    /// SD43900 `$SA_TEMP_COMP_ABS_VALUE` at the start (mm).
+    #[serde(default)]
+    temp_comp_abs_value: BTreeMap<String, f64>,
 }
 
 /// A measured quantity over time (ambient temperature …): feeds a truth model's declared input of the same
@@ -309,6 +348,17 @@ pub fn parse_machine_file(
     cfg.probe_machine_frame = p.machine_frame.unwrap_or(cfg.probe_machine_frame);
     cfg.probe_diameter = p.diameter.unwrap_or(cfg.probe_diameter);
     cfg.trans_is_correction = file.corrections.include_trans;
+    for (axis, t) in file.machine_data.temp_comp_type {
+        cfg.temp_comp_type.insert(axis.to_ascii_uppercase(), t);
+    }
+    for (axis, mm) in file.machine_data.temp_comp_abs_value {
+        if !mm.is_finite() {
+            return Err(format!(
+                "machine_data.temp_comp_abs_value.{axis} must be a number"
+            ));
+        }
+        cfg.temp_comp_start.insert(axis.to_ascii_uppercase(), mm);
+    }
     if let Some(axes) = file.axes {
         cfg.axes = axes.iter().map(|a| a.to_ascii_uppercase()).collect();
     }

@@ -94,6 +94,53 @@ pub trait Machine {
     }
 }
 
+/// A machine running a later job: its thermal state carries the spindle history of the jobs and pauses
+/// before (`before`, ending at `start_min`), and a drift is counted from the job's start, as the job's zero
+/// measures it. The job's own time and spindle schedule start at 0.
+pub struct LaterJob<'m> {
+    pub machine: &'m mut dyn Machine,
+    pub before: SpindleHistory,
+    pub start_min: f64,
+}
+
+impl LaterJob<'_> {
+    /// The whole history: the jobs before, then this one's schedule from `start_min` on.
+    fn history(&self, spindle: &SpindleHistory) -> SpindleHistory {
+        let mut h = self.before.clone();
+        for &(t, rpm) in &spindle.steps {
+            h.set(self.start_min + t, rpm);
+        }
+        h
+    }
+}
+
+impl Machine for LaterJob<'_> {
+    fn drift_um(&mut self, axis: &str, t_min: f64, spindle: &SpindleHistory) -> f64 {
+        let h = self.history(spindle);
+        let at_start = self.machine.drift_um(axis, self.start_min, &self.before);
+        self.machine.drift_um(axis, self.start_min + t_min, &h) - at_start
+    }
+
+    fn probe(&mut self, call: &ProbeCall<'_>) -> ProbeResult {
+        let h = self.history(call.spindle);
+        let at_start = self
+            .machine
+            .drift_um(call.axis, self.start_min, &self.before);
+        match self.machine.probe(&ProbeCall {
+            t_min: self.start_min + call.t_min,
+            spindle: &h,
+            ..call.clone()
+        }) {
+            ProbeResult::Drift(d) => ProbeResult::Drift(d - at_start),
+            other => other,
+        }
+    }
+
+    fn analog_input(&self, n: usize, t_min: f64) -> Option<f64> {
+        self.machine.analog_input(n, self.start_min + t_min)
+    }
+}
+
 /// Linear interpolation through `(t, value)` points in time order, held flat outside them (0 without points).
 pub fn piecewise_linear(points: &[(f64, f64)], t: f64) -> f64 {
     let Some(first) = points.first() else {

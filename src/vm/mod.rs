@@ -30,10 +30,13 @@ mod value;
 use std::path::Path;
 
 pub use config::{Config, MachineSpec, ProbeTarget, offset_frame, parse_machine_file};
-pub use machine::{Machine, ProbeCall, ProbeFault, ProbeResult, SimpleMachine, SpindleHistory};
+pub use machine::{
+    LaterJob, Machine, ProbeCall, ProbeFault, ProbeResult, SimpleMachine, SpindleHistory,
+};
 pub use passes::Pass;
 pub use report::{
-    Alarm, At, AxisError, Correction, End, Measurement, Message, Run, Totals, TraceRow,
+    Alarm, At, AxisError, Correction, End, Measurement, Message, Run, TempCompWrite, Totals,
+    TraceRow,
 };
 pub use truth::ModelDrift;
 

@@ -275,6 +275,8 @@ pub struct State {
     pub kinematics: Kinematics,
     /// DIAMON / DIAM90: the axis (X) whose programmed values are diameters; the machine moves half.
     pub diameter_axis: Option<usize>,
+    /// SD43900 `$SA_TEMP_COMP_ABS_VALUE` per axis (mm): persistent setting data, like the settable frames.
+    pub temp_comp: Vec<f64>,
 }
 
 impl State {
@@ -308,6 +310,7 @@ impl State {
             flood: false,
             kinematics: Kinematics::default(),
             diameter_axis: None,
+            temp_comp: vec![0.0; axes],
         }
     }
 

@@ -69,6 +69,15 @@ pub struct Message {
     pub text: String,
 }
 
+/// A write of the temperature compensation's position-independent value SD43900 of an axis.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TempCompWrite {
+    pub at: At,
+    pub axis: String,
+    pub old_mm: f64,
+    pub new_mm: f64,
+}
+
 /// One executed block.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TraceRow {
@@ -107,6 +116,9 @@ pub struct Run {
     pub totals: Totals,
     pub measurements: Vec<Measurement>,
     pub corrections: Vec<Correction>,
+    /// Writes of the temperature compensation SD43900 (`$SA_TEMP_COMP_ABS_VALUE`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub temp_comp_writes: Vec<TempCompWrite>,
     pub alarms: Vec<Alarm>,
     pub messages: Vec<Message>,
     /// Auxiliary functions the dry run passes by (M codes for the PLC), with how often they were output.
@@ -119,6 +131,9 @@ pub struct Run {
     pub cutting_error: BTreeMap<String, AxisError>,
     #[serde(skip)]
     pub trace: Vec<TraceRow>,
+    /// The R-parameters at the end: retentive, what the next job starts with.
+    #[serde(skip)]
+    pub r_final: Vec<f64>,
 }
 
 /// Drift minus correction along one axis over the time the tool cut (feed moves with the spindle on),
@@ -162,6 +177,7 @@ impl Run {
             totals: Totals::default(),
             measurements: Vec::new(),
             corrections: Vec::new(),
+            temp_comp_writes: Vec::new(),
             alarms: Vec::new(),
             messages: Vec::new(),
             aux_functions: BTreeMap::new(),
@@ -169,6 +185,7 @@ impl Run {
             spindle: SpindleHistory::default(),
             cutting_error: BTreeMap::new(),
             trace: Vec::new(),
+            r_final: Vec::new(),
         }
     }
 }
@@ -285,6 +302,20 @@ impl Run {
                     at(&c.at),
                     c.axis,
                     c.component,
+                    c.old_mm,
+                    c.new_mm,
+                    (c.new_mm - c.old_mm) * 1000.0
+                );
+            }
+        }
+        if !self.temp_comp_writes.is_empty() {
+            let _ = writeln!(o, "\ntemperature compensation (SD43900 writes)");
+            for c in &self.temp_comp_writes {
+                let _ = writeln!(
+                    o,
+                    "  {}  $SA_TEMP_COMP_ABS_VALUE[{}] {:.4} → {:.4} mm ({:+.2} µm)",
+                    at(&c.at),
+                    c.axis,
                     c.old_mm,
                     c.new_mm,
                     (c.new_mm - c.old_mm) * 1000.0

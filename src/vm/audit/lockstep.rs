@@ -404,9 +404,7 @@ impl Runner<'_> {
 
     /// An inserted stop or alarm: the persistent corrected offset must be back where the original has it.
     pub(super) fn offset_on_stop(&mut self, at: &At, step: &Done, t: &Interp<'_>, o: &Interp<'_>) {
-        let Some(entry) =
-            state::persistent_difference(&t.motion.frames, &o.motion.frames, &t.cfg.axes)
-        else {
+        let Some(left) = persistent_left(t, o) else {
             return;
         };
         let what = match (&step.end, step.stop) {
@@ -415,10 +413,7 @@ impl Runner<'_> {
             (Some(_), None) => "the program ends".to_string(),
             (None, None) => return,
         };
-        self.add(at.finding(
-            Kind::OffsetLeftOnAbort,
-            format!("{what} {}", describe_entry(&entry)),
-        ));
+        self.add(at.finding(Kind::OffsetLeftOnAbort, format!("{what} {left}")));
     }
 
     /// Tool state, modal state and positions of the two runs, item by item.
@@ -576,11 +571,8 @@ impl Runner<'_> {
                 ),
             ));
         }
-        if let Some(entry) = state::persistent_difference(&ts.frames, &os.frames, &t.cfg.axes) {
-            self.add(at.finding(
-                Kind::OffsetLeftOnAbort,
-                format!("the program ends {}", describe_entry(&entry)),
-            ));
+        if let Some(left) = persistent_left(t, o) {
+            self.add(at.finding(Kind::OffsetLeftOnAbort, format!("the program ends {left}")));
         }
     }
 
@@ -650,6 +642,15 @@ fn describe_end(end: Option<&End>) -> String {
         Some(End::Alarm { number }) => format!("alarm {number}"),
         Some(End::EndOfProgram) | None => "end of text".into(),
     }
+}
+
+/// What persists past a stop that the original would not leave: a settable work-offset entry, else the
+/// temperature compensation.
+fn persistent_left(t: &Interp<'_>, o: &Interp<'_>) -> Option<String> {
+    let axes = &t.cfg.axes;
+    state::persistent_difference(&t.motion.frames, &o.motion.frames, axes)
+        .map(|entry| describe_entry(&entry))
+        .or_else(|| state::temp_comp_difference(&t.motion, &o.motion, axes))
 }
 
 fn describe_entry(c: &Correction) -> String {

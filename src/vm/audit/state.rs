@@ -301,6 +301,21 @@ pub(super) fn persistent_difference(t: &Frames, o: &Frames, axes: &[String]) -> 
     table_difference(t, o, axes, |_, _, _| false)
 }
 
+/// The temperature compensation SD43900 of an axis that differs from the original run's, described as a
+/// finding's end: the original program never writes it, so any difference persists past the program.
+pub(super) fn temp_comp_difference(t: &State, o: &State, axes: &[String]) -> Option<String> {
+    axes.iter()
+        .enumerate()
+        .find(|&(a, _)| differ(t.temp_comp[a], o.temp_comp[a]))
+        .map(|(a, name)| {
+            format!(
+                "with $SA_TEMP_COMP_ABS_VALUE[{name}] = {} mm where the original has {} mm: the temperature compensation stays shifted",
+                num(t.temp_comp[a]),
+                num(o.temp_comp[a])
+            )
+        })
+}
+
 /// A difference this large (mm) is no correction: a probe value orders of magnitude off got through.
 const WILD_MM: f64 = 1000.0;
 

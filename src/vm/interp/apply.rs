@@ -437,7 +437,7 @@ impl Interp<'_> {
                 0.0
             } else {
                 self.motion.frames.correction(a) * 1000.0
-            };
+            } + self.temp_comp_shift(a) * 1000.0;
             self.run
                 .cutting_error
                 .entry(name.to_string())
@@ -452,7 +452,7 @@ impl Interp<'_> {
             0.0
         } else {
             self.motion.frames.correction(z) * 1000.0
-        };
+        } + self.temp_comp_shift(z) * 1000.0;
         let planar = (start_local[z] - self.motion.local[z]).abs() < 1e-9;
         self.passes.feed_move(Cut {
             file: u.name.clone(),
@@ -495,9 +495,13 @@ impl Interp<'_> {
         let offset = self
             .axis_index(&axis)
             .map_or(0.0, |a| self.motion.frames.offset(a));
+        let compensated = self
+            .axis_index(&axis)
+            .map_or(0.0, |a| self.temp_comp_shift(a));
         let written = match result {
             // The probe triggers when the real tool tip (commanded − drift) reaches the surface, so the control
-            // reads the surface plus the drift.
+            // reads the surface plus the drift; the temperature compensation moves the axis without showing in
+            // the actual value, so it is taken off.
             ProbeResult::Drift(d) => {
                 let frame = if self.cfg.probe_machine_frame {
                     0.0
@@ -505,7 +509,7 @@ impl Interp<'_> {
                     offset
                 };
                 let scale = if self.cfg.probe_diameter { 2.0 } else { 1.0 };
-                Some(surface - frame + scale * d / 1000.0)
+                Some(surface - frame + scale * (d / 1000.0 - compensated))
             }
             ProbeResult::Raw(v) => Some(v),
             ProbeResult::Nothing => None,

@@ -207,6 +207,14 @@ impl Interp<'_> {
                 })?
             }
             ("$P_TOOL", []) => m.d,
+            ("$A_YEAR" | "$A_MONTH" | "$A_DAY" | "$A_HOUR" | "$A_MINUTE" | "$A_SECOND", []) => {
+                clock_field(&name, self.cfg.clock_start_min + self.time_min)
+            }
+            ("$MA_TEMP_COMP_TYPE", [axis]) => f64::from(
+                self.cfg
+                    .temp_comp_type(&self.cfg.axes[self.axis_arg(u, axis)?]),
+            ),
+            ("$SA_TEMP_COMP_ABS_VALUE", [axis]) => m.temp_comp[self.axis_arg(u, axis)?],
             _ => {
                 return Err(format!(
                     "system variable {name} with {} index value(s) is not supported by the dry run",
@@ -333,6 +341,31 @@ impl Interp<'_> {
     }
 }
 
+/// A field of the control's clock at `minutes` since 1970-01-01 00:00 (whole seconds, as the control has
+/// them).
+fn clock_field(name: &str, minutes: f64) -> f64 {
+    let seconds = (minutes * 60.0).floor() as i64;
+    let (days, in_day) = (seconds.div_euclid(86_400), seconds.rem_euclid(86_400));
+    // Days since 1970-01-01 to the civil date (proleptic Gregorian calendar).
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    (match name {
+        "$A_YEAR" => year,
+        "$A_MONTH" => month,
+        "$A_DAY" => day,
+        "$A_HOUR" => in_day / 3600,
+        "$A_MINUTE" => in_day / 60 % 60,
+        _ => in_day % 60,
+    }) as f64
+}
+
 /// Applies a binary operator.
 pub fn binary(op: &str, l: Value, r: Value) -> Result<Value, String> {
     if op == "<<" {
@@ -375,6 +408,26 @@ pub fn binary(op: &str, l: Value, r: Value) -> Result<Value, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_clock_crosses_month_and_year_ends_and_leap_days() {
+        let at = |days: f64, minutes: f64| {
+            [
+                "$A_YEAR",
+                "$A_MONTH",
+                "$A_DAY",
+                "$A_HOUR",
+                "$A_MINUTE",
+                "$A_SECOND",
+            ]
+            .map(|f| clock_field(f, days * 1440.0 + minutes))
+        };
+        assert_eq!(at(0.0, 0.0), [1970.0, 1.0, 1.0, 0.0, 0.0, 0.0]);
+        // 2024-02-29 is day 19 782; 2024-12-31 23:59:30 is the minute before day 20 089.
+        assert_eq!(at(19_782.0, 61.5), [2024.0, 2.0, 29.0, 1.0, 1.0, 30.0]);
+        assert_eq!(at(20_089.0, -0.5), [2024.0, 12.0, 31.0, 23.0, 59.0, 30.0]);
+        assert_eq!(at(20_094.0, 360.0), [2025.0, 1.0, 6.0, 6.0, 0.0, 0.0]);
+    }
 
     #[test]
     fn div_truncates_and_mod_keeps_the_fraction() {

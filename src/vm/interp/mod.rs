@@ -23,7 +23,9 @@ use super::motion::{
     rotation,
 };
 use super::passes::{Cut, PassTracker};
-use super::report::{Alarm, At, Correction, End, Measurement, Message, Run, Totals, TraceRow};
+use super::report::{
+    Alarm, At, Correction, End, Measurement, Message, Run, TempCompWrite, Totals, TraceRow,
+};
 use super::unit::{JumpTarget, Unit};
 use super::value::{Value, VarType, Variable};
 use eval::{R_COUNT, index_nodes};
@@ -187,6 +189,9 @@ impl<'m> Interp<'m> {
             }
         }
         motion.frames.mark_initial();
+        for (a, name) in cfg.axes.iter().enumerate() {
+            motion.temp_comp[a] = cfg.temp_comp_start.get(name).copied().unwrap_or(0.0);
+        }
         motion
             .frames
             .select(cfg.reset_frame.min(super::motion::FRAMES - 1));
@@ -195,7 +200,11 @@ impl<'m> Interp<'m> {
         Interp {
             cfg,
             machine,
-            r: vec![0.0; R_COUNT],
+            r: {
+                let mut r = cfg.r_initial.clone();
+                r.resize(R_COUNT, 0.0);
+                r
+            },
             globals: match &cfg.probe_result {
                 ProbeTarget::Array(name, index) => HashMap::from([(
                     name.clone(),
@@ -344,6 +353,7 @@ impl<'m> Interp<'m> {
         run.passes = self.passes.passes;
         run.totals = Totals::of(&run.passes);
         run.spindle = self.spindle;
+        run.r_final = self.r;
         run
     }
 
@@ -422,6 +432,17 @@ impl<'m> Interp<'m> {
     /// Counts an auxiliary function output to the PLC (no effect in the dry run).
     pub(super) fn aux(&mut self, name: String) {
         *self.run.aux_functions.entry(name).or_default() += 1;
+    }
+
+    /// How far the temperature compensation moves axis `a` now (mm): the change of SD43900 since the start,
+    /// where MD32750 bit 0 switches it on. It acts in the machine axis, under SUPA/G53 too, and the actual
+    /// value the control reports (and a probe reads) does not contain it.
+    pub(super) fn temp_comp_shift(&self, a: usize) -> f64 {
+        let name = &self.cfg.axes[a];
+        if self.cfg.temp_comp_type(name) & 1 == 0 {
+            return 0.0;
+        }
+        self.motion.temp_comp[a] - self.cfg.temp_comp_start.get(name).copied().unwrap_or(0.0)
     }
 
     pub(super) fn machine_input(&self, n: usize) -> Option<f64> {

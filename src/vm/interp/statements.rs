@@ -270,6 +270,18 @@ impl Interp<'_> {
                 self.record_correction(u, i, (f, a, fine), (old, new), true);
                 Ok(())
             }
+            ("$SA_TEMP_COMP_ABS_VALUE", [axis]) => {
+                let a = self.axis_arg(u, axis)?;
+                let new = self.num(u, value)?;
+                let old = std::mem::replace(&mut self.motion.temp_comp[a], new);
+                self.run.temp_comp_writes.push(TempCompWrite {
+                    at: self.at(u, i),
+                    axis: self.cfg.axes[a].clone(),
+                    old_mm: old,
+                    new_mm: new,
+                });
+                Ok(())
+            }
             _ => Err(format!("writing {name} is not supported by the dry run")),
         }
     }

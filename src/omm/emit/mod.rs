@@ -7,7 +7,13 @@
 //! its own model and corrected in its own component of the work offset; time, probing series and the way
 //! in and out are shared.
 
+mod temp_comp;
+mod warm;
+
 use std::collections::BTreeSet;
+
+use temp_comp::TempCompRegisters;
+use warm::WarmRegisters;
 
 use super::nc::number;
 use super::plan::{Gate, GateKind, Predictor};
@@ -124,6 +130,10 @@ pub struct Registers {
     saved_result: Option<u32>,
     /// One set per measured axis, in the order of [`Profile::measured`].
     axes: Vec<AxisRegisters>,
+    /// Continuous compensation's, when the profile turns it on.
+    temp_comp: Option<TempCompRegisters>,
+    /// The warm start's, when the profile turns it on.
+    warm: Option<WarmRegisters>,
 }
 
 /// Registers shared by every axis (not counting the saved position).
@@ -141,10 +151,22 @@ impl Registers {
         let result_r = result_r_number(&profile.probe.result);
         let save = result_r.is_some_and(|n| used.contains(&n));
         let axes = profile.position.axes.len();
+        let continuous = profile.continuous.on();
+        let warm = profile.warm_start.is_some();
         let needed = SHARED
             + axes
             + usize::from(save)
-            + predictors.iter().map(AxisRegisters::count).sum::<usize>();
+            + predictors.iter().map(AxisRegisters::count).sum::<usize>()
+            + if continuous {
+                TempCompRegisters::count(predictors.len())
+            } else {
+                0
+            }
+            + if warm {
+                WarmRegisters::count(predictors.len())
+            } else {
+                0
+            };
         let free: Vec<u32> = (r.r_first..=r.r_last)
             .filter(|n| !used.contains(n) && Some(*n) != result_r)
             .take(needed)
@@ -178,6 +200,8 @@ impl Registers {
                 .iter()
                 .map(|p| AxisRegisters::take(p, &mut next))
                 .collect(),
+            temp_comp: continuous.then(|| TempCompRegisters::take(predictors.len(), &mut next)),
+            warm: warm.then(|| WarmRegisters::take(predictors.len(), &mut next)),
         })
     }
 
@@ -202,6 +226,12 @@ impl Registers {
         v.extend(self.saved_result);
         for a in &self.axes {
             v.extend(a.all());
+        }
+        if let Some(t) = &self.temp_comp {
+            v.extend(t.all());
+        }
+        if let Some(w) = &self.warm {
+            v.extend(w.all());
         }
         v.sort_unstable();
         v
@@ -234,6 +264,8 @@ pub struct Emitter<'a> {
     pub axes: Vec<MeasuredAxis<'a>>,
     /// Label prefix no label of the program starts with.
     pub label_prefix: String,
+    /// Tells the models apart in the warm-start store ([`crate::omm::warm::fingerprint`]).
+    pub fingerprint: u32,
 }
 
 fn r(n: u32) -> String {
@@ -306,8 +338,15 @@ impl Emitter<'_> {
         self.profile.offset.method != OffsetMethod::Active
     }
 
-    /// The stored value of every corrected offset component as it was before the program.
+    /// The stored value of every corrected offset component as it was before the program, and of the
+    /// temperature compensation.
     fn restore_values(&self) -> Vec<String> {
+        let mut v = self.restore_offset_values();
+        v.extend(self.temp_comp_restore());
+        v
+    }
+
+    fn restore_offset_values(&self) -> Vec<String> {
         (0..self.axes.len())
             .map(|k| {
                 let axis = self.axes[k].at.axis.name();
@@ -556,10 +595,14 @@ impl Emitter<'_> {
             .map(|x| r(*x))
             .chain(self.trend(k))
             .collect();
-        if sum.is_empty() {
+        let sum = if sum.is_empty() {
             "0".into()
         } else {
             sum.join("+")
+        };
+        match self.minus_at_zero(k) {
+            Some(zero) => format!("{sum}{zero}"),
+            None => sum,
         }
     }
 
@@ -821,10 +864,22 @@ impl Emitter<'_> {
         let reg = self.reg(k);
         let f = self.result_factor();
         match self.profile.position.frame {
-            MeasureFrame::Work => {
-                format!("{}+{f}({}-{})", r(reg.zero), r(reg.pred), r(reg.applied))
-            }
-            MeasureFrame::Machine => format!("{}+{f}{}", r(reg.zero), r(reg.pred)),
+            MeasureFrame::Work => format!(
+                "{}+{f}({}-{}{})",
+                r(reg.zero),
+                r(reg.pred),
+                r(reg.applied),
+                self.minus_temp_comp(k)
+            ),
+            MeasureFrame::Machine => match self.regs.temp_comp {
+                Some(_) => format!(
+                    "{}+{f}({}{})",
+                    r(reg.zero),
+                    r(reg.pred),
+                    self.minus_temp_comp(k)
+                ),
+                None => format!("{}+{f}{}", r(reg.zero), r(reg.pred)),
+            },
         }
     }
 
@@ -838,8 +893,13 @@ impl Emitter<'_> {
             format!("{mean}-{}", r(reg.zero))
         };
         match self.profile.position.frame {
-            MeasureFrame::Work => format!("{}={change}+{}", r(reg.delta), r(reg.applied)),
-            MeasureFrame::Machine => format!("{}={change}", r(reg.delta)),
+            MeasureFrame::Work => format!(
+                "{}={change}+{}{}",
+                r(reg.delta),
+                r(reg.applied),
+                self.plus_temp_comp(k)
+            ),
+            MeasureFrame::Machine => format!("{}={change}{}", r(reg.delta), self.plus_temp_comp(k)),
         }
     }
 
@@ -989,10 +1049,13 @@ impl Emitter<'_> {
         let mut v = vec![
             "; driftloop stage 1: initial data".to_string(),
             "STOPRE".into(),
+        ];
+        v.extend(self.temp_comp_start());
+        v.extend([
             format!("{}={}", r(reg.t0), p.registers.timer),
             format!("{}={}", r(reg.t_last), r(reg.t0)),
             format!("{}=0", r(reg.nbl)),
-        ];
+        ]);
         for (k, axis) in self.axes.iter().enumerate() {
             let a = self.reg(k);
             for x in a.x.iter().chain(&a.input_x).chain(&a.input_g) {
@@ -1029,6 +1092,7 @@ impl Emitter<'_> {
                 }
             });
         }
+        v.extend(self.warm_load());
         let channels: String = self
             .axes
             .iter()
@@ -1078,6 +1142,7 @@ impl Emitter<'_> {
         v.extend(self.correction_in_force());
         let idle = (gate.can_measure && gate.idle_min > 0.0).then_some(gate.idle_min);
         v.extend(self.update_prediction(gate.rpm, idle));
+        v.extend(self.warm_store());
         if gate.can_measure {
             let skip = format!("{}SKIP{}", self.label_prefix, gate.number);
             if !self.profile.log.measure_every_gate {
@@ -1113,9 +1178,10 @@ impl Emitter<'_> {
                     None => String::new(),
                 };
                 v.push(format!(
-                    "IF ABS({}{since_cut}-{})>{}",
+                    "IF ABS({}{since_cut}-{}{})>{}",
                     r(a.delta),
                     r(a.applied),
+                    self.minus_temp_comp(k),
                     Emitter::mm(l.tolerance_um)
                 ));
                 // The scrap reading is logged before the stop, for the record and for `diagnose`.
@@ -1150,14 +1216,21 @@ impl Emitter<'_> {
             let a = self.reg(k);
             v.push(format!("{}={}+{}", r(a.corr), r(a.pred), r(a.eps)));
         }
+        v.extend(self.temp_comp_at_gate());
         v.extend(self.apply_correction());
         Emitter::finish(v)
     }
 
-    /// Before the program ends: the work offset back to its value before the program.
-    pub fn end(&self) -> String {
+    /// Before the program ends: the work offset back to its value before the program; with a warm start
+    /// the states first brought up to now (the speed of the last gate held till here) and stored.
+    pub fn end(&self, rpm: f64) -> String {
         let mut v =
             vec!["; driftloop: work offset back to its value before the program".to_string()];
+        if self.regs.warm.is_some() {
+            v.extend(self.read_timer());
+            v.extend(self.update_prediction(rpm, None));
+            v.extend(self.warm_store());
+        }
         // The stored values only: the program ends here, and may not be running in the offset now.
         v.extend(self.restore_values());
         Emitter::finish(v)
