@@ -13,8 +13,8 @@ use super::progress::Progress;
 use super::{Format, Global};
 use crate::data::{Minutes, Require, read_path};
 use crate::diagnose::holdout::{HoldoutScore, rate};
-use crate::diagnose::probing::Probing;
 use crate::model::dlag::{DlagOptions, fit_dlag};
+use crate::model::probing::Probing;
 use crate::model::{FitOptions, fit};
 
 #[derive(Debug, clap::Args)]

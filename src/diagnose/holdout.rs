@@ -6,8 +6,8 @@ use serde::Serialize;
 
 use crate::data::Dataset;
 
-use super::probing::{Probing, rezeroed};
 use super::stats::ErrorStats;
+use crate::model::probing::{Probing, rezeroed};
 
 /// One prediction scored on the holdout rows.
 #[derive(Debug, Clone, PartialEq, Serialize)]

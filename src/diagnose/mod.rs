@@ -33,7 +33,7 @@
 pub mod candidates;
 pub mod holdout;
 pub mod joint;
-pub mod probing;
+pub use crate::model::probing;
 pub mod report;
 pub mod scenario;
 pub mod stats;

@@ -19,8 +19,8 @@ pub mod text;
 
 use serde::{Deserialize, Serialize};
 
+use super::probing::{Probing, rezeroed};
 use crate::data::{ColumnKind, Dataset, SPINDLE};
-use crate::diagnose::probing::{Probing, rezeroed};
 
 use super::fit::{FitError, channel_values, max_abs, rms};
 use super::forward::{Origins, elapsed};
@@ -51,7 +51,7 @@ pub struct DlagOptions {
     pub origins: Origins,
     /// The probing interval (minutes) the trend gain of the re-zeroing is chosen for; `None`: not chosen.
     pub probe_every_min: Option<f64>,
-    /// Candidate trend gains of the re-zeroing ([`crate::diagnose::probing`]).
+    /// Candidate trend gains of the re-zeroing ([`super::probing`]).
     pub trend_gains: Vec<f64>,
 }
 

@@ -108,7 +108,7 @@ mod tests {
         let t: Vec<f64> = (0..10).map(|i| f64::from(i) * 10.0).collect();
         // An error growing 0.1 µm/min: from the second probing on, a full trend gain removes it.
         let err: Vec<f64> = t.iter().map(|x| 0.1 * x).collect();
-        let runs = [0..10];
+        let runs: Vec<Range<usize>> = std::iter::once(0..10).collect();
         let all = [true; 10];
         let full = Probing {
             every_min: 30.0,
