@@ -167,6 +167,30 @@ fn the_model_file_predicts_what_was_fitted() {
     assert_eq!(model.effects.len(), 2 * f.sensor_lags_min.len());
     assert_eq!(model.spindle.modes.len(), f.spindle_lags_min.len());
     assert!(f.trials.len() >= f.exponents.len() && f.cv_rms_um > 0.0);
+    assert!(
+        f.trials
+            .iter()
+            .all(|t| t.spindle_lags_min == f.spindle_lags_min)
+    );
+    // The probe's trend gain: every candidate scored on the folds, the lowest forward RMS chosen.
+    let probe = f.probe.as_ref().unwrap();
+    assert_eq!(probe.every_min, 60.0);
+    assert_eq!(
+        probe.trials.iter().map(|t| t[0]).collect::<Vec<_>>(),
+        [0.0, 0.25, 0.5, 0.75, 1.0]
+    );
+    let best = probe
+        .trials
+        .iter()
+        .map(|t| t[1])
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        probe
+            .trials
+            .iter()
+            .any(|t| t[0] == probe.trend_gain && t[1] == best)
+    );
+    assert!(best > 0.0 && best.is_finite());
 }
 
 #[test]

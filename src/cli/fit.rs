@@ -49,18 +49,17 @@ pub struct Args {
     /// chooses among 0,15,60,240 / 0,60,240 / 0,15,60,240,960).
     #[arg(long, value_delimiter = ',', value_name = "MIN,…")]
     pub lags: Option<Vec<f64>>,
-    /// `--kind dlag`: lags of the spindle terms, minutes, each above 0.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        value_name = "MIN,…",
-        default_value = "15,60,240"
-    )]
-    pub spindle_lags: Vec<f64>,
+    /// `--kind dlag`: lags of the spindle terms, minutes, each above 0 (default 15,60,240).
+    #[arg(long, value_delimiter = ',', value_name = "MIN,…")]
+    pub spindle_lags: Option<Vec<f64>>,
     /// `--kind dlag`: the exponents p of gain ∝ (n/n_top)^p forward validation chooses among (each
     /// spindle term its own; default 0.5 to 3).
     #[arg(long, value_delimiter = ',', value_name = "P,…")]
     pub exponents: Option<Vec<f64>>,
+    /// `--kind dlag`: the probing interval the trend gain of a probe's re-zeroing is chosen for (`60min`,
+    /// `1h`; a bare number is minutes).
+    #[arg(long, value_name = "TIME", default_value = "60min")]
+    pub probe_every: Minutes,
     /// Write the model file here (`-` = stdout, the report then goes to stderr).
     #[arg(short, long)]
     pub output: Option<PathBuf>,
@@ -84,14 +83,21 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             },
         )?,
         Kind::Dlag => {
-            anyhow::ensure!(
-                args.spindle_lags.iter().all(|l| l.is_finite() && *l > 0.0),
-                "--spindle-lags must be positive minutes (a spindle term is a mode with a time constant)"
-            );
             let mut opts = DlagOptions::new(channel);
+            if let Some(lags) = &args.spindle_lags {
+                anyhow::ensure!(
+                    lags.iter().all(|l| l.is_finite() && *l > 0.0),
+                    "--spindle-lags must be positive minutes (a spindle term is a mode with a time constant)"
+                );
+                opts.spindle_lags = vec![lags.clone()];
+            }
+            anyhow::ensure!(
+                args.probe_every.0 > 0.0,
+                "--probe-every must be a positive time"
+            );
+            opts.probe_every_min = Some(args.probe_every.0);
             opts.until_min = until_min;
             opts.signals = args.signals.clone();
-            opts.spindle_lags = args.spindle_lags.clone();
             if let Some(p) = &args.exponents {
                 anyhow::ensure!(
                     !p.is_empty() && p.iter().all(|p| p.is_finite() && *p > 0.0),

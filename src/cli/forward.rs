@@ -14,6 +14,7 @@ use super::{Format, Global};
 use crate::data::{Minutes, Require, read_path};
 use crate::diagnose::holdout::{HoldoutScore, rate};
 use crate::model::dlag::{DlagOptions, fit_dlag};
+use crate::model::probing::Probing;
 use crate::model::{FitOptions, fit};
 
 #[derive(Debug, clap::Args)]
@@ -33,6 +34,10 @@ pub struct Args {
     /// A probe re-zeroes the correction this often from the holdout's start (`60min`, `1h`).
     #[arg(long, value_name = "TIME", default_value = "60min")]
     pub probe_every: Minutes,
+    /// With probing, also continue the error's rate between the last two probings, scaled by the trend
+    /// gain the dlag fit chose by forward validation (default: re-zero only).
+    #[arg(long)]
+    pub probe_trend: bool,
     #[arg(long, value_enum, default_value_t = Format::Human)]
     pub format: Format,
 }
@@ -67,6 +72,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             Kind::Dlag => {
                 let mut o = DlagOptions::new(ch.clone());
                 o.until_min = Some(until);
+                o.probe_every_min = Some(args.probe_every.0);
                 fit_dlag(&ds, &o)?
             }
             Kind::Modes => {
@@ -78,14 +84,32 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         let predicted = model.predict(&ds)?;
         let measured = ds.values(ch).unwrap_or_default();
         let later: Vec<bool> = ds.time_min.iter().map(|&t| t >= until).collect();
-        let score = HoldoutScore::of(&ds, measured, &predicted, &later, Some(args.probe_every.0))
-            .ok_or_else(|| {
-            anyhow::anyhow!("{}: no reading of {ch} from {until} min on", ds.source)
-        })?;
-        let design = match model.fit.as_ref().and_then(|f| f.forward.as_ref()) {
+        let forward = model.fit.as_ref().and_then(|f| f.forward.as_ref());
+        // With --probe-trend the model's re-zeroing (the trend gain its fit chose for this interval).
+        let probing = forward
+            .and_then(|f| f.probe.as_ref())
+            .filter(|_| args.probe_trend)
+            .map_or(Probing::every(args.probe_every.0), |p| p.probing());
+        let score = HoldoutScore::of(&ds, measured, &predicted, &later, Some(probing)).ok_or_else(
+            || anyhow::anyhow!("{}: no reading of {ch} from {until} min on", ds.source),
+        )?;
+        let design = match forward {
             Some(f) => format!(
-                "lags {:?} min, spindle lags {:?} min with p {:?}, penalty {:.0e}, forward CV {:.2} µm",
-                f.sensor_lags_min, f.spindle_lags_min, f.exponents, f.penalty, f.cv_rms_um
+                "lags {:?} min, spindle lags {:?} min with p {:?}, penalty {:.0e}, forward CV {:.2} µm{}",
+                f.sensor_lags_min,
+                f.spindle_lags_min,
+                f.exponents,
+                f.penalty,
+                f.cv_rms_um,
+                f.probe.as_ref().map_or(String::new(), |p| format!(
+                    "; probe trend gain {} by forward CV{}",
+                    p.trend_gain,
+                    if args.probe_trend {
+                        " (used)"
+                    } else {
+                        " (--probe-trend uses it)"
+                    }
+                ))
             ),
             None => match model.spindle.modes.len() {
                 1 => "1 spindle mode".to_string(),

@@ -6,8 +6,8 @@ use serde::Serialize;
 
 use crate::data::Dataset;
 
-use super::probing::rezeroed;
 use super::stats::ErrorStats;
+use crate::model::probing::{Probing, rezeroed};
 
 /// One prediction scored on the holdout rows.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -32,15 +32,15 @@ pub fn rate(error: &ErrorStats, uncompensated: &ErrorStats) -> f64 {
 }
 
 impl HoldoutScore {
-    /// Scores `predicted` (one value per row) against `measured` on the rows marked `scored`; probings
-    /// every `probe_every_min` from each run's first scored reading. `None` when no scored row has a
-    /// reading.
+    /// Scores `predicted` (one value per row) against `measured` on the rows marked `scored`; with
+    /// `probing`, probings from each run's first scored reading (the probe alone only re-zeroes: a trend
+    /// gain belongs to a model's correction). `None` when no scored row has a reading.
     pub fn of(
         ds: &Dataset,
         measured: &[f64],
         predicted: &[f64],
         scored: &[bool],
-        probe_every_min: Option<f64>,
+        probing: Option<Probing>,
     ) -> Option<HoldoutScore> {
         let runs: Vec<_> = ds.runs().collect();
         let mut uncomp = vec![f64::NAN; ds.len()];
@@ -58,15 +58,13 @@ impl HoldoutScore {
         let held = |e: &[f64]| -> Option<ErrorStats> {
             ErrorStats::of(&rows.iter().map(|&i| e[i]).collect::<Vec<_>>())
         };
-        let probed = |e: &[f64]| {
-            probe_every_min.and_then(|p| held(&rezeroed(&ds.time_min, &runs, e, scored, p)))
-        };
+        let probed = |e: &[f64], p: Probing| held(&rezeroed(&ds.time_min, &runs, e, scored, p));
         Some(HoldoutScore {
             rows: rows.len(),
             uncompensated: held(&uncomp)?,
             model: held(&err)?,
-            model_probed: probed(&err),
-            probe_only: probed(&uncomp),
+            model_probed: probing.and_then(|p| probed(&err, p)),
+            probe_only: probing.and_then(|p| probed(&uncomp, Probing::every(p.every_min))),
         })
     }
 }

@@ -33,7 +33,7 @@
 pub mod candidates;
 pub mod holdout;
 pub mod joint;
-pub mod probing;
+pub use crate::model::probing;
 pub mod report;
 pub mod scenario;
 pub mod stats;
@@ -536,7 +536,15 @@ fn probing(ctx: &Ctx, every: f64, before: &[f64], after: &[f64]) -> Option<Probi
     } else {
         ctx.fit.clone()
     };
-    let score = |p: &[f64]| holdout::HoldoutScore::of(ctx.ds, &ctx.y, p, &scored, Some(every));
+    let score = |p: &[f64]| {
+        holdout::HoldoutScore::of(
+            ctx.ds,
+            &ctx.y,
+            p,
+            &scored,
+            Some(probing::Probing::every(every)),
+        )
+    };
     let (b, a) = (score(before)?, score(after)?);
     Some(Probing {
         every_min: every,

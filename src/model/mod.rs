@@ -37,6 +37,7 @@ pub mod fit;
 pub mod forward;
 pub mod lag;
 mod predict;
+pub mod probing;
 pub mod ridge;
 pub mod schedule;
 pub mod speed_grid;

@@ -3,7 +3,8 @@
 //! default), plus the spindle speed through a power law gain ∝ (n / n_top)^p at several lags; ridge
 //! regression on standardised columns.
 //!
-//! Every data-driven choice — the penalty, the speed law's exponent p, the lag sets — is made by forward
+//! Every data-driven choice — the penalty, the speed law's exponent p, the lag sets of the sensors and of the
+//! spindle, the trend gain of a probe's re-zeroing — is made by forward
 //! validation ([`super::forward`]): fitted on the rows before each origin, scored on the rows after it, the
 //! design with the lowest pooled forward RMS wins. The fold that trains on the lower speeds only and scores
 //! a higher one is what chooses p: the law is judged on a speed it was not trained on, as it will be on the
@@ -18,6 +19,7 @@ pub mod text;
 
 use serde::{Deserialize, Serialize};
 
+use super::probing::{Probing, rezeroed};
 use crate::data::{ColumnKind, Dataset, SPINDLE};
 
 use super::fit::{FitError, channel_values, max_abs, rms};
@@ -40,18 +42,23 @@ pub struct DlagOptions {
     pub signals: Option<Vec<String>>,
     /// Candidate lag sets of the sensors (minutes, 0 = unlagged); forward validation picks one.
     pub sensor_lags: Vec<Vec<f64>>,
-    /// Lags of the spindle terms (minutes, each > 0).
-    pub spindle_lags: Vec<f64>,
+    /// Candidate lag sets of the spindle terms (minutes, each > 0); forward validation picks one.
+    pub spindle_lags: Vec<Vec<f64>>,
     /// Candidate exponents p of the speed law.
     pub exponents: Vec<f64>,
     /// Candidate penalties (on standardised columns, per row).
     pub penalties: Vec<f64>,
     pub origins: Origins,
+    /// The probing interval (minutes) the trend gain of the re-zeroing is chosen for; `None`: not chosen.
+    pub probe_every_min: Option<f64>,
+    /// Candidate trend gains of the re-zeroing ([`super::probing`]).
+    pub trend_gains: Vec<f64>,
 }
 
 impl DlagOptions {
     /// The defaults: lags 0, 15 min, 1 h, 4 h for the sensors (or without the 15 min lag, or with 16 h
-    /// added), 15 min, 1 h, 4 h for the spindle, p from 0.5 to 3, penalties 10⁻⁶ … 10.
+    /// added), 15 min, 1 h, 4 h for the spindle, p from 0.5 to 3, penalties
+    /// 10⁻⁶ … 10, a probe every 60 min with trend gains 0, ¼, ½, ¾, 1.
     pub fn new(channel: impl Into<String>) -> DlagOptions {
         DlagOptions {
             channel: channel.into().to_ascii_lowercase(),
@@ -62,12 +69,16 @@ impl DlagOptions {
                 vec![0.0, 60.0, 240.0],
                 vec![0.0, 15.0, 60.0, 240.0, 960.0],
             ],
-            spindle_lags: vec![15.0, 60.0, 240.0],
+            // One set: a further 16 h spindle lag won the forward RMS on three channels but lost when the
+            // whole selection was validated forward (docs/forward.md, "Which choices …").
+            spindle_lags: vec![vec![15.0, 60.0, 240.0]],
             exponents: vec![0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.5, 3.0],
             penalties: (0..=14)
                 .map(|i| 10f64.powf(-6.0 + 0.5 * f64::from(i)))
                 .collect(),
             origins: Origins::default(),
+            probe_every_min: Some(60.0),
+            trend_gains: vec![0.0, 0.25, 0.5, 0.75, 1.0],
         }
     }
 }
@@ -89,12 +100,37 @@ pub struct ForwardSelection {
     pub dof: f64,
     /// Every design tried, with its best penalty.
     pub trials: Vec<DesignTrial>,
+    /// The re-zeroing by a probe, chosen on the same folds (absent in files from older builds).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub probe: Option<ProbeChoice>,
+}
+
+/// The trend gain of a probe's re-zeroing chosen by forward validation: each fold's model predicts its
+/// test rows, a probe corrects them every `every_min` from the fold's origin, for each candidate gain.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ProbeChoice {
+    pub every_min: f64,
+    pub trend_gain: f64,
+    /// Every candidate gain with its pooled forward RMS after probing.
+    pub trials: Vec<[f64; 2]>,
+}
+
+impl ProbeChoice {
+    pub fn probing(&self) -> Probing {
+        Probing {
+            every_min: self.every_min,
+            trend_gain: self.trend_gain,
+        }
+    }
 }
 
 /// One design scored by forward validation.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct DesignTrial {
     pub sensor_lags_min: Vec<f64>,
+    /// Absent in files from builds with one spindle lag set.
+    #[serde(default)]
+    pub spindle_lags_min: Vec<f64>,
     /// p of each spindle term (the order of `spindle_lags_min`).
     pub exponents: Vec<f64>,
     pub penalty: f64,
@@ -120,13 +156,20 @@ pub fn fit_dlag(all: &Dataset, opts: &DlagOptions) -> Result<DriftModel, FitErro
     let prep = Prepared::new(ds, opts)?;
     let mut trials = Vec::new();
     let mut best: Option<(Design, f64, f64)> = None;
+    // Without a spindle speed in the window every spindle lag set is the same design: no spindle terms.
+    let spindle_sets: Vec<&[f64]> = match prep.speeds {
+        Some(_) => opts.spindle_lags.iter().map(Vec::as_slice).collect(),
+        None => vec![&[]],
+    };
     for lags in &opts.sensor_lags {
         let mut search = Search::new(&prep, opts, lags);
-        let Some(found) = search.run(&mut trials) else {
-            continue;
-        };
-        if best.as_ref().is_none_or(|b| found.2 < b.2) {
-            best = Some(found);
+        for &spindle_lags in &spindle_sets {
+            let Some(found) = search.run(spindle_lags, &mut trials) else {
+                continue;
+            };
+            if best.as_ref().is_none_or(|b| found.2 < b.2) {
+                best = Some(found);
+            }
         }
     }
     let (design, penalty, cv) = best.ok_or(FitError::TooFewSamples {
@@ -142,6 +185,9 @@ pub fn fit_dlag(all: &Dataset, opts: &DlagOptions) -> Result<DriftModel, FitErro
     let fit = Ridge::new(&Moments::of_rows(&cols, &prep.y, &rows))
         .ok_or(FitError::Numerical)?
         .solve(penalty);
+    let probe = opts
+        .probe_every_min
+        .and_then(|every| prep.choose_trend_gain(&cols, penalty, every, &opts.trend_gains));
     let selection = ForwardSelection {
         origins_min: prep.origins_min.clone(),
         signals: prep.signals.clone(),
@@ -152,6 +198,7 @@ pub fn fit_dlag(all: &Dataset, opts: &DlagOptions) -> Result<DriftModel, FitErro
         cv_rms_um: cv,
         dof: fit.dof,
         trials,
+        probe,
     };
     Ok(prep.model(all.len(), opts, &terms, &cols, &fit, selection))
 }
@@ -193,11 +240,7 @@ impl<'p, 'a> Search<'p, 'a> {
             prep,
             penalties: &opts.penalties,
             exponents: &opts.exponents,
-            spindle_lags: if prep.speeds.is_some() {
-                opts.spindle_lags.clone()
-            } else {
-                Vec::new()
-            },
+            spindle_lags: Vec::new(),
             sensor_lags: lags.to_vec(),
             sensor_cols,
             base,
@@ -243,15 +286,25 @@ impl<'p, 'a> Search<'p, 'a> {
         validate(&parts, self.penalties)
     }
 
-    /// One exponent shared by every spindle term on the grid, then each term's own exponent by coordinate
+    /// With the spindle terms at `spindle_lags`: one
+    /// exponent shared by every spindle term on the grid, then each term's own exponent by coordinate
     /// descent from there (two sweeps); every design scored is appended to `trials`. Returns the best
     /// design, its penalty and its forward RMS.
-    fn run(&mut self, trials: &mut Vec<DesignTrial>) -> Option<(Design, f64, f64)> {
+    fn run(
+        &mut self,
+        spindle_lags: &[f64],
+        trials: &mut Vec<DesignTrial>,
+    ) -> Option<(Design, f64, f64)> {
+        if spindle_lags != self.spindle_lags {
+            self.spindle_lags = spindle_lags.to_vec();
+            self.spindle_cols.clear();
+        }
         let m = self.spindle_lags.len();
         let mut record = |s: &Search, exps: &[usize], (penalty, cv): (f64, f64)| {
             let d = s.design(exps);
             trials.push(DesignTrial {
                 sensor_lags_min: d.sensor_lags,
+                spindle_lags_min: d.spindle.iter().map(|x| x.0).collect(),
                 exponents: d.spindle.iter().map(|x| x.1).collect(),
                 penalty,
                 cv_rms_um: cv,
@@ -506,6 +559,67 @@ impl<'a> Prepared<'a> {
                 time_unit: ds.time_unit,
             }),
         }
+    }
+}
+
+impl Prepared<'_> {
+    /// The trend gain among `gains` with the lowest pooled RMS after probing every `every` minutes: each
+    /// fold's fit (at `penalty`, on the columns `cols`) predicts its test rows, which a probe corrects from
+    /// the fold's origin on. `None` without a fold or a candidate.
+    fn choose_trend_gain(
+        &self,
+        cols: &[Vec<f64>],
+        penalty: f64,
+        every: f64,
+        gains: &[f64],
+    ) -> Option<ProbeChoice> {
+        let runs: Vec<std::ops::Range<usize>> = self.ds.runs().collect();
+        let mut sse = vec![0.0; gains.len()];
+        let mut scored = 0usize;
+        let s = &self.stretches;
+        for k in 0..s.len().saturating_sub(1) {
+            let test: Vec<usize> = s[k + 1..].concat();
+            let train: Vec<usize> = s[..=k].concat();
+            let Some(ridge) = Ridge::new(&Moments::of_rows(cols, &self.y, &train)) else {
+                continue;
+            };
+            let fit = ridge.solve(penalty);
+            let mut err = vec![f64::NAN; self.ds.len()];
+            let mut window = vec![false; self.ds.len()];
+            for &i in &test {
+                let predicted = fit.intercept
+                    + cols
+                        .iter()
+                        .zip(fit.beta.iter())
+                        .map(|(c, b)| b * c[i])
+                        .sum::<f64>();
+                err[i] = self.y[i] - predicted;
+                window[i] = true;
+            }
+            for (acc, &trend_gain) in sse.iter_mut().zip(gains) {
+                let probing = Probing {
+                    every_min: every,
+                    trend_gain,
+                };
+                let out = rezeroed(&self.ds.time_min, &runs, &err, &window, probing);
+                *acc += test.iter().map(|&i| out[i] * out[i]).sum::<f64>();
+            }
+            scored += test.len();
+        }
+        if scored == 0 {
+            return None;
+        }
+        let trials: Vec<[f64; 2]> = gains
+            .iter()
+            .zip(&sse)
+            .map(|(&g, &e)| [g, (e / scored as f64).sqrt()])
+            .collect();
+        let best = trials.iter().min_by(|a, b| a[1].total_cmp(&b[1]))?;
+        Some(ProbeChoice {
+            every_min: every,
+            trend_gain: best[0],
+            trials: trials.clone(),
+        })
     }
 }
 

@@ -73,28 +73,44 @@ fn forward_block(s: &mut String, f: &ForwardSelection) {
         origins.join(", "),
         f.cv_rms_um
     );
-    let mut sets: Vec<&Vec<f64>> = Vec::new();
+    let mut sets: Vec<(&Vec<f64>, &Vec<f64>)> = Vec::new();
     for t in &f.trials {
-        if !sets.contains(&&t.sensor_lags_min) {
-            sets.push(&t.sensor_lags_min);
+        let set = (&t.sensor_lags_min, &t.spindle_lags_min);
+        if !sets.contains(&set) {
+            sets.push(set);
         }
     }
-    for set in sets {
+    for (sensor, spindle) in sets {
         let best = f
             .trials
             .iter()
-            .filter(|t| &t.sensor_lags_min == set)
+            .filter(|t| &t.sensor_lags_min == sensor && &t.spindle_lags_min == spindle)
             .min_by(|a, b| a.cv_rms_um.total_cmp(&b.cv_rms_um));
         if let Some(t) = best {
             let _ = writeln!(
                 s,
-                "    sensor lags {:<26} best {:.3} µm (exponents {}, penalty {:.0e})",
-                format!("{} min", join(set)),
+                "    sensor lags {:<22} spindle lags {:<20} best {:.3} µm (exponents {}, penalty {:.0e})",
+                format!("{} min", join(sensor)),
+                format!("{} min", join(spindle)),
                 t.cv_rms_um,
                 join(&t.exponents),
                 t.penalty
             );
         }
+    }
+    if let Some(p) = &f.probe {
+        let trials: Vec<String> = p
+            .trials
+            .iter()
+            .map(|[g, rms]| format!("{g} → {rms:.3}"))
+            .collect();
+        let _ = writeln!(
+            s,
+            "    a probe every {} min re-zeroing with trend gain {} (forward RMS with probing, µm: {})",
+            p.every_min,
+            p.trend_gain,
+            trials.join(", ")
+        );
     }
 }
 
