@@ -87,7 +87,10 @@ fn continuous_compensation_works_with_the_offset_in_force_too() {
     let gates = dry_run(&transformed(&original, &active(gates_profile())), "");
     let text = transformed(&original, &active(continuous_profile("")));
     let out = String::from_utf8_lossy(&text);
-    assert!(out.contains("$P_IFRAME[Z,TR]=$P_UIFR[$P_UIFRNUM,Z,TR]+R"), "{out}");
+    assert!(
+        out.contains("$P_IFRAME[Z,TR]=$P_UIFR[$P_UIFRNUM,Z,TR]+R"),
+        "{out}"
+    );
     let continuous = dry_run(&text, "");
     let (g, c) = (&gates.totals, &continuous.totals);
     assert!(

@@ -144,17 +144,27 @@ fn candidate_columns(ctx: &Ctx, current: &Fitted, effect: &Effect) -> Option<Vec
     Some(store)
 }
 
-/// Orthonormal basis (fit rows) of the current model's columns, for projecting candidates off them.
+/// Most fit rows a candidate is screened on. A longer log is screened on every k-th of its fit rows: the
+/// screening only ranks the candidates and places their θ on a grid (the ones taken are refitted on every
+/// row), thermal responses change over many samples, and it keeps the screening's cost bounded.
+const SCREEN_ROWS: usize = 65_536;
+
+/// Orthonormal basis (screened rows) of the current model's columns, for projecting candidates off them.
 pub struct Projector {
+    /// The rows screened: every fit row, or every k-th of a long log's.
+    rows: Vec<usize>,
     q: Vec<Vec<f64>>,
 }
 
 impl Projector {
     pub fn new(ctx: &Ctx, current: &Fitted) -> Projector {
+        let fit: Vec<usize> = (0..ctx.n()).filter(|&r| ctx.fit[r]).collect();
+        let stride = fit.len().div_ceil(SCREEN_ROWS).max(1);
+        let rows: Vec<usize> = fit.into_iter().step_by(stride).collect();
         let phi = current.joint.basis(ctx);
         let mut q: Vec<Vec<f64>> = Vec::new();
         for col in phi.as_slice().chunks(ctx.n()) {
-            let mut v = ctx.fit_rows(col);
+            let mut v: Vec<f64> = rows.iter().map(|&r| col[r]).collect();
             let norm0 = dot(&v, &v).sqrt();
             for b in &q {
                 let a = dot(&v, b);
@@ -166,7 +176,12 @@ impl Projector {
                 q.push(v);
             }
         }
-        Projector { q }
+        Projector { rows, q }
+    }
+
+    /// The screened rows of a full-length series.
+    pub fn screened(&self, v: &[f64]) -> Vec<f64> {
+        self.rows.iter().map(|&r| v[r]).collect()
     }
 
     fn project_off(&self, v: &mut [f64]) {
@@ -244,7 +259,7 @@ fn best_of(
         let cols: Vec<Vec<f64>> = cols
             .iter()
             .map(|c| {
-                let mut v = ctx.fit_rows(c);
+                let mut v = proj.screened(c);
                 proj.project_off(&mut v);
                 v
             })

@@ -328,8 +328,8 @@ pub fn diagnose(
 /// BIC matters when a cause-less effect and a measured one fit the window alike: a warming hall looks like
 /// a trend there, but the trend extrapolates blindly while the temperature keeps measuring the cause.
 fn next_effect(ctx: &Ctx, current: &Fitted, rejected: &mut Vec<String>) -> Option<(Fitted, Added)> {
-    let resid = ctx.fit_rows(&residual(ctx, &current.prediction));
     let proj = Projector::new(ctx, current);
+    let resid = proj.screened(&residual(ctx, &current.prediction));
     // The best-screened candidates, and every candidate that changes or overlaps the declared modes:
     // screening holds the recalibrated modes fixed, and a recalibrated mode that stretched its τ towards a
     // slower undeclared one leaves that one little or nothing to screen on (its column projected off the
