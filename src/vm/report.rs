@@ -296,30 +296,15 @@ impl Run {
                 } else {
                     format!("$P_UIFR[{},", c.frame)
                 };
-                let _ = writeln!(
-                    o,
-                    "  {}  {frame}{},{}] {:.4} → {:.4} mm ({:+.2} µm)",
-                    at(&c.at),
-                    c.axis,
-                    c.component,
-                    c.old_mm,
-                    c.new_mm,
-                    (c.new_mm - c.old_mm) * 1000.0
-                );
+                let name = format!("{frame}{},{}]", c.axis, c.component);
+                change_line(&mut o, &at(&c.at), &name, c.old_mm, c.new_mm);
             }
         }
         if !self.temp_comp_writes.is_empty() {
             let _ = writeln!(o, "\ntemperature compensation (SD43900 writes)");
             for c in &self.temp_comp_writes {
-                let _ = writeln!(
-                    o,
-                    "  {}  $SA_TEMP_COMP_ABS_VALUE[{}] {:.4} → {:.4} mm ({:+.2} µm)",
-                    at(&c.at),
-                    c.axis,
-                    c.old_mm,
-                    c.new_mm,
-                    (c.new_mm - c.old_mm) * 1000.0
-                );
+                let name = format!("$SA_TEMP_COMP_ABS_VALUE[{}]", c.axis);
+                change_line(&mut o, &at(&c.at), &name, c.old_mm, c.new_mm);
             }
         }
         if !self.alarms.is_empty() {
@@ -381,4 +366,13 @@ impl Run {
         }
         o
     }
+}
+
+/// One line of the human report for a value the program changed: where, what, from, to (mm), the change (µm).
+fn change_line(o: &mut String, at: &str, name: &str, old_mm: f64, new_mm: f64) {
+    let _ = writeln!(
+        o,
+        "  {at}  {name} {old_mm:.4} → {new_mm:.4} mm ({:+.2} µm)",
+        (new_mm - old_mm) * 1000.0
+    );
 }
