@@ -11,11 +11,20 @@ static PENDING: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 /// Keeps `path` registered until the guard is dropped.
 pub struct Registered(PathBuf);
 
-/// Removes `path` should the process be interrupted or terminated before the guard is dropped.
-pub fn remove_on_signal(path: &Path) -> Registered {
+/// Creates a temporary file with `create` and registers it, both under the lock the signal handler takes:
+/// a signal can never find a file created but not yet registered, and once the handler runs no new file
+/// is created (it keeps the lock until the process exits). The file is removed should the process be
+/// interrupted or terminated before the guard is dropped.
+pub fn create_registered<T>(
+    create: impl FnOnce() -> std::io::Result<T>,
+    path_of: impl Fn(&T) -> &Path,
+) -> std::io::Result<(T, Registered)> {
     install();
-    pending().push(path.to_path_buf());
-    Registered(path.to_path_buf())
+    let mut pending = pending();
+    let made = create()?;
+    let path = path_of(&made).to_path_buf();
+    pending.push(path.clone());
+    Ok((made, Registered(path)))
 }
 
 impl Drop for Registered {
@@ -41,7 +50,9 @@ fn install() {
         };
         std::thread::spawn(move || {
             if let Some(signal) = signals.forever().next() {
-                for path in pending().drain(..) {
+                // Held until the exit: no writer creates or registers a file after this point.
+                let mut pending = pending();
+                for path in pending.drain(..) {
                     let _ = std::fs::remove_file(path);
                 }
                 std::process::exit(128 + signal);

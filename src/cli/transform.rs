@@ -682,11 +682,15 @@ pub(super) fn write_atomic(
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let name = path.file_name().context("output without a file name")?;
     let written = (|| -> io::Result<()> {
-        let mut tmp = tempfile::Builder::new()
-            .prefix(&format!(".{}.", name.to_string_lossy()))
-            .suffix(".driftloop.tmp")
-            .tempfile_in(&dir)?;
-        let _registered = super::signals::remove_on_signal(tmp.path());
+        let (mut tmp, _registered) = super::signals::create_registered(
+            || {
+                tempfile::Builder::new()
+                    .prefix(&format!(".{}.", name.to_string_lossy()))
+                    .suffix(".driftloop.tmp")
+                    .tempfile_in(&dir)
+            },
+            |t| t.path(),
+        )?;
         write(tmp.as_file_mut())?;
         keep_mode_and_owner(tmp.as_file(), existing.as_ref())?;
         tmp.as_file().sync_all()?;
