@@ -94,12 +94,15 @@ fn a_position_model_is_evaluated_at_the_measuring_position() {
     assert_parses(&out);
     assert!(out.contains("=$A_INA[1] ; a1_c") && out.contains("=$A_INA[2] ; b1_c"));
     // At X 200 the slope S = 0.02 µm/mm per °C of a1 (the synthetic truth) is ≈ 4 µm/°C = 0.004 mm/°C.
+    // The terms of one lag share a block: the gain is the number before `*($A_INA[1]-R…)`.
     let gain: f64 = out
         .lines()
+        .filter(|l| l.contains("a1_c") && l.ends_with(";DL"))
         .find_map(|l| {
-            let (_, rest) = l.split_once("=")?;
-            let (gain, read) = rest.split_once("*($A_INA[1]-R")?;
-            read.ends_with(") ; a1_c ;DL").then_some(gain)
+            let at = l.find("*($A_INA[1]-R")?;
+            let before = &l[..at];
+            let start = before.rfind(['=', '+', ')']).map_or(0, |i| i + 1);
+            Some(&before[start..])
         })
         .expect("a gate reads a1_c")
         .parse()

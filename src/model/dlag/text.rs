@@ -158,25 +158,28 @@ fn terms_block(s: &mut String, model: &DriftModel) {
 }
 
 /// What `transform` needs to evaluate the model in NC: analog inputs and R-parameters, counted as the
-/// emitter allocates them (19 fixed, 2 per spindle mode, 3 per lagged input, 2 per unlagged signal).
+/// emitter allocates them with the default profile (27 fixed, 2 per spindle mode, 2 per time constant of
+/// the lagged inputs — terms of one τ share a state —, 1 per analog input, 1 for the unlagged ones' sum).
 pub fn nc_needs(model: &DriftModel) -> String {
-    let lagged = model
+    let mut taus: Vec<f64> = model.inputs.iter().map(|i| i.tau_min).collect();
+    taus.extend(
+        model
+            .effects
+            .iter()
+            .filter(|e| e.kind == Kind::InputLag.name())
+            .filter_map(|e| crate::model::effects::Effect::from_spec(e).ok())
+            .filter_map(|e| e.theta.first().copied()),
+    );
+    taus.sort_by(f64::total_cmp);
+    taus.dedup();
+    let statics = model
         .effects
         .iter()
-        .filter(|e| e.kind == Kind::InputLag.name())
-        .count()
-        + model.inputs.len();
-    let mut statics: Vec<&str> = model
-        .effects
-        .iter()
-        .filter(|e| e.kind == Kind::StaticInput.name())
-        .filter_map(|e| e.signal.as_deref())
-        .collect();
-    statics.sort_unstable();
-    statics.dedup();
-    let registers = 19 + 2 * model.spindle.modes.len() + 3 * lagged + 2 * statics.len();
+        .any(|e| e.kind == Kind::StaticInput.name());
+    let signals = model.signals().len();
+    let registers =
+        27 + 2 * model.spindle.modes.len() + 2 * taus.len() + signals + usize::from(statics);
     format!(
-        "in NC: {} analog inputs to map in the profile's [log] inputs, {registers} R-parameters (registers.r_first … r_last; the default profile offers 90)",
-        model.signals().len()
+        "in NC: {signals} analog inputs to map in the profile's [log] inputs, {registers} R-parameters (registers.r_first … r_last; the default profile offers 50, R50 … R99)"
     )
 }

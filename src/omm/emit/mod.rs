@@ -36,13 +36,14 @@ struct AxisRegisters {
     pred_cut: u32,
     x: Vec<u32>,
     g: Vec<u32>,
-    /// Per analog input of the model: lag state, target, value at the zero.
-    input_x: Vec<u32>,
-    input_g: Vec<u32>,
-    input_zero: Vec<u32>,
-    /// Per static (unlagged) analog input: its term now, value at the zero.
-    static_v: Vec<u32>,
-    static_zero: Vec<u32>,
+    /// Per time constant of the model's lagged analog-input terms: one lag state and one target. The terms
+    /// are linear, so all terms of one τ add into one state (a model over 16 sensors at 3 lags needs 6
+    /// registers here, not 96).
+    lags: Vec<InputLag>,
+    /// Per analog input the model reads: its number and its value at the zero.
+    zeros: Vec<(u32, u32)>,
+    /// The unlagged (static) terms' sum now, when the model has any.
+    statics: Option<u32>,
     pred: u32,
     pred_at_measurement: u32,
     eps: u32,
@@ -53,27 +54,72 @@ struct AxisRegisters {
     delta: u32,
 }
 
+/// The lagged analog-input terms of one time constant: their shared state and target registers, and the
+/// terms (indices into [`Predictor::inputs`]).
+#[derive(Debug, Clone)]
+struct InputLag {
+    tau_min: f64,
+    terms: Vec<usize>,
+    x: u32,
+    g: u32,
+}
+
+/// The distinct time constants of `p`'s lagged input terms with their terms, and the distinct analog
+/// inputs it reads, in the order of first use.
+fn input_layout(p: &Predictor) -> (Vec<(f64, Vec<usize>)>, Vec<u32>) {
+    let mut lags: Vec<(f64, Vec<usize>)> = Vec::new();
+    for (i, t) in p.inputs().iter().enumerate() {
+        match lags.iter_mut().find(|(tau, _)| *tau == t.tau_min) {
+            Some((_, terms)) => terms.push(i),
+            None => lags.push((t.tau_min, vec![i])),
+        }
+    }
+    let mut inputs: Vec<u32> = Vec::new();
+    let used = p.inputs().iter().map(|t| t.input);
+    for n in used.chain(p.statics().iter().map(|t| t.input)) {
+        if !inputs.contains(&n) {
+            inputs.push(n);
+        }
+    }
+    (lags, inputs)
+}
+
 impl AxisRegisters {
     fn count(p: &Predictor) -> usize {
-        10 + 2 * p.taus().len() + 3 * p.inputs().len() + 2 * p.statics().len()
+        let (lags, inputs) = input_layout(p);
+        10 + 2 * p.taus().len()
+            + 2 * lags.len()
+            + inputs.len()
+            + usize::from(!p.statics().is_empty())
     }
 
     fn take(p: &Predictor, next: &mut impl FnMut() -> u32) -> AxisRegisters {
-        let (modes, inputs, statics) = (p.taus().len(), p.inputs().len(), p.statics().len());
+        let (layout, inputs) = input_layout(p);
+        let modes = p.taus().len();
         let mut many = |n: usize| (0..n).map(|_| next()).collect::<Vec<u32>>();
         let (x, g) = (many(modes), many(modes));
-        let (input_x, input_g, input_zero) = (many(inputs), many(inputs), many(inputs));
-        let (static_v, static_zero) = (many(statics), many(statics));
+        let lags = layout
+            .into_iter()
+            .map(|(tau_min, terms)| {
+                let r = many(2);
+                InputLag {
+                    tau_min,
+                    terms,
+                    x: r[0],
+                    g: r[1],
+                }
+            })
+            .collect();
+        let zeros = inputs.iter().map(|&n| (n, many(1)[0])).collect();
+        let statics = (!p.statics().is_empty()).then(|| many(1)[0]);
         let mut one = || many(1)[0];
         AxisRegisters {
             pred_cut: one(),
             x,
             g,
-            input_x,
-            input_g,
-            input_zero,
-            static_v,
-            static_zero,
+            lags,
+            zeros,
+            statics,
             pred: one(),
             pred_at_measurement: one(),
             eps: one(),
@@ -100,12 +146,52 @@ impl AxisRegisters {
         .into_iter()
         .chain(self.x.iter().copied())
         .chain(self.g.iter().copied())
-        .chain(self.input_x.iter().copied())
-        .chain(self.input_g.iter().copied())
-        .chain(self.input_zero.iter().copied())
-        .chain(self.static_v.iter().copied())
-        .chain(self.static_zero.iter().copied())
+        .chain(self.lags.iter().flat_map(|l| [l.x, l.g]))
+        .chain(self.zeros.iter().map(|z| z.1))
+        .chain(self.statics)
     }
+
+    /// The register holding analog input `n`'s value at the zero.
+    fn zero_of(&self, n: u32) -> u32 {
+        self.zeros
+            .iter()
+            .find(|z| z.0 == n)
+            .expect("every input the model reads has a zero")
+            .1
+    }
+}
+
+/// At most this many terms in one block of a sum over analog inputs: a model over many sensors would
+/// otherwise write blocks longer than the control takes.
+const TERMS_PER_BLOCK: usize = 6;
+
+/// `reg` = the sum of `terms`, written over as many blocks as [`TERMS_PER_BLOCK`] asks, with `comment`.
+fn sum_blocks(reg: u32, terms: &[String], comment: &str) -> Vec<String> {
+    if terms.is_empty() {
+        return vec![format!("{}=0 ; {comment}", r(reg))];
+    }
+    // A negative term carries its own sign: `a-b`, never `a+-b`.
+    let joined = |first: &str, rest: &[String]| {
+        rest.iter().fold(first.to_string(), |mut s, t| {
+            if !t.starts_with('-') {
+                s.push('+');
+            }
+            s.push_str(t);
+            s
+        })
+    };
+    terms
+        .chunks(TERMS_PER_BLOCK)
+        .enumerate()
+        .map(|(k, chunk)| {
+            let reg = r(reg);
+            if k == 0 {
+                format!("{reg}={} ; {comment}", joined(&chunk[0], &chunk[1..]))
+            } else {
+                format!("{reg}={} ; {comment}", joined(&reg, chunk))
+            }
+        })
+        .collect()
 }
 
 /// The R-parameters the inserted blocks use, each with its role.
@@ -518,13 +604,7 @@ impl Emitter<'_> {
             .zip(&reg.g)
             .zip(predictor.taus())
             .map(|((x, g), tau)| (*x, *g, *tau))
-            .chain(
-                reg.input_x
-                    .iter()
-                    .zip(&reg.input_g)
-                    .zip(predictor.inputs())
-                    .map(|((x, g), term)| (*x, *g, term.tau_min)),
-            )
+            .chain(reg.lags.iter().map(|l| (l.x, l.g, l.tau_min)))
             .collect();
         let step = |dt: &str| -> Vec<String> {
             lags.iter()
@@ -548,37 +628,30 @@ impl Emitter<'_> {
             v.extend(step(&dt));
         }
         v.extend(self.set_targets(k, rpm));
+        let term = |gain: f64, n: u32| {
+            format!("{}*($A_INA[{n}]-{})", Emitter::mm(gain), r(reg.zero_of(n)))
+        };
+        let names = |signals: Vec<&str>| signals.join(", ");
         // The input holds from here to the next gate, as a log row's inputs do.
-        for ((g, zero), term) in reg
-            .input_g
-            .iter()
-            .zip(&reg.input_zero)
-            .zip(predictor.inputs())
-        {
-            v.push(format!(
-                "{}={}*($A_INA[{n}]-{zero}) ; {}",
-                r(*g),
-                Emitter::mm(term.gain_per_unit),
-                term.signal,
-                n = term.input,
-                zero = r(*zero)
-            ));
+        for lag in &reg.lags {
+            let terms: Vec<_> = lag.terms.iter().map(|&i| &predictor.inputs()[i]).collect();
+            let sum: Vec<String> = terms
+                .iter()
+                .map(|t| term(t.gain_per_unit, t.input))
+                .collect();
+            let signals = names(terms.iter().map(|t| t.signal.as_str()).collect());
+            let comment = format!("{signals} lagged {} min", number(lag.tau_min));
+            v.extend(sum_blocks(lag.g, &sum, &comment));
         }
         // Static inputs act at once: read now, not held from the last gate.
-        for ((value, zero), term) in reg
-            .static_v
-            .iter()
-            .zip(&reg.static_zero)
-            .zip(predictor.statics())
-        {
-            v.push(format!(
-                "{}={}*($A_INA[{n}]-{zero}) ; {}",
-                r(*value),
-                Emitter::mm(term.gain_per_unit),
-                term.signal,
-                n = term.input,
-                zero = r(*zero)
-            ));
+        if let Some(statics) = reg.statics {
+            let terms = predictor.statics();
+            let sum: Vec<String> = terms
+                .iter()
+                .map(|t| term(t.gain_per_unit, t.input))
+                .collect();
+            let signals = names(terms.iter().map(|t| t.signal.as_str()).collect());
+            v.extend(sum_blocks(statics, &sum, &signals));
         }
         v.push(format!("{}={}", r(reg.pred), self.prediction_sum(k)));
         v
@@ -590,9 +663,10 @@ impl Emitter<'_> {
         let sum: Vec<String> = reg
             .x
             .iter()
-            .chain(&reg.input_x)
-            .chain(&reg.static_v)
-            .map(|x| r(*x))
+            .copied()
+            .chain(reg.lags.iter().map(|l| l.x))
+            .chain(reg.statics)
+            .map(r)
             .chain(self.trend(k))
             .collect();
         let sum = if sum.is_empty() {
@@ -1058,22 +1132,18 @@ impl Emitter<'_> {
         ]);
         for (k, axis) in self.axes.iter().enumerate() {
             let a = self.reg(k);
-            for x in a.x.iter().chain(&a.input_x).chain(&a.input_g) {
-                v.push(format!("{}=0", r(*x)));
+            let lags = a.lags.iter().flat_map(|l| [l.x, l.g]);
+            for x in a.x.iter().copied().chain(lags).chain(a.statics) {
+                v.push(format!("{}=0", r(x)));
             }
-            let lagged = axis.predictor.inputs().iter().map(|t| (t.input, &t.signal));
-            let statics = axis
-                .predictor
-                .statics()
-                .iter()
-                .map(|t| (t.input, &t.signal));
-            for (zero, (input, signal)) in a
-                .input_zero
-                .iter()
-                .chain(&a.static_zero)
-                .zip(lagged.chain(statics))
-            {
-                v.push(format!("{}=$A_INA[{input}] ; {signal}", r(*zero)));
+            let model = axis.predictor;
+            let signals = model.inputs().iter().map(|t| (t.input, &t.signal));
+            let signals: Vec<_> = signals
+                .chain(model.statics().iter().map(|t| (t.input, &t.signal)))
+                .collect();
+            for &(input, zero) in &a.zeros {
+                let signal = signals.iter().find(|s| s.0 == input).map_or("", |s| s.1);
+                v.push(format!("{}=$A_INA[{input}] ; {signal}", r(zero)));
             }
             for reg_n in [
                 a.pred,
