@@ -6,6 +6,8 @@
 //! sensors ramp in between; that hold is all that is left (2.13 of 13.69 µm, the same to the nanometre as
 //! with one state per term before the terms shared them).
 
+mod common;
+
 use driftloop::model::DriftModel;
 use driftloop::model::effects::{Effect, Kind};
 use driftloop::omm::{ModelRef, Profile, transform};
@@ -35,15 +37,7 @@ fn model() -> DriftModel {
 
 /// Six passes, each after 20 minutes of dwell.
 fn program() -> String {
-    let mut s = String::from("G17 G90 G94 G54\nT=\"MILL\" M6\nD1\nS4000 M3\n");
-    for k in 0..6 {
-        s.push_str(&format!(
-            "G0 X100 Y100 Z50\nG4 F1200\n; PASS {k}\nG0 Z2\nG1 Z{:.1} F300\nG1 X300 F1200\nG1 Y120\nG1 X100\nG0 Z50\n",
-            -0.5 * f64::from(k + 1)
-        ));
-    }
-    s.push_str("M5\nM30\n");
-    s
+    common::facing_passes("G54", false, 0.0)
 }
 
 /// The default profile reading a_c … d_c on inputs 1 … 4, with a tolerance so wide that no gate after the

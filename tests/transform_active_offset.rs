@@ -4,6 +4,8 @@
 //! again after each selection. On a virtual machine drifting as the model says both cut closer than the
 //! originals, and the safety audit finds nothing.
 
+mod common;
+
 use driftloop::model::DriftModel;
 use driftloop::omm::profile::OffsetMethod;
 use driftloop::omm::{ModelRef, Profile};
@@ -22,17 +24,7 @@ fn model() -> DriftModel {
 /// Six face-milling passes, each after 20 minutes of spindle heating; `select` starts the program and
 /// every pass (empty: the program selects no work offset); `surface` is the part's top in work coordinates.
 fn program(select: &str, surface: f64) -> String {
-    let mut s = format!("G17 G90 G94 {select}\nT=\"MILL\" M6\nD1\nS4000 M3\n");
-    let top = surface + 50.0;
-    for k in 0..6 {
-        s.push_str(&format!(
-            "{select}\nG0 X100 Y100 Z{top}\nG4 F1200\n; PASS {k}\nG0 Z{:.1}\nG1 Z{:.1} F300\nG1 X300 F1200\nG1 Y120\nG1 X100\nG0 Z{top}\n",
-            surface + 2.0,
-            surface - 0.5 * f64::from(k + 1)
-        ));
-    }
-    s.push_str("M5\nM30\n");
-    s
+    common::facing_passes(select, !select.is_empty(), surface)
 }
 
 /// The default spindle-probe profile correcting the offset in force, measuring at every gate, the probe

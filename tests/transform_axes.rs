@@ -3,6 +3,8 @@
 //! virtual machine that drifts on both axes as the models say, the compensated program cuts with a smaller
 //! error on each axis than the original, and the safety audit finds nothing.
 
+mod common;
+
 use driftloop::model::DriftModel;
 use driftloop::omm::profile::{AlsoMeasured, Axis};
 use driftloop::omm::{ModelRef, Profile, prepare};
@@ -47,15 +49,7 @@ fn sparse_profile() -> Profile {
 
 /// Six passes of face milling, each after 20 minutes of spindle heating.
 fn program() -> String {
-    let mut s = String::from("G17 G90 G94 G54\nT=\"MILL\" M6\nD1\nS4000 M3\n");
-    for k in 0..6 {
-        s.push_str(&format!(
-            "G0 X100 Y100 Z50\nG4 F1200\n; PASS {k}\nG0 Z2\nG1 Z{:.1} F300\nG1 X300 F1200\nG1 Y120\nG1 X100\nG0 Z50\n",
-            -0.5 * f64::from(k + 1)
-        ));
-    }
-    s.push_str("M5\nM30\n");
-    s
+    common::facing_passes("G54", false, 0.0)
 }
 
 fn transformed() -> String {

@@ -63,3 +63,23 @@ pub fn files_under(dir: &Path, extensions: &[&str]) -> Vec<PathBuf> {
     walk(dir, extensions, &mut out);
     out
 }
+
+/// A milling part of six face passes, each after 20 minutes of spindle heating at 4000 rpm: `select`
+/// starts the program (a work offset, or nothing) and, with `every_pass`, each pass too; `surface` is the
+/// part's top in work coordinates, each pass 0.5 mm deeper.
+pub fn facing_passes(select: &str, every_pass: bool, surface: f64) -> String {
+    let mut s = format!("G17 G90 G94 {select}\nT=\"MILL\" M6\nD1\nS4000 M3\n");
+    let top = surface + 50.0;
+    for k in 0..6 {
+        if every_pass {
+            s.push_str(&format!("{select}\n"));
+        }
+        s.push_str(&format!(
+            "G0 X100 Y100 Z{top}\nG4 F1200\n; PASS {k}\nG0 Z{}\nG1 Z{:.1} F300\nG1 X300 F1200\nG1 Y120\nG1 X100\nG0 Z{top}\n",
+            surface + 2.0,
+            surface - 0.5 * f64::from(k + 1)
+        ));
+    }
+    s.push_str("M5\nM30\n");
+    s
+}
