@@ -53,9 +53,6 @@ fn profile() -> Profile {
 }
 
 fn run(program: &str) -> driftloop::vm::Run {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("truth.toml"), model().to_toml()).unwrap();
-    // Sensors ramping and turning at different times, so each lag and the static term matter.
     let machine = "[probe]\nsurface_mm = -100\n[offsets]\nG54 = { Z = -100.0 }\n\
         [signals]\n\
         a_c = { input = 1, points = [[0, 20], [60, 26], [160, 23], [240, 27]] }\n\
@@ -63,11 +60,7 @@ fn run(program: &str) -> driftloop::vm::Run {
         c_c = { input = 3, points = [[0, 20], [40, 20], [140, 30], [240, 31]] }\n\
         d_c = { input = 4, points = [[0, 20], [120, 24], [240, 18]] }\n\
         [models]\nZ = { file = \"truth.toml\" }\n";
-    let (cfg, spec) =
-        driftloop::vm::parse_machine_file(machine, dir.path(), driftloop::vm::Config::default())
-            .unwrap();
-    let mut m = spec.build(1);
-    driftloop::vm::run_source("part.mpf", program.as_bytes(), None, &cfg, &mut m).unwrap()
+    common::run_on_machine(machine, &[("truth.toml", model().to_toml())], program)
 }
 
 #[test]

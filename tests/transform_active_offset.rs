@@ -53,14 +53,8 @@ fn transformed(src: &str, p: &Profile) -> Result<String, String> {
 
 /// A machine drifting on Z as the model says, the probed surface at machine Z −100, G54 = Z −100.
 fn run(program: &str) -> driftloop::vm::Run {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("z.toml"), model().to_toml()).unwrap();
     let machine = "[probe]\nsurface_mm = -100\n[offsets]\nG54 = { Z = -100.0 }\n[models]\nZ = { file = \"z.toml\" }\n";
-    let (cfg, spec) =
-        driftloop::vm::parse_machine_file(machine, dir.path(), driftloop::vm::Config::default())
-            .unwrap();
-    let mut m = spec.build(1);
-    driftloop::vm::run_source("part.mpf", program.as_bytes(), None, &cfg, &mut m).unwrap()
+    common::run_on_machine(machine, &[("z.toml", model().to_toml())], program)
 }
 
 /// The transformed program cuts with less than a third of the original's error, ends normally, and its

@@ -87,15 +87,12 @@ fn transformed_with(p: &Profile) -> String {
 /// A machine drifting on Z and X as the models say; the probe's second argument names the axis.
 fn run(program: &str) -> driftloop::vm::Run {
     let (z, x) = models();
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("z.toml"), z.to_toml()).unwrap();
-    std::fs::write(dir.path().join("x.toml"), x.to_toml()).unwrap();
     let machine = "[probe]\nsurface_mm = -100\naxis_arg = 2\nsurfaces = { X = 50.0 }\n[offsets]\nG54 = { Z = -100.0 }\n[models]\nZ = { file = \"z.toml\" }\nX = { file = \"x.toml\" }\n";
-    let (cfg, spec) =
-        driftloop::vm::parse_machine_file(machine, dir.path(), driftloop::vm::Config::default())
-            .unwrap();
-    let mut m = spec.build(1);
-    driftloop::vm::run_source("part.mpf", program.as_bytes(), None, &cfg, &mut m).unwrap()
+    common::run_on_machine(
+        machine,
+        &[("z.toml", z.to_toml()), ("x.toml", x.to_toml())],
+        program,
+    )
 }
 
 #[test]

@@ -83,3 +83,21 @@ pub fn facing_passes(select: &str, every_pass: bool, surface: f64) -> String {
     s.push_str("M5\nM30\n");
     s
 }
+
+/// Runs `program` on the virtual machine the machine file `machine` describes, with `files` (name, text)
+/// written beside it (the models it names).
+pub fn run_on_machine(
+    machine: &str,
+    files: &[(&str, String)],
+    program: &str,
+) -> driftloop::vm::Run {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text) in files {
+        std::fs::write(dir.path().join(name), text).unwrap();
+    }
+    let (cfg, spec) =
+        driftloop::vm::parse_machine_file(machine, dir.path(), driftloop::vm::Config::default())
+            .unwrap();
+    let mut m = spec.build(1);
+    driftloop::vm::run_source("part.mpf", program.as_bytes(), None, &cfg, &mut m).unwrap()
+}
