@@ -455,7 +455,27 @@ fn transform_one(
     let audit = if args.no_audit {
         None
     } else {
-        Some(audit_output(input, &program, &edits, &refs, profile)?)
+        let note = audit_output(input, &program, &edits, &refs, profile, "")?;
+        if !profile.log.measure_every_gate {
+            // The dry run takes each gate's Cycle_in decision as the plan predicts it, so most gates skip
+            // their measuring branch there; on the machine a pause (a stop, a feed hold) makes the
+            // predicted change grow and the branch runs. The same program with every gate measuring has
+            // the same gates, each taking that branch: it must pass too.
+            let mut measuring = profile.clone();
+            measuring.log.measure_every_gate = true;
+            let (every, _) = omm::prepare_timed(&program, &moves, &refs, &measuring, args.force)
+                .map_err(|e| Refusal::new(e.reason(), e))?
+                .into_edits();
+            audit_output(
+                input,
+                &program,
+                &every,
+                &refs,
+                &measuring,
+                " with every gate measuring (as a gate does when a pause makes the predicted change exceed δ′; `[log] measure_every_gate = true` in the profile writes that program)",
+            )?;
+        }
+        Some(note)
     };
     Ok(Done::Transformed(Box::new(Outcome {
         program,
@@ -475,6 +495,7 @@ fn audit_output(
     edits: &Edits,
     models: &[ModelRef<'_>],
     profile: &Profile,
+    variant: &str,
 ) -> Result<AuditNote, Refusal> {
     use crate::vm::audit::{AuditSettings, Kind, audit_owned};
     // The virtual machine drifts as each axis's model predicts from the spindle; the terms it reads from
@@ -522,7 +543,7 @@ fn audit_output(
         return Err(Refusal::new(
             "audit findings",
             format!(
-                "the safety audit found {} hazard(s) in the output, nothing written; first: line {}: {}: {} (`driftloop run --audit` on the output shows them all)",
+                "the safety audit found {} hazard(s) in the output{variant}, nothing written; first: line {}: {}: {} (`driftloop run --audit` on the output shows them all)",
                 caused.len(),
                 f.line,
                 f.kind.name(),

@@ -744,7 +744,10 @@ impl Emitter<'_> {
             .zip(&self.regs.saved)
             .map(|(a, reg)| format!("{}=$AA_IW[{}]", r(*reg), a.name()))
             .collect();
-        let (h, clearance) = (r(self.regs.height), number(p.clearance));
+        let (h, clearance) = (
+            r(self.regs.height),
+            number(self.in_radius(p.retract_axis, p.clearance)),
+        );
         radius
             .into_iter()
             .chain([
@@ -755,6 +758,16 @@ impl Emitter<'_> {
                 "ENDIF".into(),
             ])
             .collect()
+    }
+
+    /// A profile coordinate on `axis` as the gate moves it: a gate moves X in radius (it switches DIAMON
+    /// off), and a profile that works in diameters (`[position] diameter`) gives X as a diameter.
+    fn in_radius(&self, axis: Axis, v: f64) -> f64 {
+        if axis == Axis::X && self.profile.position.diameter {
+            v / 2.0
+        } else {
+            v
+        }
     }
 
     /// Index of the retract axis in the profile's axes (and the saved position).
@@ -771,7 +784,7 @@ impl Emitter<'_> {
         let p = &self.profile.position;
         let at = &self.axes[k].at;
         let coordinate = |a: Axis| match a {
-            Axis::X => at.x,
+            Axis::X => self.in_radius(Axis::X, at.x),
             Axis::Y => at.y,
             Axis::Z => at.z,
         };
@@ -1043,6 +1056,11 @@ impl Emitter<'_> {
                 if let (ToolChange::M6, Some(sel)) = (p.probe.tool_change, &b.selected) {
                     v.push(format!("T={sel}"));
                 }
+                // The tool change stops the spindle, not the coolant: the program's next tool starts in
+                // the coolant it had.
+                if let Some(c @ (7 | 8)) = b.coolant {
+                    v.push(format!("M{c}"));
+                }
                 v.extend(self.modal_back(b));
                 return v;
             }
@@ -1076,8 +1094,11 @@ impl Emitter<'_> {
                 p.position.retract_axis.name(),
                 self.regs.saved[self.retract_index()]
             ));
+            v.extend(self.modal_back(b));
         }
-        v.extend(self.modal_back(b));
+        // A gauge gate moves nothing and changes no modal state (its cycle must leave the state as it
+        // found it): nothing to give back, and nothing written from a state the timeline may not know
+        // (after a dressing subprogram, say).
         v
     }
 

@@ -29,6 +29,13 @@ pub(super) fn build_unit<'m>(
     let marker = profile.passes.marker.to_ascii_uppercase();
     let mut b = Builder::new(profile, callees);
     let (first, count) = (blocks.start, blocks.end);
+    for jump in crate::syntax::structure::analyze(program).jumps {
+        if let Some(to) = jump.to
+            && blocks.contains(&jump.from)
+        {
+            b.jumps.entry(jump.from).or_default().push(to);
+        }
+    }
     let chunks = (count - first).div_ceil(CHUNK_BLOCKS);
     let scan = |k: usize| -> Scanned<'m> {
         let from = first + k * CHUNK_BLOCKS;

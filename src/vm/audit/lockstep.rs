@@ -420,10 +420,23 @@ impl Runner<'_> {
     fn differences(&self, t: &Interp<'_>, o: &Interp<'_>) -> [Vec<Difference>; 3] {
         let axes = &t.cfg.axes;
         let (ts, os) = (&t.motion, &o.motion);
+        // A gate goes back to where an axis is, in the frame of the corrections so far: the programmed
+        // position may differ by as much as the corrections have moved that axis's offset, no more.
+        let corrected: Vec<f64> = axes
+            .iter()
+            .map(|name| {
+                t.report()
+                    .corrections
+                    .iter()
+                    .filter(|c| c.axis == *name)
+                    .map(|c| (c.new_mm - c.old_mm).abs())
+                    .sum()
+            })
+            .collect();
         [
             state::tools(ts, os),
             state::modal(ts, os, self.settings, axes),
-            state::positions(ts, os, axes),
+            state::positions(ts, os, axes, &corrected),
         ]
     }
 

@@ -101,13 +101,19 @@ impl AuditSettings {
             .cycle
             .split_once('(')
             .and_then(|(_, args)| args.split(',').position(|a| a.contains("{axis}")));
-        let mut point = [p.x, p.y, p.z];
+        // A profile in diameters gives X as a diameter; the machine moves X in radius.
+        let radius = |v: f64| if p.diameter { v / 2.0 } else { v };
+        let mut point = [radius(p.x), p.y, p.z];
         point[axis] = p.nominal;
         let call = profile.cycle_call();
         let cycle = call.split('(').next().unwrap_or(&call).trim();
         let probe = &profile.probe;
         AuditSettings {
-            clearance: p.clearance,
+            clearance: if p.retract_axis == crate::omm::profile::Axis::X {
+                radius(p.clearance)
+            } else {
+                p.clearance
+            },
             retract_axis: p.retract_axis.number() as usize - 1,
             probe_tool: (probe.kind == ProbeKind::SpindleProbe && !probe.tool.is_empty())
                 .then(|| probe.tool.clone()),

@@ -116,11 +116,22 @@ fn linear(m: &Option<Matrix>) -> String {
     }
 }
 
-/// The programmed position of every axis the original has programmed.
-pub(super) fn positions(t: &State, o: &State, axes: &[String]) -> Vec<Difference> {
+/// The programmed position of every axis the original has programmed, beyond `corrected[axis]` (mm): how far
+/// driftloop's corrections have moved that axis's offset in this run.
+pub(super) fn positions(
+    t: &State,
+    o: &State,
+    axes: &[String],
+    corrected: &[f64],
+) -> Vec<Difference> {
     axes.iter()
         .enumerate()
-        .filter(|&(a, _)| o.moved & (1 << a) != 0 && differ(t.local[a], o.local[a]))
+        .filter(|&(a, _)| {
+            let off = (t.local[a] - o.local[a]).abs();
+            o.moved & (1 << a) != 0
+                && differ(t.local[a], o.local[a])
+                && !(off.is_finite() && off <= corrected[a] + MM)
+        })
         .map(|(a, name)| item(name, num(t.local[a]), num(o.local[a])))
         .collect()
 }

@@ -101,10 +101,20 @@ impl Interp<'_> {
             }
             "TRAFOOF" => self.motion.kinematics.transformation = None,
             "SUPA" => w.suppress_frames = true,
+            // The last programmed X is kept in the unit it is programmed in: switching converts it, as the
+            // control shows the same position as a diameter or a radius.
             "DIAMON" | "DIAM90" => {
-                self.motion.diameter_axis = self.cfg.axes.iter().position(|a| a == "X")
+                let x = self.cfg.axes.iter().position(|a| a == "X");
+                if let (None, Some(a)) = (self.motion.diameter_axis, x) {
+                    self.motion.local[a] *= 2.0;
+                }
+                self.motion.diameter_axis = x;
             }
-            "DIAMOF" => self.motion.diameter_axis = None,
+            "DIAMOF" => {
+                if let Some(a) = self.motion.diameter_axis.take() {
+                    self.motion.local[a] /= 2.0;
+                }
+            }
             "BSPLINE" | "ASPLINE" | "CSPLINE" => w.spline = true,
             "TRANS" | "ATRANS" | "ROT" | "AROT" | "SCALE" | "ASCALE" | "MIRROR" | "AMIRROR" => {
                 w.frame_command = Some(name)

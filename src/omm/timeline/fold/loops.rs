@@ -182,6 +182,55 @@ impl Builder<'_> {
         }
     }
 
+    /// A jump at block `i` (after its words): forward, the state it leaves in meets the fall-through state
+    /// at the target; backward, the blocks from the target to here run again in the state left here, as
+    /// a loop body does.
+    pub(super) fn jump_from(&mut self, i: usize) {
+        let Some(targets) = self.jumps.get(&i).cloned() else {
+            return;
+        };
+        for t in targets {
+            if t > i {
+                self.merging.entry(t).or_default().push(self.state.clone());
+            } else if let Some(entry) = self
+                .label_times
+                .values()
+                .find(|l| l.block == t)
+                .map(|l| l.state.clone())
+            {
+                self.mark_varying(&entry, (t, i));
+            }
+        }
+    }
+
+    /// Block `i`, before its words: a forward jump's target, where the fields in which the jumps' states
+    /// differ from the fall-through state are noted.
+    pub(super) fn jump_target(&mut self, i: usize) {
+        if let Some(states) = self.merging.remove(&i) {
+            for jumped in states {
+                let differ = field::differ(&jumped, &self.state);
+                if differ.contains(&true) {
+                    self.merges.push((i, differ));
+                }
+            }
+        }
+    }
+
+    /// The sites after a label that a jump reaches in another state: a field in which the states differ and
+    /// which the program has not set again since the label. (A site at the label's own block runs before
+    /// the label, on the fall-through path only.)
+    pub(super) fn mark_merges(&mut self) {
+        for (t, differ) in std::mem::take(&mut self.merges) {
+            let from = self.site_changes.partition_point(|(b, _)| *b <= t);
+            for (b, changed) in &self.site_changes[from..] {
+                let set_since = |f: usize| changed[f] > t;
+                if (0..field::COUNT).any(|f| differ[f] && !set_since(f)) {
+                    self.varies.insert(*b);
+                }
+            }
+        }
+    }
+
     /// A bound's value: a number, or an R-parameter last assigned a literal.
     fn value(&self, b: Bound) -> Option<f64> {
         match b {

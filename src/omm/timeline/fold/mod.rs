@@ -84,6 +84,14 @@ pub(super) struct Builder<'p> {
     /// Per axis X, Y, Z: the first block of a frame change (TRANS, ROT, G54 …) the axis has not been
     /// programmed absolutely since.
     frame_pending: [Option<usize>; 3],
+    /// The unit's jumps with a resolved target (GOTOF, GOTOB, GOTO, GOTOC, conditional or not): source
+    /// block → target blocks.
+    pub(super) jumps: HashMap<usize, Vec<usize>>,
+    /// Forward jumps not yet reached: target block → the states the jumps leave from.
+    merging: HashMap<usize, Vec<Modal>>,
+    /// Labels reached both by falling through and by a forward jump: the block and the fields in which the
+    /// two states differ.
+    merges: Vec<(usize, [bool; field::COUNT])>,
 }
 
 impl<'p> Builder<'p> {
@@ -129,6 +137,9 @@ impl<'p> Builder<'p> {
             lims: None,
             last_cut: 0,
             frame_pending: [None; 3],
+            jumps: HashMap::new(),
+            merging: HashMap::new(),
+            merges: Vec::new(),
         }
     }
 
@@ -361,10 +372,13 @@ impl<'p> Builder<'p> {
         if s.m.iter().any(|m| m <= 1) {
             self.safe_after = Some((i, SiteKind::Stop));
         }
-        // Changes matter only inside a loop body or a section that may be repeated.
-        let tracked =
-            (!self.open_loops.is_empty() || !self.label_times.is_empty() || s.label.is_some())
-                .then(|| self.state.clone());
+        self.jump_target(i);
+        // Changes matter only inside a loop body or a section that may be repeated, or jumped over.
+        let tracked = (!self.open_loops.is_empty()
+            || !self.label_times.is_empty()
+            || s.label.is_some()
+            || !self.merging.is_empty())
+        .then(|| self.state.clone());
         match kind {
             BlockKind::While | BlockKind::For | BlockKind::Loop | BlockKind::Repeat => {
                 self.loop_depth += 1;
@@ -478,7 +492,10 @@ impl<'p> Builder<'p> {
             self.state.feed = Some(f);
             self.state.unknown &= !unknown::FEED;
         }
-        if let Some(v) = s.s {
+        // In a G4 block S is the dwell in spindle revolutions, not a speed: the speed programmed before it
+        // stays (as F does).
+        let speed = s.s.filter(|_| !dwell);
+        if let Some(v) = speed {
             self.state.s = v;
             self.state.unknown &= !unknown::S;
         }
@@ -488,7 +505,7 @@ impl<'p> Builder<'p> {
         if s.g.contains(97) {
             self.state.css_rpm = None;
         } else if s.g.contains(96)
-            || (self.state.css_rpm.is_some() && (s.s.is_some() || s.lims.is_some()))
+            || (self.state.css_rpm.is_some() && (speed.is_some() || s.lims.is_some()))
         {
             self.state.css_rpm = Some(self.css_rpm());
         }
@@ -509,8 +526,8 @@ impl<'p> Builder<'p> {
         if let Some(d) = direction {
             self.state.direction = d;
         }
-        if s.s.is_some() || direction.is_some() {
-            self.t.spindle_words.push((start, s.s, direction));
+        if speed.is_some() || direction.is_some() {
+            self.t.spindle_words.push((start, speed, direction));
         }
         let tool_change = s.m.contains(6);
         if let Some(tool) = &s.tool {
@@ -560,6 +577,7 @@ impl<'p> Builder<'p> {
             }
         }
         self.loops(i, s, kind, start);
+        self.jump_from(i);
         self.start_site_speed(i);
     }
 
@@ -720,6 +738,7 @@ impl<'p> Builder<'p> {
         let total = self.time();
         self.t.total_min = total;
         self.t.last_cut_min = self.last_cut as f64 / TICKS_PER_MIN;
+        self.mark_merges();
         self.place_passes_and_sites(total);
         (self.t, self.called)
     }
