@@ -10,8 +10,14 @@ impl Builder<'_> {
     /// A subprogram or cycle runs at block `i`, `repeats` times: an archive subprogram adds its time, any
     /// other call is listed as not timed (`shown` is how the list names it).
     pub(super) fn call(&mut self, i: usize, name: &str, shown: &str, repeats: Option<f64>) {
-        // The swivel cycle's effect on the frames is followed (see `frames`).
-        self.after_call |= name != "CYCLE800";
+        // The swivel cycle's effect on the frames is followed (see `frames`). The high-speed settings
+        // cycle moves nothing and sets the path mode (G64x, compressor, tolerances): the path mode is then
+        // the cycle's, which a gate leaves as it is.
+        let settings = name == "CYCLE832";
+        if settings {
+            self.state.path_mode = None;
+        }
+        self.after_call |= name != "CYCLE800" && !settings;
         self.t.moves = true;
         if !self.called.contains(name) {
             self.called.insert(name.to_string());
@@ -20,6 +26,10 @@ impl Builder<'_> {
         // own line numbers mean nothing in this program).
         match self.callees.timeline(name) {
             Some((sub, elsewhere)) => {
+                // A subprogram that cuts: the reference measurement goes before it.
+                if sub.first_cut.is_some() {
+                    self.t.first_cut.get_or_insert(i);
+                }
                 self.t
                     .timed_calls
                     .push((i + 1, shown.to_string(), sub.total_min));
@@ -54,7 +64,15 @@ impl Builder<'_> {
                     }
                 }
             }
-            None => self.t.untimed_calls.push((i + 1, shown.to_string())),
+            None => {
+                // A cycle or subprogram driftloop cannot see into may cut (a drilling or pocket cycle):
+                // the reference measurement goes before it. The swivel, settings and measuring cycles
+                // do not cut.
+                if !cuts_nothing(name) && !self.profile.cycle_call().starts_with(name) {
+                    self.t.first_cut.get_or_insert(i);
+                }
+                self.t.untimed_calls.push((i + 1, shown.to_string()))
+            }
         }
     }
 
@@ -113,4 +131,27 @@ impl Builder<'_> {
             self.modal_call = Some((name, shown));
         }
     }
+}
+
+/// Siemens cycles that cut nothing: the swivel (CYCLE800), high-speed settings (CYCLE832) and the
+/// measuring cycles of workpieces and tools (CYCLE961 … CYCLE998).
+fn cuts_nothing(name: &str) -> bool {
+    matches!(
+        name,
+        "CYCLE800"
+            | "CYCLE832"
+            | "CYCLE961"
+            | "CYCLE971"
+            | "CYCLE973"
+            | "CYCLE974"
+            | "CYCLE976"
+            | "CYCLE977"
+            | "CYCLE978"
+            | "CYCLE979"
+            | "CYCLE982"
+            | "CYCLE994"
+            | "CYCLE996"
+            | "CYCLE997"
+            | "CYCLE998"
+    )
 }

@@ -37,6 +37,9 @@ impl Builder<'_> {
         {
             self.t.sites.pop();
         }
+        if self.after_call {
+            self.varies.insert(i);
+        }
         self.t.sites.push(Site {
             block: i,
             kind: SiteKind::SpeedChange,
@@ -118,6 +121,10 @@ impl Builder<'_> {
     pub(super) fn note_site(&mut self, i: usize) {
         if !self.open_loops.is_empty() || !self.label_times.is_empty() {
             self.site_changes.push((i, self.changed));
+        }
+        // What a subprogram or cycle left (feed, motion, …) is not known until the next tool change.
+        if self.after_call {
+            self.varies.insert(i);
         }
     }
 

@@ -1,0 +1,260 @@
+//! Hazards a QA run of shop-style programs found in the blocks `transform` inserted, each as a minimal
+//! program through the binary. `transform` audits its output twice, as the plan runs it and with every gate
+//! measuring (the branch a pause takes on the machine), and writes nothing on a finding: each case must be
+//! written (exit 0) and carry the right blocks.
+
+mod common;
+
+use std::path::Path;
+
+/// Writes `files` into a new folder and transforms `program` there with `profile` (and the folder as the
+/// subprogram folder): the exit status, the output program and stderr.
+fn transform(files: &[(&str, &str)], program: &str, profile: &str) -> (bool, String, String) {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text) in files {
+        std::fs::write(dir.path().join(name), text).unwrap();
+    }
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/omm/model.toml");
+    let o = common::driftloop(
+        dir.path(),
+        &[
+            "transform",
+            program,
+            "--model",
+            &model.display().to_string(),
+            "--profile",
+            profile,
+            "--subprograms",
+            ".",
+            "-o",
+            "out.mpf",
+        ],
+        b"",
+    );
+    let out = std::fs::read_to_string(dir.path().join("out.mpf")).unwrap_or_default();
+    (o.status.success(), out, common::stderr(&o))
+}
+
+/// The line index of the first line starting with `start`.
+fn line_of(out: &str, start: &str) -> usize {
+    out.lines()
+        .position(|l| l.starts_with(start))
+        .unwrap_or_else(|| panic!("no line starting with {start}:\n{out}"))
+}
+
+#[test]
+fn a_jump_over_a_retract_does_not_make_the_label_a_place_that_restores_rapid() {
+    // The fall-through path retracts in G0; the jump arrives in G1 at Z-1. A gate after the label that
+    // measured would give back G0 and rapid through the part: it may correct, never measure there.
+    let prog = "\
+G17 G90 G94 G71
+G54
+T=\"A\" M6
+D1
+S4000 M3
+G0 X-50 Y-50 Z5
+G1 Z-1 F200
+G1 X-20
+GOTOF WEITER
+G0 Z50
+WEITER:
+M1 ; PASS 2
+X-50 Y-40
+G0 Z100
+M30
+";
+    let (ok, out, err) = transform(&[("p.mpf", prog)], "p.mpf", "tool-setter");
+    assert!(ok, "{err}");
+    let after = &out[out.find("WEITER:\n").unwrap()..];
+    let gate_end = after.find("X-50 Y-40").unwrap();
+    assert!(
+        !after[..gate_end].contains("DL_SETTER("),
+        "{}",
+        &after[..gate_end]
+    );
+}
+
+#[test]
+fn a_gauge_gate_after_a_dressing_subprogram_writes_no_feed_back() {
+    let dress = "G0 X60 Z140\nG1 X59.96 F5\nG1 Z160 F20\nG1 X40.4 Z-20 F2\nRET\n";
+    let prog = "\
+G18 G90 G94 G71 DIAMON
+G54
+T1 D1
+S1500 M3
+G0 X44 Z-20
+G1 X42 F500
+G0 X48
+DRESS
+G0 X44 Z-20 ; PASS finish
+G1 X40.0
+G0 X48
+M5
+M30
+";
+    let (ok, out, err) = transform(
+        &[("p.mpf", prog), ("DRESS.SPF", dress)],
+        "p.mpf",
+        "grinder-gauge",
+    );
+    assert!(ok, "{err}");
+    assert!(out.contains("DL_GAUGE("), "{out}");
+    assert!(
+        !out.lines()
+            .any(|l| l.ends_with(";DL") && l.contains(" F500")),
+        "{out}"
+    );
+}
+
+#[test]
+fn s_in_a_dwell_block_is_revolutions_not_a_speed() {
+    let prog = "\
+G18 G90 G94 G71 DIAMON
+G54
+T1 D1
+S1500 M3
+G0 X44 Z-20
+G1 X40.2 F2
+G4 S2
+G0 X48
+G0 X40.4 Z-40 ; PASS 2
+G1 X40.0 F1
+G0 X48
+M5
+M30
+";
+    let (ok, out, err) = transform(&[("p.mpf", prog)], "p.mpf", "lathe-setter");
+    assert!(ok, "{err}");
+    assert!(!out.contains("S2 M3 ;DL"), "{out}");
+    assert!(!out.contains("; 2 rpm"), "{out}");
+    assert!(out.contains("; 1500 rpm"), "{out}");
+}
+
+#[test]
+fn coolant_comes_back_before_the_programs_own_tool_change() {
+    let prog = "\
+G17 G90 G94 G71
+G54
+T=\"A\" M6
+D1
+S5000 M3 M8
+G0 X-50 Y-50 Z5
+G1 Z-1 F200
+G1 X-20
+G0 Z100
+T=\"B\" M6
+D1
+S4000 M3
+G0 X-50 Y-50 Z5
+G1 Z-1 F200
+G1 X-20
+G0 Z100
+M30
+";
+    let (ok, out, err) = transform(&[("p.mpf", prog)], "p.mpf", "blum-tc50");
+    assert!(ok, "{err}");
+    let change = line_of(&out, "T=\"B\" M6\n".trim_end());
+    let lines: Vec<&str> = out.lines().collect();
+    let gate: Vec<&str> = lines[..change]
+        .iter()
+        .rev()
+        .take_while(|l| l.ends_with(";DL"))
+        .copied()
+        .collect();
+    assert!(gate.contains(&"M8 ;DL"), "{gate:#?}");
+}
+
+#[test]
+fn the_zero_is_measured_before_cuts_in_a_subprogram_or_a_cycle() {
+    let pocket = "G0 X10 Y10 Z2\nG1 Z-3 F300\nG1 X40\nG1 Y40\nG1 X10\nG0 Z50\nM17\n";
+    let prog = "\
+G17 G90 G94 G71
+G54
+T=\"EM8\" M6
+D1
+S5000 M3
+G0 X0 Y0 Z50
+L100
+L100
+G0 Z100
+M5
+M30
+";
+    let (ok, out, err) = transform(
+        &[("p.mpf", prog), ("L100.SPF", pocket)],
+        "p.mpf",
+        "grinder-gauge",
+    );
+    assert!(ok, "{err}");
+    assert!(
+        line_of(&out, "; driftloop stage 4") < line_of(&out, "L100"),
+        "{out}"
+    );
+    // A drilling cycle driftloop cannot see into may cut: the zero goes before it.
+    let drill = "\
+G17 G90 G94 G71
+G54
+T=\"DR5\" M6
+D1
+S3000 M3
+G0 X0 Y0 Z50
+G0 Z5
+CYCLE81(20,0,2,-10)
+G0 Z100
+M30
+";
+    let (ok, out, err) = transform(&[("d.mpf", drill)], "d.mpf", "tool-setter");
+    assert!(ok, "{err}");
+    assert!(
+        line_of(&out, "; driftloop stage 4") < line_of(&out, "CYCLE81("),
+        "{out}"
+    );
+}
+
+#[test]
+fn the_high_speed_settings_cycle_leaves_a_place_to_measure_and_its_path_mode() {
+    let prog = "\
+G17 G90 G94 G71 G60
+T=\"EM12\" M6
+D1
+S4000 M3
+G54
+CYCLE832(0.01,_SEMIFIN,1)
+G0 X-20 Y0 Z5
+G1 Z-1 F500
+G1 X60
+G0 Z50
+M30
+";
+    let (ok, out, err) = transform(&[("p.mpf", prog)], "p.mpf", "tool-setter");
+    assert!(ok, "{err}");
+    // The gate gives back no path mode of its own over the one CYCLE832 set.
+    let after = &out[out.find("CYCLE832(").unwrap()..];
+    assert!(
+        !after
+            .lines()
+            .any(|l| l.ends_with(";DL") && l.split_whitespace().any(|w| w == "G60")),
+        "{after}"
+    );
+}
+
+#[test]
+fn a_lathe_profile_in_diameters_moves_x_in_radius() {
+    let prog = "\
+G18 G90 G94 G71 DIAMON
+G54
+T1 D1
+S1500 M3
+G0 X44 Z-20
+G1 X40.2 F2
+G0 X48
+G0 Z100
+M5
+M30
+";
+    let (ok, out, err) = transform(&[("p.mpf", prog)], "p.mpf", "lathe-setter");
+    assert!(ok, "{err}");
+    // The profile's start point Ø120 and clearance Ø200, moved under DIAMOF.
+    assert!(out.contains("SUPA X60 ;DL"), "{out}");
+    assert!(out.contains("IF R62<100 ;DL"), "{out}");
+}
