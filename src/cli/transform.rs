@@ -554,7 +554,15 @@ fn audit_output(
     Ok(AuditNote {
         warnings: warnings
             .iter()
-            .map(|f| format!("line {}: {}: {}", f.line, f.kind.name(), f.message))
+            .map(|f| match f.original_line {
+                Some(line) => format!("line {line}: {}: {}", f.kind.name(), f.message),
+                None => format!(
+                    "line {} of the output: {}: {}",
+                    f.line,
+                    f.kind.name(),
+                    f.message
+                ),
+            })
             .collect(),
         incomplete: found.stopped.clone(),
         resume_points: found.resume_points,

@@ -53,7 +53,7 @@ pub enum TransformError {
     )]
     ComputedR(String),
     #[error(
-        "the program selects {found} ({at}) but the profile corrects {profile}; use a profile for {found}"
+        "the program selects {found} ({at}) but the profile corrects {profile}: set [offset] select = \"{found}\" (and its frame), or correct whichever offset is in force with [offset] method = \"active\""
     )]
     OtherOffset {
         found: String,
