@@ -432,6 +432,8 @@ pub struct ArcSpec {
     pub centre: Option<[f64; 2]>,
     pub centre_absolute: bool,
     pub radius: Option<f64>,
+    /// `TURN=`: full turns before the end point (a helix), each adding a circle to the path.
+    pub turns: f64,
 }
 
 /// The centre of an arc in the plane, from I/J (relative or absolute) or from CR= (positive: the arc of at
@@ -511,7 +513,7 @@ pub fn arc_length(arc: &ArcSpec, start: [f64; 2], end: [f64; 2], rise: f64) -> R
         (None, None) => return Err("circle without centre (I, J, K) or radius (CR=)".into()),
     };
     let (sweep, r) = sweep_and_radius;
-    Ok((sweep * r).hypot(rise))
+    Ok(((sweep + arc.turns * std::f64::consts::TAU) * r).hypot(rise))
 }
 
 #[cfg(test)]
@@ -524,7 +526,24 @@ mod tests {
             centre,
             centre_absolute: false,
             radius,
+            turns: 0.0,
         }
+    }
+
+    #[test]
+    fn each_turn_of_a_helix_adds_a_circle() {
+        let one = arc_length(
+            &arc(false, Some([-10.0, 0.0]), None),
+            [10.0, 0.0],
+            [10.0, 0.0],
+            0.0,
+        );
+        let mut three = arc(false, Some([-10.0, 0.0]), None);
+        three.turns = 2.0;
+        let three = arc_length(&three, [10.0, 0.0], [10.0, 0.0], 6.0).unwrap();
+        let circle = std::f64::consts::TAU * 10.0;
+        assert!((one.unwrap() - circle).abs() < 1e-9);
+        assert!((three - (3.0 * circle).hypot(6.0)).abs() < 1e-9);
     }
 
     #[test]
@@ -615,6 +634,7 @@ mod tests {
             centre: None,
             centre_absolute: false,
             radius: Some(cr),
+            turns: 0.0,
         };
         let near = |c: Option<[f64; 2]>, x: f64, y: f64| {
             let c = c.unwrap();
@@ -647,6 +667,7 @@ mod tests {
             centre: Some([5.0, 1.0]),
             centre_absolute: false,
             radius: None,
+            turns: 0.0,
         };
         assert!(near(arc_centre(&ij, [1.0, 1.0], [0.0, 0.0]), 6.0, 2.0));
     }

@@ -372,6 +372,7 @@ impl Interp<'_> {
                 centre,
                 centre_absolute,
                 radius: w.cr,
+                turns: w.turn.unwrap_or(0.0),
             };
             let rise = infeed.map_or(0.0, |k| st.local[k] - start_local[k]);
             let (start, end) = ([start_local[p], start_local[q]], [st.local[p], st.local[q]]);

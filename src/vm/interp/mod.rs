@@ -97,6 +97,8 @@ struct Words {
     /// I, J, K (index 0..3) and whether given as AC().
     centre: [Option<(f64, bool)>; 3],
     cr: Option<f64>,
+    /// `TURN=`: full turns a helix makes before its end point.
+    turn: Option<f64>,
     /// `LIMS=`: the speed limit under constant cutting speed.
     lims: Option<f64>,
     frame_command: Option<String>,

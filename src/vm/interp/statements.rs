@@ -104,7 +104,7 @@ impl Interp<'_> {
         self.store(u, target, v, w)
     }
 
-    /// `NAME = value` where NAME is an address: F, S, S1, T, D, M, Mn, CR, I, J, K.
+    /// `NAME = value` where NAME is an address: F, S, S1, T, D, M, Mn, CR, TURN, I, J, K.
     pub(super) fn address(
         &mut self,
         u: &Unit,
@@ -117,6 +117,13 @@ impl Interp<'_> {
             "S" | "S1" => w.s = Some(self.num(u, value)?),
             "D" => w.d = Some(self.num(u, value)?),
             "CR" => w.cr = Some(self.num(u, value)?),
+            "TURN" => {
+                let n = self.num(u, value)?;
+                if !(0.0..=999.0).contains(&n) || n.fract() != 0.0 {
+                    return Err(format!("TURN={n} must be a whole number of turns, 0 … 999"));
+                }
+                w.turn = Some(n);
+            }
             "LIMS" => w.lims = Some(self.num(u, value)?),
             "T" => {
                 w.tool = Some(match self.eval(u, value)? {
