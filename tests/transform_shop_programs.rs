@@ -8,8 +8,8 @@ mod common;
 use std::path::Path;
 
 /// Writes `files` into a new folder and transforms `program` there with `profile` (and the folder as the
-/// subprogram folder): the exit status, the output program and stderr.
-fn transform(files: &[(&str, &str)], program: &str, profile: &str) -> (bool, String, String) {
+/// subprogram folder): the output program, which must have been written.
+fn transformed(files: &[(&str, &str)], program: &str, profile: &str) -> String {
     let dir = tempfile::tempdir().unwrap();
     for (name, text) in files {
         std::fs::write(dir.path().join(name), text).unwrap();
@@ -31,8 +31,8 @@ fn transform(files: &[(&str, &str)], program: &str, profile: &str) -> (bool, Str
         ],
         b"",
     );
-    let out = std::fs::read_to_string(dir.path().join("out.mpf")).unwrap_or_default();
-    (o.status.success(), out, common::stderr(&o))
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    std::fs::read_to_string(dir.path().join("out.mpf")).unwrap()
 }
 
 /// The line index of the first line starting with `start`.
@@ -63,8 +63,7 @@ X-50 Y-40
 G0 Z100
 M30
 ";
-    let (ok, out, err) = transform(&[("p.mpf", prog)], "p.mpf", "tool-setter");
-    assert!(ok, "{err}");
+    let out = transformed(&[("p.mpf", prog)], "p.mpf", "tool-setter");
     let after = &out[out.find("WEITER:\n").unwrap()..];
     let gate_end = after.find("X-50 Y-40").unwrap();
     assert!(
@@ -92,12 +91,11 @@ G0 X48
 M5
 M30
 ";
-    let (ok, out, err) = transform(
+    let out = transformed(
         &[("p.mpf", prog), ("DRESS.SPF", dress)],
         "p.mpf",
         "grinder-gauge",
     );
-    assert!(ok, "{err}");
     assert!(out.contains("DL_GAUGE("), "{out}");
     assert!(
         !out.lines()
@@ -123,8 +121,7 @@ G0 X48
 M5
 M30
 ";
-    let (ok, out, err) = transform(&[("p.mpf", prog)], "p.mpf", "lathe-setter");
-    assert!(ok, "{err}");
+    let out = transformed(&[("p.mpf", prog)], "p.mpf", "lathe-setter");
     assert!(!out.contains("S2 M3 ;DL"), "{out}");
     assert!(!out.contains("; 2 rpm"), "{out}");
     assert!(out.contains("; 1500 rpm"), "{out}");
@@ -151,8 +148,7 @@ G1 X-20
 G0 Z100
 M30
 ";
-    let (ok, out, err) = transform(&[("p.mpf", prog)], "p.mpf", "blum-tc50");
-    assert!(ok, "{err}");
+    let out = transformed(&[("p.mpf", prog)], "p.mpf", "blum-tc50");
     let change = line_of(&out, "T=\"B\" M6\n".trim_end());
     let lines: Vec<&str> = out.lines().collect();
     let gate: Vec<&str> = lines[..change]
@@ -180,12 +176,11 @@ G0 Z100
 M5
 M30
 ";
-    let (ok, out, err) = transform(
+    let out = transformed(
         &[("p.mpf", prog), ("L100.SPF", pocket)],
         "p.mpf",
         "grinder-gauge",
     );
-    assert!(ok, "{err}");
     assert!(
         line_of(&out, "; driftloop stage 4") < line_of(&out, "L100"),
         "{out}"
@@ -203,8 +198,7 @@ CYCLE81(20,0,2,-10)
 G0 Z100
 M30
 ";
-    let (ok, out, err) = transform(&[("d.mpf", drill)], "d.mpf", "tool-setter");
-    assert!(ok, "{err}");
+    let out = transformed(&[("d.mpf", drill)], "d.mpf", "tool-setter");
     assert!(
         line_of(&out, "; driftloop stage 4") < line_of(&out, "CYCLE81("),
         "{out}"
@@ -226,8 +220,7 @@ G1 X60
 G0 Z50
 M30
 ";
-    let (ok, out, err) = transform(&[("p.mpf", prog)], "p.mpf", "tool-setter");
-    assert!(ok, "{err}");
+    let out = transformed(&[("p.mpf", prog)], "p.mpf", "tool-setter");
     // The gate gives back no path mode of its own over the one CYCLE832 set.
     let after = &out[out.find("CYCLE832(").unwrap()..];
     assert!(
@@ -252,8 +245,7 @@ G0 Z100
 M5
 M30
 ";
-    let (ok, out, err) = transform(&[("p.mpf", prog)], "p.mpf", "lathe-setter");
-    assert!(ok, "{err}");
+    let out = transformed(&[("p.mpf", prog)], "p.mpf", "lathe-setter");
     // The profile's start point Ø120 and clearance Ø200, moved under DIAMOF.
     assert!(out.contains("SUPA X60 ;DL"), "{out}");
     assert!(out.contains("IF R62<100 ;DL"), "{out}");
