@@ -250,3 +250,126 @@ M30
     assert!(out.contains("SUPA X60 ;DL"), "{out}");
     assert!(out.contains("IF R62<100 ;DL"), "{out}");
 }
+
+#[test]
+fn the_zero_is_never_inside_the_programs_own_if() {
+    // With T12 already in the spindle (a restart) the IF is skipped: a zero inside it would never be
+    // measured, and the offset would later be written from a register never set.
+    let prog = "\
+G17 G90 G94 G71
+G54
+IF $P_TOOLNO<>12
+  T12 M6
+ENDIF
+D1
+S3000 M3
+G0 X50 Y50 Z5
+G1 Z-2 F300
+G1 X80
+G0 Z100
+M30
+";
+    let out = transformed(&[("p.mpf", prog)], "p.mpf", "blum-tc50");
+    assert!(
+        line_of(&out, "ENDIF") < line_of(&out, "; driftloop stage 1"),
+        "{out}"
+    );
+}
+
+#[test]
+fn a_tool_setter_measures_its_zero_with_the_first_tool_loaded() {
+    let prog = "\
+G18 G90 G95 G71 DIAMON
+G54
+G0 X200 Z150
+T1 D1
+G96 S200 LIMS=3000 M4
+G0 X44 Z2
+G1 X40 F0.2
+G1 Z-30
+G0 X200 Z150
+M30
+";
+    let out = transformed(&[("p.mpf", prog)], "p.mpf", "lathe-setter");
+    assert!(
+        line_of(&out, "T1 D1") < line_of(&out, "; driftloop stage 4"),
+        "{out}"
+    );
+}
+
+#[test]
+fn a_gate_after_a_translation_is_cancelled_goes_back_to_where_the_machine_is() {
+    // After the bare TRANS the original's programmed X is still the one inside the translation; the gate
+    // goes back to the same machine point in the new frame, and the next X is absolute.
+    let prog = "\
+G17 G90 G94 G71
+G54
+T=\"FR\" M6
+D1
+S4000 M3
+TRANS X70
+G0 X-10 Y10 Z20
+G1 Z-3 F400
+G1 X40 F1500
+G0 Z20
+TRANS
+G0 Z150
+M5
+M0
+G0 X0 Y-50
+M30
+";
+    let out = transformed(&[("p.mpf", prog)], "p.mpf", "blum-tc50");
+    assert!(out.contains("BL9700("), "{out}");
+}
+
+#[test]
+fn the_pass_marker_is_a_word_not_a_prefix() {
+    let prog = "\
+; Passung 40H7
+G17 G90 G94 G71
+G54
+T=\"EM8\" M6
+D1
+S5000 M3
+G0 X0 Y0 Z5
+G1 Z-1 F300
+G1 X50
+G0 Z50
+; Passmass pruefen
+G0 X0 Y0
+G1 Z-2 F300
+G1 X50
+G0 Z50
+; PASS 2
+G0 X0 Y0
+G1 Z-3 F300
+G1 X50
+G0 Z50
+M30
+";
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("p.mpf"), prog).unwrap();
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/omm/model.toml");
+    let o = common::driftloop(
+        dir.path(),
+        &[
+            "plan",
+            "p.mpf",
+            "--model",
+            &model.display().to_string(),
+            "--format",
+            "json",
+        ],
+        b"",
+    );
+    let plan: serde_json::Value = serde_json::from_str(&common::stdout(&o)).unwrap();
+    // The tool change's pass and the marked one: not the comments that merely start with "Pass".
+    let lines: Vec<u64> = plan["passes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p["line"].as_u64().unwrap())
+        .collect();
+    assert_eq!(lines, [4, 16], "{plan}");
+}

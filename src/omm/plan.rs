@@ -437,6 +437,11 @@ fn unfit_for_reference(site: &Site, profile: &Profile, rule: OffsetRule) -> Opti
     if let Some(why) = unfit_for_gate(site, profile, rule).or_else(|| frame_blocks(site, profile)) {
         return Some(why);
     }
+    if site.conditional {
+        return Some(
+            "it lies inside an IF … ENDIF of the program, which does not run every time, and the zero must",
+        );
+    }
     if site.state_varies {
         return Some(
             "its modal state is not known for sure (later runs of a loop reach it in another state, or a subprogram or cycle ran before it)",
@@ -463,8 +468,18 @@ fn reference_site(
     if !timeline.moves {
         return Err(PlanError::NothingToCompensate);
     }
-    let from = timeline.setup_end.max(timeline.preamble_end);
     let to = timeline.first_cut.unwrap_or(usize::MAX);
+    // A tool setter measures the tool in the spindle: the zero after the last tool load before the first
+    // cut, so that it is the tool that cuts.
+    let last_load = timeline
+        .sites
+        .iter()
+        .filter(|s| matches!(s.kind, SiteKind::PassStart { tool_change: true }) && s.block < to)
+        .map(|s| s.block + 1)
+        .max()
+        .filter(|_| profile.probe.kind == ProbeKind::ToolSetter)
+        .unwrap_or(0);
+    let from = timeline.setup_end.max(timeline.preamble_end).max(last_load);
     let mut unfit: Option<(usize, &str)> = None;
     for (k, site) in timeline.sites.iter().enumerate() {
         if site.block < from || site.block > to {

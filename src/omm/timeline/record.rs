@@ -51,6 +51,8 @@ pub struct Site {
     /// The block lies between a frame change and the incremental move that traverses it
     /// ([`Timeline::frame_traverses`]).
     pub frame_traverse: bool,
+    /// The block lies inside an IF … ELSE … ENDIF of the program: it runs only when its condition holds.
+    pub conditional: bool,
 }
 
 /// One technological pass.
@@ -115,6 +117,8 @@ pub struct Timeline {
     /// Blocks (change, move): a frame change and the incremental move that first traverses it on an axis;
     /// a gate at a block after the change and up to the move could not give the traverse back.
     pub frame_traverses: Vec<(usize, usize)>,
+    /// The program's IF … ENDIF structures (IF block, ENDIF block): what lies between runs only sometimes.
+    pub conditional: Vec<(usize, usize)>,
     /// One past the last block before the first cut that selects a work offset or changes frames or
     /// transformations: the reference measurement goes after the program's own setup.
     pub setup_end: usize,

@@ -124,13 +124,19 @@ pub(super) fn positions(
     axes: &[String],
     corrected: &[f64],
 ) -> Vec<Difference> {
+    let within = |d: f64, a: usize| d.is_finite() && d.abs() <= corrected[a] + MM;
     axes.iter()
         .enumerate()
         .filter(|&(a, _)| {
-            let off = (t.local[a] - o.local[a]).abs();
+            // The original stands where a frame change left it, not yet traversed on this axis, and the
+            // gate went back to that very point in the new frame: the machine is where the original's is.
+            // (The plan puts no gate before an incremental move that would traverse the change.)
+            let untraversed =
+                differ(o.local[a], o.work_position(a)) && within(t.machine[a] - o.machine[a], a);
             o.moved & (1 << a) != 0
                 && differ(t.local[a], o.local[a])
-                && !(off.is_finite() && off <= corrected[a] + MM)
+                && !within(t.local[a] - o.local[a], a)
+                && !untraversed
         })
         .map(|(a, name)| item(name, num(t.local[a]), num(o.local[a])))
         .collect()

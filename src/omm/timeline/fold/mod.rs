@@ -87,6 +87,8 @@ pub(super) struct Builder<'p> {
     /// The unit's jumps with a resolved target (GOTOF, GOTOB, GOTO, GOTOC, conditional or not): source
     /// block → target blocks.
     pub(super) jumps: HashMap<usize, Vec<usize>>,
+    /// IF blocks whose ENDIF has not come yet.
+    open_ifs: Vec<usize>,
     /// Forward jumps not yet reached: target block → the states the jumps leave from.
     merging: HashMap<usize, Vec<Modal>>,
     /// Labels reached both by falling through and by a forward jump: the block and the fields in which the
@@ -138,6 +140,7 @@ impl<'p> Builder<'p> {
             last_cut: 0,
             frame_pending: [None; 3],
             jumps: HashMap::new(),
+            open_ifs: Vec::new(),
             merging: HashMap::new(),
             merges: Vec::new(),
         }
@@ -200,7 +203,7 @@ impl<'p> Builder<'p> {
         let start = self.time();
         let blank = motion.is_none() && mv.axes.iter().all(Option::is_none);
         self.header_and_preamble(i, false, false, blank);
-        self.start_site(i, start);
+        self.start_site(i, start, !self.open_ifs.is_empty());
         if let Some(g) = motion
             && g != self.state.motion
         {
@@ -387,6 +390,12 @@ impl<'p> Builder<'p> {
             BlockKind::EndWhile | BlockKind::EndFor | BlockKind::EndLoop | BlockKind::Until => {
                 self.loop_depth = self.loop_depth.saturating_sub(1);
             }
+            BlockKind::If => self.open_ifs.push(i),
+            BlockKind::EndIf => {
+                if let Some(start) = self.open_ifs.pop() {
+                    self.t.conditional.push((start, i));
+                }
+            }
             _ => {}
         }
         // The state before the block is kept only where a site or pass mark can arise: a copy per block
@@ -417,7 +426,10 @@ impl<'p> Builder<'p> {
             s.declaration || s.kind_header,
             blank,
         );
-        self.start_site(i, start);
+        // A gate before an ELSE or ENDIF is inside the IF it closes.
+        let inside_if =
+            !self.open_ifs.is_empty() || matches!(kind, BlockKind::Else | BlockKind::EndIf);
+        self.start_site(i, start, inside_if);
         for r in &s.r {
             match r {
                 Some(n) => {
@@ -622,6 +634,7 @@ impl<'p> Builder<'p> {
                 rpm_after: rpm,
                 state_varies: false,
                 frame_traverse: false,
+                conditional: false,
                 idle_min: self.idle_since_cut(start),
             });
         }

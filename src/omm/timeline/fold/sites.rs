@@ -49,6 +49,7 @@ impl Builder<'_> {
             rpm_after: rpm,
             state_varies: false,
             frame_traverse: false,
+            conditional: false,
             idle_min: self.idle_since_cut(time_min),
         });
     }
@@ -76,14 +77,16 @@ impl Builder<'_> {
                 idle_min: self.idle_since_cut(self.time()),
                 state_varies: false,
                 frame_traverse: false,
+                conditional: false,
             });
         }
     }
 
     /// Keeps block `i` as the start site while the setup is over and nothing has cut yet; a later setup
-    /// block (work offset, frame) makes the block after it the candidate instead.
-    pub(super) fn start_site(&mut self, i: usize, time_min: f64) {
-        if self.t.first_cut.is_some() || !(self.header_done && self.preamble_done) {
+    /// block (work offset, frame) makes the block after it the candidate instead. Not inside an IF: the
+    /// zero must be measured on every run.
+    pub(super) fn start_site(&mut self, i: usize, time_min: f64, inside_if: bool) {
+        if self.t.first_cut.is_some() || !(self.header_done && self.preamble_done) || inside_if {
             return;
         }
         if self
@@ -106,6 +109,7 @@ impl Builder<'_> {
             rpm_after: self.rpm,
             state_varies: false,
             frame_traverse: false,
+            conditional: false,
             idle_min: self.idle_since_cut(time_min),
         });
     }
@@ -170,6 +174,7 @@ impl Builder<'_> {
                 rpm_after: m.rpm,
                 state_varies: false,
                 frame_traverse: false,
+                conditional: false,
                 idle_min: m.idle,
             });
         }
@@ -190,6 +195,11 @@ impl Builder<'_> {
                 .frame_traverses
                 .iter()
                 .any(|&(change, mv)| change < site.block && site.block <= mv);
+            site.conditional = self
+                .t
+                .conditional
+                .iter()
+                .any(|&(start, end)| start < site.block && site.block <= end);
             // Without M6 in the program, T loads the tool at once.
             if t_loads {
                 site.before.tool = site.before.selected.clone();

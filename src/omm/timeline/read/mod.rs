@@ -328,7 +328,11 @@ impl Codes {
 fn comment(text: &[u8], marker: &str, s: &mut Scan) {
     s.path_comment = text.starts_with(b";$PATH");
     let words = text[1..].trim_ascii_start();
+    // The marker as a word: `PASS 2`, `PASS:` but not `Passung`.
     s.marker = !marker.is_empty()
         && words.len() >= marker.len()
-        && words[..marker.len()].eq_ignore_ascii_case(marker.as_bytes());
+        && words[..marker.len()].eq_ignore_ascii_case(marker.as_bytes())
+        && words
+            .get(marker.len())
+            .is_none_or(|b| !b.is_ascii_alphanumeric() && *b != b'_');
 }
