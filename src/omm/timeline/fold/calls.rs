@@ -17,7 +17,9 @@ impl Builder<'_> {
         if settings {
             self.state.path_mode = None;
         }
-        self.after_call |= name != "CYCLE800" && !settings;
+        // The blank and contour descriptions of ShopMill/ShopTurn move nothing and set nothing modal.
+        let description = matches!(name, "WORKPIECE" | "CYCLE62");
+        self.after_call |= name != "CYCLE800" && !settings && !description;
         self.t.moves = true;
         if !self.called.contains(name) {
             self.called.insert(name.to_string());
@@ -133,13 +135,16 @@ impl Builder<'_> {
     }
 }
 
-/// Siemens cycles that cut nothing: the swivel (CYCLE800), high-speed settings (CYCLE832) and the
-/// measuring cycles of workpieces and tools (CYCLE961 … CYCLE998).
+/// Siemens cycles that cut nothing: the swivel (CYCLE800), high-speed settings (CYCLE832), the blank
+/// (WORKPIECE) and contour (CYCLE62) descriptions of ShopMill/ShopTurn programs, and the measuring cycles of
+/// workpieces and tools (CYCLE961 … CYCLE998).
 fn cuts_nothing(name: &str) -> bool {
     matches!(
         name,
         "CYCLE800"
             | "CYCLE832"
+            | "WORKPIECE"
+            | "CYCLE62"
             | "CYCLE961"
             | "CYCLE971"
             | "CYCLE973"
