@@ -373,3 +373,23 @@ M30
         .collect();
     assert_eq!(lines, [4, 16], "{plan}");
 }
+
+#[test]
+fn a_shopmill_blank_description_is_no_cut() {
+    let prog = "\
+N1 G17 G90 G60
+N2 WORKPIECE(,\"\",,\"BOX\",112,0,-30,-80,-50,-40,100,80)
+N3 G54
+N4 T=\"PLANFRAESER_D63\" D1 M6
+N5 S3200 M3 M8
+N6 G0 X-90 Y0 Z50
+N7 CYCLE61(50,2,1,0,-50,-40,50,40,1,100,0.1,800,31,0,1,10110)
+N8 G0 Z100
+N9 M30
+";
+    let out = transformed(&[("p.mpf", prog)], "p.mpf", "tool-setter");
+    // The zero after the blank description and the tool load, before the facing cycle.
+    let zero = line_of(&out, "; driftloop stage 4");
+    assert!(line_of(&out, "N4 T=") < zero, "{out}");
+    assert!(zero < line_of(&out, "N7 CYCLE61("), "{out}");
+}
