@@ -9,7 +9,7 @@ mod common;
 use driftloop::model::DriftModel;
 use driftloop::omm::profile::OffsetMethod;
 use driftloop::omm::{ModelRef, Profile};
-use driftloop::vm::audit::{AuditSettings, Kind, audit};
+use driftloop::vm::audit::AuditSettings;
 
 /// Z: 30 µm at 4000 rpm through τ = 20 min.
 fn model() -> DriftModel {
@@ -77,20 +77,7 @@ fn compensates(original: &str, out: &str, p: &Profile) {
     let settings = AuditSettings::from_profile(p)
         .drifting_as_axes(&[&model()])
         .unwrap();
-    let report = audit(
-        original.as_bytes(),
-        out.as_bytes(),
-        &settings,
-        &driftloop::vm::Config::default(),
-    )
-    .unwrap();
-    let hazards: Vec<_> = report
-        .findings
-        .iter()
-        .filter(|f| f.kind != Kind::ProbeInMachinedVolume)
-        .collect();
-    assert!(hazards.is_empty(), "{hazards:#?}");
-    assert!(report.stopped.is_none(), "{:?}", report.stopped);
+    common::assert_audit_clean(original, out, &settings);
 }
 
 #[test]

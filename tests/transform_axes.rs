@@ -154,20 +154,7 @@ fn the_virtual_machine_cuts_closer_on_both_axes_and_the_audit_finds_nothing() {
     let settings = driftloop::vm::audit::AuditSettings::from_profile(&profile())
         .drifting_as_axes(&[&z, &x])
         .unwrap();
-    let audit = driftloop::vm::audit::audit(
-        program().as_bytes(),
-        transformed().as_bytes(),
-        &settings,
-        &driftloop::vm::Config::default(),
-    )
-    .unwrap();
-    let hazards: Vec<_> = audit
-        .findings
-        .iter()
-        .filter(|f| f.kind != driftloop::vm::audit::Kind::ProbeInMachinedVolume)
-        .collect();
-    assert!(hazards.is_empty(), "{hazards:#?}");
-    assert!(audit.stopped.is_none(), "{:?}", audit.stopped);
+    common::assert_audit_clean(&program(), &transformed(), &settings);
 }
 
 #[test]

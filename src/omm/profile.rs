@@ -168,6 +168,18 @@ pub struct Position {
     pub also: Vec<AlsoMeasured>,
 }
 
+impl Position {
+    /// A coordinate of the profile on `axis` as a gate moves it: a gate moves X in radius (it switches
+    /// DIAMON off), and a profile in diameters gives X as a diameter.
+    pub fn in_radius(&self, axis: Axis, v: f64) -> f64 {
+        if axis == Axis::X && self.diameter {
+            v / 2.0
+        } else {
+            v
+        }
+    }
+}
+
 /// A further measured axis: the nominal of its surface, the probing start point, and the model channel
 /// that predicts its drift (`--model` of that channel).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

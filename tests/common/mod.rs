@@ -101,3 +101,27 @@ pub fn run_on_machine(
     let mut m = spec.build(1);
     driftloop::vm::run_source("part.mpf", program.as_bytes(), None, &cfg, &mut m).unwrap()
 }
+
+/// Audits `transformed` against `original` on the virtual machine `settings` describe and asserts that the
+/// audit ran to the end with no hazard (a probe point in the cut is the profile's warning, not a hazard).
+pub fn assert_audit_clean(
+    original: &str,
+    transformed: &str,
+    settings: &driftloop::vm::audit::AuditSettings,
+) {
+    use driftloop::vm::audit::{Kind, audit};
+    let report = audit(
+        original.as_bytes(),
+        transformed.as_bytes(),
+        settings,
+        &driftloop::vm::Config::default(),
+    )
+    .unwrap();
+    let hazards: Vec<_> = report
+        .findings
+        .iter()
+        .filter(|f| f.kind != Kind::ProbeInMachinedVolume)
+        .collect();
+    assert!(hazards.is_empty(), "{hazards:#?}");
+    assert!(report.stopped.is_none(), "{:?}", report.stopped);
+}

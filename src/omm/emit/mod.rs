@@ -746,7 +746,7 @@ impl Emitter<'_> {
             .collect();
         let (h, clearance) = (
             r(self.regs.height),
-            number(self.in_radius(p.retract_axis, p.clearance)),
+            number(p.in_radius(p.retract_axis, p.clearance)),
         );
         radius
             .into_iter()
@@ -758,16 +758,6 @@ impl Emitter<'_> {
                 "ENDIF".into(),
             ])
             .collect()
-    }
-
-    /// A profile coordinate on `axis` as the gate moves it: a gate moves X in radius (it switches DIAMON
-    /// off), and a profile that works in diameters (`[position] diameter`) gives X as a diameter.
-    fn in_radius(&self, axis: Axis, v: f64) -> f64 {
-        if axis == Axis::X && self.profile.position.diameter {
-            v / 2.0
-        } else {
-            v
-        }
     }
 
     /// Index of the retract axis in the profile's axes (and the saved position).
@@ -784,7 +774,7 @@ impl Emitter<'_> {
         let p = &self.profile.position;
         let at = &self.axes[k].at;
         let coordinate = |a: Axis| match a {
-            Axis::X => self.in_radius(Axis::X, at.x),
+            Axis::X => p.in_radius(Axis::X, at.x),
             Axis::Y => at.y,
             Axis::Z => at.z,
         };

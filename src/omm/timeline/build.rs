@@ -35,6 +35,7 @@ fn build_with(
     folders: &mut Folders,
 ) -> Timeline {
     let units = units(program);
+    let jumps = crate::syntax::structure::analyze(program).jumps;
     let names: Vec<Option<String>> = units[1..]
         .iter()
         .map(|u| subprogram_name(program, u.start))
@@ -48,7 +49,16 @@ fn build_with(
     // recursive call stays untimed), unless it calls none of the archive's subprograms.
     let mut alone: Vec<Option<(Timeline, BTreeSet<String>)>> = units[1..]
         .iter()
-        .map(|u| Some(build_unit(program, moves, u.clone(), profile, &mut callees)))
+        .map(|u| {
+            Some(build_unit(
+                program,
+                moves,
+                u.clone(),
+                &jumps,
+                profile,
+                &mut callees,
+            ))
+        })
         .collect();
     let calls: Vec<&BTreeSet<String>> = alone.iter().flatten().map(|(_, c)| c).collect();
     let order = callees_first(&names, &calls);
@@ -60,7 +70,7 @@ fn build_with(
             .any(|c| names.iter().flatten().any(|n| n == c))
         {
             let unit = units[k + 1].clone();
-            build_unit(program, moves, unit, profile, &mut callees).0
+            build_unit(program, moves, unit, &jumps, profile, &mut callees).0
         } else {
             first
         };
@@ -70,7 +80,15 @@ fn build_with(
         }
         others.push(t);
     }
-    let mut t = build_unit(program, moves, units[0].clone(), profile, &mut callees).0;
+    let mut t = build_unit(
+        program,
+        moves,
+        units[0].clone(),
+        &jumps,
+        profile,
+        &mut callees,
+    )
+    .0;
     for other in others {
         t.used_r.extend(&other.used_r);
         t.labels.extend(other.labels.iter().cloned());

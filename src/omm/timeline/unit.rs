@@ -9,6 +9,7 @@ use std::sync::{Condvar, Mutex};
 
 use crate::omm::profile::Profile;
 use crate::syntax::Program;
+use crate::syntax::structure::Jump;
 
 use super::fold::{Builder, Callees};
 use super::moves::{Moves, RunRef};
@@ -18,21 +19,21 @@ use super::record::Timeline;
 /// A chunk read, with the runs of timed moves that start in it.
 type Scanned<'m> = (Chunk, Vec<RunRef<'m>>);
 
-/// The timeline of the unit of `program` that spans `blocks`, with the names it calls.
+/// The timeline of the unit of `program` that spans `blocks`, with the names it calls; `jumps` are the
+/// whole program's (its structure, analysed once for all its units).
 pub(super) fn build_unit<'m>(
     program: &Program,
     moves: Option<&'m Moves>,
     blocks: std::ops::Range<usize>,
+    jumps: &[Jump],
     profile: &Profile,
     callees: &mut dyn Callees,
 ) -> (Timeline, BTreeSet<String>) {
     let marker = profile.passes.marker.to_ascii_uppercase();
     let mut b = Builder::new(profile, callees);
     let (first, count) = (blocks.start, blocks.end);
-    for jump in crate::syntax::structure::analyze(program).jumps {
-        if let Some(to) = jump.to
-            && blocks.contains(&jump.from)
-        {
+    for jump in jumps.iter().filter(|j| blocks.contains(&j.from)) {
+        if let Some(to) = jump.to {
             b.jumps.entry(jump.from).or_default().push(to);
         }
     }

@@ -36,7 +36,7 @@ use super::config::{Config, MachineSpec, ProbeTarget};
 use super::truth::ModelDrift;
 use crate::model::DriftModel;
 use crate::omm::Profile;
-use crate::omm::profile::{MeasureFrame, OffsetMethod, ProbeKind, ToolChange};
+use crate::omm::profile::{Axis, MeasureFrame, OffsetMethod, ProbeKind, ToolChange};
 
 /// What the audit needs to know about the inserted blocks' intent, from the machine profile.
 #[derive(Debug, Clone)]
@@ -101,19 +101,13 @@ impl AuditSettings {
             .cycle
             .split_once('(')
             .and_then(|(_, args)| args.split(',').position(|a| a.contains("{axis}")));
-        // A profile in diameters gives X as a diameter; the machine moves X in radius.
-        let radius = |v: f64| if p.diameter { v / 2.0 } else { v };
-        let mut point = [radius(p.x), p.y, p.z];
+        let mut point = [p.in_radius(Axis::X, p.x), p.y, p.z];
         point[axis] = p.nominal;
         let call = profile.cycle_call();
         let cycle = call.split('(').next().unwrap_or(&call).trim();
         let probe = &profile.probe;
         AuditSettings {
-            clearance: if p.retract_axis == crate::omm::profile::Axis::X {
-                radius(p.clearance)
-            } else {
-                p.clearance
-            },
+            clearance: p.in_radius(p.retract_axis, p.clearance),
             retract_axis: p.retract_axis.number() as usize - 1,
             probe_tool: (probe.kind == ProbeKind::SpindleProbe && !probe.tool.is_empty())
                 .then(|| probe.tool.clone()),

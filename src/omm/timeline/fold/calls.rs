@@ -10,16 +10,12 @@ impl Builder<'_> {
     /// A subprogram or cycle runs at block `i`, `repeats` times: an archive subprogram adds its time, any
     /// other call is listed as not timed (`shown` is how the list names it).
     pub(super) fn call(&mut self, i: usize, name: &str, shown: &str, repeats: Option<f64>) {
-        // The swivel cycle's effect on the frames is followed (see `frames`). The high-speed settings
-        // cycle moves nothing and sets the path mode (G64x, compressor, tolerances): the path mode is then
-        // the cycle's, which a gate leaves as it is.
-        let settings = name == "CYCLE832";
-        if settings {
+        // The high-speed settings cycle sets the path mode (G64x, compressor, tolerances): the path mode is
+        // then the cycle's, which a gate leaves as it is.
+        if name == "CYCLE832" {
             self.state.path_mode = None;
         }
-        // The blank and contour descriptions of ShopMill/ShopTurn move nothing and set nothing modal.
-        let description = matches!(name, "WORKPIECE" | "CYCLE62");
-        self.after_call |= name != "CYCLE800" && !settings && !description;
+        self.after_call |= !leaves_state_known(name);
         self.t.moves = true;
         if !self.called.contains(name) {
             self.called.insert(name.to_string());
@@ -135,28 +131,31 @@ impl Builder<'_> {
     }
 }
 
-/// Siemens cycles that cut nothing: the swivel (CYCLE800), high-speed settings (CYCLE832), the blank
-/// (WORKPIECE) and contour (CYCLE62) descriptions of ShopMill/ShopTurn programs, and the measuring cycles of
-/// workpieces and tools (CYCLE961 … CYCLE998).
+/// Cycles after which the modal state is still known: the swivel (CYCLE800, whose frames the timeline
+/// follows, see `frames`), the high-speed settings (CYCLE832, see `call`), and the blank (WORKPIECE) and
+/// contour (CYCLE62) descriptions of ShopMill/ShopTurn programs, which move nothing and set nothing modal.
+fn leaves_state_known(name: &str) -> bool {
+    matches!(name, "CYCLE800" | "CYCLE832" | "WORKPIECE" | "CYCLE62")
+}
+
+/// Siemens cycles that cut nothing: those above, and the measuring cycles of workpieces and tools
+/// (CYCLE961 … CYCLE998), which move the probe and leave the state unknown.
 fn cuts_nothing(name: &str) -> bool {
-    matches!(
-        name,
-        "CYCLE800"
-            | "CYCLE832"
-            | "WORKPIECE"
-            | "CYCLE62"
-            | "CYCLE961"
-            | "CYCLE971"
-            | "CYCLE973"
-            | "CYCLE974"
-            | "CYCLE976"
-            | "CYCLE977"
-            | "CYCLE978"
-            | "CYCLE979"
-            | "CYCLE982"
-            | "CYCLE994"
-            | "CYCLE996"
-            | "CYCLE997"
-            | "CYCLE998"
-    )
+    leaves_state_known(name)
+        || matches!(
+            name,
+            "CYCLE961"
+                | "CYCLE971"
+                | "CYCLE973"
+                | "CYCLE974"
+                | "CYCLE976"
+                | "CYCLE977"
+                | "CYCLE978"
+                | "CYCLE979"
+                | "CYCLE982"
+                | "CYCLE994"
+                | "CYCLE996"
+                | "CYCLE997"
+                | "CYCLE998"
+        )
 }

@@ -224,9 +224,11 @@ impl Builder<'_> {
             let from = self.site_changes.partition_point(|(b, _)| *b <= t);
             for (b, changed) in &self.site_changes[from..] {
                 let set_since = |f: usize| changed[f] > t;
-                if (0..field::COUNT).any(|f| differ[f] && !set_since(f)) {
-                    self.varies.insert(*b);
+                if !(0..field::COUNT).any(|f| differ[f] && !set_since(f)) {
+                    // Every differing field is set again: so it stays at every later site.
+                    break;
                 }
+                self.varies.insert(*b);
             }
         }
     }

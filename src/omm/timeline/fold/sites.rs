@@ -188,18 +188,12 @@ impl Builder<'_> {
             .sort_by_key(|s| (s.block, !matches!(s.kind, SiteKind::PassStart { .. })));
         self.t.sites.dedup_by_key(|s| s.block);
         let mut pass = 0;
+        let traverses = Spans::new(&self.t.frame_traverses);
+        let conditional = Spans::new(&self.t.conditional);
         for site in &mut self.t.sites {
             site.state_varies = self.varies.contains(&site.block);
-            site.frame_traverse = self
-                .t
-                .frame_traverses
-                .iter()
-                .any(|&(change, mv)| change < site.block && site.block <= mv);
-            site.conditional = self
-                .t
-                .conditional
-                .iter()
-                .any(|&(start, end)| start < site.block && site.block <= end);
+            site.frame_traverse = traverses.contains(site.block);
+            site.conditional = conditional.contains(site.block);
             // Without M6 in the program, T loads the tool at once.
             if t_loads {
                 site.before.tool = site.before.selected.clone();
@@ -234,4 +228,42 @@ fn speed_max(speeds: &[(f64, f64)], from: f64, to: f64) -> f64 {
         .iter()
         .take_while(|s| s.0 < until)
         .fold(0.0, |max: f64, s| max.max(s.1))
+}
+
+/// Blocks in any of some ranges (start, end] (the start excluded: a gate there runs before it), kept as
+/// their union, disjoint and in order, so a block is looked up by bisection.
+struct Spans(Vec<(usize, usize)>);
+
+impl Spans {
+    fn new(ranges: &[(usize, usize)]) -> Spans {
+        let mut sorted = ranges.to_vec();
+        sorted.sort_unstable();
+        let mut union: Vec<(usize, usize)> = Vec::with_capacity(sorted.len());
+        for (start, end) in sorted {
+            match union.last_mut() {
+                Some(last) if start <= last.1 => last.1 = last.1.max(end),
+                _ => union.push((start, end)),
+            }
+        }
+        Spans(union)
+    }
+
+    fn contains(&self, block: usize) -> bool {
+        let k = self.0.partition_point(|r| r.1 < block);
+        self.0.get(k).is_some_and(|r| r.0 < block && block <= r.1)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Spans;
+
+    #[test]
+    fn spans_hold_the_union_with_each_start_excluded() {
+        let s = Spans::new(&[(10, 20), (3, 5), (12, 30), (30, 31), (40, 41)]);
+        let inside: Vec<usize> = (0..45).filter(|&b| s.contains(b)).collect();
+        let expected: Vec<usize> = (4..=5).chain(11..=31).chain([41]).collect();
+        assert_eq!(inside, expected);
+        assert!(!Spans::new(&[]).contains(0));
+    }
 }
