@@ -393,3 +393,125 @@ N9 M30
     assert!(line_of(&out, "N4 T=") < zero, "{out}");
     assert!(zero < line_of(&out, "N7 CYCLE61("), "{out}");
 }
+
+/// A machine whose M6 is a shop subprogram (`T3` then `L6`): with the subprogram in the folder, its call
+/// is the tool change. Before, the program was refused with "tool unknown" (a spindle probe) or "state not
+/// known" (a tool setter).
+const L6: &str = "; tool change\nM5 M9\nG0 G53 Z0\nM6\nRET\n";
+const L6_PROGRAM: &str = "\
+G17 G90 G94 G71
+G54
+T3
+L6
+D1
+S6000 M3 M8
+G0 X0 Y0 Z5
+G1 Z-3 F300
+G1 X50 F1000
+G0 Z50
+T8
+L6
+D1
+S4500 M3
+G0 X25 Y15 Z5
+G1 Z-12 F200
+G0 Z50 M9
+M30
+";
+
+#[test]
+fn a_tool_change_subprogram_loads_the_selected_tool() {
+    let out = transformed(
+        &[("p.mpf", L6_PROGRAM), ("L6.spf", L6)],
+        "p.mpf",
+        "blum-tc50",
+    );
+    // The probe is swapped back for the tool L6 loaded.
+    assert!(out.contains("T=3 M6 ;DL"), "{out}");
+    // L6 turned the coolant off: no gate after it turns it on before the program does.
+    let lines: Vec<&str> = out.lines().collect();
+    let second = lines.iter().rposition(|l| *l == "L6").unwrap();
+    let program_m8 = line_of(&out, "S6000 M3 M8");
+    let first = lines.iter().position(|l| *l == "L6").unwrap();
+    for (k, l) in lines.iter().enumerate() {
+        let after_a_change = (first < k && k < program_m8) || k > second;
+        assert!(
+            !(after_a_change && l.contains("M8") && l.ends_with(";DL")),
+            "line {k}: {l}\n{out}"
+        );
+    }
+}
+
+#[test]
+fn a_tool_setter_measures_its_zero_after_a_tool_change_subprogram() {
+    let out = transformed(
+        &[("p.mpf", L6_PROGRAM), ("L6.spf", L6)],
+        "p.mpf",
+        "tool-setter",
+    );
+    let zero = line_of(&out, "; driftloop stage 4");
+    assert!(
+        line_of(&out, "L6") < zero && zero < line_of(&out, "G1 Z-3"),
+        "{out}"
+    );
+}
+
+#[test]
+fn a_subprogram_that_changes_tools_and_cuts_is_no_tool_change() {
+    let cutting = "M5 M9\nG0 G53 Z0\nM6\nG0 X0 Y0 Z2\nG1 Z-1 F100\nG0 Z50\nRET\n";
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("p.mpf"), L6_PROGRAM).unwrap();
+    std::fs::write(dir.path().join("L6.spf"), cutting).unwrap();
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/omm/model.toml");
+    let o = common::driftloop(
+        dir.path(),
+        &[
+            "transform",
+            "p.mpf",
+            "--model",
+            &model.display().to_string(),
+            "--profile",
+            "blum-tc50",
+            "--subprograms",
+            ".",
+            "-o",
+            "out.mpf",
+        ],
+        b"",
+    );
+    let err = common::stderr(&o);
+    assert!(!o.status.success(), "{err}");
+    assert!(err.contains("tool in the spindle is not known"), "{err}");
+}
+
+/// A tool setter's zero goes after the tool load and its D, before a retry jump's label or a loop that
+/// starts the spindle (before: refused, the only site after the load was inside the jump's range).
+#[test]
+fn a_tool_setter_measures_its_zero_before_a_retry_loop() {
+    let prog = "\
+G17 G90 G94 G71
+G54
+T=\"FR_D20\" M6
+D1
+R30=0
+WDH: G0 X-40 Y0 Z30
+S4000 M3 M8
+G1 Z10 F2000
+STOPRE
+R31=$AA_IW[Z]
+R30=R30+1
+IF (R31>10.01) AND (R30<3) GOTOB WDH
+G0 Z2
+G1 Z-1 F500
+G1 X60 F1800
+G0 Z100 M9
+M5
+M30
+";
+    let out = transformed(&[("p.mpf", prog)], "p.mpf", "tool-setter");
+    let zero = line_of(&out, "; driftloop stage 4");
+    assert!(
+        line_of(&out, "D1") < zero && zero < line_of(&out, "WDH:"),
+        "{out}"
+    );
+}

@@ -117,9 +117,24 @@ pub(super) mod field {
     use super::Modal;
 
     pub const COUNT: usize = 18;
+    pub const TOOL: usize = 0;
+    pub const D: usize = 1;
+    pub const S: usize = 2;
+    pub const DIRECTION: usize = 3;
     pub const FEED: usize = 4;
     pub const MOTION: usize = 5;
+    pub const ABSOLUTE: usize = 6;
     pub const Z: usize = 7;
+    pub const SELECTED: usize = 8;
+    pub const FEED_MODE: usize = 9;
+    pub const PLANE: usize = 10;
+    pub const PATH_MODE: usize = 11;
+    pub const COOLANT: usize = 12;
+    pub const COMP: usize = 13;
+    pub const FRAMES: usize = 14;
+    pub const UNKNOWN: usize = 15;
+    pub const OFFSET: usize = 16;
+    pub const DIAMETER: usize = 17;
 
     /// The fields in which two states differ, by number.
     pub fn differ(a: &Modal, b: &Modal) -> [bool; COUNT] {
@@ -173,6 +188,83 @@ mod tests {
         assert_eq!(only(feed), [field::FEED]);
         assert_eq!(only(motion), [field::MOTION]);
         assert_eq!(only(z), [field::Z]);
+        let one = |m: Modal, f: usize| assert_eq!(only(m), [f]);
+        let d = Modal::default;
+        one(
+            Modal {
+                tool: Some("1".into()),
+                ..d()
+            },
+            field::TOOL,
+        );
+        one(Modal { d: Some(1), ..d() }, field::D);
+        one(Modal { s: 1.0, ..d() }, field::S);
+        one(
+            Modal {
+                direction: 3,
+                ..d()
+            },
+            field::DIRECTION,
+        );
+        one(
+            Modal {
+                absolute: true,
+                ..d()
+            },
+            field::ABSOLUTE,
+        );
+        one(
+            Modal {
+                selected: Some("1".into()),
+                ..d()
+            },
+            field::SELECTED,
+        );
+        one(
+            Modal {
+                feed_mode: Some(95),
+                ..d()
+            },
+            field::FEED_MODE,
+        );
+        one(
+            Modal {
+                plane: Some(18),
+                ..d()
+            },
+            field::PLANE,
+        );
+        one(
+            Modal {
+                path_mode: Some(64),
+                ..d()
+            },
+            field::PATH_MODE,
+        );
+        one(
+            Modal {
+                coolant: Some(8),
+                ..d()
+            },
+            field::COOLANT,
+        );
+        one(Modal { comp: 41, ..d() }, field::COMP);
+        one(Modal { frames: 1, ..d() }, field::FRAMES);
+        one(Modal { unknown: 1, ..d() }, field::UNKNOWN);
+        one(
+            Modal {
+                offset: Some(54),
+                ..d()
+            },
+            field::OFFSET,
+        );
+        one(
+            Modal {
+                diameter: true,
+                ..d()
+            },
+            field::DIAMETER,
+        );
         let all = Modal {
             tool: Some("1".into()),
             selected: Some("2".into()),

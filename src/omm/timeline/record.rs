@@ -122,6 +122,33 @@ pub struct Timeline {
     /// One past the last block before the first cut that selects a work offset or changes frames or
     /// transformations: the reference measurement goes after the program's own setup.
     pub setup_end: usize,
+    /// Run as a subprogram: what it does to its caller's state.
+    pub as_callee: CalleeEffect,
+}
+
+/// What a unit run as a subprogram does to its caller's modal state.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct CalleeEffect {
+    /// The fields its blocks set (by [`super::modal::field`] number; not the position, which a gate reads
+    /// from the control): the caller's values of the others hold after the call.
+    pub touched: [bool; super::modal::field::COUNT],
+    /// It loads a tool (M6): a tool-change subprogram, the `L6` of machines whose M6 calls a cycle.
+    pub loads_tool: bool,
+    /// A call inside it leaves a state the timeline does not know.
+    pub leaves_unknown: bool,
+    /// The state it ends in, from the default start: the values of the fields it sets.
+    pub end: Modal,
+}
+
+impl CalleeEffect {
+    /// A tool-change subprogram the caller may treat as its own M6: it loads the tool the caller
+    /// selected, cuts nothing and leaves a known state.
+    pub fn is_tool_change(&self, cuts: bool) -> bool {
+        self.loads_tool
+            && !cuts
+            && !self.leaves_unknown
+            && !self.touched[super::modal::field::SELECTED]
+    }
 }
 
 /// The statement that makes a loop.

@@ -2,20 +2,30 @@
 //! words replayed onto this program's spindle, and what it leaves untimed or uses; an `MCALL`'s cycle after
 //! every block that moves.
 
+use std::rc::Rc;
+
 use super::Builder;
-use crate::omm::timeline::read::Move;
-use crate::omm::timeline::record::Timeline;
+use crate::omm::timeline::modal::field;
+use crate::omm::timeline::read::{Move, Scan};
+use crate::omm::timeline::record::{CalleeEffect, Timeline};
 
 impl Builder<'_> {
     /// A subprogram or cycle runs at block `i`, `repeats` times: an archive subprogram adds its time, any
-    /// other call is listed as not timed (`shown` is how the list names it).
-    pub(super) fn call(&mut self, i: usize, name: &str, shown: &str, repeats: Option<f64>) {
+    /// other call is listed as not timed (`shown` is how the list names it). A tool-change subprogram
+    /// (see [`CalleeEffect::is_tool_change`]) is returned: the caller treats the block as a tool change.
+    pub(super) fn call(
+        &mut self,
+        i: usize,
+        name: &str,
+        shown: &str,
+        repeats: Option<f64>,
+    ) -> Option<Rc<Timeline>> {
         // The high-speed settings cycle sets the path mode (G64x, compressor, tolerances): the path mode is
         // then the cycle's, which a gate leaves as it is.
         if name == "CYCLE832" {
             self.state.path_mode = None;
+            self.touched[field::PATH_MODE] = true;
         }
-        self.after_call |= !leaves_state_known(name);
         self.t.moves = true;
         if !self.called.contains(name) {
             self.called.insert(name.to_string());
@@ -24,6 +34,14 @@ impl Builder<'_> {
         // own line numbers mean nothing in this program).
         match self.callees.timeline(name) {
             Some((sub, elsewhere)) => {
+                let loads = sub.as_callee.is_tool_change(sub.first_cut.is_some());
+                if loads {
+                    for (mine, its) in self.touched.iter_mut().zip(sub.as_callee.touched) {
+                        *mine |= its;
+                    }
+                } else {
+                    self.state_unknown_after(name);
+                }
                 // A subprogram that cuts: the reference measurement goes before it.
                 if sub.first_cut.is_some() {
                     self.t.first_cut.get_or_insert(i);
@@ -61,17 +79,123 @@ impl Builder<'_> {
                         self.t.found_in_call.insert(i + 1, name.to_string());
                     }
                 }
+                loads.then_some(sub)
             }
             None => {
+                self.state_unknown_after(name);
                 // A cycle or subprogram driftloop cannot see into may cut (a drilling or pocket cycle):
                 // the reference measurement goes before it. The swivel, settings and measuring cycles
                 // do not cut.
                 if !cuts_nothing(name) && !self.profile.cycle_call().starts_with(name) {
                     self.t.first_cut.get_or_insert(i);
                 }
-                self.t.untimed_calls.push((i + 1, shown.to_string()))
+                self.t.untimed_calls.push((i + 1, shown.to_string()));
+                None
             }
         }
+    }
+
+    /// After a call of `name` the modal state is not known until the next tool change, unless the cycle
+    /// is one that leaves it known.
+    fn state_unknown_after(&mut self, name: &str) {
+        if !leaves_state_known(name) {
+            self.after_call = true;
+            self.t.as_callee.leaves_unknown = true;
+        }
+    }
+
+    /// After a tool-change subprogram at block `i`: the fields it set hold its values (coolant off, rapid
+    /// motion …), set by its own words whatever the caller's state. The tool is the caller's selection
+    /// (the block is a tool change), the spindle was replayed (see [`Builder::replay_spindle`]), and the
+    /// position a gate reads from the control, as after an M6. The frames it changes combine with the
+    /// caller's, so sites after the call are unfit until the program sets them again.
+    pub(super) fn after_tool_change_call(&mut self, i: usize, sub: &CalleeEffect) {
+        let (t, end, s) = (&sub.touched, &sub.end, &mut self.state);
+        let before = s.clone();
+        if t[field::D] {
+            s.d = end.d;
+        }
+        if t[field::FEED] {
+            s.feed = end.feed;
+        }
+        if t[field::MOTION] {
+            s.motion = end.motion;
+        }
+        if t[field::ABSOLUTE] {
+            s.absolute = end.absolute;
+        }
+        if t[field::FEED_MODE] {
+            s.feed_mode = end.feed_mode;
+            self.per_rev = end.feed_mode == Some(95);
+        }
+        if t[field::PLANE] {
+            s.plane = end.plane;
+        }
+        if t[field::PATH_MODE] {
+            s.path_mode = end.path_mode;
+        }
+        if t[field::COOLANT] {
+            s.coolant = end.coolant;
+        }
+        if t[field::COMP] {
+            s.comp = end.comp;
+        }
+        if t[field::OFFSET] {
+            s.offset = end.offset;
+        }
+        if t[field::DIAMETER] {
+            s.diameter = end.diameter;
+        }
+        s.unknown |= end.unknown;
+        for (f, differs) in field::differ(&before, s).into_iter().enumerate() {
+            if differs {
+                self.changed[f] = i + 1;
+            }
+        }
+        if t[field::FRAMES] {
+            let mut frames = [false; field::COUNT];
+            frames[field::FRAMES] = true;
+            self.merges.push((i, i + 1, frames));
+        }
+    }
+
+    /// Notes the fields block words set, for what the unit does to a caller's state (not the position,
+    /// which a gate reads from the control).
+    pub(super) fn touch(&mut self, s: &Scan, dwell: bool) {
+        let t = &mut self.touched;
+        for g in s.g.iter() {
+            let f = match g {
+                0..=3 => field::MOTION,
+                90 | 91 => field::ABSOLUTE,
+                93..=95 => field::FEED_MODE,
+                96 | 97 => field::S,
+                17..=19 => field::PLANE,
+                40..=42 => field::COMP,
+                60 | 64 | 641..=645 => field::PATH_MODE,
+                _ => continue,
+            };
+            t[f] = true;
+        }
+        for m in s.m.iter() {
+            let f = match m {
+                3..=5 => field::DIRECTION,
+                6 => field::TOOL,
+                7..=9 => field::COOLANT,
+                _ => continue,
+            };
+            t[f] = true;
+        }
+        t[field::FEED] |= s.mv.f.is_some() && !dwell;
+        t[field::S] |= (s.s.is_some() && !dwell) || s.lims.is_some();
+        t[field::D] |= s.d.is_some();
+        t[field::SELECTED] |= s.tool.is_some();
+        t[field::FRAMES] |= s.frame_ops != 0;
+        t[field::OFFSET] |= s
+            .offsets
+            .iter()
+            .any(|g| matches!(g, 500 | 54..=57 | 505..=599));
+        t[field::DIAMETER] |= s.diameter.is_some();
+        t[field::UNKNOWN] |= s.unknown != 0;
     }
 
     /// The spindle words of a subprogram called at block `i` and run `runs` times, applied to this

@@ -210,7 +210,7 @@ impl Builder<'_> {
             for jumped in states {
                 let differ = field::differ(&jumped, &self.state);
                 if differ.contains(&true) {
-                    self.merges.push((i, differ));
+                    self.merges.push((i, i, differ));
                 }
             }
         }
@@ -220,10 +220,10 @@ impl Builder<'_> {
     /// which the program has not set again since the label. (A site at the label's own block runs before
     /// the label, on the fall-through path only.)
     pub(super) fn mark_merges(&mut self) {
-        for (t, differ) in std::mem::take(&mut self.merges) {
+        for (t, set_from, differ) in std::mem::take(&mut self.merges) {
             let from = self.site_changes.partition_point(|(b, _)| *b <= t);
             for (b, changed) in &self.site_changes[from..] {
-                let set_since = |f: usize| changed[f] > t;
+                let set_since = |f: usize| changed[f] > set_from;
                 if !(0..field::COUNT).any(|f| differ[f] && !set_since(f)) {
                     // Every differing field is set again: so it stays at every later site.
                     break;

@@ -91,9 +91,13 @@ pub(super) struct Builder<'p> {
     open_ifs: Vec<usize>,
     /// Forward jumps not yet reached: target block → the states the jumps leave from.
     merging: HashMap<usize, Vec<Modal>>,
-    /// Labels reached both by falling through and by a forward jump: the block and the fields in which the
-    /// two states differ.
-    merges: Vec<(usize, [bool; field::COUNT])>,
+    /// Places after which some fields are not known on every path: sites after block `.0` are unfit while a
+    /// field marked in `.2` has not been set again at a block from `.1` on. A label reached both by falling
+    /// through and by a forward jump (the fields in which the two states differ), a tool-change subprogram
+    /// (the fields it sets).
+    merges: Vec<(usize, usize, [bool; field::COUNT])>,
+    /// The fields this unit's blocks set (what it does to a caller's state).
+    touched: [bool; field::COUNT],
 }
 
 impl<'p> Builder<'p> {
@@ -143,6 +147,7 @@ impl<'p> Builder<'p> {
             open_ifs: Vec::new(),
             merging: HashMap::new(),
             merges: Vec::new(),
+            touched: [false; field::COUNT],
         }
     }
 
@@ -204,6 +209,8 @@ impl<'p> Builder<'p> {
         let blank = motion.is_none() && mv.axes.iter().all(Option::is_none);
         self.header_and_preamble(i, false, false, blank);
         self.start_site(i, start, !self.open_ifs.is_empty());
+        self.touched[field::MOTION] |= motion.is_some();
+        self.touched[field::FEED] |= mv.f.is_some();
         if let Some(g) = motion
             && g != self.state.motion
         {
@@ -286,6 +293,8 @@ impl<'p> Builder<'p> {
         }
         let rapid = self.profile.timeline.rapid_mm_per_min;
         self.t.moves = true;
+        self.touched[field::MOTION] |= run.motion.first.is_some();
+        self.touched[field::FEED] |= run.feed.first.is_some();
         self.ticks = self.ticks.saturating_add(run.feed_ticks);
         // Ticks add up in any order: the run's cut ends after its feed moves and the rapids before the
         // last of them.
@@ -360,8 +369,9 @@ impl<'p> Builder<'p> {
     pub(super) fn block(&mut self, i: usize, s: &Scan, kind: BlockKind) {
         self.speed_site_after_call(i);
         self.safe_site_after(i);
+        let mut call_loads = None;
         if let Some(name) = &s.call {
-            self.call(i, name, name, s.repeats);
+            call_loads = self.call(i, name, name, s.repeats);
             if self
                 .profile
                 .passes
@@ -376,11 +386,13 @@ impl<'p> Builder<'p> {
             self.safe_after = Some((i, SiteKind::Stop));
         }
         self.jump_target(i);
-        // Changes matter only inside a loop body or a section that may be repeated, or jumped over.
+        // Changes matter only inside a loop body or a section that may be repeated, or jumped over, or
+        // after a call that left fields unknown.
         let tracked = (!self.open_loops.is_empty()
             || !self.label_times.is_empty()
             || s.label.is_some()
-            || !self.merging.is_empty())
+            || !self.merging.is_empty()
+            || !self.merges.is_empty())
         .then(|| self.state.clone());
         match kind {
             BlockKind::While | BlockKind::For | BlockKind::Loop | BlockKind::Repeat => {
@@ -497,6 +509,7 @@ impl<'p> Builder<'p> {
             }
         }
         let dwell = s.g.contains(4);
+        self.touch(s, dwell);
         self.state.unknown |= s.unknown;
         if let Some(f) = s.mv.f
             && !dwell
@@ -541,7 +554,10 @@ impl<'p> Builder<'p> {
         if speed.is_some() || direction.is_some() {
             self.t.spindle_words.push((start, speed, direction));
         }
-        let tool_change = s.m.contains(6);
+        let own_m6 = s.m.contains(6);
+        // A tool-change subprogram loads the selected tool as M6 does.
+        let tool_change = own_m6 || call_loads.is_some();
+        self.m6_seen |= call_loads.is_some();
         if let Some(tool) = &s.tool {
             self.state.selected = Some(tool.clone());
             self.state.unknown &= !unknown::TOOL;
@@ -565,6 +581,7 @@ impl<'p> Builder<'p> {
             }
         }
         self.after_call &= !tool_change;
+        self.zero_after_tool_setup(s, tool_change);
         if s.tool.is_some() || (p.tool_change && tool_change) || marked || rpm != self.rpm {
             self.note_site(i);
         }
@@ -576,7 +593,7 @@ impl<'p> Builder<'p> {
         if let Some(modal) = &s.modal_call {
             self.modal_call = modal.as_ref().map(|n| (n.clone(), format!("MCALL {n}")));
         }
-        self.movement(i, start, &before, &s.mv, dwell, s.s, s.inexact, tool_change);
+        self.movement(i, start, &before, &s.mv, dwell, s.s, s.inexact, own_m6);
         self.modal_call_after(i, &s.mv);
         if let Some(prev) = tracked {
             for (f, differs) in field::differ(&prev, &self.state).into_iter().enumerate() {
@@ -587,6 +604,9 @@ impl<'p> Builder<'p> {
             if let Some(l) = &s.label {
                 self.label_seen(l, i, start, prev);
             }
+        }
+        if let Some(sub) = call_loads {
+            self.after_tool_change_call(i, &sub.as_callee);
         }
         self.loops(i, s, kind, start);
         self.jump_from(i);
@@ -752,6 +772,10 @@ impl<'p> Builder<'p> {
         self.t.total_min = total;
         self.t.last_cut_min = self.last_cut as f64 / TICKS_PER_MIN;
         self.mark_merges();
+        self.t.as_callee.touched = self.touched;
+        self.t.as_callee.loads_tool |= self.m6_seen;
+        self.t.as_callee.leaves_unknown |= self.after_call;
+        self.t.as_callee.end = self.state.clone();
         self.place_passes_and_sites(total);
         (self.t, self.called)
     }

@@ -3,8 +3,9 @@
 
 use std::sync::Arc;
 
-use crate::omm::profile::ToolChange;
+use crate::omm::profile::{ProbeKind, ToolChange};
 use crate::omm::timeline::modal::Modal;
+use crate::omm::timeline::read::Scan;
 use crate::omm::timeline::record::{Pass, Site, SiteKind};
 
 use super::Builder;
@@ -100,6 +101,9 @@ impl Builder<'_> {
         if self.after_call {
             self.varies.insert(i);
         }
+        if !self.merges.is_empty() {
+            self.site_changes.push((i, self.changed));
+        }
         self.start = Some(Site {
             block: i,
             kind: SiteKind::Start,
@@ -114,6 +118,21 @@ impl Builder<'_> {
         });
     }
 
+    /// A tool setter measures its zero with the tool that cuts, under the D number it cuts with: a tool
+    /// load before the first cut, or a D word after a tool was named, makes the block after it the start
+    /// site's candidate. (A program that names no tool cuts with the D of the control's reset state.)
+    pub(super) fn zero_after_tool_setup(&mut self, s: &Scan, tool_change: bool) {
+        let loads =
+            tool_change || (self.profile.probe.tool_change == ToolChange::T && s.tool.is_some());
+        let tool_named = self.state.tool.is_some() || self.state.selected.is_some();
+        if self.profile.probe.kind == ProbeKind::ToolSetter
+            && self.t.first_cut.is_none()
+            && (loads || (s.d.is_some() && tool_named))
+        {
+            self.start = None;
+        }
+    }
+
     /// The speed from the start site's block on.
     pub(super) fn start_site_speed(&mut self, i: usize) {
         if let Some(site) = self.start.as_mut().filter(|s| s.block == i) {
@@ -123,7 +142,7 @@ impl Builder<'_> {
 
     /// Notes a block where a site or pass mark arises, with the fields' last changes.
     pub(super) fn note_site(&mut self, i: usize) {
-        if !self.open_loops.is_empty() || !self.label_times.is_empty() {
+        if !self.open_loops.is_empty() || !self.label_times.is_empty() || !self.merges.is_empty() {
             self.site_changes.push((i, self.changed));
         }
         // What a subprogram or cycle left (feed, motion, …) is not known until the next tool change.
