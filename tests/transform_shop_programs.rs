@@ -7,9 +7,13 @@ mod common;
 
 use std::path::Path;
 
-/// Writes `files` into a new folder and transforms `program` there with `profile` (and the folder as the
-/// subprogram folder): the output program, which must have been written.
-fn transformed(files: &[(&str, &str)], program: &str, profile: &str) -> String {
+/// Writes `files` into a new folder and transforms `program` there with `profile`: the run and the folder.
+/// The control finds subprograms beside their caller, so `transform` does too, with no flag.
+fn transform(
+    files: &[(&str, &str)],
+    program: &str,
+    profile: &str,
+) -> (std::process::Output, tempfile::TempDir) {
     let dir = tempfile::tempdir().unwrap();
     for (name, text) in files {
         std::fs::write(dir.path().join(name), text).unwrap();
@@ -24,15 +28,28 @@ fn transformed(files: &[(&str, &str)], program: &str, profile: &str) -> String {
             &model.display().to_string(),
             "--profile",
             profile,
-            "--subprograms",
-            ".",
             "-o",
             "out.mpf",
         ],
         b"",
     );
+    (o, dir)
+}
+
+/// The output program, which must have been written.
+fn transformed(files: &[(&str, &str)], program: &str, profile: &str) -> String {
+    let (o, dir) = transform(files, program, profile);
     assert!(o.status.success(), "{}", common::stderr(&o));
     std::fs::read_to_string(dir.path().join("out.mpf")).unwrap()
+}
+
+/// The refusal's message: nothing may have been written.
+fn refused(files: &[(&str, &str)], program: &str, profile: &str) -> String {
+    let (o, dir) = transform(files, program, profile);
+    let err = common::stderr(&o);
+    assert!(!o.status.success(), "{err}");
+    assert!(!dir.path().join("out.mpf").exists());
+    err
 }
 
 /// The line index of the first line starting with `start`.
@@ -459,28 +476,11 @@ fn a_tool_setter_measures_its_zero_after_a_tool_change_subprogram() {
 #[test]
 fn a_subprogram_that_changes_tools_and_cuts_is_no_tool_change() {
     let cutting = "M5 M9\nG0 G53 Z0\nM6\nG0 X0 Y0 Z2\nG1 Z-1 F100\nG0 Z50\nRET\n";
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("p.mpf"), L6_PROGRAM).unwrap();
-    std::fs::write(dir.path().join("L6.spf"), cutting).unwrap();
-    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/omm/model.toml");
-    let o = common::driftloop(
-        dir.path(),
-        &[
-            "transform",
-            "p.mpf",
-            "--model",
-            &model.display().to_string(),
-            "--profile",
-            "blum-tc50",
-            "--subprograms",
-            ".",
-            "-o",
-            "out.mpf",
-        ],
-        b"",
+    let err = refused(
+        &[("p.mpf", L6_PROGRAM), ("L6.spf", cutting)],
+        "p.mpf",
+        "blum-tc50",
     );
-    let err = common::stderr(&o);
-    assert!(!o.status.success(), "{err}");
     assert!(err.contains("tool in the spindle is not known"), "{err}");
 }
 
@@ -514,4 +514,174 @@ M30
         line_of(&out, "D1") < zero && zero < line_of(&out, "WDH:"),
         "{out}"
     );
+}
+
+/// QA round 3: an operator's `R1=1` skips the roughing with a GOTOF. A zero (and stage 1) inside what the
+/// jump skips would leave the finishing gates correcting from registers never set. With the offset method
+/// `active` (nothing at the end needs stage 1) the zero may go there, and no gate goes after the label;
+/// with a profile that writes the stored offset back at the end from stage 1's register, it is refused.
+#[test]
+fn no_gate_runs_without_the_zero_a_jump_skips() {
+    let out = transformed(&[("p.mpf", SKIP_ROUGHING)], "p.mpf", "tool-setter");
+    assert!(line_of(&out, "IF R1==1 GOTOF") < line_of(&out, "; driftloop stage 1"));
+    let after_label = &out[out.find("SCHLICHTEN:").unwrap()..];
+    assert!(!after_label.contains("; driftloop gate"), "{out}");
+    let profile = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/omm/tool-setter.toml"),
+    )
+    .unwrap()
+    .replace("method = \"active\"", "method = \"frame\"");
+    let err = refused(
+        &[("p.mpf", SKIP_ROUGHING), ("frame.toml", &profile)],
+        "p.mpf",
+        "frame.toml",
+    );
+    assert!(
+        err.contains("a jump of the program (GOTOF …) skips"),
+        "{err}"
+    );
+}
+
+const SKIP_ROUGHING: &str = "\
+G17 G90 G40 G71 G94
+G54
+IF R1==1 GOTOF SCHLICHTEN
+T=\"SCHRUPP\" M6
+D1
+S3000 M3 M8
+G0 X50 Y50 Z50
+G1 Z-1 F500
+X100
+G0 Z50
+M5 M9
+SCHLICHTEN:
+T=\"SCHLICHT\" M6
+D1
+G54
+S3000 M3
+G0 X50 Y50 Z2
+G1 Z-1 F300
+X100
+G0 Z50
+M5
+M30
+";
+
+/// QA round 3: `GOTOS` starts the program again; the work offset is given back before it as before M30,
+/// or each run's stage 1 would take the corrected offset as its base.
+#[test]
+fn the_offset_is_given_back_before_gotos() {
+    let prog = "\
+G17 G90 G40 G71 G94
+T=\"FR_D10\" M6
+D1
+G54
+S4000 M3 M8
+G0 X10 Y10 Z50
+G1 Z-1 F500
+X60
+G0 Z50
+M9 M5
+R1=R1+1
+IF R1<3 GOTOS
+M30
+";
+    let out = transformed(&[("p.mpf", prog)], "p.mpf", "blum-tc50");
+    let gotos = line_of(&out, "IF R1<3 GOTOS");
+    let lines: Vec<&str> = out.lines().collect();
+    assert!(lines[gotos - 1].starts_with("$P_UIFR[1,Z,TR]=R"), "{out}");
+}
+
+/// QA round 3: a CAM post writes CYCLE800 with every angle 0 (and direction, retract feed and mode after
+/// them): no swivel, a gate may go under it.
+#[test]
+fn cycle800_with_every_angle_zero_is_no_swivel() {
+    let prog = "\
+G17 G90 G40 G71 G94
+T=\"FR_D10\" M6
+D1
+G54
+CYCLE800(1,\"TABLE\",200000,57,0,0,0,0,0,0,0,0,0,1,100,1)
+S4000 M3 M8
+G0 X10 Y10 Z50
+G1 Z-1 F500
+X60
+G0 Z50
+M9 M5
+CYCLE800()
+M30
+";
+    transformed(&[("p.mpf", prog)], "p.mpf", "tool-setter");
+}
+
+/// QA round 3: a workpiece measuring cycle with a result number (S_KNUM, its second parameter) writes a
+/// work offset; after the zero it is refused as the program's own frame write (with S_KNUM 0 it only
+/// measures).
+#[test]
+fn a_measuring_cycle_that_sets_a_work_offset_is_a_frame_write() {
+    let prog = |knum: u32| {
+        format!(
+            "\
+G17 G90 G40 G71 G94
+T=\"FR_D16\" M6
+D1
+G54
+S5000 M3 M8
+G0 X-20 Y0 Z2
+G1 Z-4 F500
+X120 F1500
+G0 Z50 M9
+M5
+M0
+T=\"TASTER\" M6
+D1
+G54
+G0 X50 Y40 Z50
+CYCLE978(0,{knum},,1,0,5,1,3,2,1,\"\",,0,1.01,1.01,-1.01,0.34,1,0,,1,1)
+G0 Z100
+T=\"FR_D16\" M6
+D1
+G54
+S5000 M3 M8
+G0 X-20 Y0 Z2
+G1 Z-4 F500
+X120 F1500
+G0 Z50 M9 M5
+M30
+"
+        )
+    };
+    let writes = prog(1);
+    let err = refused(&[("p.mpf", &writes)], "p.mpf", "siemens-cycle978");
+    assert!(err.contains("writes a frame itself at line 16"), "{err}");
+    let measures = prog(0);
+    transformed(&[("p.mpf", &measures)], "p.mpf", "siemens-cycle978");
+}
+
+/// QA round 3: a subprogram beside the program (where the control and the audit find it) is timed and
+/// its R-parameters are left alone without `--subprograms`.
+#[test]
+fn a_subprogram_beside_the_program_keeps_its_registers() {
+    let sub = "R74=1 R75=2 R76=3\nG0 X0 Y0 Z2\nG1 Z-1 F200\nG1 X40\nG0 Z50\nRET\n";
+    let prog = "\
+G17 G90 G40 G71 G94
+T=\"FR_D10\" M6
+D1
+G54
+S4000 M3 M8
+KONTUR7
+G0 Z100 M9 M5
+M30
+";
+    let out = transformed(
+        &[("p.mpf", prog), ("KONTUR7.spf", sub)],
+        "p.mpf",
+        "blum-tc50",
+    );
+    for r in ["R74=", "R75=", "R76="] {
+        assert!(
+            !out.lines().any(|l| l.starts_with(r) && l.ends_with(";DL")),
+            "{r}\n{out}"
+        );
+    }
 }

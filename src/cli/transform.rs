@@ -309,8 +309,8 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                         if let Some(why) = &a.incomplete {
                             writeln!(
                                 stderr,
-                                "{} {path}: audit incomplete: {why}",
-                                style::label(Severity::Note)
+                                "{} {path}: audit incomplete, written without the safety audit from there on: {why}; prove the output out on the machine (single block, dry run) or make the program run on `driftloop run`",
+                                style::label(Severity::Warning)
                             )?;
                         }
                     }
@@ -421,6 +421,25 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     })
 }
 
+/// The profile with the program's own folder first among the subprogram folders, as the control finds a
+/// called subprogram beside its caller (and the audit runs it from there): the registers it uses and its
+/// time count. `None` when the folder is already listed, or the input is not a file.
+fn beside_program(input: &Input, profile: &Profile) -> Option<Profile> {
+    let Input::File(path) = input else {
+        return None;
+    };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => std::path::PathBuf::from("."),
+    };
+    if profile.timeline.subprograms.contains(&dir) {
+        return None;
+    }
+    let mut with = profile.clone();
+    with.timeline.subprograms.insert(0, dir);
+    Some(with)
+}
+
 fn transform_one(
     input: &Input,
     models: &[(DriftModel, String)],
@@ -437,6 +456,8 @@ fn transform_one(
         return Ok(Done::AlreadyTransformed(line));
     }
     let (program, moves) = omm::parse_timed(bytes);
+    let beside = beside_program(input, profile);
+    let profile = beside.as_ref().unwrap_or(profile);
     let refs: Vec<ModelRef<'_>> = models
         .iter()
         .map(|(model, sha)| ModelRef { model, sha256: sha })

@@ -429,6 +429,27 @@ fn unfit_for_gate(site: &Site, profile: &Profile, rule: OffsetRule) -> Option<&'
     }
 }
 
+const SKIPPED: &str = "it lies in what a jump of the program (GOTOF …) skips, so the jump's path would run the program's gates and its end without the zero and the initial data (with the offset method \"active\" and no continuous compensation or warm start, the zero may go there and the gates after the jump's target are left out)";
+
+/// The forward jump of the program whose skipped blocks hold `block`, the one with the earliest target.
+fn skip_around(timeline: &Timeline, block: usize) -> Option<(usize, usize)> {
+    timeline
+        .skips
+        .iter()
+        .filter(|&&(jump, target)| jump < block && block <= target)
+        .min_by_key(|s| s.1)
+        .copied()
+}
+
+/// Nothing driftloop runs besides the gates needs stage 1's registers: the correction in force is
+/// rebuilt from the stored offset (method `active`, its register set to 0 at the program's top), and no
+/// setting data or retentive state is written back at the end.
+fn skipped_zero_is_safe(profile: &Profile) -> bool {
+    profile.offset.method == OffsetMethod::Active
+        && profile.continuous.is_default()
+        && profile.warm_start.is_none()
+}
+
 const TOOL_UNKNOWN: &str = "the tool in the spindle is not known there (no tool change before it), so the probe could not be swapped for it again";
 
 /// Why a site cannot carry the reference measurement with this profile's probe; `None` when it can.
@@ -481,22 +502,38 @@ fn reference_site(
         .unwrap_or(0);
     let from = timeline.setup_end.max(timeline.preamble_end).max(last_load);
     let mut unfit: Option<(usize, &str)> = None;
-    for (k, site) in timeline.sites.iter().enumerate() {
-        if site.block < from || site.block > to {
-            continue;
-        }
-        match unfit_for_reference(site, profile, rule) {
-            None => return Ok(k),
-            Some(why) => {
-                unfit.get_or_insert((site.block, why));
+    // A zero in what a forward jump skips first; then, where nothing driftloop runs on the jump's path
+    // needs what stage 1 sets, there too (the gates from the jump's target on are then left out).
+    let passes = if skipped_zero_is_safe(profile) {
+        &[false, true][..]
+    } else {
+        &[false][..]
+    };
+    for &allow_skipped in passes {
+        let fit = |site: &Site| {
+            if !allow_skipped && skip_around(timeline, site.block).is_some() {
+                return Some(SKIPPED);
+            }
+            unfit_for_reference(site, profile, rule)
+        };
+        for (k, site) in timeline.sites.iter().enumerate() {
+            if site.block < from || site.block > to {
+                continue;
+            }
+            match fit(site) {
+                None => return Ok(k),
+                Some(why) => {
+                    unfit.get_or_insert((site.block, why));
+                }
             }
         }
-    }
-    if let Some(k) = timeline.sites.iter().position(|s| {
-        matches!(s.kind, SiteKind::PassStart { .. })
-            && unfit_for_reference(s, profile, rule).is_none()
-    }) {
-        return Ok(k);
+        if let Some(k) = timeline
+            .sites
+            .iter()
+            .position(|s| matches!(s.kind, SiteKind::PassStart { .. }) && fit(s).is_none())
+        {
+            return Ok(k);
+        }
     }
     let cut = timeline
         .first_cut
@@ -610,6 +647,9 @@ pub fn plan(
     let rule = OffsetRule::of(timeline, profile);
     let first = reference_site(timeline, profile, rule)?;
     let reference_tool = timeline.sites[first].before.tool.clone();
+    // A zero in what a jump skips: from the jump's target on, the jump's path reaches the gates without
+    // the zero, so no gate goes there.
+    let skipped = skip_around(timeline, timeline.sites[first].block);
     let per_measurement = measurement_min(profile);
     // The sites in the order the program runs them: a counted loop's body comes once per run.
     let runs = site_runs(timeline);
@@ -651,6 +691,14 @@ pub fn plan(
         tolerance: profile.limits.tolerance_um,
         warnings: speed_warnings,
     };
+    if let Some((jump, target)) = skipped {
+        watch.warnings.push(format!(
+            "the zero at line {} lies in what the jump at line {} skips: no gate from line {} on (on the jump's path they would run without the zero); the correction in force there is the last one before",
+            timeline.sites[first].block + 1,
+            jump + 1,
+            target + 1
+        ));
+    }
     for (n, &(k, time)) in runs.sites[start..].iter().enumerate() {
         let site = &timeline.sites[k];
         let reference = k == first;
@@ -660,7 +708,8 @@ pub fn plan(
             && site.before.motion != 0
             && site.before.rpm() > 0.0
             && site.rpm_after > 0.0;
-        if !reference && (unfit_for_gate(site, profile, rule).is_some() || mid_cut) {
+        let past_skip = skipped.is_some_and(|(_, target)| site.block >= target);
+        if !reference && (unfit_for_gate(site, profile, rule).is_some() || mid_cut || past_skip) {
             continue;
         }
         // The program's own update uses the real time, measurements included, at the speed set last.

@@ -31,11 +31,11 @@ impl SpindleHistory {
     }
 
     pub fn speed_at(&self, t_min: f64) -> f64 {
-        self.steps
-            .iter()
-            .take_while(|(t, _)| *t <= t_min)
-            .last()
-            .map_or(0.0, |s| s.1)
+        // The steps come in time order: a bisection, as the drift asks for the speed at every step.
+        match self.steps.partition_point(|(t, _)| *t <= t_min) {
+            0 => 0.0,
+            k => self.steps[k - 1].1,
+        }
     }
 
     /// Constant-speed intervals `(start, end, rpm)` up to `t_min`.

@@ -119,6 +119,9 @@ pub struct Timeline {
     pub frame_traverses: Vec<(usize, usize)>,
     /// The program's IF … ENDIF structures (IF block, ENDIF block): what lies between runs only sometimes.
     pub conditional: Vec<(usize, usize)>,
+    /// The program's forward jumps (jump block, target block): the blocks after the jump up to the target
+    /// (its label's block included) run only when the jump is not taken.
+    pub skips: Vec<(usize, usize)>,
     /// One past the last block before the first cut that selects a work offset or changes frames or
     /// transformations: the reference measurement goes after the program's own setup.
     pub setup_end: usize,

@@ -57,6 +57,11 @@ fn block_by_block(program: &Program, profile: &Profile) -> Timeline {
     }
     let mut none = NoCalls;
     let mut b = Builder::new(profile, &mut none);
+    for jump in crate::syntax::structure::analyze(program).jumps {
+        if let Some(to) = jump.to {
+            b.jumps.entry(jump.from).or_default().push(to);
+        }
+    }
     let mut words = Scan::default();
     for i in 0..program.block_count() {
         let span = program.content_span(i);

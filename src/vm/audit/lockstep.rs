@@ -143,6 +143,7 @@ pub(super) fn run(
         watch: Watch::default(),
         last: None,
         pending: None,
+        abort_paths_followed: std::collections::HashMap::new(),
     };
     runner.lockstep(&mut t, &mut o)?;
     let mut audit = runner.audit;
@@ -198,6 +199,9 @@ fn changed_line(
     })
 }
 
+/// How often the abort paths of one probe call are followed.
+const ABORT_PATH_RUNS: u32 = 3;
+
 pub(super) struct Runner<'a> {
     pub settings: &'a AuditSettings,
     pub lines: Lines,
@@ -208,6 +212,8 @@ pub(super) struct Runner<'a> {
     last: Option<(At, bool)>,
     /// A resume point whose comparison waits for the first original block that acts.
     pending: Option<At>,
+    /// How often the abort paths of each probe call (file, line) were followed.
+    abort_paths_followed: std::collections::HashMap<(Option<String>, usize), u32>,
 }
 
 impl Runner<'_> {
@@ -301,7 +307,17 @@ impl Runner<'_> {
             let at = At::of(&self.lines, &unit, block);
             if !forked && t.calls_probe(&unit, block) {
                 forked = true;
-                aborts::follow(self, t, o)?;
+                // A gate in a loop runs its abort paths from the same code each time: following them the
+                // first few times checks them, following them on every run costs a fork of the whole
+                // run per run (quadratic in a long or endless loop).
+                let runs = self
+                    .abort_paths_followed
+                    .entry((at.file.clone(), at.line))
+                    .or_insert(0);
+                *runs += 1;
+                if *runs <= ABORT_PATH_RUNS {
+                    aborts::follow(self, t, o)?;
+                }
             }
             let corrections = t.report().corrections.len();
             let trans = t.motion.frames.trans.clone();

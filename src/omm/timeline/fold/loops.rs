@@ -191,6 +191,7 @@ impl Builder<'_> {
         };
         for t in targets {
             if t > i {
+                self.t.skips.push((i, t));
                 self.merging.entry(t).or_default().push(self.state.clone());
             } else if let Some(entry) = self
                 .label_times

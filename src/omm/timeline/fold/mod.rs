@@ -551,6 +551,9 @@ impl<'p> Builder<'p> {
         if let Some(d) = direction {
             self.state.direction = d;
         }
+        if s.restart {
+            self.t.ends.push(i);
+        }
         if speed.is_some() || direction.is_some() {
             self.t.spindle_words.push((start, speed, direction));
         }

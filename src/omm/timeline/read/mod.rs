@@ -54,6 +54,8 @@ pub(super) struct Scan {
     pub(super) diameter: Option<bool>,
     /// `LIMS=`: the speed limit under constant cutting speed (rpm).
     pub(super) lims: Option<f64>,
+    /// `GOTOS`: back to the program's start.
+    pub(super) restart: bool,
 }
 
 /// Bits of [`Scan::frame_ops`].

@@ -120,6 +120,9 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                 if name == "CYCLE800" {
                     s.frame_ops |= swivel_op(&block, node);
                 }
+                if corrects_work_offset(&block, node, &name) {
+                    s.frame_ops |= frame_op::WRITE;
+                }
                 if !TIMELESS_PROCEDURES.contains(&name.as_str()) {
                     s.call = Some(name);
                 }
@@ -135,6 +138,13 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                 if !is_predefined_command(&name) {
                     s.call = Some(name);
                 }
+            }
+            // GOTOS starts the program again: for what driftloop restores, an end.
+            NodeKind::Goto => {
+                s.restart |= block
+                    .text(node)
+                    .get(..5)
+                    .is_some_and(|t| t.eq_ignore_ascii_case(b"GOTOS"));
             }
             NodeKind::ProgramCall => match program_call(&block, node) {
                 Some(ProgramCall::Once(name)) => s.call = s.call.take().or(Some(name)),
@@ -200,7 +210,9 @@ fn frame_command_op(name: &str, f: &crate::views::BlockFacts, block: &Block<'_>)
 /// angles) is 0 or empty end the swivel; any other call swivels (an expression counts as an angle).
 fn swivel_op(block: &Block<'_>, call: &Node) -> u8 {
     let args = call.call_arguments();
-    let tilted = args.iter().skip(4).flatten().any(|a| {
+    // _X0, _Y0, _Z0, _A, _B, _C, _X1, _Y1, _Z1: the later ones (direction, retract feed, mode) are
+    // settings, not a tilt.
+    let tilted = args.iter().skip(4).take(9).flatten().any(|a| {
         // Strings (the swivel data record's name) and empty arguments do not tilt.
         a.kind != NodeKind::Str && literal(block, a) != Some(0.0)
     });
@@ -209,6 +221,21 @@ fn swivel_op(block: &Block<'_>, call: &Node) -> u8 {
     } else {
         frame_op::SWIVEL_OFF
     }
+}
+
+/// A workpiece measuring cycle whose result number (S_KNUM, the second parameter) is not 0 writes the
+/// measured position into a work offset, as the program's own frame write would.
+fn corrects_work_offset(block: &Block<'_>, call: &Node, name: &str) -> bool {
+    if !matches!(
+        name,
+        "CYCLE961" | "CYCLE977" | "CYCLE978" | "CYCLE979" | "CYCLE997" | "CYCLE998"
+    ) {
+        return false;
+    }
+    let args = call.call_arguments();
+    args.get(1)
+        .and_then(Option::as_ref)
+        .is_some_and(|a| literal(block, a) != Some(0.0))
 }
 
 /// Built-in procedures called like cycles that take no machine time: no note that they are not timed.
