@@ -80,6 +80,29 @@ impl Term {
     }
 }
 
+/// One mode per time constant: the modes of spindle terms with the same lag (and different exponents, from
+/// averaged designs) are one linear response to the speed, so their grid gains add exactly, and the NC
+/// program keeps one state for them. A merged mode whose terms had different exponents carries none: its
+/// gains follow their weighted mix.
+pub fn merge_modes(modes: impl Iterator<Item = Mode>) -> Vec<Mode> {
+    let mut out: Vec<Mode> = Vec::new();
+    for m in modes {
+        match out.iter_mut().find(|o| o.tau_min == m.tau_min) {
+            Some(o) => {
+                o.gain_um
+                    .iter_mut()
+                    .zip(&m.gain_um)
+                    .for_each(|(a, b)| *a += b);
+                if o.power_law_exponent != m.power_law_exponent {
+                    o.power_law_exponent = None;
+                }
+            }
+            None => out.push(m),
+        }
+    }
+    out
+}
+
 /// The speed grid the spindle terms' laws are written on: the characterised speeds and the ladder.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SpeedNodes {
