@@ -298,9 +298,24 @@ fn fit_predict_and_transform_through_the_binary() {
         "sensors: hall_c spindle_c (2)",
         "forward validation",
         "in NC: 2 analog inputs",
+        "the model averages the",
     ] {
         assert!(summary.contains(part), "{part}: {summary}");
     }
+    // `--design best`: the one design with the lowest forward RMS, the only member.
+    let out = run(&[
+        "fit", "m.csv", "--kind", "dlag", "--until", "16h", "--design", "best", "-o", "b.toml",
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", common::stderr(&out));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("; chosen design"));
+    let best = DriftModel::read(&dir.path().join("b.toml")).unwrap();
+    let f = best.fit.unwrap().forward.unwrap();
+    let members: Vec<_> = f.trials.iter().filter(|t| t.weight.is_some()).collect();
+    assert_eq!(members.len(), 1);
+    assert_eq!(
+        (members[0].weight, members[0].cv_rms_um),
+        (Some(1.0), f.cv_rms_um)
+    );
     let out = run(&["predict", "m.toml", "--data", "m.csv"]);
     assert_eq!(out.status.code(), Some(0));
     let warning = common::stderr(&out);

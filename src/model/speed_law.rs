@@ -178,6 +178,23 @@ mod tests {
             w.contains("5000 rpm") && w.contains("p = 1.25 (τ 30.0 min)"),
             "{w}"
         );
+        // A merged mode of averaged designs, gain ∝ x + x²: it grows 3× from 2500 to 5000 rpm, as n^1.58.
+        let mixed: Vec<f64> = m
+            .spindle
+            .grid_rpm
+            .iter()
+            .map(|n| n / 2500.0 + (n / 2500.0).powi(2))
+            .collect();
+        m.spindle.modes[0].gain_um = mixed;
+        m.spindle.modes[0].power_law_exponent = None;
+        m.validate().unwrap();
+        let w = extrapolation_warning(&m, 5000.0).unwrap();
+        assert!(
+            w.contains("a mix of laws growing as n^1.58 from 2500 to 5000 rpm (τ 30.0 min)"),
+            "{w}"
+        );
+        m.spindle.modes[0].gain_um = m.spindle.grid_rpm.iter().map(|n| n - 3000.0).collect();
+        assert!(mode_law(&m, &m.spindle.modes[0]).contains("changing sign"));
         let bare = DriftModel::from_modes("ch1_um", vec![], &[], 0.0);
         assert_eq!(extrapolation_warning(&bare, 9000.0), None);
     }

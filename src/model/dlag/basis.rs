@@ -219,4 +219,27 @@ mod tests {
         assert!((cols[2][at] - 0.5f64.powf(1.5) * (1.0 - (-3.0f64).exp())).abs() < 0.02);
         assert_eq!(terms[1].label(), "t1_c, lag 30.0 min");
     }
+
+    #[test]
+    fn modes_of_one_lag_merge_into_one() {
+        let speeds = SpeedNodes::new(&[1250.0, 2500.0]).unwrap();
+        let term = |lag_min, exponent| Term::Spindle { lag_min, exponent };
+        let modes = [
+            term(60.0, 1.0).mode(2.0, &speeds).unwrap(),
+            term(15.0, 2.0).mode(-1.0, &speeds).unwrap(),
+            term(60.0, 3.0).mode(0.5, &speeds).unwrap(),
+            term(15.0, 2.0).mode(3.0, &speeds).unwrap(),
+        ];
+        let merged = merge_modes(modes.clone().into_iter());
+        assert_eq!(merged.len(), 2);
+        assert_eq!((merged[0].tau_min, merged[1].tau_min), (60.0, 15.0));
+        for (j, &n) in speeds.nodes.iter().enumerate() {
+            let x = n / 2500.0;
+            assert!((merged[0].gain_um[j] - (2.0 * x + 0.5 * x.powi(3))).abs() < 1e-12);
+            assert!((merged[1].gain_um[j] - 2.0 * x * x).abs() < 1e-12);
+        }
+        // Different exponents: the mode follows their mix and carries none; the same exponent stays.
+        assert_eq!(merged[0].power_law_exponent, None);
+        assert_eq!(merged[1].power_law_exponent, Some(2.0));
+    }
 }

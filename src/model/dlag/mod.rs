@@ -779,3 +779,129 @@ impl<'a> Prepared<'a> {
 fn sum(parts: &[Moments]) -> Moments {
     parts[1..].iter().fold(parts[0].clone(), |a, b| a.plus(b))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Schedule;
+
+    /// 16 h at 2 min: 1000 and 2000 rpm with stops; a wandering temperature; a drift that reads both.
+    fn data() -> Dataset {
+        let mut ds = "1000:240,0:240,2000:240,0:240"
+            .parse::<Schedule>()
+            .unwrap()
+            .to_dataset(2.0);
+        let t1: Vec<f64> = ds
+            .time_min
+            .iter()
+            .map(|t| 20.0 + (t / 90.0).sin())
+            .collect();
+        let rpm = ds.values(SPINDLE).unwrap().to_vec();
+        let mut heat = 0.0;
+        let y: Vec<f64> = (0..ds.len())
+            .map(|i| {
+                heat += ((rpm[i] / 1000.0).powi(2) - heat) * 0.03;
+                0.7 * (t1[i] - 20.0) + 2.0 * heat + 0.05 * (1.7 * i as f64).sin()
+            })
+            .collect();
+        ds.push_column("t1_c", t1);
+        ds.push_column("z_um", y);
+        ds
+    }
+
+    fn scored(prep: &Prepared, opts: &DlagOptions) -> Vec<Scored> {
+        let mut scored = Vec::new();
+        for lags in &opts.sensor_lags {
+            Search::new(prep, opts, lags).run(&opts.spindle_lags[0], &mut scored);
+        }
+        scored
+    }
+
+    #[test]
+    fn the_average_is_the_weighted_sum_of_its_members_fitted_alone() {
+        let ds = data();
+        let opts = DlagOptions::new("z_um");
+        let prep = Prepared::new(&ds, &opts).unwrap();
+        let scored = scored(&prep, &opts);
+        let members = Averaging::Weighted.members(&scored, 4);
+        assert!(members.len() > 1, "{members:?}");
+        let ensemble = Ensemble::new(&prep, &scored, &members);
+        let fit = ensemble.fit().unwrap();
+        let mut beta = vec![0.0; ensemble.terms.len()];
+        let mut intercept = 0.0;
+        for &(i, w) in &members {
+            let terms = prep.terms(&scored[i].design);
+            let cols: Vec<Vec<f64>> = terms
+                .iter()
+                .map(|t| column(&ds, t, prep.speeds.as_ref()))
+                .collect();
+            let alone = Ridge::new(&Moments::of_rows(&cols, &prep.y, &prep.rows()))
+                .unwrap()
+                .solve(scored[i].penalty);
+            intercept += w * alone.intercept;
+            for (t, b) in terms.iter().zip(alone.beta.iter()) {
+                let k = ensemble.terms.iter().position(|u| u == t).unwrap();
+                beta[k] += w * b;
+            }
+        }
+        assert!((fit.intercept - intercept).abs() < 1e-8);
+        for (a, b) in fit.beta.iter().zip(&beta) {
+            assert!((a - b).abs() < 1e-8 * (1.0 + b.abs()), "{a} vs {b}");
+        }
+        // Sensors first, as in a single design, and no term twice.
+        let first_spindle = ensemble
+            .terms
+            .iter()
+            .position(|t| matches!(t, Term::Spindle { .. }))
+            .unwrap();
+        assert!(
+            ensemble.terms[first_spindle..]
+                .iter()
+                .all(|t| matches!(t, Term::Spindle { .. }))
+        );
+        assert!(
+            (0..ensemble.terms.len())
+                .all(|a| (0..a).all(|b| ensemble.terms[a] != ensemble.terms[b]))
+        );
+    }
+
+    #[test]
+    fn one_member_scores_its_own_forward_rms() {
+        let ds = data();
+        let opts = DlagOptions::new("z_um");
+        let prep = Prepared::new(&ds, &opts).unwrap();
+        let scored = scored(&prep, &opts);
+        for i in [0, scored.len() / 2, scored.len() - 1] {
+            let ensemble = Ensemble::new(&prep, &scored, &[(i, 1.0)]);
+            let cv = ensemble.cv_rms_um(&prep).unwrap();
+            assert!(
+                (cv - scored[i].cv_rms_um).abs() < 1e-6 * cv,
+                "{cv} vs {}",
+                scored[i].cv_rms_um
+            );
+        }
+    }
+
+    #[test]
+    fn weights_follow_the_forward_rms_relative_to_the_best() {
+        let design = Design {
+            sensor_lags: vec![0.0],
+            spindle: vec![],
+        };
+        let at = |cv: f64| Scored {
+            design: design.clone(),
+            penalty: 1e-3,
+            cv_rms_um: cv,
+        };
+        let scored = [at(1.1), at(2.0), at(1.0)];
+        assert_eq!(Averaging::Best.members(&scored, 4), [(2, 1.0)]);
+        let m = Averaging::Weighted.members(&scored, 4);
+        // 1.1 µm: exp(−4·0.21/2) of the best's weight; 2 µm: exp(−6), under 1 %, left out.
+        let second = (-2.0f64 * 0.21).exp();
+        assert_eq!(m.iter().map(|x| x.0).collect::<Vec<_>>(), [2, 0]);
+        assert!((m[0].1 - 1.0 / (1.0 + second)).abs() < 1e-12);
+        assert!((m[1].1 - second / (1.0 + second)).abs() < 1e-12);
+        // More folds: the same excess counts more.
+        assert!(Averaging::Weighted.members(&scored, 16)[1].1 < m[1].1);
+    }
+}
