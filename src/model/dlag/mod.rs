@@ -319,15 +319,7 @@ impl Ensemble {
         for p in &mut parts {
             p.2.iter_mut().for_each(|k| *k = at[*k]);
         }
-        let cols: Vec<Vec<f64>> = terms
-            .iter()
-            .map(|t| column(prep.ds, t, prep.speeds.as_ref()))
-            .collect();
-        let moments = prep
-            .stretches
-            .iter()
-            .map(|rows| Moments::of_rows(&cols, &prep.y, rows))
-            .collect();
+        let (cols, moments) = prep.columns(&terms);
         Ensemble {
             terms,
             cols,
@@ -457,16 +449,7 @@ struct Search<'p, 'a> {
 
 impl<'p, 'a> Search<'p, 'a> {
     fn new(prep: &'p Prepared<'a>, opts: &'p DlagOptions, lags: &[f64]) -> Search<'p, 'a> {
-        let sensor_cols: Vec<Vec<f64>> = prep
-            .sensor_terms(lags)
-            .iter()
-            .map(|t| column(prep.ds, t, None))
-            .collect();
-        let base = prep
-            .stretches
-            .iter()
-            .map(|rows| Moments::of_rows(&sensor_cols, &prep.y, rows))
-            .collect();
+        let (sensor_cols, base) = prep.columns(&prep.sensor_terms(lags));
         Search {
             prep,
             penalties: &opts.penalties,
@@ -652,6 +635,20 @@ impl<'a> Prepared<'a> {
         })
     }
 
+    /// The terms' columns and their moments on each stretch between the forward origins.
+    fn columns(&self, terms: &[Term]) -> (Vec<Vec<f64>>, Vec<Moments>) {
+        let cols: Vec<Vec<f64>> = terms
+            .iter()
+            .map(|t| column(self.ds, t, self.speeds.as_ref()))
+            .collect();
+        let parts = self
+            .stretches
+            .iter()
+            .map(|rows| Moments::of_rows(&cols, &self.y, rows))
+            .collect();
+        (cols, parts)
+    }
+
     fn rows(&self) -> Vec<usize> {
         (0..self.usable.len()).filter(|&i| self.usable[i]).collect()
     }
@@ -809,77 +806,77 @@ mod tests {
         ds
     }
 
-    fn scored(prep: &Prepared, opts: &DlagOptions) -> Vec<Scored> {
+    /// Runs `check` on the prepared data and every design the default search scores on it.
+    fn with_scored(check: impl FnOnce(&Dataset, &Prepared, &[Scored])) {
+        let ds = data();
+        let opts = DlagOptions::new("z_um");
+        let prep = Prepared::new(&ds, &opts).unwrap();
         let mut scored = Vec::new();
         for lags in &opts.sensor_lags {
-            Search::new(prep, opts, lags).run(&opts.spindle_lags[0], &mut scored);
+            Search::new(&prep, &opts, lags).run(&opts.spindle_lags[0], &mut scored);
         }
-        scored
+        check(&ds, &prep, &scored);
     }
 
     #[test]
     fn the_average_is_the_weighted_sum_of_its_members_fitted_alone() {
-        let ds = data();
-        let opts = DlagOptions::new("z_um");
-        let prep = Prepared::new(&ds, &opts).unwrap();
-        let scored = scored(&prep, &opts);
-        let members = Averaging::Weighted.members(&scored, 4);
-        assert!(members.len() > 1, "{members:?}");
-        let ensemble = Ensemble::new(&prep, &scored, &members);
-        let fit = ensemble.fit().unwrap();
-        let mut beta = vec![0.0; ensemble.terms.len()];
-        let mut intercept = 0.0;
-        for &(i, w) in &members {
-            let terms = prep.terms(&scored[i].design);
-            let cols: Vec<Vec<f64>> = terms
-                .iter()
-                .map(|t| column(&ds, t, prep.speeds.as_ref()))
-                .collect();
-            let alone = Ridge::new(&Moments::of_rows(&cols, &prep.y, &prep.rows()))
-                .unwrap()
-                .solve(scored[i].penalty);
-            intercept += w * alone.intercept;
-            for (t, b) in terms.iter().zip(alone.beta.iter()) {
-                let k = ensemble.terms.iter().position(|u| u == t).unwrap();
-                beta[k] += w * b;
+        with_scored(|ds, prep, scored| {
+            let members = Averaging::Weighted.members(&scored, 4);
+            assert!(members.len() > 1, "{members:?}");
+            let ensemble = Ensemble::new(&prep, &scored, &members);
+            let fit = ensemble.fit().unwrap();
+            let mut beta = vec![0.0; ensemble.terms.len()];
+            let mut intercept = 0.0;
+            for &(i, w) in &members {
+                let terms = prep.terms(&scored[i].design);
+                let cols: Vec<Vec<f64>> = terms
+                    .iter()
+                    .map(|t| column(&ds, t, prep.speeds.as_ref()))
+                    .collect();
+                let alone = Ridge::new(&Moments::of_rows(&cols, &prep.y, &prep.rows()))
+                    .unwrap()
+                    .solve(scored[i].penalty);
+                intercept += w * alone.intercept;
+                for (t, b) in terms.iter().zip(alone.beta.iter()) {
+                    let k = ensemble.terms.iter().position(|u| u == t).unwrap();
+                    beta[k] += w * b;
+                }
             }
-        }
-        assert!((fit.intercept - intercept).abs() < 1e-8);
-        for (a, b) in fit.beta.iter().zip(&beta) {
-            assert!((a - b).abs() < 1e-8 * (1.0 + b.abs()), "{a} vs {b}");
-        }
-        // Sensors first, as in a single design, and no term twice.
-        let first_spindle = ensemble
-            .terms
-            .iter()
-            .position(|t| matches!(t, Term::Spindle { .. }))
-            .unwrap();
-        assert!(
-            ensemble.terms[first_spindle..]
+            assert!((fit.intercept - intercept).abs() < 1e-8);
+            for (a, b) in fit.beta.iter().zip(&beta) {
+                assert!((a - b).abs() < 1e-8 * (1.0 + b.abs()), "{a} vs {b}");
+            }
+            // Sensors first, as in a single design, and no term twice.
+            let first_spindle = ensemble
+                .terms
                 .iter()
-                .all(|t| matches!(t, Term::Spindle { .. }))
-        );
-        assert!(
-            (0..ensemble.terms.len())
-                .all(|a| (0..a).all(|b| ensemble.terms[a] != ensemble.terms[b]))
-        );
+                .position(|t| matches!(t, Term::Spindle { .. }))
+                .unwrap();
+            assert!(
+                ensemble.terms[first_spindle..]
+                    .iter()
+                    .all(|t| matches!(t, Term::Spindle { .. }))
+            );
+            assert!(
+                (0..ensemble.terms.len())
+                    .all(|a| (0..a).all(|b| ensemble.terms[a] != ensemble.terms[b]))
+            );
+        });
     }
 
     #[test]
     fn one_member_scores_its_own_forward_rms() {
-        let ds = data();
-        let opts = DlagOptions::new("z_um");
-        let prep = Prepared::new(&ds, &opts).unwrap();
-        let scored = scored(&prep, &opts);
-        for i in [0, scored.len() / 2, scored.len() - 1] {
-            let ensemble = Ensemble::new(&prep, &scored, &[(i, 1.0)]);
-            let cv = ensemble.cv_rms_um(&prep).unwrap();
-            assert!(
-                (cv - scored[i].cv_rms_um).abs() < 1e-6 * cv,
-                "{cv} vs {}",
-                scored[i].cv_rms_um
-            );
-        }
+        with_scored(|_, prep, scored| {
+            for i in [0, scored.len() / 2, scored.len() - 1] {
+                let ensemble = Ensemble::new(&prep, &scored, &[(i, 1.0)]);
+                let cv = ensemble.cv_rms_um(&prep).unwrap();
+                assert!(
+                    (cv - scored[i].cv_rms_um).abs() < 1e-6 * cv,
+                    "{cv} vs {}",
+                    scored[i].cv_rms_um
+                );
+            }
+        });
     }
 
     #[test]
