@@ -821,9 +821,9 @@ mod tests {
     #[test]
     fn the_average_is_the_weighted_sum_of_its_members_fitted_alone() {
         with_scored(|ds, prep, scored| {
-            let members = Averaging::Weighted.members(&scored, 4);
+            let members = Averaging::Weighted.members(scored, 4);
             assert!(members.len() > 1, "{members:?}");
-            let ensemble = Ensemble::new(&prep, &scored, &members);
+            let ensemble = Ensemble::new(prep, scored, &members);
             let fit = ensemble.fit().unwrap();
             let mut beta = vec![0.0; ensemble.terms.len()];
             let mut intercept = 0.0;
@@ -831,7 +831,7 @@ mod tests {
                 let terms = prep.terms(&scored[i].design);
                 let cols: Vec<Vec<f64>> = terms
                     .iter()
-                    .map(|t| column(&ds, t, prep.speeds.as_ref()))
+                    .map(|t| column(ds, t, prep.speeds.as_ref()))
                     .collect();
                 let alone = Ridge::new(&Moments::of_rows(&cols, &prep.y, &prep.rows()))
                     .unwrap()
@@ -868,8 +868,8 @@ mod tests {
     fn one_member_scores_its_own_forward_rms() {
         with_scored(|_, prep, scored| {
             for i in [0, scored.len() / 2, scored.len() - 1] {
-                let ensemble = Ensemble::new(&prep, &scored, &[(i, 1.0)]);
-                let cv = ensemble.cv_rms_um(&prep).unwrap();
+                let ensemble = Ensemble::new(prep, scored, &[(i, 1.0)]);
+                let cv = ensemble.cv_rms_um(prep).unwrap();
                 assert!(
                     (cv - scored[i].cv_rms_um).abs() < 1e-6 * cv,
                     "{cv} vs {}",
