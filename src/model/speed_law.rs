@@ -79,8 +79,13 @@ pub fn extrapolation_law(model: &DriftModel) -> String {
                     )
                 })
                 .collect();
+            let laws = if sp.modes.iter().all(|m| m.power_law_exponent.is_some()) {
+                "the power law"
+            } else {
+                "the averaged designs' power laws"
+            };
             format!(
-                "the power law gain ∝ (n/{top:.0} rpm)^p, {} (chosen by forward validation), continued linearly above {last:.0} rpm",
+                "{laws} gain ∝ (n/{top:.0} rpm)^p, {} (chosen by forward validation), continued linearly above {last:.0} rpm",
                 per_mode.join(", ")
             )
         }
