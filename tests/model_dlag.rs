@@ -164,9 +164,34 @@ fn the_model_file_predicts_what_was_fitted() {
     );
     let f = fit.forward.as_ref().unwrap();
     assert_eq!(f.signals, ["hall_c", "spindle_c"]);
-    assert_eq!(model.effects.len(), 2 * f.sensor_lags_min.len());
+    // The averaged model: the designs within the folds' noise of the best, weights summing to 1, the best
+    // the heaviest; one effect per signal and lag any member uses, one spindle mode per lag.
+    let members: Vec<_> = f.trials.iter().filter(|t| t.weight.is_some()).collect();
+    let weight = |t: &driftloop::model::dlag::DesignTrial| t.weight.unwrap();
+    assert!((members.iter().map(|t| weight(t)).sum::<f64>() - 1.0).abs() < 1e-12);
+    let best = f
+        .trials
+        .iter()
+        .map(|t| t.cv_rms_um)
+        .fold(f64::INFINITY, f64::min);
+    let heaviest = members
+        .iter()
+        .max_by(|a, b| weight(a).total_cmp(&weight(b)))
+        .unwrap();
+    assert_eq!(heaviest.cv_rms_um, best);
+    assert_eq!(
+        (heaviest.sensor_lags_min.clone(), heaviest.exponents.clone()),
+        (f.sensor_lags_min.clone(), f.exponents.clone())
+    );
+    let mut lags: Vec<f64> = members
+        .iter()
+        .flat_map(|t| t.sensor_lags_min.clone())
+        .collect();
+    lags.sort_by(f64::total_cmp);
+    lags.dedup();
+    assert_eq!(model.effects.len(), 2 * lags.len());
     assert_eq!(model.spindle.modes.len(), f.spindle_lags_min.len());
-    assert!(f.trials.len() >= f.exponents.len() && f.cv_rms_um > 0.0);
+    assert!(members.len() > 1 && f.trials.len() >= f.exponents.len() && f.cv_rms_um > 0.0);
     assert!(
         f.trials
             .iter()
@@ -273,9 +298,24 @@ fn fit_predict_and_transform_through_the_binary() {
         "sensors: hall_c spindle_c (2)",
         "forward validation",
         "in NC: 2 analog inputs",
+        "the model averages the",
     ] {
         assert!(summary.contains(part), "{part}: {summary}");
     }
+    // `--design best`: the one design with the lowest forward RMS, the only member.
+    let out = run(&[
+        "fit", "m.csv", "--kind", "dlag", "--until", "16h", "--design", "best", "-o", "b.toml",
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", common::stderr(&out));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("; chosen design"));
+    let best = DriftModel::read(&dir.path().join("b.toml")).unwrap();
+    let f = best.fit.unwrap().forward.unwrap();
+    let members: Vec<_> = f.trials.iter().filter(|t| t.weight.is_some()).collect();
+    assert_eq!(members.len(), 1);
+    assert_eq!(
+        (members[0].weight, members[0].cv_rms_um),
+        (Some(1.0), f.cv_rms_um)
+    );
     let out = run(&["predict", "m.toml", "--data", "m.csv"]);
     assert_eq!(out.status.code(), Some(0));
     let warning = common::stderr(&out);

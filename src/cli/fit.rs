@@ -6,7 +6,7 @@ use std::process::ExitCode;
 
 use super::{Format, Global};
 use crate::data::{Dataset, Minutes, Require, read_path};
-use crate::model::dlag::{DlagOptions, fit_dlag};
+use crate::model::dlag::{Averaging, DlagOptions, fit_dlag};
 use crate::model::fit::fmt_tau;
 use crate::model::{DriftModel, FitOptions, ModesChoice, fit};
 
@@ -18,6 +18,24 @@ pub enum Kind {
     /// Every temperature at several lags plus a power-law spindle basis, ridge, chosen by forward
     /// validation.
     Dlag,
+}
+
+/// Which designs make a `--kind dlag` model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Design {
+    /// Average the designs within the forward folds' noise of the best (weighted by their forward RMS).
+    Average,
+    /// The one design with the lowest forward RMS.
+    Best,
+}
+
+impl Design {
+    pub fn averaging(self) -> Averaging {
+        match self {
+            Design::Average => Averaging::Weighted,
+            Design::Best => Averaging::Best,
+        }
+    }
 }
 
 #[derive(Debug, clap::Args)]
@@ -56,6 +74,10 @@ pub struct Args {
     /// spindle term its own; default 0.5 to 3).
     #[arg(long, value_delimiter = ',', value_name = "P,…")]
     pub exponents: Option<Vec<f64>>,
+    /// `--kind dlag`: `average` the designs within the forward folds' noise of the best, or take the
+    /// `best` one alone.
+    #[arg(long, value_enum, default_value_t = Design::Average)]
+    pub design: Design,
     /// `--kind dlag`: the probing interval the trend gain of a probe's re-zeroing is chosen for (`60min`,
     /// `1h`; a bare number is minutes).
     #[arg(long, value_name = "TIME", default_value = "60min")]
@@ -96,6 +118,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 "--probe-every must be a positive time"
             );
             opts.probe_every_min = Some(args.probe_every.0);
+            opts.averaging = args.design.averaging();
             opts.until_min = until_min;
             opts.signals = args.signals.clone();
             if let Some(p) = &args.exponents {

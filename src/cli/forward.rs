@@ -8,7 +8,7 @@ use std::process::ExitCode;
 
 use serde::Serialize;
 
-use super::fit::Kind;
+use super::fit::{Design, Kind};
 use super::progress::Progress;
 use super::{Format, Global};
 use crate::data::{Minutes, Require, read_path};
@@ -31,6 +31,10 @@ pub struct Args {
     /// The model: `dlag` (sensors at several lags plus a power-law spindle term) or `modes` (spindle only).
     #[arg(long, value_enum, default_value_t = Kind::Dlag)]
     pub kind: Kind,
+    /// `--kind dlag`: `average` the designs within the forward folds' noise of the best, or take the
+    /// `best` one alone.
+    #[arg(long, value_enum, default_value_t = Design::Average)]
+    pub design: Design,
     /// A probe re-zeroes the correction this often from the holdout's start (`60min`, `1h`).
     #[arg(long, value_name = "TIME", default_value = "60min")]
     pub probe_every: Minutes,
@@ -73,6 +77,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 let mut o = DlagOptions::new(ch.clone());
                 o.until_min = Some(until);
                 o.probe_every_min = Some(args.probe_every.0);
+                o.averaging = args.design.averaging();
                 fit_dlag(&ds, &o)?
             }
             Kind::Modes => {
@@ -95,7 +100,11 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         )?;
         let design = match forward {
             Some(f) => format!(
-                "lags {:?} min, spindle lags {:?} min with p {:?}, penalty {:.0e}, forward CV {:.2} µm{}",
+                "{}lags {:?} min, spindle lags {:?} min with p {:?}, penalty {:.0e}, forward CV {:.2} µm{}",
+                match f.trials.iter().filter(|t| t.weight.is_some()).count() {
+                    0 | 1 => String::new(),
+                    n => format!("average of {n} designs, the best: "),
+                },
                 f.sensor_lags_min,
                 f.spindle_lags_min,
                 f.exponents,

@@ -118,13 +118,14 @@ impl DriftModel {
             let top_ok = sp
                 .characterised_top_rpm
                 .is_some_and(|t| sp.grid_rpm.iter().any(|n| (n - t).abs() <= 1e-9 * t));
+            // A mode without an exponent follows a mix of laws (an averaged dlag fit): its gains say it.
             let p_ok = sp.modes.iter().all(|m| {
                 m.power_law_exponent
-                    .is_some_and(|p| p.is_finite() && p > 0.0 && p <= 10.0)
+                    .is_none_or(|p| p.is_finite() && p > 0.0 && p <= 10.0)
             });
             if !top_ok || !p_ok {
                 return Err(
-                    "spindle.extrapolation = \"power-law\" needs characterised_top_rpm (a grid speed) and a power_law_exponent in (0, 10] in every mode".into(),
+                    "spindle.extrapolation = \"power-law\" needs characterised_top_rpm (a grid speed) and every power_law_exponent in (0, 10]".into(),
                 );
             }
         }

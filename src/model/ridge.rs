@@ -109,6 +109,18 @@ impl Moments {
         }
     }
 
+    /// The moments of the columns `idx` (in that order) of the same rows.
+    pub fn select(&self, idx: &[usize]) -> Moments {
+        Moments {
+            n: self.n,
+            sx: self.sx.select_rows(idx),
+            sy: self.sy,
+            sxx: self.sxx.select_rows(idx).select_columns(idx),
+            sxy: self.sxy.select_rows(idx),
+            syy: self.syy,
+        }
+    }
+
     /// Sum of squared errors of `fit` on these rows.
     pub fn sse(&self, fit: &Coefficients) -> f64 {
         let (a, b) = (fit.intercept, &fit.beta);

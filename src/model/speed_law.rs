@@ -73,18 +73,47 @@ pub fn extrapolation_law(model: &DriftModel) -> String {
                 .iter()
                 .map(|m| {
                     format!(
-                        "{:.2} (τ {})",
-                        m.power_law_exponent.unwrap_or(f64::NAN),
+                        "{} (τ {})",
+                        mode_law(model, m),
                         super::fit::fmt_tau(m.tau_min)
                     )
                 })
                 .collect();
+            let laws = if sp.modes.iter().all(|m| m.power_law_exponent.is_some()) {
+                "the power law"
+            } else {
+                "the averaged designs' power laws"
+            };
             format!(
-                "the power law gain ∝ (n/{top:.0} rpm)^p, p = {} (chosen by forward validation), continued linearly above {last:.0} rpm",
+                "{laws} gain ∝ (n/{top:.0} rpm)^p, {} (chosen by forward validation), continued linearly above {last:.0} rpm",
                 per_mode.join(", ")
             )
         }
         _ => "the last segment of the speed grid continued linearly".to_string(),
+    }
+}
+
+/// The law of one mode of a power-law model: `p = 1.50`, or for a mode that sums the laws of averaged
+/// designs, the exponent it grows with from the top characterised speed to twice that.
+pub fn mode_law(model: &DriftModel, mode: &super::Mode) -> String {
+    if let Some(p) = mode.power_law_exponent {
+        return format!("p = {p:.2}");
+    }
+    let top = model.spindle.characterised_top_rpm.unwrap_or(0.0);
+    let at = |n: f64| {
+        model
+            .speed_grid()
+            .map_or(f64::NAN, |g| g.weights(n).apply(&mode.gain_um))
+    };
+    let ratio = at(2.0 * top) / at(top);
+    if ratio.is_finite() && ratio > 0.0 {
+        format!(
+            "a mix of laws growing as n^{:.2} from {top:.0} to {:.0} rpm",
+            ratio.log2(),
+            2.0 * top
+        )
+    } else {
+        format!("a mix of laws changing sign by {:.0} rpm", 2.0 * top)
     }
 }
 
@@ -154,6 +183,23 @@ mod tests {
             w.contains("5000 rpm") && w.contains("p = 1.25 (τ 30.0 min)"),
             "{w}"
         );
+        // A merged mode of averaged designs, gain ∝ x + x²: it grows 3× from 2500 to 5000 rpm, as n^1.58.
+        let mixed: Vec<f64> = m
+            .spindle
+            .grid_rpm
+            .iter()
+            .map(|n| n / 2500.0 + (n / 2500.0).powi(2))
+            .collect();
+        m.spindle.modes[0].gain_um = mixed;
+        m.spindle.modes[0].power_law_exponent = None;
+        m.validate().unwrap();
+        let w = extrapolation_warning(&m, 5000.0).unwrap();
+        assert!(
+            w.contains("a mix of laws growing as n^1.58 from 2500 to 5000 rpm (τ 30.0 min)"),
+            "{w}"
+        );
+        m.spindle.modes[0].gain_um = m.spindle.grid_rpm.iter().map(|n| n - 3000.0).collect();
+        assert!(mode_law(&m, &m.spindle.modes[0]).contains("changing sign"));
         let bare = DriftModel::from_modes("ch1_um", vec![], &[], 0.0);
         assert_eq!(extrapolation_warning(&bare, 9000.0), None);
     }

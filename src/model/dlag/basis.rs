@@ -80,6 +80,29 @@ impl Term {
     }
 }
 
+/// One mode per time constant: the modes of spindle terms with the same lag (and different exponents, from
+/// averaged designs) are one linear response to the speed, so their grid gains add exactly, and the NC
+/// program keeps one state for them. A merged mode whose terms had different exponents carries none: its
+/// gains follow their weighted mix.
+pub fn merge_modes(modes: impl Iterator<Item = Mode>) -> Vec<Mode> {
+    let mut out: Vec<Mode> = Vec::new();
+    for m in modes {
+        match out.iter_mut().find(|o| o.tau_min == m.tau_min) {
+            Some(o) => {
+                o.gain_um
+                    .iter_mut()
+                    .zip(&m.gain_um)
+                    .for_each(|(a, b)| *a += b);
+                if o.power_law_exponent != m.power_law_exponent {
+                    o.power_law_exponent = None;
+                }
+            }
+            None => out.push(m),
+        }
+    }
+    out
+}
+
 /// The speed grid the spindle terms' laws are written on: the characterised speeds and the ladder.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SpeedNodes {
@@ -195,5 +218,28 @@ mod tests {
         let at = ds.time_min.iter().position(|&t| t >= 120.0).unwrap();
         assert!((cols[2][at] - 0.5f64.powf(1.5) * (1.0 - (-3.0f64).exp())).abs() < 0.02);
         assert_eq!(terms[1].label(), "t1_c, lag 30.0 min");
+    }
+
+    #[test]
+    fn modes_of_one_lag_merge_into_one() {
+        let speeds = SpeedNodes::new(&[1250.0, 2500.0]).unwrap();
+        let term = |lag_min, exponent| Term::Spindle { lag_min, exponent };
+        let modes = [
+            term(60.0, 1.0).mode(2.0, &speeds).unwrap(),
+            term(15.0, 2.0).mode(-1.0, &speeds).unwrap(),
+            term(60.0, 3.0).mode(0.5, &speeds).unwrap(),
+            term(15.0, 2.0).mode(3.0, &speeds).unwrap(),
+        ];
+        let merged = merge_modes(modes.clone().into_iter());
+        assert_eq!(merged.len(), 2);
+        assert_eq!((merged[0].tau_min, merged[1].tau_min), (60.0, 15.0));
+        for (j, &n) in speeds.nodes.iter().enumerate() {
+            let x = n / 2500.0;
+            assert!((merged[0].gain_um[j] - (2.0 * x + 0.5 * x.powi(3))).abs() < 1e-12);
+            assert!((merged[1].gain_um[j] - 2.0 * x * x).abs() < 1e-12);
+        }
+        // Different exponents: the mode follows their mix and carries none; the same exponent stays.
+        assert_eq!(merged[0].power_law_exponent, None);
+        assert_eq!(merged[1].power_law_exponent, Some(2.0));
     }
 }

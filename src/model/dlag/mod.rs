@@ -46,6 +46,8 @@ pub struct DlagOptions {
     pub spindle_lags: Vec<Vec<f64>>,
     /// Candidate exponents p of the speed law.
     pub exponents: Vec<f64>,
+    /// Which scored designs make the model.
+    pub averaging: Averaging,
     /// Candidate penalties (on standardised columns, per row).
     pub penalties: Vec<f64>,
     pub origins: Origins,
@@ -73,6 +75,7 @@ impl DlagOptions {
             // whole selection was validated forward (docs/forward.md, "Which choices …").
             spindle_lags: vec![vec![15.0, 60.0, 240.0]],
             exponents: vec![0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.5, 3.0],
+            averaging: Averaging::Weighted,
             penalties: (0..=14)
                 .map(|i| 10f64.powf(-6.0 + 0.5 * f64::from(i)))
                 .collect(),
@@ -89,12 +92,14 @@ pub struct ForwardSelection {
     /// Elapsed minutes (from the first row, runs laid end to end) of the validation origins.
     pub origins_min: Vec<f64>,
     pub signals: Vec<String>,
+    /// The design with the lowest forward RMS (with averaging: the heaviest member, see `trials`).
     pub sensor_lags_min: Vec<f64>,
     pub spindle_lags_min: Vec<f64>,
     /// p of each spindle term's speed law, in the order of `spindle_lags_min`.
     pub exponents: Vec<f64>,
     pub penalty: f64,
-    /// Pooled forward RMS of the chosen design.
+    /// Pooled forward RMS of the model: of the best design, or of the average of the members (each fitted
+    /// on each fold's training rows) when the model averages several.
     pub cv_rms_um: f64,
     /// Effective degrees of freedom of the final fit.
     pub dof: f64,
@@ -135,6 +140,9 @@ pub struct DesignTrial {
     pub exponents: Vec<f64>,
     pub penalty: f64,
     pub cv_rms_um: f64,
+    /// The design's weight in the averaged model (absent: not a member).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub weight: Option<f64>,
 }
 
 /// The window's data laid out for the search.
@@ -154,8 +162,7 @@ pub fn fit_dlag(all: &Dataset, opts: &DlagOptions) -> Result<DriftModel, FitErro
     let window = all.until_opt(opts.until_min);
     let ds = window.as_ref();
     let prep = Prepared::new(ds, opts)?;
-    let mut trials = Vec::new();
-    let mut best: Option<(Design, f64, f64)> = None;
+    let mut scored: Vec<Scored> = Vec::new();
     // Without a spindle speed in the window every spindle lag set is the same design: no spindle terms.
     let spindle_sets: Vec<&[f64]> = match prep.speeds {
         Some(_) => opts.spindle_lags.iter().map(Vec::as_slice).collect(),
@@ -164,43 +171,260 @@ pub fn fit_dlag(all: &Dataset, opts: &DlagOptions) -> Result<DriftModel, FitErro
     for lags in &opts.sensor_lags {
         let mut search = Search::new(&prep, opts, lags);
         for &spindle_lags in &spindle_sets {
-            let Some(found) = search.run(spindle_lags, &mut trials) else {
-                continue;
-            };
-            if best.as_ref().is_none_or(|b| found.2 < b.2) {
-                best = Some(found);
-            }
+            search.run(spindle_lags, &mut scored);
         }
     }
-    let (design, penalty, cv) = best.ok_or(FitError::TooFewSamples {
-        samples: prep.rows().len(),
-        needed: 2 * opts.origins.count.max(1),
-    })?;
-    let terms = prep.terms(&design);
-    let cols: Vec<Vec<f64>> = terms
-        .iter()
-        .map(|t| column(ds, t, prep.speeds.as_ref()))
-        .collect();
-    let rows = prep.rows();
-    let fit = Ridge::new(&Moments::of_rows(&cols, &prep.y, &rows))
-        .ok_or(FitError::Numerical)?
-        .solve(penalty);
+    let members = opts
+        .averaging
+        .members(&scored, prep.stretches.len().saturating_sub(1));
+    let Some(best) = members.first().map(|m| &scored[m.0]) else {
+        return Err(FitError::TooFewSamples {
+            samples: prep.rows().len(),
+            needed: 2 * opts.origins.count.max(1),
+        });
+    };
+    let ensemble = Ensemble::new(&prep, &scored, &members);
+    let cv = match members.len() {
+        1 => best.cv_rms_um,
+        _ => ensemble.cv_rms_um(&prep).unwrap_or(f64::NAN),
+    };
+    let fit = ensemble.fit().ok_or(FitError::Numerical)?;
     let probe = opts
         .probe_every_min
-        .and_then(|every| prep.choose_trend_gain(&cols, penalty, every, &opts.trend_gains));
+        .and_then(|every| ensemble.choose_trend_gain(&prep, every, &opts.trend_gains));
     let selection = ForwardSelection {
         origins_min: prep.origins_min.clone(),
         signals: prep.signals.clone(),
-        sensor_lags_min: design.sensor_lags.clone(),
-        spindle_lags_min: design.spindle.iter().map(|s| s.0).collect(),
-        exponents: design.spindle.iter().map(|s| s.1).collect(),
-        penalty,
+        sensor_lags_min: best.design.sensor_lags.clone(),
+        spindle_lags_min: best.design.spindle.iter().map(|s| s.0).collect(),
+        exponents: best.design.spindle.iter().map(|s| s.1).collect(),
+        penalty: best.penalty,
         cv_rms_um: cv,
         dof: fit.dof,
-        trials,
+        trials: scored
+            .iter()
+            .enumerate()
+            .map(|(i, d)| d.trial(members.iter().find(|m| m.0 == i).map(|m| m.1)))
+            .collect(),
         probe,
     };
-    Ok(prep.model(all.len(), opts, &terms, &cols, &fit, selection))
+    Ok(prep.model(
+        all.len(),
+        opts,
+        &ensemble.terms,
+        &ensemble.cols,
+        &fit,
+        selection,
+    ))
+}
+
+/// Which of the scored designs make the model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Averaging {
+    /// The design with the lowest forward RMS.
+    Best,
+    /// Every design, weighted by exp(−F·(cv²/cv_min² − 1)/2) with F the number of forward folds: a fold's
+    /// errors are strongly autocorrelated (a few transients), so it counts as about one observation of the
+    /// design's error, and designs within the folds' noise of the best share the prediction. Designs under
+    /// 1 % of the best's weight are left out.
+    Weighted,
+}
+
+impl Averaging {
+    /// (index into `scored`, weight) of the members, best first; the weights sum to 1.
+    fn members(self, scored: &[Scored], folds: usize) -> Vec<(usize, f64)> {
+        let mut order: Vec<usize> = (0..scored.len()).collect();
+        order.sort_by(|&a, &b| scored[a].cv_rms_um.total_cmp(&scored[b].cv_rms_um));
+        let Some(&first) = order.first() else {
+            return Vec::new();
+        };
+        let mut members: Vec<(usize, f64)> = match self {
+            Averaging::Best => vec![(first, 1.0)],
+            Averaging::Weighted => {
+                let min = scored[first].cv_rms_um.powi(2);
+                order
+                    .into_iter()
+                    .map(|i| {
+                        let excess = scored[i].cv_rms_um.powi(2) / min - 1.0;
+                        (i, (-0.5 * folds as f64 * excess).exp())
+                    })
+                    .filter(|m| m.1 >= 0.01)
+                    .collect()
+            }
+        };
+        let total: f64 = members.iter().map(|m| m.1).sum();
+        members.iter_mut().for_each(|m| m.1 /= total);
+        members
+    }
+}
+
+/// A design scored by forward validation.
+#[derive(Debug, Clone, PartialEq)]
+struct Scored {
+    design: Design,
+    penalty: f64,
+    cv_rms_um: f64,
+}
+
+impl Scored {
+    fn trial(&self, weight: Option<f64>) -> DesignTrial {
+        DesignTrial {
+            sensor_lags_min: self.design.sensor_lags.clone(),
+            spindle_lags_min: self.design.spindle.iter().map(|x| x.0).collect(),
+            exponents: self.design.spindle.iter().map(|x| x.1).collect(),
+            penalty: self.penalty,
+            cv_rms_um: self.cv_rms_um,
+            weight,
+        }
+    }
+}
+
+/// The weighted sum of the members' linear models: one model over the union of their terms.
+struct Ensemble {
+    terms: Vec<Term>,
+    cols: Vec<Vec<f64>>,
+    /// Per member: weight, penalty, the indices of its terms in `terms`.
+    members: Vec<(f64, f64, Vec<usize>)>,
+    /// The moments of every term on each stretch between the forward origins.
+    parts: Vec<Moments>,
+}
+
+impl Ensemble {
+    fn new(prep: &Prepared, scored: &[Scored], members: &[(usize, f64)]) -> Ensemble {
+        let mut terms: Vec<Term> = Vec::new();
+        let mut parts = Vec::new();
+        for &(i, w) in members {
+            let idx: Vec<usize> = prep
+                .terms(&scored[i].design)
+                .into_iter()
+                .map(|t| match terms.iter().position(|u| *u == t) {
+                    Some(k) => k,
+                    None => {
+                        terms.push(t);
+                        terms.len() - 1
+                    }
+                })
+                .collect();
+            parts.push((w, scored[i].penalty, idx));
+        }
+        // Sensors first, as a single design lists them.
+        let mut order: Vec<usize> = (0..terms.len()).collect();
+        order.sort_by_key(|&k| matches!(terms[k], Term::Spindle { .. }));
+        let mut at = vec![0; terms.len()];
+        order
+            .iter()
+            .enumerate()
+            .for_each(|(new, &old)| at[old] = new);
+        let terms: Vec<Term> = order.iter().map(|&k| terms[k].clone()).collect();
+        for p in &mut parts {
+            p.2.iter_mut().for_each(|k| *k = at[*k]);
+        }
+        let (cols, moments) = prep.columns(&terms);
+        Ensemble {
+            terms,
+            cols,
+            members: parts,
+            parts: moments,
+        }
+    }
+
+    /// The weighted coefficients of the members fitted on the rows whose moments (of every term) are
+    /// `train`.
+    fn fit_on(&self, train: &Moments) -> Option<Coefficients> {
+        let mut out = Coefficients {
+            intercept: 0.0,
+            beta: nalgebra::DVector::zeros(self.terms.len()),
+            dof: 0.0,
+        };
+        for (w, penalty, idx) in &self.members {
+            let c = Ridge::new(&train.select(idx))?.solve(*penalty);
+            out.intercept += w * c.intercept;
+            out.dof += w * c.dof;
+            for (&k, b) in idx.iter().zip(c.beta.iter()) {
+                out.beta[k] += w * b;
+            }
+        }
+        Some(out)
+    }
+
+    /// The members fitted on the whole window.
+    fn fit(&self) -> Option<Coefficients> {
+        self.fit_on(&sum(&self.parts))
+    }
+
+    fn predict(&self, c: &Coefficients, i: usize) -> f64 {
+        c.intercept
+            + self
+                .cols
+                .iter()
+                .zip(c.beta.iter())
+                .map(|(col, b)| b * col[i])
+                .sum::<f64>()
+    }
+
+    /// Each forward fold's test rows and the model's error on them (NaN elsewhere), fitted on the rows
+    /// before the fold's origin.
+    fn fold_errors(&self, prep: &Prepared) -> Vec<(Vec<usize>, Vec<f64>)> {
+        let s = &prep.stretches;
+        (0..s.len().saturating_sub(1))
+            .filter_map(|k| {
+                let test: Vec<usize> = s[k + 1..].concat();
+                let fit = self.fit_on(&sum(&self.parts[..=k]))?;
+                let mut err = vec![f64::NAN; prep.ds.len()];
+                for &i in &test {
+                    err[i] = prep.y[i] - self.predict(&fit, i);
+                }
+                (!test.is_empty()).then_some((test, err))
+            })
+            .collect()
+    }
+
+    /// The pooled forward RMS of the weighted model.
+    fn cv_rms_um(&self, prep: &Prepared) -> Option<f64> {
+        let folds = self.fold_errors(prep);
+        let n: usize = folds.iter().map(|f| f.0.len()).sum();
+        let sse: f64 = folds
+            .iter()
+            .flat_map(|(test, err)| test.iter().map(|&i| err[i] * err[i]))
+            .sum();
+        (n > 0).then(|| (sse / n as f64).sqrt())
+    }
+
+    /// The trend gain among `gains` with the lowest pooled RMS after probing every `every` minutes: each
+    /// fold's fit predicts its test rows, which a probe corrects from the fold's origin on. `None` without
+    /// a fold or a candidate.
+    fn choose_trend_gain(&self, prep: &Prepared, every: f64, gains: &[f64]) -> Option<ProbeChoice> {
+        let runs: Vec<std::ops::Range<usize>> = prep.ds.runs().collect();
+        let mut sse = vec![0.0; gains.len()];
+        let mut scored = 0usize;
+        for (test, err) in self.fold_errors(prep) {
+            let mut window = vec![false; prep.ds.len()];
+            test.iter().for_each(|&i| window[i] = true);
+            for (acc, &trend_gain) in sse.iter_mut().zip(gains) {
+                let probing = Probing {
+                    every_min: every,
+                    trend_gain,
+                };
+                let out = rezeroed(&prep.ds.time_min, &runs, &err, &window, probing);
+                *acc += test.iter().map(|&i| out[i] * out[i]).sum::<f64>();
+            }
+            scored += test.len();
+        }
+        if scored == 0 {
+            return None;
+        }
+        let trials: Vec<[f64; 2]> = gains
+            .iter()
+            .zip(&sse)
+            .map(|(&g, &e)| [g, (e / scored as f64).sqrt()])
+            .collect();
+        let best = trials.iter().min_by(|a, b| a[1].total_cmp(&b[1]))?;
+        Some(ProbeChoice {
+            every_min: every,
+            trend_gain: best[0],
+            trials: trials.clone(),
+        })
+    }
 }
 
 /// A design: the sensors' lag set and the spindle terms' (lag, exponent).
@@ -216,31 +440,20 @@ struct Search<'p, 'a> {
     prep: &'p Prepared<'a>,
     penalties: &'p [f64],
     exponents: &'p [f64],
-    spindle_lags: Vec<f64>,
     sensor_lags: Vec<f64>,
     sensor_cols: Vec<Vec<f64>>,
     base: Vec<Moments>,
-    /// Spindle columns by (lag index, exponent index).
-    spindle_cols: std::collections::HashMap<(usize, usize), Vec<f64>>,
+    /// Spindle columns by (lag, exponent) bit patterns.
+    spindle_cols: std::collections::HashMap<(u64, u64), Vec<f64>>,
 }
 
 impl<'p, 'a> Search<'p, 'a> {
     fn new(prep: &'p Prepared<'a>, opts: &'p DlagOptions, lags: &[f64]) -> Search<'p, 'a> {
-        let sensor_cols: Vec<Vec<f64>> = prep
-            .sensor_terms(lags)
-            .iter()
-            .map(|t| column(prep.ds, t, None))
-            .collect();
-        let base = prep
-            .stretches
-            .iter()
-            .map(|rows| Moments::of_rows(&sensor_cols, &prep.y, rows))
-            .collect();
+        let (sensor_cols, base) = prep.columns(&prep.sensor_terms(lags));
         Search {
             prep,
             penalties: &opts.penalties,
             exponents: &opts.exponents,
-            spindle_lags: Vec::new(),
             sensor_lags: lags.to_vec(),
             sensor_cols,
             base,
@@ -248,34 +461,20 @@ impl<'p, 'a> Search<'p, 'a> {
         }
     }
 
-    fn design(&self, exps: &[usize]) -> Design {
-        Design {
-            sensor_lags: self.sensor_lags.clone(),
-            spindle: self
-                .spindle_lags
-                .iter()
-                .zip(exps)
-                .map(|(&l, &e)| (l, self.exponents[e]))
-                .collect(),
+    /// Best penalty and pooled forward RMS of the design with the spindle terms `spindle` (lag, exponent);
+    /// the design is appended to `scored`.
+    fn score(&mut self, spindle: &[(f64, f64)], scored: &mut Vec<Scored>) -> Option<(f64, f64)> {
+        for &(lag_min, exponent) in spindle {
+            self.spindle_cols
+                .entry((lag_min.to_bits(), exponent.to_bits()))
+                .or_insert_with(|| {
+                    let term = Term::Spindle { lag_min, exponent };
+                    column(self.prep.ds, &term, self.prep.speeds.as_ref())
+                });
         }
-    }
-
-    /// Best penalty and pooled forward RMS of the design with exponent indices `exps`.
-    fn score(&mut self, exps: &[usize]) -> Option<(f64, f64)> {
-        for (j, &e) in exps.iter().enumerate() {
-            if !self.spindle_cols.contains_key(&(j, e)) {
-                let term = Term::Spindle {
-                    lag_min: self.spindle_lags[j],
-                    exponent: self.exponents[e],
-                };
-                let col = column(self.prep.ds, &term, self.prep.speeds.as_ref());
-                self.spindle_cols.insert((j, e), col);
-            }
-        }
-        let extra: Vec<&[f64]> = exps
+        let extra: Vec<&[f64]> = spindle
             .iter()
-            .enumerate()
-            .map(|(j, &e)| self.spindle_cols[&(j, e)].as_slice())
+            .map(|(l, p)| self.spindle_cols[&(l.to_bits(), p.to_bits())].as_slice())
             .collect();
         let parts: Vec<Moments> = self
             .base
@@ -283,62 +482,63 @@ impl<'p, 'a> Search<'p, 'a> {
             .zip(&self.prep.stretches)
             .map(|(m, rows)| m.extended(&self.sensor_cols, &extra, &self.prep.y, rows))
             .collect();
-        validate(&parts, self.penalties)
+        let found = validate(&parts, self.penalties)?;
+        let design = Design {
+            sensor_lags: self.sensor_lags.clone(),
+            spindle: spindle.to_vec(),
+        };
+        if !scored.iter().any(|s| s.design == design) {
+            scored.push(Scored {
+                design,
+                penalty: found.0,
+                cv_rms_um: found.1,
+            });
+        }
+        Some(found)
     }
 
-    /// With the spindle terms at `spindle_lags`: one
+    /// Scores the designs with the spindle terms at `spindle_lags`, every one appended to `scored`: one
     /// exponent shared by every spindle term on the grid, then each term's own exponent by coordinate
-    /// descent from there (two sweeps); every design scored is appended to `trials`. Returns the best
-    /// design, its penalty and its forward RMS.
-    fn run(
-        &mut self,
-        spindle_lags: &[f64],
-        trials: &mut Vec<DesignTrial>,
-    ) -> Option<(Design, f64, f64)> {
-        if spindle_lags != self.spindle_lags {
-            self.spindle_lags = spindle_lags.to_vec();
-            self.spindle_cols.clear();
-        }
-        let m = self.spindle_lags.len();
-        let mut record = |s: &Search, exps: &[usize], (penalty, cv): (f64, f64)| {
-            let d = s.design(exps);
-            trials.push(DesignTrial {
-                sensor_lags_min: d.sensor_lags,
-                spindle_lags_min: d.spindle.iter().map(|x| x.0).collect(),
-                exponents: d.spindle.iter().map(|x| x.1).collect(),
-                penalty,
-                cv_rms_um: cv,
-            });
+    /// descent from there (two sweeps).
+    fn run(&mut self, spindle_lags: &[f64], scored: &mut Vec<Scored>) {
+        let exponents = self.exponents;
+        let with = |exps: &[usize]| -> Vec<(f64, f64)> {
+            spindle_lags
+                .iter()
+                .zip(exps)
+                .map(|(&l, &e)| (l, exponents[e]))
+                .collect()
         };
+        let m = spindle_lags.len();
         if m == 0 {
-            let found = self.score(&[])?;
-            record(self, &[], found);
-            return Some((self.design(&[]), found.0, found.1));
+            self.score(&[], scored);
+            return;
         }
-        let mut best: Option<(Vec<usize>, (f64, f64))> = None;
-        for e in 0..self.exponents.len() {
+        let mut best: Option<(Vec<usize>, f64)> = None;
+        for e in 0..exponents.len() {
             let exps = vec![e; m];
-            if let Some(found) = self.score(&exps) {
-                record(self, &exps, found);
-                if best.as_ref().is_none_or(|b| found.1 < b.1.1) {
-                    best = Some((exps, found));
-                }
+            if let Some(found) = self.score(&with(&exps), scored)
+                && best.as_ref().is_none_or(|b| found.1 < b.1)
+            {
+                best = Some((exps, found.1));
             }
         }
-        let (mut exps, mut found) = best?;
+        let Some((mut exps, mut cv)) = best else {
+            return;
+        };
         for _sweep in 0..2 {
             let mut changed = false;
             for j in 0..m {
-                for e in 0..self.exponents.len() {
+                for e in 0..exponents.len() {
                     if e == exps[j] {
                         continue;
                     }
                     let mut trial = exps.clone();
                     trial[j] = e;
-                    if let Some(f) = self.score(&trial)
-                        && f.1 < found.1
+                    if let Some(f) = self.score(&with(&trial), scored)
+                        && f.1 < cv
                     {
-                        (exps, found, changed) = (trial, f, true);
+                        (exps, cv, changed) = (trial, f.1, true);
                     }
                 }
             }
@@ -346,10 +546,6 @@ impl<'p, 'a> Search<'p, 'a> {
                 break;
             }
         }
-        if exps.iter().any(|&e| e != exps[0]) {
-            record(self, &exps, found);
-        }
-        Some((self.design(&exps), found.0, found.1))
     }
 }
 
@@ -439,6 +635,20 @@ impl<'a> Prepared<'a> {
         })
     }
 
+    /// The terms' columns and their moments on each stretch between the forward origins.
+    fn columns(&self, terms: &[Term]) -> (Vec<Vec<f64>>, Vec<Moments>) {
+        let cols: Vec<Vec<f64>> = terms
+            .iter()
+            .map(|t| column(self.ds, t, self.speeds.as_ref()))
+            .collect();
+        let parts = self
+            .stretches
+            .iter()
+            .map(|rows| Moments::of_rows(&cols, &self.y, rows))
+            .collect();
+        (cols, parts)
+    }
+
     fn rows(&self) -> Vec<usize> {
         (0..self.usable.len()).filter(|&i| self.usable[i]).collect()
     }
@@ -478,11 +688,12 @@ impl<'a> Prepared<'a> {
     ) -> DriftModel {
         let ds = self.ds;
         let gains: Vec<f64> = fit.beta.iter().copied().collect();
-        let modes: Vec<super::Mode> = terms
-            .iter()
-            .zip(&gains)
-            .filter_map(|(t, g)| self.speeds.as_ref().and_then(|s| t.mode(*g, s)))
-            .collect();
+        let modes = basis::merge_modes(
+            terms
+                .iter()
+                .zip(&gains)
+                .filter_map(|(t, g)| self.speeds.as_ref().and_then(|s| t.mode(*g, s))),
+        );
         let predicted: Vec<f64> = (0..ds.len())
             .map(|i| fit.intercept + cols.iter().zip(&gains).map(|(c, g)| g * c[i]).sum::<f64>())
             .collect();
@@ -562,67 +773,132 @@ impl<'a> Prepared<'a> {
     }
 }
 
-impl Prepared<'_> {
-    /// The trend gain among `gains` with the lowest pooled RMS after probing every `every` minutes: each
-    /// fold's fit (at `penalty`, on the columns `cols`) predicts its test rows, which a probe corrects from
-    /// the fold's origin on. `None` without a fold or a candidate.
-    fn choose_trend_gain(
-        &self,
-        cols: &[Vec<f64>],
-        penalty: f64,
-        every: f64,
-        gains: &[f64],
-    ) -> Option<ProbeChoice> {
-        let runs: Vec<std::ops::Range<usize>> = self.ds.runs().collect();
-        let mut sse = vec![0.0; gains.len()];
-        let mut scored = 0usize;
-        let s = &self.stretches;
-        for k in 0..s.len().saturating_sub(1) {
-            let test: Vec<usize> = s[k + 1..].concat();
-            let train: Vec<usize> = s[..=k].concat();
-            let Some(ridge) = Ridge::new(&Moments::of_rows(cols, &self.y, &train)) else {
-                continue;
-            };
-            let fit = ridge.solve(penalty);
-            let mut err = vec![f64::NAN; self.ds.len()];
-            let mut window = vec![false; self.ds.len()];
-            for &i in &test {
-                let predicted = fit.intercept
-                    + cols
-                        .iter()
-                        .zip(fit.beta.iter())
-                        .map(|(c, b)| b * c[i])
-                        .sum::<f64>();
-                err[i] = self.y[i] - predicted;
-                window[i] = true;
-            }
-            for (acc, &trend_gain) in sse.iter_mut().zip(gains) {
-                let probing = Probing {
-                    every_min: every,
-                    trend_gain,
-                };
-                let out = rezeroed(&self.ds.time_min, &runs, &err, &window, probing);
-                *acc += test.iter().map(|&i| out[i] * out[i]).sum::<f64>();
-            }
-            scored += test.len();
-        }
-        if scored == 0 {
-            return None;
-        }
-        let trials: Vec<[f64; 2]> = gains
-            .iter()
-            .zip(&sse)
-            .map(|(&g, &e)| [g, (e / scored as f64).sqrt()])
-            .collect();
-        let best = trials.iter().min_by(|a, b| a[1].total_cmp(&b[1]))?;
-        Some(ProbeChoice {
-            every_min: every,
-            trend_gain: best[0],
-            trials: trials.clone(),
-        })
-    }
-}
-
 fn sum(parts: &[Moments]) -> Moments {
     parts[1..].iter().fold(parts[0].clone(), |a, b| a.plus(b))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Schedule;
+
+    /// 16 h at 2 min: 1000 and 2000 rpm with stops; a wandering temperature; a drift that reads both.
+    fn data() -> Dataset {
+        let mut ds = "1000:240,0:240,2000:240,0:240"
+            .parse::<Schedule>()
+            .unwrap()
+            .to_dataset(2.0);
+        let t1: Vec<f64> = ds
+            .time_min
+            .iter()
+            .map(|t| 20.0 + (t / 90.0).sin())
+            .collect();
+        let rpm = ds.values(SPINDLE).unwrap().to_vec();
+        let mut heat = 0.0;
+        let y: Vec<f64> = (0..ds.len())
+            .map(|i| {
+                heat += ((rpm[i] / 1000.0).powi(2) - heat) * 0.03;
+                0.7 * (t1[i] - 20.0) + 2.0 * heat + 0.05 * (1.7 * i as f64).sin()
+            })
+            .collect();
+        ds.push_column("t1_c", t1);
+        ds.push_column("z_um", y);
+        ds
+    }
+
+    /// Runs `check` on the prepared data and every design the default search scores on it.
+    fn with_scored(check: impl FnOnce(&Dataset, &Prepared, &[Scored])) {
+        let ds = data();
+        let opts = DlagOptions::new("z_um");
+        let prep = Prepared::new(&ds, &opts).unwrap();
+        let mut scored = Vec::new();
+        for lags in &opts.sensor_lags {
+            Search::new(&prep, &opts, lags).run(&opts.spindle_lags[0], &mut scored);
+        }
+        check(&ds, &prep, &scored);
+    }
+
+    #[test]
+    fn the_average_is_the_weighted_sum_of_its_members_fitted_alone() {
+        with_scored(|ds, prep, scored| {
+            let members = Averaging::Weighted.members(scored, 4);
+            assert!(members.len() > 1, "{members:?}");
+            let ensemble = Ensemble::new(prep, scored, &members);
+            let fit = ensemble.fit().unwrap();
+            let mut beta = vec![0.0; ensemble.terms.len()];
+            let mut intercept = 0.0;
+            for &(i, w) in &members {
+                let terms = prep.terms(&scored[i].design);
+                let cols: Vec<Vec<f64>> = terms
+                    .iter()
+                    .map(|t| column(ds, t, prep.speeds.as_ref()))
+                    .collect();
+                let alone = Ridge::new(&Moments::of_rows(&cols, &prep.y, &prep.rows()))
+                    .unwrap()
+                    .solve(scored[i].penalty);
+                intercept += w * alone.intercept;
+                for (t, b) in terms.iter().zip(alone.beta.iter()) {
+                    let k = ensemble.terms.iter().position(|u| u == t).unwrap();
+                    beta[k] += w * b;
+                }
+            }
+            assert!((fit.intercept - intercept).abs() < 1e-8);
+            for (a, b) in fit.beta.iter().zip(&beta) {
+                assert!((a - b).abs() < 1e-8 * (1.0 + b.abs()), "{a} vs {b}");
+            }
+            // Sensors first, as in a single design, and no term twice.
+            let first_spindle = ensemble
+                .terms
+                .iter()
+                .position(|t| matches!(t, Term::Spindle { .. }))
+                .unwrap();
+            assert!(
+                ensemble.terms[first_spindle..]
+                    .iter()
+                    .all(|t| matches!(t, Term::Spindle { .. }))
+            );
+            assert!(
+                (0..ensemble.terms.len())
+                    .all(|a| (0..a).all(|b| ensemble.terms[a] != ensemble.terms[b]))
+            );
+        });
+    }
+
+    #[test]
+    fn one_member_scores_its_own_forward_rms() {
+        with_scored(|_, prep, scored| {
+            for i in [0, scored.len() / 2, scored.len() - 1] {
+                let ensemble = Ensemble::new(prep, scored, &[(i, 1.0)]);
+                let cv = ensemble.cv_rms_um(prep).unwrap();
+                assert!(
+                    (cv - scored[i].cv_rms_um).abs() < 1e-6 * cv,
+                    "{cv} vs {}",
+                    scored[i].cv_rms_um
+                );
+            }
+        });
+    }
+
+    #[test]
+    fn weights_follow_the_forward_rms_relative_to_the_best() {
+        let design = Design {
+            sensor_lags: vec![0.0],
+            spindle: vec![],
+        };
+        let at = |cv: f64| Scored {
+            design: design.clone(),
+            penalty: 1e-3,
+            cv_rms_um: cv,
+        };
+        let scored = [at(1.1), at(2.0), at(1.0)];
+        assert_eq!(Averaging::Best.members(&scored, 4), [(2, 1.0)]);
+        let m = Averaging::Weighted.members(&scored, 4);
+        // 1.1 µm: exp(−4·0.21/2) of the best's weight; 2 µm: exp(−6), under 1 %, left out.
+        let second = (-2.0f64 * 0.21).exp();
+        assert_eq!(m.iter().map(|x| x.0).collect::<Vec<_>>(), [2, 0]);
+        assert!((m[0].1 - 1.0 / (1.0 + second)).abs() < 1e-12);
+        assert!((m[1].1 - second / (1.0 + second)).abs() < 1e-12);
+        // More folds: the same excess counts more.
+        assert!(Averaging::Weighted.members(&scored, 16)[1].1 < m[1].1);
+    }
 }

@@ -6,9 +6,9 @@ use std::fmt::Write as _;
 use crate::model::DriftModel;
 use crate::model::effects::{Effect, Kind};
 use crate::model::fit::{fitted_on, fmt_tau};
-use crate::model::speed_law::extrapolation_law;
+use crate::model::speed_law::{extrapolation_law, mode_law};
 
-use super::ForwardSelection;
+use super::{DesignTrial, ForwardSelection};
 
 /// Terms listed by name in the summary (the largest steady-state reach first).
 const LISTED: usize = 8;
@@ -34,7 +34,7 @@ pub fn summary(model: &DriftModel) -> Option<String> {
     if !f.spindle_lags_min.is_empty() {
         let _ = writeln!(
             s,
-            "  spindle: lags {} min with exponents {}; above {:.0} rpm: {}",
+            "  spindle: lags {} min with exponents {} (the best design); above {:.0} rpm: {}",
             join(&f.spindle_lags_min),
             join(&f.exponents),
             model.spindle.characterised_top_rpm.unwrap_or(0.0),
@@ -67,11 +67,24 @@ fn join(v: &[f64]) -> String {
 /// How the design was chosen: the origins and the best forward RMS of each lag set.
 fn forward_block(s: &mut String, f: &ForwardSelection) {
     let origins: Vec<String> = f.origins_min.iter().map(|o| format!("{o:.0}")).collect();
+    let members: Vec<&DesignTrial> = f.trials.iter().filter(|t| t.weight.is_some()).collect();
+    let best = f
+        .trials
+        .iter()
+        .map(|t| t.cv_rms_um)
+        .fold(f64::INFINITY, f64::min);
+    let chosen = match members.len() {
+        0 | 1 => format!("chosen design {:.3} µm RMS", f.cv_rms_um),
+        n => format!(
+            "best design {best:.3} µm RMS; the model averages the {n} designs within the folds' noise of it (weight ∝ exp(−F·(cv²/cv²best − 1)/2), F folds; the heaviest {:.0} %), forward RMS of the average {:.3} µm",
+            100.0 * members.iter().filter_map(|t| t.weight).fold(0.0, f64::max),
+            f.cv_rms_um
+        ),
+    };
     let _ = writeln!(
         s,
-        "  forward validation: fitted before each origin ({} min elapsed), scored on every later row; chosen design {:.3} µm RMS",
+        "  forward validation: fitted before each origin ({} min elapsed), scored on every later row; {chosen}",
         origins.join(", "),
-        f.cv_rms_um
     );
     let mut sets: Vec<(&Vec<f64>, &Vec<f64>)> = Vec::new();
     for t in &f.trials {
@@ -124,10 +137,10 @@ fn terms_block(s: &mut String, model: &DriftModel) {
             .map_or(0.0, |g| g.weights(top).apply(&m.gain_um));
         let _ = writeln!(
             s,
-            "    spindle, τ {}: {:+.3} µm at {top:.0} rpm, p {:.2}",
+            "    spindle, τ {}: {:+.3} µm at {top:.0} rpm, {}",
             fmt_tau(m.tau_min),
             at_top,
-            m.power_law_exponent.unwrap_or(f64::NAN)
+            mode_law(model, m)
         );
     }
     let mut effects: Vec<Effect> = model
