@@ -403,6 +403,11 @@ fn assign_facts(block: &Block<'_>, node: &Node, f: &mut BlockFacts) {
         if name.starts_with("$P_UIFR")
             || name.starts_with("$P_PFRAME")
             || name.starts_with("$P_SETFRAME")
+            || name.starts_with("$P_IFRAME")
+            || name.starts_with("$P_BFRAME")
+            || name.starts_with("$P_UBFR")
+            || name.starts_with("$P_CHBFR")
+            || name.starts_with("$P_NCBFR")
         {
             f.work_offsets.push(WorkOffset::FrameWrite(name));
         }

@@ -685,3 +685,95 @@ M30
         );
     }
 }
+
+/// QA round 3: an older 5-axis post positions the table itself (`G0 A30 C45`, no CYCLE800): a probe point
+/// in work coordinates is then on a turned part, so no gate goes there until the axes are back at 0.
+#[test]
+fn no_probe_on_a_part_a_rotary_axis_has_turned() {
+    let prog = "\
+G17 G90 G40 G71 G94
+T=\"SF_D10\" M6
+D1
+G54
+S5000 M3 M8
+G0 A0 C0
+G0 X0 Y0 Z50
+G1 Z-1 F500
+X40
+G0 Z100
+G0 A30 C45
+G0 X10 Y10 Z50
+G1 Z-1 F500
+X40
+G0 Z100
+M1
+G0 X10 Y20 Z50
+G1 Z-1 F500
+X40
+G0 Z100
+G0 A0 C0
+M9 M5
+M30
+";
+    let out = transformed(&[("p.mpf", prog)], "p.mpf", "blum-tc50");
+    let home = out.rfind("G0 A0 C0\n").unwrap();
+    let tilted = &out[out.find("G0 A30 C45").unwrap()..home];
+    assert!(!tilted.contains("; driftloop gate"), "{tilted}");
+    assert!(out[home..].contains("; driftloop gate"), "{out}");
+}
+
+/// QA round 3: a program that writes `$P_IFRAME` itself would lose that shift to a gate: refused.
+#[test]
+fn a_program_that_writes_the_frame_in_force_is_refused() {
+    let prog = "\
+G17 G90 G40 G71 G94
+T=\"FR_D10\" M6
+D1
+G54
+$P_IFRAME[X,TR]=$P_IFRAME[X,TR]+100
+S4000 M3 M8
+G0 X10 Y10 Z50
+G1 Z-1 F500
+X60
+G0 Z50
+M9 M5
+M30
+";
+    let err = refused(&[("p.mpf", prog)], "p.mpf", "tool-setter");
+    assert!(
+        err.contains("writes the frame in force ($P_IFRAME) itself at line 5"),
+        "{err}"
+    );
+}
+
+/// A rotary axis sent home through a variable last set to 0 (`A=_A_HOME`, as CAM posts write it) is at 0;
+/// through one set to anything else, away.
+#[test]
+fn a_rotary_axis_sent_home_by_a_variable_is_at_zero() {
+    let prog = |home: &str| {
+        format!(
+            "\
+DEF REAL _A_HOME
+_A_HOME={home}
+G17 G90 G40 G71 G94
+SUPA A=_A_HOME
+T=\"SF_D10\" M6
+D1
+G54
+S5000 M3 M8
+G0 X10 Y10 Z50
+G1 Z-1 F500
+X40
+G0 Z100
+M9 M5
+M30
+"
+        )
+    };
+    transformed(&[("p.mpf", &prog("0"))], "p.mpf", "blum-tc50");
+    let err = refused(&[("p.mpf", &prog("30"))], "p.mpf", "blum-tc50");
+    assert!(
+        err.contains("a rotary axis (A, B or C) stands away from 0"),
+        "{err}"
+    );
+}

@@ -71,6 +71,10 @@ pub enum TransformError {
         "the program writes a frame itself at line {0}, after the zero: the corrections driftloop writes into the work offset and its restore at the end would overwrite it (or be overwritten); move the write before the first cut"
     )]
     FrameWrite(usize),
+    #[error(
+        "the program writes the frame in force ($P_IFRAME) itself at line {0}: a gate corrects that frame or selects the work offset again, which would drop the program's own shift; driftloop does not transform such a program (write the shift into a settable offset, $P_UIFR, and select it)"
+    )]
+    FrameInForceWrite(usize),
     #[error("{0}")]
     Other(String),
     #[error(
@@ -99,6 +103,7 @@ impl TransformError {
             TransformError::Plan(PlanError::NoReference(_)) => "no place for the reference",
             TransformError::Plan(PlanError::Model(_)) => "model not predictable in NC",
             TransformError::FrameWrite(_) => "writes a work offset itself",
+            TransformError::FrameInForceWrite(_) => "writes the frame in force itself",
             TransformError::Other(_) => "profile or registers",
             TransformError::LongBlock(_) => "block too long",
             TransformError::Emit(_) => "internal error",
@@ -379,6 +384,9 @@ fn prepare_with<'p>(
     );
     checked?;
     let (timeline, plan) = planned?;
+    if let Some(&b) = timeline.frame_in_force_writes.first() {
+        return Err(TransformError::FrameInForceWrite(b + 1));
+    }
     let zero = plan.gates.first().map_or(0, |g| g.block);
     if let Some(&b) = timeline.frame_writes.iter().find(|&&b| b >= zero) {
         return Err(TransformError::FrameWrite(b + 1));

@@ -406,6 +406,15 @@ fn unfit_for_gate(site: &Site, profile: &Profile, rule: OffsetRule) -> Option<&'
     if let Some(why) = site.before.unfit() {
         return Some(why);
     }
+    // A probe point in work coordinates is on the part, which a rotary axis has turned or tilted (a fixed
+    // reference in machine coordinates is not).
+    let on_part =
+        profile.position.frame == MeasureFrame::Work && profile.probe.kind != ProbeKind::Gauge;
+    if on_part && site.before.frames & timeline::frame::ROTARY != 0 {
+        return Some(
+            "a rotary axis (A, B or C) stands away from 0, so the part is turned or tilted under the probe point in work coordinates",
+        );
+    }
     if site.frame_traverse {
         return Some(
             "a frame change (TRANS, ATRANS, G54 …) is not yet traversed: the program's next incremental move carries it, and a gate, which goes back to where the axes are, would take it away",

@@ -54,6 +54,10 @@ pub mod frame {
     pub const TRANSFORMATION: u8 = 4;
     /// A swivelled plane: CYCLE800 with an angle.
     pub const SWIVEL: u8 = 8;
+    /// Rotary axes A, B, C positioned away from 0 (bits 16, 32, 64): the part may be tilted or turned.
+    pub const ROTARY: u8 = 0b0111_0000;
+    /// Where the rotary bits start: axis A.
+    pub const ROTARY_SHIFT: u32 = 4;
 }
 
 /// Bits of [`Modal::unknown`].

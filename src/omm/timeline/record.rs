@@ -114,6 +114,8 @@ pub struct Timeline {
     pub moves: bool,
     /// Blocks that write a frame variable themselves (`$P_UIFR[…]=`, `$P_PFRAME=`, …).
     pub frame_writes: Vec<usize>,
+    /// Of those, the blocks that write `$P_IFRAME`, the frame in force.
+    pub frame_in_force_writes: Vec<usize>,
     /// Blocks (change, move): a frame change and the incremental move that first traverses it on an axis;
     /// a gate at a block after the change and up to the move could not give the traverse back.
     pub frame_traverses: Vec<(usize, usize)>,

@@ -189,7 +189,7 @@ impl Builder<'_> {
         t[field::S] |= (s.s.is_some() && !dwell) || s.lims.is_some();
         t[field::D] |= s.d.is_some();
         t[field::SELECTED] |= s.tool.is_some();
-        t[field::FRAMES] |= s.frame_ops != 0;
+        t[field::FRAMES] |= s.frame_ops != 0 || s.rotary_away | s.rotary_home != 0;
         t[field::OFFSET] |= s
             .offsets
             .iter()

@@ -35,6 +35,12 @@ impl Builder<'_> {
                 None => self.r_values.remove(&n),
             };
         }
+        for (name, v) in &s.var_set {
+            match v {
+                Some(v) => self.var_values.insert(name.clone(), *v),
+                None => self.var_values.remove(name),
+            };
+        }
         let opened = match kind {
             BlockKind::For => Some(LoopKind::For),
             BlockKind::While => Some(LoopKind::While),

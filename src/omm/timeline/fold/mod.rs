@@ -65,6 +65,8 @@ pub(super) struct Builder<'p> {
     open_loops: Vec<OpenLoop>,
     /// R-parameters whose last assignment (in program order) was a literal.
     r_values: BTreeMap<u32, f64>,
+    /// Plain variables whose last assignment (in program order) was a literal.
+    var_values: HashMap<String, f64>,
     /// Labels seen: block, start and end of its first run (min).
     label_times: HashMap<String, Label>,
     /// Block (+1) where each of the modal fields a gate restores last changed (see [`field`]).
@@ -134,6 +136,7 @@ impl<'p> Builder<'p> {
             loop_gate_pending: false,
             open_loops: Vec::new(),
             r_values: BTreeMap::new(),
+            var_values: HashMap::new(),
             label_times: HashMap::new(),
             changed: [0; field::COUNT],
             site_changes: Vec::new(),
@@ -480,6 +483,9 @@ impl<'p> Builder<'p> {
         if s.frame_ops & frame_op::WRITE != 0 {
             self.t.frame_writes.push(i);
         }
+        if s.writes_frame_in_force {
+            self.t.frame_in_force_writes.push(i);
+        }
         let frame_changes =
             frame_op::TRANSLATE | frame_op::ROTATE | frame_op::CLEAR | frame_op::WRITE;
         if setup && (s.frame_ops & frame_changes != 0 || !s.offsets.is_empty()) {
@@ -488,6 +494,7 @@ impl<'p> Builder<'p> {
             }
         }
         self.frames(s.frame_ops);
+        self.rotary_axes(s);
         self.t.moves |= s.other_axes;
         if let Some(on) = s.diameter {
             self.state.diameter = on;

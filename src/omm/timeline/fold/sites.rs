@@ -4,7 +4,7 @@
 use std::sync::Arc;
 
 use crate::omm::profile::{ProbeKind, ToolChange};
-use crate::omm::timeline::modal::Modal;
+use crate::omm::timeline::modal::{Modal, frame};
 use crate::omm::timeline::read::Scan;
 use crate::omm::timeline::record::{Pass, Site, SiteKind};
 
@@ -131,6 +131,25 @@ impl Builder<'_> {
         {
             self.start = None;
         }
+    }
+
+    /// Rotary axes the block positions: away from 0 they turn the part ([`frame::ROTARY`]); a variable or
+    /// R-parameter last assigned a literal counts as that literal, any other as away.
+    pub(super) fn rotary_axes(&mut self, s: &Scan) {
+        let (mut away, mut home) = (s.rotary_away, s.rotary_home);
+        for (bit, name) in &s.rotary_vars {
+            let value = match name.strip_prefix('R').and_then(|n| n.parse::<u32>().ok()) {
+                Some(n) => self.r_values.get(&n),
+                None => self.var_values.get(name),
+            };
+            if value == Some(&0.0) {
+                home |= bit;
+            } else {
+                away |= bit;
+            }
+        }
+        let f = &mut self.state.frames;
+        *f = (*f & !(home << frame::ROTARY_SHIFT)) | (away << frame::ROTARY_SHIFT);
     }
 
     /// The speed from the start site's block on.

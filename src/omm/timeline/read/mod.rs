@@ -56,6 +56,16 @@ pub(super) struct Scan {
     pub(super) lims: Option<f64>,
     /// `GOTOS`: back to the program's start.
     pub(super) restart: bool,
+    /// A write to `$P_IFRAME`, the frame in force, which the gates correct or select anew.
+    pub(super) writes_frame_in_force: bool,
+    /// Rotary axes A, B, C (bits 1, 2, 4) the block positions away from 0, or to 0.
+    pub(super) rotary_away: u8,
+    pub(super) rotary_home: u8,
+    /// Rotary axes given a variable (`A=_A_HOME`, `C=R5`): its bit and the name, for the value the fold
+    /// knows.
+    pub(super) rotary_vars: Vec<(u8, String)>,
+    /// Plain variables the block assigns, with the value when it is a literal.
+    pub(super) var_set: Vec<(String, Option<f64>)>,
 }
 
 /// Bits of [`Scan::frame_ops`].
@@ -221,6 +231,7 @@ impl Scan {
             && self.frame_ops == 0
             && self.unknown == 0
             && !self.statement
+            && self.rotary_away | self.rotary_home == 0
             // The head has no room for IC(…): such a block keeps its whole scan.
             && !self.mv.incremental.contains(&true);
         if !only_moves {

@@ -45,8 +45,23 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
             "X" => 0,
             "Y" => 1,
             "Z" => 2,
-            _ => {
+            other => {
                 s.other_axes = true;
+                if let Some(bit) = ["A", "B", "C"].iter().position(|r| *r == other) {
+                    let bit = 1 << bit;
+                    match (&a.value, a.mode) {
+                        (Value::Number(v), AxisMode::Modal | AxisMode::Ac) if *v == 0.0 => {
+                            s.rotary_home |= bit
+                        }
+                        (Value::Expr(span), AxisMode::Modal | AxisMode::Ac)
+                            if is_name(&program.source()[span.start..span.end]) =>
+                        {
+                            let name = &program.source()[span.start..span.end];
+                            s.rotary_vars.push((bit, upper_text(name)));
+                        }
+                        _ => s.rotary_away |= bit,
+                    }
+                }
                 continue;
             }
         };
@@ -154,11 +169,11 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
             _ => {}
         }
     }
-    if f.work_offsets
-        .iter()
-        .any(|w| matches!(w, WorkOffset::FrameWrite(_)))
-    {
-        s.frame_ops |= frame_op::WRITE;
+    for w in &f.work_offsets {
+        if let WorkOffset::FrameWrite(name) = w {
+            s.frame_ops |= frame_op::WRITE;
+            s.writes_frame_in_force |= name.starts_with("$P_IFRAME");
+        }
     }
     // The axis words of a frame command are its values, not a move.
     if s.frame_ops & (frame_op::TRANSLATE | frame_op::ROTATE) != 0 {
@@ -377,8 +392,24 @@ fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
         b"I" => s.mv.centre[0] = v,
         b"J" => s.mv.centre[1] = v,
         b"K" => s.mv.centre[2] = v,
+        _ if target.kind == NodeKind::Var && target.find(NodeKind::Index).is_none() => {
+            s.var_set
+                .push((String::from_utf8_lossy(&name).into_owned(), v));
+        }
         _ => {}
     }
+}
+
+/// A variable's or R-parameter's name alone (`_A_HOME`, `R5`), as an axis value.
+fn is_name(text: &[u8]) -> bool {
+    let text = text.trim_ascii();
+    text.first()
+        .is_some_and(|c| c.is_ascii_alphabetic() || *c == b'_')
+        && text.iter().all(|c| c.is_ascii_alphanumeric() || *c == b'_')
+}
+
+fn upper_text(text: &[u8]) -> String {
+    String::from_utf8_lossy(text.trim_ascii()).to_ascii_uppercase()
 }
 
 /// A number written as such, with an optional sign (`12.5`, `-3`); `None` for any other expression.

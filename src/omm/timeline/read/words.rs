@@ -17,6 +17,7 @@ pub(crate) fn scan_words_into(line: &[u8], marker: &str, s: &mut Scan) -> bool {
     s.mv.centre = [None; 3];
     (s.mv.radius, s.mv.f, s.s, s.tool, s.d) = (None, None, None, None, None);
     (s.marker, s.path_comment) = (false, false);
+    (s.rotary_away, s.rotary_home) = (0, 0);
     s.offsets.clear();
     scan_words(line, marker, s).is_some()
 }
@@ -97,6 +98,14 @@ fn scan_words(line: &[u8], marker: &str, s: &mut Scan) -> Option<()> {
             b'M' if !s.m.push(int()?) => return None,
             b'T' => s.tool = Some(Arc::from(std::str::from_utf8(digits).ok()?)),
             b'D' => s.d = Some(int()?),
+            b'A' | b'B' | b'C' => {
+                let bit = 1 << (letter - b'A');
+                if v == 0.0 {
+                    s.rotary_home |= bit;
+                } else {
+                    s.rotary_away |= bit;
+                }
+            }
             _ => {}
         }
     }
