@@ -777,3 +777,41 @@ M30
         "{err}"
     );
 }
+
+/// QA round 3: a back counterbore stops the spindle with the tool under the part; a gate measuring there
+/// would retract up through the part. No gate measures where no rapid rose in Z since the last cut.
+#[test]
+fn no_measurement_where_the_tool_stands_in_the_part() {
+    let prog = "\
+G17 G90 G40 G71 G94
+T=\"RUECKSENKER_D18\" M6
+D1
+G54
+G0 X50 Y50 Z50
+G0 X48 Y50
+G0 Z-25
+G0 X50 Y50
+S800 M3 M8
+G1 Z-18 F60
+G4 F1
+G1 Z-22 F200
+M5 M9
+G0 X48 Y50
+G0 Z50
+M30
+";
+    for profile in ["blum-tc50", "tool-setter"] {
+        let out = transformed(&[("p.mpf", prog)], "p.mpf", profile);
+        let stop = line_of(&out, "M5 M9");
+        let before_stop: Vec<&str> = out.lines().take(stop).collect();
+        let gate_start = before_stop
+            .iter()
+            .rposition(|l| l.starts_with("; driftloop gate"))
+            .unwrap();
+        let gate = before_stop[gate_start..].join("\n");
+        assert!(
+            !gate.contains("BL9700(") && !gate.contains("DL_SETTER("),
+            "{gate}"
+        );
+    }
+}

@@ -586,6 +586,11 @@ fn unfit_for_measuring(
             "its modal state is not known for sure (later runs of a loop reach it in another state, or a subprogram or cycle ran before it)",
         );
     }
+    if site.in_part {
+        return Some(
+            "the tool may stand in the part there (no rapid clear of what was cut since the last cut: inside a bore, under the part), and a gate retracts along the tool axis",
+        );
+    }
     if let Some(why) = site
         .before
         .not_restorable()

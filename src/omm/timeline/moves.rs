@@ -60,6 +60,9 @@ pub(super) struct Run {
     pub(super) end_pos: [Option<f64>; 3],
     /// The last block is a rapid Z-only move up.
     pub(super) end_retract: bool,
+    /// After its last cut a rapid rose in Z (`Some(true)`), or it ends with a cut (`Some(false)`); `None`
+    /// when it neither cuts nor rises: whether the tool is clear of the part after it (see the fold).
+    pub(super) clear_after: Option<bool>,
 }
 
 impl Run {
@@ -333,7 +336,7 @@ impl Mover {
         if motion == 1 && axes != 0 && axes & !self.known == 0 && feed_known && feed > 0.0 {
             let (from, to) = (self.pos, [self.vals[0], self.vals[1], self.vals[2]]);
             let minutes = move_length(1, from, to, [None; 3], None) / feed;
-            self.extend(i, Timed::Feed(minutes), from[2] != to[2], false);
+            self.extend(i, Timed::Feed(minutes), from[2] != to[2], false, false);
             (self.pos, self.motion, self.feed, self.retract) = (to, motion, feed, 0);
             self.feed_known = true;
         } else {
@@ -378,7 +381,7 @@ impl Mover {
             }
         };
         match value {
-            Some(v) => self.extend(i, v, from[2] != to[2], rapid_xy),
+            Some(v) => self.extend(i, v, from[2] != to[2], rapid_xy, to[2] > from[2]),
             None => self.close(),
         }
         (self.pos, self.known, self.motion) = (to, self.known | axes, motion);
@@ -387,7 +390,7 @@ impl Mover {
 
     /// Adds block `i` to the open run, or opens one with it.
     #[inline(always)]
-    fn extend(&mut self, i: usize, value: Timed, z_moves: bool, rapid_xy: bool) {
+    fn extend(&mut self, i: usize, value: Timed, z_moves: bool, rapid_xy: bool, rises: bool) {
         let written = self.written;
         let run = match &mut self.open {
             Some(run) => {
@@ -412,6 +415,7 @@ impl Mover {
                 axes: 0,
                 end_pos: [None; 3],
                 end_retract: false,
+                clear_after: None,
             }),
         };
         run.count += 1;
@@ -428,11 +432,15 @@ impl Mover {
                 self.rapids.push(length);
                 run.rapid_count += 1;
                 run.rapids_after_cut += 1;
+                if rises {
+                    run.clear_after = Some(true);
+                }
             }
             Timed::Feed(minutes) => {
                 run.feed_ticks = run.feed_ticks.saturating_add(ticks(minutes));
                 run.cuts = true;
                 run.rapids_after_cut = 0;
+                run.clear_after = Some(false);
             }
         }
     }

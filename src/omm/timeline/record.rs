@@ -53,6 +53,9 @@ pub struct Site {
     pub frame_traverse: bool,
     /// The block lies inside an IF … ELSE … ENDIF of the program: it runs only when its condition holds.
     pub conditional: bool,
+    /// The tool may stand in the part there (no rapid clear of what was cut since the last cut): a gate's
+    /// retract along the tool axis could run through material.
+    pub in_part: bool,
 }
 
 /// One technological pass.

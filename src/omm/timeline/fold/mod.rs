@@ -100,6 +100,14 @@ pub(super) struct Builder<'p> {
     merges: Vec<(usize, usize, [bool; field::COUNT])>,
     /// The fields this unit's blocks set (what it does to a caller's state).
     touched: [bool; field::COUNT],
+    /// The tool is clear of the part: a rapid rose in Z since the last cut (out of a pocket, from under
+    /// the part, out of a lathe's bore in front of its face), or nothing was cut yet.
+    clear: bool,
+    /// A move wrote an axis by an expression and Z was not written plainly since: the height the fold
+    /// holds may be stale.
+    position_doubt: bool,
+    /// Sites noted where the tool was not clear: a gate there could retract through the part.
+    in_part: BTreeSet<usize>,
 }
 
 impl<'p> Builder<'p> {
@@ -151,6 +159,9 @@ impl<'p> Builder<'p> {
             merging: HashMap::new(),
             merges: Vec::new(),
             touched: [false; field::COUNT],
+            clear: true,
+            position_doubt: false,
+            in_part: BTreeSet::new(),
         }
     }
 
@@ -307,6 +318,9 @@ impl<'p> Builder<'p> {
         }
         if run.cuts {
             self.last_cut = self.ticks;
+        }
+        if let Some(clear) = run.clear_after {
+            self.clear = clear;
         }
         for &length in after {
             self.add_minutes(length / rapid);
@@ -665,6 +679,7 @@ impl<'p> Builder<'p> {
                 state_varies: false,
                 frame_traverse: false,
                 conditional: false,
+                in_part: false,
                 idle_min: self.idle_since_cut(start),
             });
         }
@@ -689,6 +704,26 @@ impl<'p> Builder<'p> {
             }
         }
         self.t.moves |= moves_somehow;
+        if moves_somehow && !g4 {
+            if self.state.motion != 0 {
+                self.clear = false;
+            } else if match (from[2], to[2]) {
+                (Some(a), Some(b)) => b > a,
+                _ => false,
+            } || (to[2].is_some()
+                && (from[2].is_none() || self.position_doubt)
+                && mv.axes[0].is_none()
+                && mv.axes[1].is_none())
+            {
+                // A Z-only rapid from a height not known (set by an expression): a retract.
+                self.clear = true;
+            }
+            if inexact {
+                self.position_doubt = true;
+            } else if mv.axes[2].is_some() {
+                self.position_doubt = false;
+            }
+        }
         if self.t.first_cut.is_none() && moves_somehow && !g4 && self.state.motion != 0 {
             self.t.first_cut = Some(i);
         }

@@ -51,6 +51,7 @@ impl Builder<'_> {
             state_varies: false,
             frame_traverse: false,
             conditional: false,
+            in_part: false,
             idle_min: self.idle_since_cut(time_min),
         });
     }
@@ -79,6 +80,7 @@ impl Builder<'_> {
                 state_varies: false,
                 frame_traverse: false,
                 conditional: false,
+                in_part: false,
             });
         }
     }
@@ -114,6 +116,7 @@ impl Builder<'_> {
             state_varies: false,
             frame_traverse: false,
             conditional: false,
+            in_part: false,
             idle_min: self.idle_since_cut(time_min),
         });
     }
@@ -161,6 +164,9 @@ impl Builder<'_> {
 
     /// Notes a block where a site or pass mark arises, with the fields' last changes.
     pub(super) fn note_site(&mut self, i: usize) {
+        if !self.clear {
+            self.in_part.insert(i);
+        }
         if !self.open_loops.is_empty() || !self.label_times.is_empty() || !self.merges.is_empty() {
             self.site_changes.push((i, self.changed));
         }
@@ -213,6 +219,7 @@ impl Builder<'_> {
                 state_varies: false,
                 frame_traverse: false,
                 conditional: false,
+                in_part: false,
                 idle_min: m.idle,
             });
         }
@@ -232,6 +239,7 @@ impl Builder<'_> {
             site.state_varies = self.varies.contains(&site.block);
             site.frame_traverse = traverses.contains(site.block);
             site.conditional = conditional.contains(site.block);
+            site.in_part = self.in_part.contains(&site.block);
             // Without M6 in the program, T loads the tool at once.
             if t_loads {
                 site.before.tool = site.before.selected.clone();
