@@ -815,3 +815,22 @@ M30
         );
     }
 }
+
+/// QA round 3: a pass marked on a turret's `T1 D1` block (what a refusal suggested) is still the tool
+/// change: the lathe setter's zero never comes before the tool is indexed.
+#[test]
+fn a_pass_marked_on_a_turret_tool_call_is_a_tool_change() {
+    let prog = "\
+G18 G90 G95 G40 G71 DIAMON
+G54
+T1 D1 ; PASS
+G96 S200 M4 M8
+G0 X22 Z0.5
+G1 X-1.6 F0.15
+G0 X40 Z5
+M5 M9
+M30
+";
+    let out = transformed(&[("p.mpf", prog)], "p.mpf", "lathe-setter");
+    assert!(line_of(&out, "T1 D1") < line_of(&out, "; driftloop stage 4"), "{out}");
+}

@@ -191,7 +191,15 @@ impl Builder<'_> {
             }));
         }
         starts.sort_by_key(|m| m.block);
-        starts.dedup_by_key(|m| m.block);
+        // A pass marked at a block whose T loads the tool (a turret) is still a tool change: the zero and the
+        // tool setter's comparisons must not come before it.
+        starts.dedup_by(|later, kept| {
+            let same = later.block == kept.block;
+            if same {
+                kept.tool_change |= later.tool_change;
+            }
+            same
+        });
         let ends: Vec<f64> = starts
             .iter()
             .skip(1)
