@@ -832,5 +832,8 @@ M5 M9
 M30
 ";
     let out = transformed(&[("p.mpf", prog)], "p.mpf", "lathe-setter");
-    assert!(line_of(&out, "T1 D1") < line_of(&out, "; driftloop stage 4"), "{out}");
+    assert!(
+        line_of(&out, "T1 D1") < line_of(&out, "; driftloop stage 4"),
+        "{out}"
+    );
 }

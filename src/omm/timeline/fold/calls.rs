@@ -112,39 +112,19 @@ impl Builder<'_> {
     pub(super) fn after_tool_change_call(&mut self, i: usize, sub: &CalleeEffect) {
         let (t, end, s) = (&sub.touched, &sub.end, &mut self.state);
         let before = s.clone();
-        if t[field::D] {
-            s.d = end.d;
+        // Each field the subprogram set takes the value it left.
+        macro_rules! take {
+            ($($f:ident => $name:ident),*) => {
+                $(if t[field::$f] {
+                    s.$name = end.$name;
+                })*
+            };
         }
-        if t[field::FEED] {
-            s.feed = end.feed;
-        }
-        if t[field::MOTION] {
-            s.motion = end.motion;
-        }
-        if t[field::ABSOLUTE] {
-            s.absolute = end.absolute;
-        }
+        take!(D => d, FEED => feed, MOTION => motion, ABSOLUTE => absolute, FEED_MODE => feed_mode,
+            PLANE => plane, PATH_MODE => path_mode, COOLANT => coolant, COMP => comp, OFFSET => offset,
+            DIAMETER => diameter);
         if t[field::FEED_MODE] {
-            s.feed_mode = end.feed_mode;
             self.per_rev = end.feed_mode == Some(95);
-        }
-        if t[field::PLANE] {
-            s.plane = end.plane;
-        }
-        if t[field::PATH_MODE] {
-            s.path_mode = end.path_mode;
-        }
-        if t[field::COOLANT] {
-            s.coolant = end.coolant;
-        }
-        if t[field::COMP] {
-            s.comp = end.comp;
-        }
-        if t[field::OFFSET] {
-            s.offset = end.offset;
-        }
-        if t[field::DIAMETER] {
-            s.diameter = end.diameter;
         }
         s.unknown |= end.unknown;
         for (f, differs) in field::differ(&before, s).into_iter().enumerate() {
