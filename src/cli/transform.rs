@@ -70,7 +70,8 @@ pub struct Setup {
     pub profile: Option<PathBuf>,
     /// Folder holding the control's subprograms: a call of one (`NAME.SPF`, `NAME.MPF`, `_N_NAME_SPF`, any
     /// case) adds its time to the plan and the R-parameters it uses are left alone; repeatable, after the
-    /// profile's own `subprograms`.
+    /// profile's own `subprograms`. The program's own folder is searched first without it, as the control
+    /// does.
     #[arg(long = "subprograms", value_name = "DIR")]
     pub subprogram_dirs: Vec<PathBuf>,
     /// Refuse a program whose plan has a stretch where the predicted change exceeds δ' (or Δ) with no place
