@@ -837,3 +837,43 @@ M30
         "{out}"
     );
 }
+
+/// QA round 3: M7 (mist) and M8 (flood) on together; a gate that measures gives both back (before, only
+/// the last, and the output failed its own audit with every gate measuring).
+#[test]
+fn both_coolants_come_back_together() {
+    let prog = "\
+G17 G90 G40 G71 G94
+T=\"STUFENBOHRER\" M6
+D2
+G54
+S3000 M4
+M7
+M8
+G0 X50 Y50 Z50
+G1 Z-1 F300
+X80
+G0 Z50
+M1
+G0 X50 Y60 Z2
+G1 Z-1 F300
+X80
+G0 Z50 M9
+M5
+M30
+";
+    let every = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/omm/blum-tc50.toml"),
+    )
+    .unwrap()
+    .replace(
+        "# [log]\n# measure_every_gate = true",
+        "[log]\nmeasure_every_gate = true",
+    );
+    let out = transformed(
+        &[("p.mpf", prog), ("every.toml", &every)],
+        "p.mpf",
+        "every.toml",
+    );
+    assert!(out.contains("\nM7 M8 ;DL\n"), "{out}");
+}

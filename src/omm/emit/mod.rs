@@ -817,7 +817,7 @@ impl Emitter<'_> {
         }
         v.push(self.clear());
         v.push("M5".into());
-        if matches!(gate.before.coolant, Some(7 | 8)) {
+        if matches!(gate.before.coolant, Some(7 | 8 | 78)) {
             v.push("M9".into());
         }
         if p.probe.kind == ProbeKind::SpindleProbe {
@@ -1048,9 +1048,7 @@ impl Emitter<'_> {
                 }
                 // The tool change stops the spindle, not the coolant: the program's next tool starts in
                 // the coolant it had.
-                if let Some(c @ (7 | 8)) = b.coolant {
-                    v.push(format!("M{c}"));
-                }
+                v.extend(coolant_on(b.coolant));
                 v.extend(self.modal_back(b));
                 return v;
             }
@@ -1076,9 +1074,7 @@ impl Emitter<'_> {
             if b.rpm() > 0.0 {
                 v.push(format!("S{} M{}", number(b.s), b.direction));
             }
-            if let Some(c @ (7 | 8)) = b.coolant {
-                v.push(format!("M{c}"));
-            }
+            v.extend(coolant_on(b.coolant));
             v.push(format!(
                 "{}=R{}",
                 p.position.retract_axis.name(),
@@ -1315,5 +1311,14 @@ impl Emitter<'_> {
         // The stored values only: the program ends here, and may not be running in the offset now.
         v.extend(self.restore_values());
         Emitter::finish(v)
+    }
+}
+
+/// The block that turns the coolant `c` on again (M7, M8, both for 78); nothing when it was off.
+fn coolant_on(c: Option<u32>) -> Option<String> {
+    match c? {
+        c @ (7 | 8) => Some(format!("M{c}")),
+        78 => Some("M7 M8".into()),
+        _ => None,
     }
 }

@@ -26,7 +26,7 @@ pub struct Modal {
     pub plane: Option<u32>,
     /// Exact stop or continuous path: G60, G64, G641 … G645, when the program set it.
     pub path_mode: Option<u32>,
-    /// M7 / M8 (on) or M9 (off), when the program set it.
+    /// M7 / M8 (on), 78 for both (see [`coolant_after`]), or M9 (off), when the program set it.
     pub coolant: Option<u32>,
     /// Cutter radius compensation: 40, 41 or 42.
     pub comp: u32,
@@ -42,6 +42,15 @@ pub struct Modal {
     /// Fields the program set by an expression the timeline cannot evaluate ([`unknown`] bits): a gate
     /// cannot write them back.
     pub unknown: u8,
+}
+
+/// The coolant after `m` (7, 8, 9, or 78 for both) in state `before`: M7 (mist) and M8 (flood) add to each
+/// other, M9 turns both off.
+pub fn coolant_after(before: Option<u32>, m: u32) -> Option<u32> {
+    Some(match (before, m) {
+        (Some(8 | 78), 7) | (Some(7 | 78), 8) | (_, 78) => 78,
+        (_, m) => m,
+    })
 }
 
 /// Bits of [`Modal::frames`].

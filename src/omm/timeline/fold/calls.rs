@@ -5,7 +5,7 @@
 use std::rc::Rc;
 
 use super::Builder;
-use crate::omm::timeline::modal::field;
+use crate::omm::timeline::modal::{coolant_after, field};
 use crate::omm::timeline::read::{Move, Scan};
 use crate::omm::timeline::record::{CalleeEffect, Timeline};
 
@@ -121,10 +121,13 @@ impl Builder<'_> {
             };
         }
         take!(D => d, FEED => feed, MOTION => motion, ABSOLUTE => absolute, FEED_MODE => feed_mode,
-            PLANE => plane, PATH_MODE => path_mode, COOLANT => coolant, COMP => comp, OFFSET => offset,
+            PLANE => plane, PATH_MODE => path_mode, COMP => comp, OFFSET => offset,
             DIAMETER => diameter);
         if t[field::FEED_MODE] {
             self.per_rev = end.feed_mode == Some(95);
+        }
+        if let (true, Some(c)) = (t[field::COOLANT], end.coolant) {
+            s.coolant = coolant_after(s.coolant, c);
         }
         s.unknown |= end.unknown;
         for (f, differs) in field::differ(&before, s).into_iter().enumerate() {

@@ -9,7 +9,7 @@ use std::rc::Rc;
 use crate::omm::profile::Profile;
 use crate::syntax::BlockKind;
 
-use super::modal::{Modal, field, frame, unknown};
+use super::modal::{Modal, coolant_after, field, frame, unknown};
 use super::moves::RunRef;
 use super::read::{Chunk, Move, Scan, frame_op, head};
 use super::record::{Site, SiteKind, Timeline};
@@ -565,7 +565,7 @@ impl<'p> Builder<'p> {
                 3..=5 => direction = Some(m),
                 6 => self.m6_seen = true,
                 2 | 30 => self.t.ends.push(i),
-                7..=9 => self.state.coolant = Some(m),
+                7..=9 => self.state.coolant = coolant_after(self.state.coolant, m),
                 _ => {}
             }
         }
