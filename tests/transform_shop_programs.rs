@@ -877,3 +877,25 @@ M30
     );
     assert!(out.contains("\nM7 M8 ;DL\n"), "{out}");
 }
+
+/// QA round 3: a sum offset (`DL=2`) is lost by a spindle-probe gate's tool changes, so no such gate
+/// measures while one is active; a tool setter, which changes no tool, may.
+#[test]
+fn no_probe_swap_under_a_sum_offset() {
+    let prog = "\
+G17 G90 G40 G71 G94
+T=\"FR_D16\" M6
+D1 DL=2
+G54
+S3000 M3 M8
+G0 X10 Y10 Z50
+G1 Z-1 F300
+X60
+G0 Z50
+M9 M5
+M30
+";
+    let err = refused(&[("p.mpf", prog)], "p.mpf", "blum-tc50");
+    assert!(err.contains("a sum offset (DL=) is active"), "{err}");
+    transformed(&[("p.mpf", prog)], "p.mpf", "tool-setter");
+}

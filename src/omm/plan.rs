@@ -459,6 +459,8 @@ fn skipped_zero_is_safe(profile: &Profile) -> bool {
         && profile.warm_start.is_none()
 }
 
+const SUM_OFFSET: &str = "a sum offset (DL=) is active, which the probe's tool change and the cutting tool's return would not give back";
+
 const TOOL_UNKNOWN: &str = "the tool in the spindle is not known there (no tool change before it), so the probe could not be swapped for it again";
 
 /// Why a site cannot carry the reference measurement with this profile's probe; `None` when it can.
@@ -480,6 +482,9 @@ fn unfit_for_reference(site: &Site, profile: &Profile, rule: OffsetRule) -> Opti
     match profile.probe.kind {
         ProbeKind::SpindleProbe if tool_change_follows => None,
         ProbeKind::SpindleProbe if site.before.tool.is_none() => Some(TOOL_UNKNOWN),
+        ProbeKind::SpindleProbe if site.before.unknown & timeline::unknown::SUM_OFFSET != 0 => {
+            Some(SUM_OFFSET)
+        }
         ProbeKind::ToolSetter if tool_change_follows => {
             Some("a tool change follows: the zero must be measured with the tool that cuts")
         }
@@ -601,6 +606,11 @@ fn unfit_for_measuring(
     match profile.probe.kind {
         ProbeKind::SpindleProbe if !tool_change_follows && site.before.tool.is_none() => {
             Some("the tool in the spindle is not known")
+        }
+        ProbeKind::SpindleProbe
+            if !tool_change_follows && site.before.unknown & timeline::unknown::SUM_OFFSET != 0 =>
+        {
+            Some(SUM_OFFSET)
         }
         ProbeKind::ToolSetter if site.before.tool.as_ref() != reference_tool => {
             Some("another tool than the one the zero was measured with is in the spindle")

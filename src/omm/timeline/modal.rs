@@ -75,6 +75,8 @@ pub mod unknown {
     pub const D: u8 = 2;
     pub const S: u8 = 4;
     pub const FEED: u8 = 8;
+    /// A sum offset (`DL=` other than 0) is active: a gate that changes tools does not give it back.
+    pub const SUM_OFFSET: u8 = 16;
 }
 
 impl Modal {

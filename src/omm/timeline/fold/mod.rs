@@ -532,6 +532,11 @@ impl<'p> Builder<'p> {
         let dwell = s.g.contains(4);
         self.touch(s, dwell);
         self.state.unknown |= s.unknown;
+        match s.sum_offset {
+            Some(true) => self.state.unknown |= unknown::SUM_OFFSET,
+            Some(false) => self.state.unknown &= !unknown::SUM_OFFSET,
+            None => {}
+        }
         if let Some(f) = s.mv.f
             && !dwell
         {

@@ -64,6 +64,8 @@ pub(super) struct Scan {
     /// Rotary axes given a variable (`A=_A_HOME`, `C=R5`): its bit and the name, for the value the fold
     /// knows.
     pub(super) rotary_vars: Vec<(u8, String)>,
+    /// `DL=`: a sum offset selected (`true`) or deselected with `DL=0` (`false`).
+    pub(super) sum_offset: Option<bool>,
     /// Plain variables the block assigns, with the value when it is a literal.
     pub(super) var_set: Vec<(String, Option<f64>)>,
 }
@@ -232,6 +234,7 @@ impl Scan {
             && self.unknown == 0
             && !self.statement
             && self.rotary_away | self.rotary_home == 0
+            && self.sum_offset.is_none()
             // The head has no room for IC(…): such a block keeps its whole scan.
             && !self.mv.incremental.contains(&true);
         if !only_moves {

@@ -389,6 +389,7 @@ fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
             Some(d) if d >= 0.0 && d.fract() == 0.0 => s.d = Some(d as u32),
             _ => s.unknown |= unknown::D,
         },
+        b"DL" => s.sum_offset = Some(v != Some(0.0)),
         b"I" => s.mv.centre[0] = v,
         b"J" => s.mv.centre[1] = v,
         b"K" => s.mv.centre[2] = v,
