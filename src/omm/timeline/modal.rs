@@ -26,7 +26,7 @@ pub struct Modal {
     pub plane: Option<u32>,
     /// Exact stop or continuous path: G60, G64, G641 … G645, when the program set it.
     pub path_mode: Option<u32>,
-    /// M7 / M8 (on), 78 for both (see [`coolant_after`]), or M9 (off), when the program set it.
+    /// M7 / M8 (on), 78 for both (M7 and M8 add up), or M9 (off), when the program set it.
     pub coolant: Option<u32>,
     /// Cutter radius compensation: 40, 41 or 42.
     pub comp: u32,
