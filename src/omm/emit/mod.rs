@@ -769,15 +769,20 @@ impl Emitter<'_> {
             .expect("validated: the axes list the retract axis")
     }
 
+    /// Axis `a`'s coordinate of the start point of axis `k`'s probing, X in radius.
+    fn start_coordinate(&self, k: usize, a: Axis) -> f64 {
+        let at = &self.axes[k].at;
+        match a {
+            Axis::X => self.profile.position.in_radius(Axis::X, at.x),
+            Axis::Y => at.y,
+            Axis::Z => at.z,
+        }
+    }
+
     /// Travel at the travel height to the start point of axis `k`'s probing, then along the tool axis to it.
     fn to_start_point(&self, k: usize) -> Vec<String> {
         let p = &self.profile.position;
-        let at = &self.axes[k].at;
-        let coordinate = |a: Axis| match a {
-            Axis::X => p.in_radius(Axis::X, at.x),
-            Axis::Y => at.y,
-            Axis::Z => at.z,
-        };
+        let coordinate = |a: Axis| self.start_coordinate(k, a);
         let supa = match p.frame {
             MeasureFrame::Work => "",
             MeasureFrame::Machine => "SUPA ",
@@ -825,7 +830,32 @@ impl Emitter<'_> {
             v.push(format!("D{}", p.probe.tool_offset));
             v.push(self.clear());
         }
+        v.extend(self.above_fixed_reference());
         v.extend(self.to_start_point(0));
+        v
+    }
+
+    /// A reference fixed on the machine is approached in machine coordinates from the travel height, which
+    /// is in work coordinates: under a work offset on the retract axis that height can lie below the start
+    /// point, and the move to it and back would run towards the part. The control compares the two where
+    /// the gate stands and stops before it moves across.
+    fn above_fixed_reference(&self) -> Vec<String> {
+        let p = &self.profile.position;
+        if p.frame != MeasureFrame::Machine {
+            return Vec::new();
+        }
+        let axis = p.retract_axis;
+        let start = self.start_coordinate(0, axis);
+        let mut v = vec![format!("IF $AA_IM[{}]<{}", axis.name(), number(start))];
+        v.extend(self.abort(
+            &format!(
+                "driftloop: the travel height lies below the reference's start point {}{} (machine coordinates) under the work offset in force: raise [position] clearance",
+                axis.name(),
+                number(start)
+            ),
+            self.profile.registers.alarm_implausible,
+        ));
+        v.push("ENDIF".into());
         v
     }
 
