@@ -709,18 +709,19 @@ impl<'p> Builder<'p> {
             }
         }
         self.t.moves |= moves_somehow;
+        // A rapid along Z alone, and one that rises (from a height not known, it counts as rising).
+        let z_rapid =
+            moved && self.state.motion == 0 && mv.axes[0].is_none() && mv.axes[1].is_none();
+        let rises = match (from[2], to[2]) {
+            (Some(a), Some(b)) => b > a,
+            (None, Some(_)) => z_rapid,
+            _ => false,
+        };
+        let z_retract = z_rapid && rises;
         if moves_somehow && !g4 {
             if self.state.motion != 0 {
                 self.clear = false;
-            } else if match (from[2], to[2]) {
-                (Some(a), Some(b)) => b > a,
-                _ => false,
-            } || (to[2].is_some()
-                && (from[2].is_none() || self.position_doubt)
-                && mv.axes[0].is_none()
-                && mv.axes[1].is_none())
-            {
-                // A Z-only rapid from a height not known (set by an expression): a retract.
+            } else if rises || (z_rapid && self.position_doubt) {
                 self.clear = true;
             }
             if inexact {
@@ -763,16 +764,7 @@ impl<'p> Builder<'p> {
         }
         self.t.inexact_blocks += usize::from(inexact);
         // A dwell leaves the tool where the retract put it: the rapid after it is still clear of the part.
-        self.last_was_z_retract = (dwell && self.last_was_z_retract)
-            || moved
-                && self.state.motion == 0
-                && mv.axes[0].is_none()
-                && mv.axes[1].is_none()
-                && match (from[2], to[2]) {
-                    (Some(a), Some(b)) => b > a,
-                    (None, Some(_)) => true,
-                    _ => false,
-                };
+        self.last_was_z_retract = (dwell && self.last_was_z_retract) || z_retract;
         self.pos = to;
         if self.state.z != to[2] {
             self.state.z = to[2];
