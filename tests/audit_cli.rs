@@ -5,12 +5,23 @@ mod common;
 
 use std::path::Path;
 
-use driftloop::omm::DEFAULT_PROFILE;
-
 const FIXTURES: &str = "fixtures/vm/audit";
 
 fn run(args: &[&str]) -> std::process::Output {
     common::run(args)
+}
+
+/// `driftloop run --audit ARGS`, with the profile the fixtures are written for (the stored offset G54,
+/// `method = "frame"`) unless ARGS name one.
+fn audit(args: &[&str]) -> std::process::Output {
+    let dir = tempfile::tempdir().unwrap();
+    let profile = common::frame_profile_file(dir.path());
+    let mut all = vec!["run", "--audit"];
+    all.extend_from_slice(args);
+    if !args.contains(&"--profile") {
+        all.extend_from_slice(&["--profile", profile.to_str().unwrap()]);
+    }
+    run(&all)
 }
 
 fn fixture(name: &str) -> String {
@@ -19,7 +30,7 @@ fn fixture(name: &str) -> String {
 
 #[test]
 fn clean_exits_0_and_findings_exit_1_with_one_line_each() {
-    let out = run(&["run", "--audit", &fixture("clean")]);
+    let out = audit(&[&fixture("clean")]);
     assert_eq!(out.status.code(), Some(0), "{}", common::stderr(&out));
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(
@@ -27,7 +38,7 @@ fn clean_exits_0_and_findings_exit_1_with_one_line_each() {
         "{text}"
     );
 
-    let out = run(&["run", "--audit", &fixture("modal_coolant")]);
+    let out = audit(&[&fixture("modal_coolant")]);
     assert_eq!(out.status.code(), Some(1));
     let text = String::from_utf8(out.stdout).unwrap();
     let first = text.lines().next().unwrap();
@@ -46,13 +57,7 @@ fn clean_exits_0_and_findings_exit_1_with_one_line_each() {
 
 #[test]
 fn json_carries_kind_line_message_original_line_and_counts() {
-    let out = run(&[
-        "run",
-        "--audit",
-        &fixture("tool_preselected"),
-        "--format",
-        "json",
-    ]);
+    let out = audit(&[&fixture("tool_preselected"), "--format", "json"]);
     assert_eq!(out.status.code(), Some(1));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let f = &v["findings"][0];
@@ -76,13 +81,7 @@ fn original_profile_and_margin_are_taken_from_the_flags() {
     // An original that is not the transformed program without its ;DL lines.
     let other = dir.path().join("other.mpf");
     std::fs::write(&other, "G0 X1\nM30\n").unwrap();
-    let out = run(&[
-        "run",
-        "--audit",
-        &fixture("clean"),
-        "--original",
-        other.to_str().unwrap(),
-    ]);
+    let out = audit(&[&fixture("clean"), "--original", other.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stdout).contains("original-changed"));
 
@@ -90,19 +89,13 @@ fn original_profile_and_margin_are_taken_from_the_flags() {
     let profile = dir.path().join("low.toml");
     std::fs::write(
         &profile,
-        DEFAULT_PROFILE.replace("clearance = 100.0", "clearance = 20.0"),
+        common::frame_profile_text().replace("clearance = 100.0", "clearance = 20.0"),
     )
     .unwrap();
     let xy = root.join(fixture("xy_below_clearance"));
-    let out = run(&["run", "--audit", xy.to_str().unwrap()]);
+    let out = audit(&[xy.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(1));
-    let out = run(&[
-        "run",
-        "--audit",
-        xy.to_str().unwrap(),
-        "--profile",
-        profile.to_str().unwrap(),
-    ]);
+    let out = audit(&[xy.to_str().unwrap(), "--profile", profile.to_str().unwrap()]);
     assert_eq!(
         out.status.code(),
         Some(0),
@@ -110,21 +103,9 @@ fn original_profile_and_margin_are_taken_from_the_flags() {
         String::from_utf8_lossy(&out.stdout)
     );
 
-    let out = run(&[
-        "run",
-        "--audit",
-        &fixture("probe_machined"),
-        "--probe-margin",
-        "1.5",
-    ]);
+    let out = audit(&[&fixture("probe_machined"), "--probe-margin", "1.5"]);
     assert_eq!(out.status.code(), Some(0));
-    let out = run(&[
-        "run",
-        "--audit",
-        &fixture("probe_machined"),
-        "--probe-margin",
-        "-1",
-    ]);
+    let out = audit(&[&fixture("probe_machined"), "--probe-margin", "-1"]);
     assert_eq!(out.status.code(), Some(2));
 }
 
@@ -137,13 +118,7 @@ fn a_machine_file_with_probe_faults_stops_the_comparison() {
         "[probe]\nfaults = [{ call = 1, kind = \"garbage\" }]\n",
     )
     .unwrap();
-    let out = run(&[
-        "run",
-        "--audit",
-        &fixture("clean"),
-        "--machine",
-        machine.to_str().unwrap(),
-    ]);
+    let out = audit(&[&fixture("clean"), "--machine", machine.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(0));
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(
@@ -160,7 +135,7 @@ fn a_construct_the_machine_cannot_run_exits_2() {
         std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join(fixture("clean")))
             .unwrap();
     std::fs::write(&p, text.replace("R2=99999 ;DL", "G33 Z-5 K1 ;DL")).unwrap();
-    let out = run(&["run", "--audit", p.to_str().unwrap()]);
+    let out = audit(&[p.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(2));
     let err = common::stderr(&out);
     assert!(err.contains("t.mpf:21: G33"), "{err}");
@@ -197,13 +172,7 @@ fn model_makes_the_machine_drift_as_predicted_and_profiles_go_by_name() {
     let drifting = String::from_utf8(run(&args).stdout).unwrap();
     assert!(!drifting.contains("note:"), "{drifting}");
 
-    let out = run(&[
-        "run",
-        "--audit",
-        &fixture("clean"),
-        "--profile",
-        "tool-setter",
-    ]);
+    let out = audit(&[&fixture("clean"), "--profile", "tool-setter"]);
     // The builtin tool-setter profile's reference reads -310 (machine coordinates): the fixture's gate, written
     // for a surface at 0, takes it for implausible and stops.
     assert_eq!(out.status.code(), Some(0));
@@ -212,12 +181,6 @@ fn model_makes_the_machine_drift_as_predicted_and_profiles_go_by_name() {
         text.starts_with("note: line 27 (inserted) ended the transformed program"),
         "{text}"
     );
-    let out = run(&[
-        "run",
-        "--audit",
-        &fixture("clean"),
-        "--profile",
-        "no-such-profile",
-    ]);
+    let out = audit(&[&fixture("clean"), "--profile", "no-such-profile"]);
     assert_eq!(out.status.code(), Some(2));
 }

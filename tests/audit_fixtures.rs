@@ -2,9 +2,10 @@
 //! finding at the lines it is expected, its clean counterpart (or clean.mpf, for the hazards in the base
 //! program) shows none.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
-use driftloop::omm::Profile;
 use driftloop::strip::strip;
 use driftloop::vm::audit::{Audit, AuditSettings, Kind, audit};
 use driftloop::vm::{Config, MachineSpec, ProbeFault};
@@ -15,8 +16,9 @@ fn fixture(name: &str) -> PathBuf {
         .join(format!("{name}.mpf"))
 }
 
+/// The fixtures correct the stored offset G54 (`method = "frame"`).
 fn settings() -> AuditSettings {
-    AuditSettings::from_profile(&Profile::default_profile())
+    AuditSettings::from_profile(&common::frame_profile())
 }
 
 fn audited_with(name: &str, settings: &AuditSettings) -> Audit {

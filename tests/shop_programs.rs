@@ -16,8 +16,8 @@ fn root() -> &'static Path {
 #[test]
 fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
     let expected = [
-        ("blum-tc50", 15),
-        ("siemens-cycle978", 15),
+        ("blum-tc50", 18),
+        ("siemens-cycle978", 18),
         ("tool-setter", 23),
         ("grinder-gauge", 23),
         ("lathe-setter", 23),

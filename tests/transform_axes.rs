@@ -102,7 +102,11 @@ fn every_measuring_gate_probes_both_axes_and_corrects_both() {
         out.contains("BL9700(1,3,0,") && out.contains("BL9700(1,1,50,"),
         "{out}"
     );
-    assert!(out.contains("$P_UIFR[1,X,TR]=R") && out.contains("$P_UIFR[1,Z,TR]=R"));
+    assert!(
+        out.contains("$P_IFRAME[X,TR]=$P_UIFR[$P_UIFRNUM,X,TR]+R")
+            && out.contains("$P_IFRAME[Z,TR]=$P_UIFR[$P_UIFRNUM,Z,TR]+R"),
+        "{out}"
+    );
     assert!(out.contains(",drift_z_um,drift_x_um,pass,run"), "{out}");
     // Cycle_in waits for either axis.
     let sparse = transformed_with(&sparse_profile());

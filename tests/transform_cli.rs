@@ -393,7 +393,9 @@ fn subprogram_folders_from_the_profile_or_the_command_line_are_timed() {
     let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let taken = json[0]["summary"]["r_parameters"].as_array().unwrap();
     assert!(!taken.is_empty() && !taken.contains(&serde_json::json!(900)));
-    // What the transform refuses in the program it refuses in a subprogram it calls, at the call.
+    // What the transform refuses in the program it refuses in a subprogram it calls, at the call (another
+    // work offset than the one a stored-offset profile corrects).
+    let frame = common::frame_profile_file(dir.path()).display().to_string();
     for (text, refusal) in [
         (
             "G55\nM17\n",
@@ -410,6 +412,8 @@ fn subprogram_folders_from_the_profile_or_the_command_line_are_timed() {
             &p,
             "--model",
             &model,
+            "--profile",
+            &frame,
             "--subprograms",
             &spf_arg,
             "-o",

@@ -4,6 +4,8 @@
 
 mod shared_data;
 
+mod common;
+
 use std::path::PathBuf;
 
 use driftloop::model::DriftModel;
@@ -198,9 +200,10 @@ fn refusals_are_clear() {
         computed.contains("line 4 indexes R-parameters"),
         "{computed}"
     );
-    let other = run(b"G55\nT1 M6\nS1000 M3\nG1 X10 F100\nM30\n", &profile)
-        .unwrap_err()
-        .to_string();
+    // The default corrects the offset in force; a profile that corrects the stored G54 refuses G55.
+    let g55 = b"G55\nT1 M6\nS1000 M3\nG1 X10 F100\nM30\n";
+    run(g55, &profile).unwrap();
+    let other = run(g55, &common::frame_profile()).unwrap_err().to_string();
     assert!(other.contains("selects G55 (line 1)"), "{other}");
     let still = run(b"T1 M6\nS1000 M3\nM30\n", &profile)
         .unwrap_err()

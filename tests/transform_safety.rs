@@ -4,6 +4,8 @@
 //! offset restored before an alarm, the scrap decision against the correction in force at the last cut —
 //! plus golden files of the gates around a preselected tool, a swivel, G41 and G95.
 
+mod common;
+
 use std::path::PathBuf;
 
 use driftloop::model::DriftModel;
@@ -18,11 +20,15 @@ fn model() -> DriftModel {
     DriftModel::read(&root().join("fixtures/omm/model.toml")).expect("model fixture")
 }
 
-/// The default profile, measuring at every gate that can: every gate shows its measuring blocks.
-fn measuring_profile() -> Profile {
-    let mut p = Profile::default_profile();
+/// `p` measuring at every gate that can: every gate shows its measuring blocks.
+fn measuring(mut p: Profile) -> Profile {
     p.log.measure_every_gate = true;
     p
+}
+
+/// The default profile, measuring at every gate that can.
+fn measuring_profile() -> Profile {
+    measuring(Profile::default_profile())
 }
 
 fn transformed(src: &str, profile: &Profile, model: &DriftModel) -> Result<String, TransformError> {
@@ -211,9 +217,13 @@ M30
     assert!(coolant_off < probe);
     assert!(gate.contains(&"S800 M4"), "{gate:#?}");
     assert!(gate.contains(&"M8"), "{gate:#?}");
-    assert_eq!(*gate.last().unwrap(), "G54");
+    // The correction goes into the offset in force: nothing is selected again.
+    assert!(!gate.contains(&"G54"), "{gate:#?}");
     let modal = index(&gate, |l| l.starts_with("G18 "), "modal line");
     assert_eq!(gate[modal], "G18 G95 G64 G0 G91 F0.2");
+    // A profile that corrects the stored G54 selects it again as the gate's last block.
+    let o = transformed(src, &measuring(common::frame_profile()), &model()).unwrap();
+    assert_eq!(*gate_before(&o, "; PASS 2").last().unwrap(), "G54");
 }
 
 /// A milling start that swivels the table and cuts under the swivel.
@@ -268,27 +278,34 @@ M30
 
 #[test]
 fn every_alarm_restores_the_work_offset_first() {
-    let o = out(PRESELECTED);
-    let lines: Vec<&str> = o.lines().collect();
-    let mut alarms = 0;
-    for (k, l) in lines.iter().enumerate() {
-        if !l.starts_with("SETAL(") {
-            continue;
+    // Restore (and re-select the stored offset), message, alarm: SETAL stops the interpreter, nothing
+    // after it runs.
+    let active = ["$P_IFRAME[Z,TR]=$P_UIFR[$P_UIFRNUM,Z,TR]"];
+    let frame = ["$P_UIFR[1,Z,TR]=R", "G54"];
+    for (profile, restore) in [
+        (measuring_profile(), &active[..]),
+        (measuring(common::frame_profile()), &frame[..]),
+    ] {
+        let o = transformed(PRESELECTED, &profile, &model()).unwrap();
+        let lines: Vec<&str> = o.lines().collect();
+        let mut alarms = 0;
+        for (k, l) in lines.iter().enumerate() {
+            if !l.starts_with("SETAL(") {
+                continue;
+            }
+            alarms += 1;
+            let n = restore.len();
+            let before: Vec<&str> = lines[k - n - 1..k]
+                .iter()
+                .map(|l| l.trim_end_matches(MARK).trim_end())
+                .collect();
+            for (line, want) in before.iter().zip(restore) {
+                assert!(line.starts_with(want) && !line.contains('+'), "{before:#?}");
+            }
+            assert!(before[n].starts_with("MSG(\"driftloop: "), "{before:#?}");
         }
-        alarms += 1;
-        // Restore, re-select, message, alarm: SETAL stops the interpreter, nothing after it runs.
-        let before: Vec<&str> = lines[k - 3..k]
-            .iter()
-            .map(|l| l.trim_end_matches(MARK).trim_end())
-            .collect();
-        assert!(
-            before[0].starts_with("$P_UIFR[1,Z,TR]=R") && !before[0].contains('+'),
-            "{before:#?}"
-        );
-        assert_eq!(before[1], "G54");
-        assert!(before[2].starts_with("MSG(\"driftloop: "), "{before:#?}");
+        assert!(alarms >= 4, "{alarms}");
     }
-    assert!(alarms >= 4, "{alarms}");
 }
 
 #[test]

@@ -586,10 +586,17 @@ R1=R1+1
 IF R1<3 GOTOS
 M30
 ";
-    let out = transformed(&[("p.mpf", prog)], "p.mpf", "blum-tc50");
-    let gotos = line_of(&out, "IF R1<3 GOTOS");
-    let lines: Vec<&str> = out.lines().collect();
-    assert!(lines[gotos - 1].starts_with("$P_UIFR[1,Z,TR]=R"), "{out}");
+    let frame = common::frame_profile_text();
+    let files = [("p.mpf", prog), ("frame.toml", frame.as_str())];
+    for (profile, restore) in [
+        ("blum-tc50", "$P_IFRAME[Z,TR]=$P_UIFR[$P_UIFRNUM,Z,TR] "),
+        ("frame.toml", "$P_UIFR[1,Z,TR]=R"),
+    ] {
+        let out = transformed(&files, "p.mpf", profile);
+        let gotos = line_of(&out, "IF R1<3 GOTOS");
+        let lines: Vec<&str> = out.lines().collect();
+        assert!(lines[gotos - 1].starts_with(restore), "{out}");
+    }
 }
 
 /// QA round 3: a CAM post writes CYCLE800 with every angle 0 (and direction, retract feed and mode after

@@ -125,3 +125,28 @@ pub fn assert_audit_clean(
     assert!(hazards.is_empty(), "{hazards:#?}");
     assert!(report.stopped.is_none(), "{:?}", report.stopped);
 }
+
+/// The default profile with the stored-offset method (`method = "frame"`: `$P_UIFR[1]`, G54 selected
+/// again after each correction) instead of its `active` method: the hand-written audit fixtures and the
+/// tests of that method are written for it.
+pub fn frame_profile_text() -> String {
+    let text = driftloop::omm::DEFAULT_PROFILE.replace("method = \"active\"", "method = \"frame\"");
+    assert_ne!(
+        text,
+        driftloop::omm::DEFAULT_PROFILE,
+        "the default profile's method"
+    );
+    text
+}
+
+/// [`frame_profile_text`] loaded.
+pub fn frame_profile() -> driftloop::omm::Profile {
+    driftloop::omm::Profile::from_toml(&frame_profile_text(), "frame.toml").unwrap()
+}
+
+/// [`frame_profile_text`] written to `dir/frame.toml`, for `--profile`.
+pub fn frame_profile_file(dir: &Path) -> PathBuf {
+    let path = dir.join("frame.toml");
+    std::fs::write(&path, frame_profile_text()).unwrap();
+    path
+}
