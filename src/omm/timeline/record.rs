@@ -93,6 +93,8 @@ pub struct Timeline {
     pub offsets: Vec<(u32, usize)>,
     /// Blocks that select a settable work offset (G500, G54 …), or call a subprogram from a folder that does.
     pub offset_selections: Vec<usize>,
+    /// Blocks that set the unit of lengths (G70, G71, G700, G710), with the code, in block order.
+    pub units: Vec<(usize, u32)>,
     /// Lines (1-based) of `computed_r_lines` and `offsets` that call a subprogram from a folder in which the
     /// thing was found, with the subprogram's name.
     pub found_in_call: BTreeMap<usize, String>,
@@ -132,6 +134,15 @@ pub struct Timeline {
     pub setup_end: usize,
     /// Run as a subprogram: what it does to its caller's state.
     pub as_callee: CalleeEffect,
+}
+
+impl Timeline {
+    /// The unit of lengths in force after block `block` ran (`None` where the program has set none), as
+    /// the blocks read in order give it.
+    pub fn unit_after(&self, block: usize) -> Option<u32> {
+        let set = self.units.partition_point(|&(b, _)| b <= block);
+        set.checked_sub(1).map(|k| self.units[k].1)
+    }
 }
 
 /// What a unit run as a subprogram does to its caller's modal state.

@@ -526,6 +526,10 @@ impl<'p> Builder<'p> {
                 17..=19 => self.state.plane = Some(g),
                 40..=42 => self.state.comp = g,
                 60 | 64 | 641..=645 => self.state.path_mode = Some(g),
+                70 | 71 | 700 | 710 => {
+                    self.state.unit = Some(g);
+                    self.t.units.push((i, g));
+                }
                 _ => {}
             }
         }
