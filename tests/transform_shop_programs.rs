@@ -949,3 +949,22 @@ fn an_inch_program_gates_in_mm_and_gets_its_unit_back() {
         assert!(out.contains(&format!("\n{unit} F20 ;DL")), "{out}");
     }
 }
+
+/// A program in the ISO dialect (Fanuc-style: G291, or G43 H tool lengths, G28, G81 cycles) is refused:
+/// its mode reads driftloop's Siemens blocks otherwise, and a gate's tool change would come back without
+/// the G43 H length compensation, every later Z then off by the tool's length. It was written before, with
+/// an incomplete audit.
+#[test]
+fn a_program_in_the_iso_dialect_is_refused() {
+    for (first, word) in [
+        ("G291", "line 1: G291"),
+        ("G17 G90 G54 G43 H1 Z100", "line 1: G43"),
+        ("G17 G90 G54\nG28 G91 Z0", "line 2: G28"),
+    ] {
+        let prog = format!(
+            "{first}\nT1 M6\nS3000 M3\nG0 X0 Y0 Z2\nG1 Z-1 F200\nX40\nG0 Z50\nG81 X10 Y10 Z-5 R2 F100\nG80\nM30\n"
+        );
+        let err = refused(&[("p.mpf", &prog)], "p.mpf", "tool-setter");
+        assert!(err.contains(word) && err.contains("ISO dialect"), "{err}");
+    }
+}

@@ -75,6 +75,10 @@ pub enum TransformError {
         "the program writes the frame in force ($P_IFRAME) itself at line {0}: a gate corrects that frame or selects the work offset again, which would drop the program's own shift; driftloop does not transform such a program (write the shift into a settable offset, $P_UIFR, and select it)"
     )]
     FrameInForceWrite(usize),
+    #[error(
+        "line {line}: G{code} is a word of the ISO dialect (Fanuc-style, G291 mode): driftloop inserts Siemens-mode blocks, which that mode reads otherwise, and a gate's tool change would drop a tool length compensation given with G43 H; driftloop transforms Siemens-mode programs only"
+    )]
+    IsoDialect { line: usize, code: u32 },
     #[error("{0}")]
     Other(String),
     #[error(
@@ -104,6 +108,7 @@ impl TransformError {
             TransformError::Plan(PlanError::Model(_)) => "model not predictable in NC",
             TransformError::FrameWrite(_) => "writes a work offset itself",
             TransformError::FrameInForceWrite(_) => "writes the frame in force itself",
+            TransformError::IsoDialect { .. } => "ISO dialect",
             TransformError::Other(_) => "profile or registers",
             TransformError::LongBlock(_) => "block too long",
             TransformError::Emit(_) => "internal error",
@@ -288,6 +293,12 @@ fn refusals(timeline: &Timeline, profile: &Profile) -> Result<(), TransformError
         Some(name) => format!("line {line}, in subprogram {name} called there,"),
         None => format!("line {line}"),
     };
+    if let Some((block, code)) = timeline.iso_dialect {
+        return Err(TransformError::IsoDialect {
+            line: block + 1,
+            code,
+        });
+    }
     if let Some(&line) = timeline.computed_r_lines.first() {
         return Err(TransformError::ComputedR(at(line)));
     }

@@ -95,6 +95,9 @@ pub struct Timeline {
     pub offset_selections: Vec<usize>,
     /// Blocks that set the unit of lengths (G70, G71, G700, G710), with the code, in block order.
     pub units: Vec<(usize, u32)>,
+    /// The first block with a G code of the ISO dialect (Fanuc-style) and that code: `G291`, which switches
+    /// to it, or one Siemens mode does not have (G43 tool length with H, G28, G80 … G89 cycles …).
+    pub iso_dialect: Option<(usize, u32)>,
     /// Lines (1-based) of `computed_r_lines` and `offsets` that call a subprogram from a folder in which the
     /// thing was found, with the subprogram's name.
     pub found_in_call: BTreeMap<usize, String>,

@@ -530,6 +530,9 @@ impl<'p> Builder<'p> {
                     self.state.unit = Some(g);
                     self.t.units.push((i, g));
                 }
+                g if is_iso_only(g) => {
+                    self.t.iso_dialect.get_or_insert((i, g));
+                }
                 _ => {}
             }
         }
@@ -825,4 +828,13 @@ impl<'p> Builder<'p> {
         self.place_passes_and_sites(total);
         (self.t, self.called)
     }
+}
+
+/// G codes of the ISO dialect (G291 mode) that Siemens mode does not have: a program with them runs in ISO
+/// mode, where Siemens-mode blocks are read otherwise (tool length comes from G43 H, cycles from G81 …).
+fn is_iso_only(g: u32) -> bool {
+    matches!(
+        g,
+        10 | 11 | 15 | 16 | 20 | 21 | 28..=30 | 43 | 44 | 49 | 65..=69 | 73 | 76 | 80..=89 | 98 | 99 | 291
+    )
 }
