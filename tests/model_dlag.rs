@@ -389,4 +389,28 @@ fn the_forward_benchmark_scores_later_hours_with_and_without_probing() {
         rate("probe_only") < 0.95 && rate("model_probed") > 0.97,
         "{s}"
     );
+    // `--to` scores the same model on the rows before it only: the 3000 rpm heating, minutes 960–1199.
+    let out = common::driftloop(
+        dir.path(),
+        &[
+            "forward", "m.csv", "--until", "16h", "--to", "20h", "--format", "json",
+        ],
+        b"",
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", common::stderr(&out));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v[0]["score"]["rows"], 240);
+    let p = model.predict(&ds).unwrap();
+    let y = ds.values("z_um").unwrap();
+    let heating = rms((0..ds.len())
+        .filter(|&i| (UNTIL_MIN..1200.0).contains(&ds.time_min[i]))
+        .map(|i| y[i] - p[i]));
+    assert!((v[0]["score"]["model"]["rms_um"].as_f64().unwrap() - heating).abs() < 1e-9);
+    let out = common::driftloop(
+        dir.path(),
+        &["forward", "m.csv", "--until", "16h", "--to", "16h"],
+        b"",
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert!(common::stderr(&out).contains("--to must be later than --until"));
 }

@@ -25,6 +25,10 @@ pub struct Args {
     /// number is minutes.
     #[arg(long, value_name = "TIME")]
     pub until: Minutes,
+    /// Score only the rows before this time (default: every row from `--until` on). `--until 8h --to 16h`
+    /// predicts the next 8 h only: the next-speed check inside a longer file.
+    #[arg(long, value_name = "TIME")]
+    pub to: Option<Minutes>,
     /// Channels to score (comma separated; default every `*_um` column).
     #[arg(long, value_delimiter = ',')]
     pub channel: Option<Vec<String>>,
@@ -61,10 +65,12 @@ struct Line {
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     let ds = read_path(&args.data, Require::Displacement)?;
     let until = args.until.0;
+    let to = args.to.map_or(f64::INFINITY, |t| t.0);
     anyhow::ensure!(
         args.probe_every.0 > 0.0,
         "--probe-every must be a positive time"
     );
+    anyhow::ensure!(to > until, "--to must be later than --until");
     let channels: Vec<String> = match &args.channel {
         Some(c) => c.iter().map(|s| s.to_ascii_lowercase()).collect(),
         None => ds.channels().map(|c| c.name.clone()).collect(),
@@ -88,7 +94,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         };
         let predicted = model.predict(&ds)?;
         let measured = ds.values(ch).unwrap_or_default();
-        let later: Vec<bool> = ds.time_min.iter().map(|&t| t >= until).collect();
+        let later: Vec<bool> = ds.time_min.iter().map(|&t| t >= until && t < to).collect();
         let forward = model.fit.as_ref().and_then(|f| f.forward.as_ref());
         // With --probe-trend the model's re-zeroing (the trend gain its fit chose for this interval).
         let probing = forward
@@ -96,7 +102,13 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             .filter(|_| args.probe_trend)
             .map_or(Probing::every(args.probe_every.0), |p| p.probing());
         let score = HoldoutScore::of(&ds, measured, &predicted, &later, Some(probing)).ok_or_else(
-            || anyhow::anyhow!("{}: no reading of {ch} from {until} min on", ds.source),
+            || {
+                anyhow::anyhow!(
+                    "{}: no reading of {ch} from {until} min{}",
+                    ds.source,
+                    span(to)
+                )
+            },
         )?;
         let design = match forward {
             Some(f) => format!(
@@ -140,16 +152,26 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         Format::Json => {
             super::output::print(&format!("{}\n", serde_json::to_string_pretty(&lines)?))?
         }
-        Format::Human => super::output::print(&table(&lines, until, args.probe_every.0))?,
+        Format::Human => super::output::print(&table(&lines, until, to, args.probe_every.0))?,
     }
     Ok(ExitCode::SUCCESS)
 }
 
-fn table(lines: &[Line], until: f64, every: f64) -> String {
+/// ` on` (to the end of the data) or ` to T min`.
+fn span(to: f64) -> String {
+    if to.is_finite() {
+        format!(" to {to} min")
+    } else {
+        " on".to_string()
+    }
+}
+
+fn table(lines: &[Line], until: f64, to: f64, every: f64) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "fitted before {until} min, scored from it on; RMS in µm, rate = 1 − RMS / RMS uncompensated; a probe re-zeroes every {every} min"
+        "fitted before {until} min, scored from it{}; RMS in µm, rate = 1 − RMS / RMS uncompensated; a probe re-zeroes every {every} min",
+        span(to)
     );
     let _ = writeln!(
         s,
