@@ -968,3 +968,21 @@ fn a_program_in_the_iso_dialect_is_refused() {
         assert!(err.contains(word) && err.contains("ISO dialect"), "{err}");
     }
 }
+
+/// A spindle-probe profile needs the tool the program changes to; a shop's tool-change subprogram not found
+/// leaves it unknown, and the refusal says which call to give the file of.
+#[test]
+fn a_tool_change_subprogram_not_found_is_named_in_the_refusal() {
+    let prog =
+        "G17 G90 G94 G54\nT1\nL6\nD1\nS3000 M3\nG0 X10 Y10 Z2\nG1 Z-1 F200\nX40\nG0 Z50\nM30\n";
+    let err = refused(&[("p.mpf", prog)], "p.mpf", "blum-tc50");
+    assert!(
+        err.contains("if L6 (line 3) changes the tool, put its file beside the program"),
+        "{err}"
+    );
+    transformed(
+        &[("p.mpf", prog), ("L6.SPF", "PROC L6\nM6\nRET\n")],
+        "p.mpf",
+        "blum-tc50",
+    );
+}

@@ -566,6 +566,13 @@ fn reference_site(
         message.push_str(
             "; for a program that never changes tools measure with the tool in the spindle (`--profile tool-setter`, `grinder-gauge` or `lathe-setter`, or [probe] kind = \"tool-setter\" or \"gauge\" in your profile; `driftloop profiles` lists them), or add the tool change T=\"NAME\" M6 before the first cut",
         );
+        // A shop's tool-change subprogram counts once its file is read.
+        let before_cut = |line: usize| timeline.first_cut.is_none_or(|b| line <= b + 1);
+        if let Some((line, name)) = timeline.untimed_calls.iter().find(|c| before_cut(c.0)) {
+            message.push_str(&format!(
+                "; if {name} (line {line}) changes the tool, put its file beside the program or give its folder with --subprograms DIR"
+            ));
+        }
     } else if unfit.is_none() {
         message.push_str("; mark a pass at a safe place ([passes] marker / lines)");
     }
