@@ -420,14 +420,14 @@ impl Runner<'_> {
                 .audit
                 .notes
                 .iter()
-                .any(|note| note.contains(&format!("action {id} ")))
+                .any(|note| note.contains(&format!("action {id} of")))
             {
                 continue;
             }
             self.audit.notes.push(format!(
-                "the synchronized action {id} (original line {line}) is active while inserted blocks move \
-                 (first at line {}): the dry run does not check its condition; make sure the gates' moves \
-                 cannot trigger its action",
+                "the synchronized action {id} of line {line} is active while inserted blocks move (first at \
+                 line {}): the dry run does not check its condition; make sure the gates' moves cannot \
+                 trigger its action",
                 at.line
             ));
         }

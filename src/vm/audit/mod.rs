@@ -23,6 +23,8 @@
 
 mod geometry;
 mod lockstep;
+#[cfg(test)]
+mod planner_agreement;
 mod report;
 mod state;
 

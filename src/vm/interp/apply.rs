@@ -280,7 +280,7 @@ impl Interp<'_> {
         for &(n, m) in &w.other_m {
             let s = &mut self.motion.others[n - 2];
             match m {
-                3 | 4 | 5 => (s.rotation, s.position) = (if m == 5 { 0 } else { m }, None),
+                3..=5 => (s.rotation, s.position) = (if m == 5 { 0 } else { m }, None),
                 19 => (s.rotation, s.position) = (0, Some(f64::NAN)),
                 _ => self.aux(format!("M{n}={m}")),
             }
