@@ -418,6 +418,17 @@ fn extcall_and_pcall_run_the_program_they_name() {
     }
 }
 
+/// `L200 P3` of a subprogram neither run can find is skipped alike, its repetitions with it.
+#[test]
+fn a_missing_subprogram_called_several_times_is_skipped() {
+    finds(
+        "L200 P3",
+        &["M9"],
+        Kind::ModalNotRestored,
+        "coolant off (M9) here, M8 in the original",
+    );
+}
+
 /// A program whose last blocks run under TRAORI ends without TRAFOOF: the control's reset ends the
 /// transformation, and the offset restore before M30 moves nothing under it.
 #[test]

@@ -213,6 +213,7 @@ impl Interp<'_> {
         if w.ret {
             return Ok(Flow::Return);
         }
+        let mut skipped = false;
         if let Some((name, args, refs)) = w.call {
             match self.load(u, &name) {
                 Ok(unit) => {
@@ -224,6 +225,7 @@ impl Interp<'_> {
                     });
                 }
                 Err(why) if self.cfg.skip_missing_calls => {
+                    skipped = true;
                     let at = self.at(u, i);
                     self.run.messages.push(Message {
                         at,
@@ -243,7 +245,8 @@ impl Interp<'_> {
             });
             return Ok(Flow::Jump(start));
         }
-        if w.repeat.is_some() {
+        // `L200 P3` skipped as missing: its P repeats nothing.
+        if w.repeat.is_some() && !skipped {
             return Err("P (repetitions) without a subprogram call or REPEAT".into());
         }
         Ok(w.jump.map_or(Flow::Next, Flow::Jump))
