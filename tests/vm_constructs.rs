@@ -9,7 +9,7 @@ use std::path::Path;
 
 use driftloop::omm::Profile;
 use driftloop::vm::audit::{Audit, AuditSettings, Kind, audit};
-use driftloop::vm::{Config, SimpleMachine, run_source};
+use driftloop::vm::{Config, Run, SimpleMachine, run_source};
 
 /// A milling program with `construct` on line 9, between two cuts; line 10 is where the original resumes
 /// after blocks inserted after the construct.
@@ -59,6 +59,38 @@ fn finds(construct: &str, plant: &[&str], kind: Kind, text: &str) -> Audit {
         found.findings
     );
     found
+}
+
+/// A dry run of `src` on a machine that does not drift.
+fn dry_run(src: &[u8], cfg: &Config) -> Run {
+    run_source("p.mpf", src, None, cfg, &mut SimpleMachine::cold())
+        .unwrap_or_else(|e| panic!("the dry run stopped: {e}"))
+}
+
+/// Whether the audit noted something containing `text`.
+fn noted(found: &Audit, text: &str) -> bool {
+    found.notes.iter().any(|n| n.contains(text))
+}
+
+/// `driftloop transform PROGRAM --profile tool-setter -o out.mpf` in `dir`: its stderr. It must have
+/// written the output with the audit run to the end.
+fn transformed_and_audited(dir: &Path, program: &str) -> String {
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/omm/model.toml");
+    let args = [
+        "transform",
+        program,
+        "--model",
+        &model.display().to_string(),
+        "--profile",
+        "tool-setter",
+        "-o",
+        "out.mpf",
+    ];
+    let o = common::driftloop(dir, &args, b"");
+    let err = common::stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains("audit incomplete"), "{err}");
+    err
 }
 
 #[test]
@@ -162,14 +194,7 @@ fn the_other_spindles_and_the_speed_limits_are_compared() {
 #[test]
 fn g26_clamps_the_speed_and_its_axis_values_are_no_move() {
     let src = b"G26 S2000 X500\nS3000 M3\nG4 F60\nG25 S1500\nS1000\nG4 F60\nM30\n";
-    let run = run_source(
-        "limits.mpf",
-        src,
-        None,
-        &Config::default(),
-        &mut SimpleMachine::cold(),
-    )
-    .unwrap();
+    let run = dry_run(src, &Config::default());
     let speeds: Vec<f64> = run.spindle.steps.iter().map(|s| s.1).collect();
     assert_eq!(speeds, [2000.0, 1500.0, 0.0], "{:?}", run.spindle);
     assert!(run.trace.iter().all(|r| r.programmed[0] == 0.0));
@@ -193,14 +218,7 @@ fn indirect_g_codes_select_as_the_g_code_would() {
         offsets: vec![(2, "Z".into(), -100.0)],
         ..Config::default()
     };
-    let run = run_source(
-        "g.mpf",
-        b"G[8]=3\nG0 Z5\nM30\n",
-        None,
-        &cfg,
-        &mut SimpleMachine::cold(),
-    )
-    .unwrap();
+    let run = dry_run(b"G[8]=3\nG0 Z5\nM30\n", &cfg);
     assert_eq!(run.trace[1].machine[2], -95.0, "G[8]=3 is G55");
 }
 
@@ -309,10 +327,7 @@ fn values_the_dry_run_cannot_know_are_read_from_the_machine_file_or_noted() {
             "coolant off (M9) here",
         );
         assert!(
-            found
-                .notes
-                .iter()
-                .any(|n| n.contains(&format!("{key} read as 0"))),
+            noted(&found, &format!("{key} read as 0")),
             "{construct}: {:?}",
             found.notes
         );
@@ -322,14 +337,7 @@ fn values_the_dry_run_cannot_know_are_read_from_the_machine_file_or_noted() {
     let run_with = |text: &str| {
         let (cfg, _) =
             driftloop::vm::parse_machine_file(text, Path::new("."), Config::default()).unwrap();
-        run_source(
-            "in.mpf",
-            src.as_bytes(),
-            None,
-            &cfg,
-            &mut SimpleMachine::cold(),
-        )
-        .unwrap()
+        dry_run(src.as_bytes(), &cfg)
     };
     let set = run_with("[variables]\n\"$a_in[ 1 ]\" = 1\n");
     assert_eq!(set.trace.last().unwrap().programmed[0], 0.0, "X10 skipped");
@@ -338,14 +346,10 @@ fn values_the_dry_run_cannot_know_are_read_from_the_machine_file_or_noted() {
     assert_eq!(unset.trace.last().unwrap().programmed[0], 10.0);
     assert_eq!(unset.assumptions.len(), 1, "{:?}", unset.assumptions);
     // What the program writes it reads back, with no note.
-    let wrote = run_source(
-        "w.mpf",
+    let wrote = dry_run(
         b"$TC_DP3[1,1]=120.5\nR1=$TC_DP3[1,1]\n_OVR[4]=0.5\nR2=_OVR[4]\nM30\n",
-        None,
         &Config::default(),
-        &mut SimpleMachine::cold(),
-    )
-    .unwrap();
+    );
     assert_eq!(&wrote.r_final[1..3], &[120.5, 0.5]);
     assert!(wrote.assumptions.is_empty(), "{:?}", wrote.assumptions);
 }
@@ -358,12 +362,7 @@ fn synchronized_actions_are_recorded_not_run_and_said_so() {
         Kind::ModalNotRestored,
         "synchronized actions none here, ID=1 in the original",
     );
-    assert!(
-        found
-            .notes
-            .iter()
-            .any(|n| n.contains("WHENEVER … DO, ID=1"))
-    );
+    assert!(noted(&found, "WHENEVER … DO, ID=1"), "{:?}", found.notes);
     let found = finds(
         "WHEN $AA_IW[Z]<0 DO M8",
         &["M9"],
@@ -371,10 +370,9 @@ fn synchronized_actions_are_recorded_not_run_and_said_so() {
         "coolant off (M9) here, M8 in the original",
     );
     assert!(
-        found
-            .notes
-            .iter()
-            .any(|n| n.contains("for the next block that moves"))
+        noted(&found, "for the next block that moves"),
+        "{:?}",
+        found.notes
     );
     // An inserted move under a modal action: the note says the dry run did not check it.
     let found = finds(
@@ -384,8 +382,10 @@ fn synchronized_actions_are_recorded_not_run_and_said_so() {
         "coolant off (M9) here",
     );
     assert!(
-        found.notes.iter().any(|n| n
-            .contains("synchronized action IDS=2 of line 10 is active while inserted blocks move")),
+        noted(
+            &found,
+            "synchronized action IDS=2 of line 10 is active while inserted blocks move"
+        ),
         "{:?}",
         found.notes
     );
@@ -436,15 +436,17 @@ fn an_offset_written_under_a_transformation_is_a_hazard_only_when_the_machine_mo
     let original = "G17 G90 G94 G54\nT=\"MILL\" M6\nD1\nS3000 M3\nG0 X0 Y0 Z50\nTRAORI\nG1 Z-1 F200\n\
                     X50\nG0 Z50\nM30\n";
     let settings = AuditSettings::from_profile(&Profile::default_profile());
-    let at_end = original.replace("M30\n", "STOPRE ;DL\n$P_UIFR[1,Z,TR]=0 ;DL\nM30\n");
-    let at_end = format!("; driftloop-omm ;DL\n{at_end}");
-    let found = audit(
-        original.as_bytes(),
-        at_end.as_bytes(),
-        &settings,
-        &Config::default(),
-    )
-    .unwrap();
+    let audit_of = |transformed: String| {
+        let transformed = format!("; driftloop-omm ;DL\n{transformed}");
+        audit(
+            original.as_bytes(),
+            transformed.as_bytes(),
+            &settings,
+            &Config::default(),
+        )
+        .unwrap()
+    };
+    let found = audit_of(original.replace("M30\n", "STOPRE ;DL\n$P_UIFR[1,Z,TR]=0 ;DL\nM30\n"));
     assert!(
         found
             .findings
@@ -454,15 +456,7 @@ fn an_offset_written_under_a_transformation_is_a_hazard_only_when_the_machine_mo
         found.findings
     );
     // The same blocks before the last cut: the machine then moves under TRAORI.
-    let before_cut = original.replace("X50\n", "STOPRE ;DL\nX50\n");
-    let before_cut = format!("; driftloop-omm ;DL\n{before_cut}");
-    let found = audit(
-        original.as_bytes(),
-        before_cut.as_bytes(),
-        &settings,
-        &Config::default(),
-    )
-    .unwrap();
+    let found = audit_of(original.replace("X50\n", "STOPRE ;DL\nX50\n"));
     let under: Vec<_> = found
         .findings
         .iter()
@@ -485,24 +479,7 @@ fn a_program_ending_under_traori_is_written() {
     let prog = "G17 G90 G94 G54\nT=\"MILL\" M6\nD1\nS3000 M3 M8\nG0 X0 Y0 Z50\nG1 Z-1 F200\nX50\n\
                 G0 Z50\nTRAORI\nG0 X10 Y10 Z5\nG1 Z-1 F200\nX60\nG0 Z50\nM30\n";
     std::fs::write(dir.path().join("p.mpf"), prog).unwrap();
-    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/omm/model.toml");
-    let o = common::driftloop(
-        dir.path(),
-        &[
-            "transform",
-            "p.mpf",
-            "--model",
-            &model.display().to_string(),
-            "--profile",
-            "tool-setter",
-            "-o",
-            "out.mpf",
-        ],
-        b"",
-    );
-    let err = common::stderr(&o);
-    assert!(o.status.success(), "{err}");
-    assert!(!err.contains("audit incomplete"), "{err}");
+    transformed_and_audited(dir.path(), "p.mpf");
     let out = std::fs::read_to_string(dir.path().join("out.mpf")).unwrap();
     let restore = out
         .find("work offset back to its value before the program")
@@ -514,22 +491,8 @@ fn a_program_ending_under_traori_is_written() {
 /// only to that line; it now runs to the end, and says which result it took as 0.
 #[test]
 fn the_probe_setup_shop_program_is_audited_to_its_end() {
-    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/omm/model.toml");
     let dir = tempfile::tempdir().unwrap();
     let program = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/shop/10_probe_setup.mpf");
-    let out = dir.path().join("out.mpf");
-    let o = common::run(&[
-        "transform",
-        &program.display().to_string(),
-        "--model",
-        &model.display().to_string(),
-        "--profile",
-        "tool-setter",
-        "-o",
-        &out.display().to_string(),
-    ]);
-    let err = common::stderr(&o);
-    assert!(o.status.success(), "{err}");
-    assert!(!err.contains("audit incomplete"), "{err}");
+    let err = transformed_and_audited(dir.path(), &program.display().to_string());
     assert!(err.contains("_OVR[16] read as 0"), "{err}");
 }
