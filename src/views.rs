@@ -274,6 +274,39 @@ const PREDEFINED_ADDRESSES: &[&str] = &[
     "FAD", "TRUE", "FALSE",
 ];
 
+/// The G code `G[group]=number` selects: its position in its group as the control numbers them (group 8:
+/// 1 = G500, 2 = G54 …). The groups whose codes the dry run and the timeline follow; `None` for others.
+pub fn indirect_g(group: f64, number: f64) -> Option<u32> {
+    const GROUPS: &[(u32, &[u32])] = &[
+        (1, &[0, 1, 2, 3]),
+        (6, &[17, 18, 19]),
+        (7, &[40, 41, 42]),
+        (10, &[60, 64, 641, 642, 643, 644, 645]),
+        (12, &[601, 602, 603]),
+        (13, &[70, 71, 700, 710]),
+        (14, &[90, 91]),
+        (15, &[93, 94, 95, 96, 97]),
+        (18, &[450, 451]),
+    ];
+    if group.fract() != 0.0 || number.fract() != 0.0 || number < 1.0 {
+        return None;
+    }
+    let k = number as usize - 1;
+    if group == 8.0 {
+        // G500, G54 … G57, then G505 … G599.
+        return match k {
+            0 => Some(500),
+            1..=4 => Some(53 + k as u32),
+            5..=99 => Some(500 + k as u32),
+            _ => None,
+        };
+    }
+    GROUPS
+        .iter()
+        .find(|(g, _)| f64::from(*g) == group)
+        .and_then(|(_, codes)| codes.get(k).copied())
+}
+
 fn upper(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).to_ascii_uppercase()
 }
@@ -368,12 +401,7 @@ fn word_facts(block: &Block<'_>, node: &Node, f: &mut BlockFacts) {
     match letter {
         b'G' => {
             if let Some(g) = int {
-                f.g_codes.push(g);
-                if MOTION_G.contains(&g) {
-                    f.motion.push(g);
-                } else if is_work_offset_g(g) {
-                    f.work_offsets.push(WorkOffset::G(g));
-                }
+                f.push_g(g);
             }
         }
         b'T' => f.tools.push(av),
@@ -413,7 +441,13 @@ fn assign_facts(block: &Block<'_>, node: &Node, f: &mut BlockFacts) {
         }
         return;
     }
-    if target.kind != NodeKind::Var || target.find(NodeKind::Index).is_some() {
+    if target.kind != NodeKind::Var {
+        return;
+    }
+    if let Some(index) = target.find(NodeKind::Index) {
+        if name == "G" {
+            indirect_g_facts(block, index, value, f);
+        }
         return;
     }
     let Some((letter, extension)) = address_parts(&name) else {
@@ -439,6 +473,35 @@ fn assign_facts(block: &Block<'_>, node: &Node, f: &mut BlockFacts) {
             });
         }
         _ => {}
+    }
+}
+
+/// `G[8]=2` with literal numbers: the G code it selects, as if written (G54).
+fn indirect_g_facts(block: &Block<'_>, index: &Node, value: &Node, f: &mut BlockFacts) {
+    let groups: Vec<&Node> = index
+        .significant()
+        .filter(|n| n.kind != NodeKind::Punct)
+        .collect();
+    let ([group], Value::Number(number)) = (groups.as_slice(), value_of(block, value)) else {
+        return;
+    };
+    let Value::Number(group) = value_of(block, group) else {
+        return;
+    };
+    if let Some(g) = indirect_g(group, number) {
+        f.push_g(g);
+    }
+}
+
+impl BlockFacts {
+    /// A G code of the block: a motion, a work-offset selection or another setting.
+    fn push_g(&mut self, g: u32) {
+        self.g_codes.push(g);
+        if MOTION_G.contains(&g) {
+            self.motion.push(g);
+        } else if is_work_offset_g(g) {
+            self.work_offsets.push(WorkOffset::G(g));
+        }
     }
 }
 

@@ -68,12 +68,12 @@ fn unsupported_construct_exits_2_naming_the_line() {
     let err = String::from_utf8(out.stderr).unwrap();
     assert!(err.contains("bad.mpf:2: AROT"), "{err}");
     // A predefined command the dry run does not model is named as such, not searched for as a subprogram.
-    std::fs::write(&p, "G1 X1 F100\nCUT3DC\n").unwrap();
+    std::fs::write(&p, "G1 X1 F100\nCIP\n").unwrap();
     let out = common::run(&["run", p.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8(out.stderr).unwrap();
     assert!(
-        err.contains("bad.mpf:2: CUT3DC is not supported by the dry run"),
+        err.contains("bad.mpf:2: CIP is not supported by the dry run"),
         "{err}"
     );
 }

@@ -134,7 +134,9 @@ fn compare(mpf: &Path) -> Outcome {
 fn expectation(name: &str) -> Result<(), &'static str> {
     Err(match name {
         "arrays" => "FOR counters NN, M, O are used without DEF (alarm 12550 on a control)",
-        "axis_index_assignment" => "ACC[axis] (acceleration by axis index) is not modelled",
+        "axis_index_assignment" => {
+            "ACC[E]: E is an axis of that machine, not of the dry run's (X Y Z A B C), and X=ACC[E] reads ACC as a value"
+        }
         "custom_vars" => {
             "reads AA and BB, which the program never defines (alarm 12550 on a control)"
         }

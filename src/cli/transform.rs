@@ -212,6 +212,9 @@ struct AuditNote {
     /// Why the audit could not run the programs to their end, or at all.
     #[serde(skip_serializing_if = "Option::is_none")]
     incomplete: Option<String>,
+    /// What the dry run took without knowing it (values read as 0, synchronized actions not run).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    notes: Vec<String>,
     resume_points: u64,
     abort_paths: u64,
 }
@@ -306,6 +309,13 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                     if let Some(a) = &o.audit {
                         for w in &a.warnings {
                             writeln!(stderr, "{} {path}: {w}", style::label(Severity::Warning))?;
+                        }
+                        for n in &a.notes {
+                            writeln!(
+                                stderr,
+                                "{} {path}: audit: {n}",
+                                style::label(Severity::Note)
+                            )?;
                         }
                         if let Some(why) = &a.incomplete {
                             writeln!(
@@ -587,6 +597,7 @@ fn audit_output(
             })
             .collect(),
         incomplete: found.stopped.clone(),
+        notes: found.notes.clone(),
         resume_points: found.resume_points,
         abort_paths: found.abort_runs,
     })

@@ -26,6 +26,11 @@
 //! [machine_data]            # MD32750 per axis (not listed: 1, on) and SD43900 at the start (mm)
 //! temp_comp_type = { Z = 1 }
 //! temp_comp_abs_value = { Z = 0.0 }
+//! sumcorr_default = 0       # MD20272: the sum offset DL a new cutting edge D brings (0: none)
+//! [variables]               # values the dry run cannot know: tool data, inputs, outputs, machine data,
+//! "$TC_DP3[1,1]" = 120.5    # the measuring cycles' results; a read of one not listed is 0, with a note
+//! "$A_IN[1]" = 1
+//! "_OVR[16]" = 0.02
 //! [drift]                   # plus piecewise-linear drift per axis, [minutes, µm] points: effects the
 //! Z = [[0, 0], [240, -3]]   # model does not declare, or the whole truth when there is no model
 //! ```
@@ -100,6 +105,12 @@ pub struct Config {
     pub clock_start_min: f64,
     /// R-parameters at the start (retentive on the control: what the last job left); empty: all 0.
     pub r_initial: Vec<f64>,
+    /// MD20272 `$MC_SUMCORR_DEFAULT`: the sum offset (DL number) a newly selected cutting edge brings.
+    pub sumcorr_default: f64,
+    /// Values of variables the dry run cannot know (tool data `$TC_…`, inputs `$A_IN[n]`, outputs, machine
+    /// data, the measuring cycles' results `_OVR[n]`), by their name and index as written upper-cased:
+    /// `$TC_DP3[1,1]`, `$AC_TIME`.
+    pub variables: BTreeMap<String, f64>,
 }
 
 impl Config {
@@ -140,6 +151,8 @@ impl Default for Config {
             // Monday 2025-01-06 06:00.
             clock_start_min: 20_094.0 * 1440.0 + 360.0,
             r_initial: Vec::new(),
+            sumcorr_default: 0.0,
+            variables: BTreeMap::new(),
         }
     }
 }
@@ -163,6 +176,8 @@ struct MachineFile {
     signals: BTreeMap<String, SignalSpec>,
     #[serde(default)]
     machine_data: MachineData,
+    #[serde(default)]
+    variables: BTreeMap<String, f64>,
     axes: Option<Vec<String>>,
 }
 
@@ -176,6 +191,8 @@ struct MachineData {
     /// SD43900 `$SA_TEMP_COMP_ABS_VALUE` at the start (mm).
     #[serde(default)]
     temp_comp_abs_value: BTreeMap<String, f64>,
+    /// MD20272 `$MC_SUMCORR_DEFAULT`.
+    sumcorr_default: Option<f64>,
 }
 
 /// A measured quantity over time (ambient temperature …): feeds a truth model's declared input of the same
@@ -359,6 +376,17 @@ pub fn parse_machine_file(
         }
         cfg.temp_comp_start.insert(axis.to_ascii_uppercase(), mm);
     }
+    if let Some(dl) = file.machine_data.sumcorr_default {
+        if dl < 0.0 || dl.fract() != 0.0 {
+            return Err("machine_data.sumcorr_default must be a DL number ≥ 0".into());
+        }
+        cfg.sumcorr_default = dl;
+    }
+    for (name, v) in file.variables {
+        let key = variable_key(&name)
+            .ok_or_else(|| format!("variables: `{name}` is not NAME or NAME[i, …]"))?;
+        cfg.variables.insert(key, v);
+    }
     if let Some(axes) = file.axes {
         cfg.axes = axes.iter().map(|a| a.to_ascii_uppercase()).collect();
     }
@@ -414,6 +442,40 @@ fn positive(v: Option<f64>, default: f64, name: &str) -> Result<f64, String> {
         Some(x) => Ok(x),
         None => Ok(default),
     }
+}
+
+/// How `[variables]` and the dry run name a variable: upper case, no spaces, each numeric index as the
+/// shortest number (`$tc_dp3[ 1, 01 ]` → `$TC_DP3[1,1]`, `$MA_JOG_VELO[x]` → `$MA_JOG_VELO[X]`).
+pub fn variable_key(name: &str) -> Option<String> {
+    let name: String = name.chars().filter(|c| !c.is_whitespace()).collect();
+    let (base, index) = match name.split_once('[') {
+        Some((base, rest)) => (base, Some(rest.strip_suffix(']')?)),
+        None => (name.as_str(), None),
+    };
+    let named = |t: &str| {
+        t.chars()
+            .next()
+            .is_some_and(|c| c.is_ascii_alphabetic() || matches!(c, '$' | '_'))
+            && t.chars()
+                .all(|c| c.is_ascii_alphanumeric() || matches!(c, '$' | '_'))
+    };
+    if !named(base) {
+        return None;
+    }
+    let mut key = base.to_ascii_uppercase();
+    if let Some(index) = index {
+        let parts: Option<Vec<String>> = index
+            .split(',')
+            .map(|p| match p.parse::<f64>() {
+                Ok(v) => Some(super::value::format_number(v)),
+                Err(_) => named(p).then(|| p.to_ascii_uppercase()),
+            })
+            .collect();
+        key.push('[');
+        key.push_str(&parts?.join(","));
+        key.push(']');
+    }
+    Some(key)
 }
 
 /// `G54` → 1 … `G57` → 4, `G505` → 5 … `G599` → 99: the `$P_UIFR` number a G code selects.

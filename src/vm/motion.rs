@@ -181,6 +181,59 @@ pub struct Modal {
     /// Constant cutting speed (G96): S is m/min, the spindle turns 1000·S / (π·D), at most `lims`.
     pub css: bool,
     pub lims: Option<f64>,
+    /// Settings that shape the path in real time but move no programmed point (corner behaviour,
+    /// compressor, …): one entry per group of [`SETTING_GROUPS`], the index of its active command.
+    pub settings: [u8; SETTING_GROUPS.len()],
+    /// `OFFN=`: the contour's offset under cutter compensation (mm).
+    pub offn: f64,
+}
+
+/// Modal groups the dry run keeps as state without modelling what they do to the path: the group, then
+/// its commands, the control's default first.
+pub const SETTING_GROUPS: [(&str, &[&str]); 8] = [
+    ("corner behaviour (G group 18)", &["G450", "G451"]),
+    (
+        "tool compensation type (G group 22)",
+        &[
+            "CUT2D", "CUT2DF", "CUT3DC", "CUT3DFS", "CUT3DFF", "CUT3DF", "CUT3DCC", "CUT3DCCD",
+        ],
+    ),
+    ("orientation reference (G group 25)", &["ORIWKS", "ORIMKS"]),
+    (
+        "working area limitation (G group 28)",
+        &["WALIMON", "WALIMOF"],
+    ),
+    (
+        "toolholder orientation (G group 42)",
+        &["TCOABS", "TCOFR", "TCOFRZ", "TCOFRY", "TCOFRX"],
+    ),
+    ("path reference (G group 45)", &["SPATH", "UPATH"]),
+    (
+        "orientation interpolation (G group 51)",
+        &[
+            "ORIVECT",
+            "ORIAXES",
+            "ORIPATH",
+            "ORIPLANE",
+            "ORICONCW",
+            "ORICONCCW",
+            "ORICONIO",
+            "ORICONTO",
+            "ORICURVE",
+        ],
+    ),
+    (
+        "compressor (G group 59)",
+        &["COMPOF", "COMPON", "COMPCURV", "COMPCAD"],
+    ),
+];
+
+/// The group of [`SETTING_GROUPS`] a command belongs to, and its index there.
+pub fn setting(name: &str) -> Option<(usize, u8)> {
+    SETTING_GROUPS
+        .iter()
+        .enumerate()
+        .find_map(|(k, (_, names))| names.iter().position(|n| *n == name).map(|i| (k, i as u8)))
 }
 
 /// Feed type (G group 15).
@@ -238,6 +291,9 @@ pub struct Kinematics {
     pub transformation: Option<&'static str>,
     /// The angles A, B, C of the last CYCLE800 with any non-zero angle, until CYCLE800() or zero angles.
     pub swivel: Option<[f64; 3]>,
+    /// `TCARR=n`: the orientable toolholder selected, until `TCARR=0`. Its angles come from tool data or
+    /// rotary axes the dry run does not evaluate, so any selected one counts as tilting the tool.
+    pub tool_carrier: Option<f64>,
 }
 
 /// What `PROC … SAVE` restores on return: modal G codes and frames.
@@ -269,6 +325,8 @@ pub struct State {
     pub tool: Option<Tool>,
     pub preselected: Option<Tool>,
     pub d: f64,
+    /// `DL=`: the sum offset added to the cutting edge's length (0: none), until `DL=0` or another D.
+    pub dl: f64,
     /// M7 (mist) and M8 (flood) coolant, both off after M9.
     pub mist: bool,
     pub flood: bool,
@@ -277,6 +335,26 @@ pub struct State {
     pub diameter_axis: Option<usize>,
     /// SD43900 `$SA_TEMP_COMP_ABS_VALUE` per axis (mm): persistent setting data, like the settable frames.
     pub temp_comp: Vec<f64>,
+    /// The master spindle stands in position control at this angle (`SPOS`, `SPOSA`, `M19`) until M3, M4,
+    /// M5 or a tool change.
+    pub spindle_position: Option<f64>,
+    /// G25 / G26: the programmed lower and upper limit of the master spindle's speed (rpm).
+    pub speed_limits: [Option<f64>; 2],
+    /// Spindles 2 … [`SPINDLES`]: neither timed nor part of the drift, kept to be compared.
+    pub others: [Spindle; SPINDLES - 1],
+    /// Modal and static synchronized actions (`ID=n`, `IDS=n` … `DO`) recorded, not run: (id, static, line).
+    pub sync_actions: Vec<(u32, bool, usize)>,
+}
+
+/// Spindles the dry run follows: the master spindle 1 and the others up to this number.
+pub const SPINDLES: usize = 4;
+
+/// A spindle other than the master: speed, direction (3, 4, 0 stopped) and the angle it is positioned at.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Spindle {
+    pub s: f64,
+    pub rotation: u32,
+    pub position: Option<f64>,
 }
 
 impl State {
@@ -299,6 +377,8 @@ impl State {
                 compensation: 40,
                 css: false,
                 lims: None,
+                settings: [0; SETTING_GROUPS.len()],
+                offn: 0.0,
             },
             frames: Frames::new(axes),
             s: 0.0,
@@ -306,11 +386,16 @@ impl State {
             tool: None,
             preselected: None,
             d: 0.0,
+            dl: 0.0,
             mist: false,
             flood: false,
             kinematics: Kinematics::default(),
             diameter_axis: None,
             temp_comp: vec![0.0; axes],
+            spindle_position: None,
+            speed_limits: [None; 2],
+            others: [Spindle::default(); SPINDLES - 1],
+            sync_actions: Vec::new(),
         }
     }
 
@@ -326,10 +411,20 @@ impl State {
         }
     }
 
+    /// The master spindle's speed, within the programmed limits G25 / G26.
     pub fn spindle_rpm(&self) -> f64 {
         if self.rotation == 0 {
-            0.0
-        } else if self.modal.css {
+            return 0.0;
+        }
+        let n = self.programmed_rpm();
+        match self.speed_limits {
+            [None, None] => n,
+            [low, high] => n.max(low.unwrap_or(0.0)).min(high.unwrap_or(f64::INFINITY)),
+        }
+    }
+
+    fn programmed_rpm(&self) -> f64 {
+        if self.modal.css {
             // The diameter the tool stands at: twice its distance from the turning axis.
             let d = self.frames.geo[0].map_or(0.0, |x| 2.0 * self.machine[x].abs());
             let n = if d > 1.0 {

@@ -121,6 +121,10 @@ pub struct Run {
     pub temp_comp_writes: Vec<TempCompWrite>,
     pub alarms: Vec<Alarm>,
     pub messages: Vec<Message>,
+    /// What the dry run took without knowing it: a value the machine file does not give (read as 0), a
+    /// synchronized action recorded but not run. Each once, where the run first met it.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub assumptions: Vec<Message>,
     /// Auxiliary functions the dry run passes by (M codes for the PLC), with how often they were output.
     pub aux_functions: BTreeMap<String, u64>,
     /// Files written with `WRITE`, by name.
@@ -180,6 +184,7 @@ impl Run {
             temp_comp_writes: Vec::new(),
             alarms: Vec::new(),
             messages: Vec::new(),
+            assumptions: Vec::new(),
             aux_functions: BTreeMap::new(),
             files: BTreeMap::new(),
             spindle: SpindleHistory::default(),
@@ -318,10 +323,15 @@ impl Run {
                 let _ = writeln!(o, "  {}  {}{text}", at(&a.at), a.number);
             }
         }
-        if !self.messages.is_empty() {
-            let _ = writeln!(o, "\nmessages");
-            for m in &self.messages {
-                let _ = writeln!(o, "  {}  {}", at(&m.at), m.text);
+        for (title, list) in [
+            ("messages", &self.messages),
+            ("assumed (not known to the dry run)", &self.assumptions),
+        ] {
+            if !list.is_empty() {
+                let _ = writeln!(o, "\n{title}");
+                for m in list {
+                    let _ = writeln!(o, "  {}  {}", at(&m.at), m.text);
+                }
             }
         }
         if !self.aux_functions.is_empty() {

@@ -12,7 +12,7 @@ pub struct Modal {
     /// change).
     pub selected: Option<Arc<str>>,
     pub d: Option<u32>,
-    /// Programmed spindle speed and direction (3, 4 or 5 = stopped).
+    /// Programmed spindle speed and direction (3, 4, 5 = stopped, or [`POSITIONED`]).
     pub s: f64,
     pub direction: u32,
     pub feed: Option<f64>,
@@ -70,7 +70,13 @@ pub mod frame {
     pub const ROTARY: u8 = 0b0111_0000;
     /// Where the rotary bits start: axis A.
     pub const ROTARY_SHIFT: u32 = 4;
+    /// An orientable toolholder selected (`TCARR=n`, n ≠ 0): its orientation may tilt the tool.
+    pub const TOOL_CARRIER: u8 = 128;
 }
+
+/// [`Modal::direction`] of a spindle positioned by `SPOS`, `SPOSA` or `M19`: stopped, in position control
+/// at an angle the program means (an oriented boring bar's edge, a tool changer's key).
+pub const POSITIONED: u32 = 19;
 
 /// Bits of [`Modal::unknown`].
 pub mod unknown {
@@ -103,6 +109,8 @@ impl Modal {
             Some("a transformation (TRAORI, TRANSMIT, TRACYL) is active")
         } else if self.frames & frame::ROTATION != 0 {
             Some("a rotated, scaled or mirrored frame is active")
+        } else if self.frames & frame::TOOL_CARRIER != 0 {
+            Some("an orientable toolholder (TCARR) is active")
         } else {
             None
         }
@@ -114,6 +122,10 @@ impl Modal {
             Some(why)
         } else if self.motion >= 2 {
             Some("a circle (G2/G3) is the modal motion")
+        } else if self.direction == POSITIONED {
+            Some(
+                "the spindle is positioned (SPOS, M19): a gate's tool change would not give its angle back",
+            )
         } else if self.unknown & unknown::TOOL != 0 {
             Some("the tool is set by an expression")
         } else if self.d == Some(0) {

@@ -98,6 +98,9 @@ struct Watch {
     stopre: Option<At>,
     /// The probe point was found in the machined volume (reported once).
     machined: bool,
+    /// Inserted STOPREs and offset writes that ran under a transformation: the finding, with the kinds that
+    /// were active, waiting for the machine to move while one of them still is.
+    under_transform: Vec<(At, String, Vec<&'static str>)>,
 }
 
 pub(super) fn run(
@@ -147,6 +150,13 @@ pub(super) fn run(
     };
     runner.lockstep(&mut t, &mut o)?;
     let mut audit = runner.audit;
+    // What the dry run assumed of the original (the transformed run assumed the same).
+    audit.notes.extend(
+        o.report()
+            .assumptions
+            .iter()
+            .map(|m| format!("{}:{}: {}", m.at.file, m.at.line, m.text)),
+    );
     audit.transformed_blocks = t.report().blocks_executed;
     audit.original_blocks = o.report().blocks_executed;
     Ok(audit)
@@ -287,7 +297,7 @@ impl Runner<'_> {
                 let resume = self.pending.take().expect("pending");
                 self.report_resume(&resume, before, &after, Some(&t_step));
             }
-            self.original_step(&at, &t_step, &o_step, o);
+            self.original_step(&at, (&t_step, &o_step), t, o);
             self.last = Some((at, false));
         }
     }
@@ -341,9 +351,11 @@ impl Runner<'_> {
     ) {
         let done = step;
         if let Some(m) = &done.movement {
+            self.moved(t);
             self.inserted_move(at, m);
             self.watch.in_contour = false;
             self.watch.stopre = None;
+            self.moves_under_sync_actions(at, t);
         }
         if done.tool_change {
             self.watch.in_contour = false;
@@ -354,13 +366,21 @@ impl Runner<'_> {
             (_, _, true) => Some("the work-offset write"),
             _ => None,
         };
-        if let Some(what) = what {
-            let active = state::transforms_active(&t.motion);
-            if !active.is_empty() {
-                self.add(at.finding(
-                    Kind::MeasureUnderTransform,
-                    format!("{what} runs while {} is active", active.join(", ")),
-                ));
+        let active = what.map(|_| state::transforms_active(&t.motion));
+        if let (Some(what), Some(active)) = (what, active)
+            && !active.is_empty()
+        {
+            let texts: Vec<&str> = active.iter().map(|a| a.1.as_str()).collect();
+            let message = format!("{what} runs while {} is active", texts.join(", "));
+            if done.probe {
+                self.add(at.finding(Kind::MeasureUnderTransform, message));
+            } else {
+                // A STOPRE or an offset write under a transformation matters once the machine moves under
+                // it; before the program's end, whose reset ends a TRAORI or a swivel, nothing moves.
+                let kinds = active.iter().map(|a| a.0).collect();
+                self.watch
+                    .under_transform
+                    .push((at.clone(), message, kinds));
             }
         }
         if done.stopre && self.watch.in_contour && is_continuous(o.motion.modal.path) {
@@ -371,6 +391,45 @@ impl Runner<'_> {
         }
         if done.stop.is_some() || done.end.is_some() {
             self.offset_on_stop(at, step, t, o);
+        }
+    }
+
+    /// The machine moves: a STOPRE or offset write waiting under a transformation of a kind still active is
+    /// a finding; one whose transformation has ended since is none.
+    fn moved(&mut self, t: &Interp<'_>) {
+        if self.watch.under_transform.is_empty() {
+            return;
+        }
+        let now: Vec<&str> = state::transforms_active(&t.motion)
+            .iter()
+            .map(|a| a.0)
+            .collect();
+        for (at, message, kinds) in std::mem::take(&mut self.watch.under_transform) {
+            if kinds.iter().any(|k| now.contains(k)) {
+                self.add(at.finding(Kind::MeasureUnderTransform, message));
+            }
+        }
+    }
+
+    /// An inserted move while a modal or static synchronized action is active: the dry run does not check
+    /// its condition, so the note says the action could fire on the gate's moves.
+    fn moves_under_sync_actions(&mut self, at: &At, t: &Interp<'_>) {
+        for &(n, is_static, line) in &t.motion.sync_actions {
+            let id = format!("{}={n}", if is_static { "IDS" } else { "ID" });
+            if self
+                .audit
+                .notes
+                .iter()
+                .any(|note| note.contains(&format!("action {id} of")))
+            {
+                continue;
+            }
+            self.audit.notes.push(format!(
+                "the synchronized action {id} of line {line} is active while inserted blocks move (first at \
+                 line {}): the dry run does not check its condition; make sure the gates' moves cannot \
+                 trigger its action",
+                at.line
+            ));
         }
     }
 
@@ -515,8 +574,15 @@ impl Runner<'_> {
 
     /// Checks on a block both runs executed: the probe point against the original's cutting moves, and a
     /// STOPRE waiting for the next move of the contour.
-    fn original_step(&mut self, at: &At, t_step: &Done, o_step: &Done, o: &Interp<'_>) {
+    fn original_step(
+        &mut self,
+        at: &At,
+        (t_step, o_step): (&Done, &Done),
+        t: &Interp<'_>,
+        o: &Interp<'_>,
+    ) {
         if let Some(m) = &t_step.movement {
+            self.moved(t);
             let feed = is_feed(m.motion);
             if let Some(stopre) = self.watch.stopre.take()
                 && feed

@@ -23,6 +23,8 @@
 
 mod geometry;
 mod lockstep;
+#[cfg(test)]
+mod planner_agreement;
 mod report;
 mod state;
 
@@ -299,6 +301,10 @@ pub struct Audit {
     pub aborts_reached: u64,
     /// Why the comparison ended before both programs did (an alarm of the transformed program's own).
     pub stopped: Option<String>,
+    /// What the dry run took without knowing it (values read as 0, synchronized actions not run): the
+    /// audit holds only as far as these hold.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
 }
 
 impl Audit {

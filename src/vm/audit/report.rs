@@ -26,6 +26,9 @@ impl Audit {
                 f.message
             );
         }
+        for note in &self.notes {
+            let _ = writeln!(o, "note: {note}");
+        }
         if let Some(stopped) = &self.stopped {
             let _ = writeln!(o, "note: {stopped}");
         }

@@ -4,7 +4,7 @@
 use super::AuditSettings;
 use crate::omm::nc::shown as num;
 use crate::omm::profile::OffsetMethod;
-use crate::vm::motion::{FRAMES, Frames, IDENTITY, Matrix, State, Tool};
+use crate::vm::motion::{FRAMES, Frames, IDENTITY, Matrix, SETTING_GROUPS, Spindle, State, Tool};
 
 /// Lengths closer than this are equal (mm); the correction itself is micrometres and is excluded by entry.
 const MM: f64 = 1e-6;
@@ -56,6 +56,13 @@ pub(super) fn tools(t: &State, o: &State) -> Vec<Difference> {
             format!("D{}", num(o.d)),
         ));
     }
+    if t.dl != o.dl {
+        v.push(item(
+            "sum offset (the tool's length)",
+            format!("DL={}", num(t.dl)),
+            format!("DL={}", num(o.dl)),
+        ));
+    }
     v
 }
 
@@ -78,11 +85,54 @@ fn coolant(s: &State) -> String {
 }
 
 fn spindle(s: &State) -> String {
+    spindle_text(&Spindle {
+        s: s.s,
+        rotation: s.rotation,
+        position: s.spindle_position,
+    })
+}
+
+/// `S3000 M3`, `S3000 M5 SPOS=90` (`SPOS` at an angle not known: M19 or an IC from an unknown angle).
+fn spindle_text(s: &Spindle) -> String {
     let direction = match s.rotation {
         0 => "M5".to_string(),
         m => format!("M{m}"),
     };
-    format!("S{} {direction}", num(s.s))
+    let position = match s.position {
+        None => String::new(),
+        Some(a) if a.is_nan() => " SPOS".to_string(),
+        Some(a) => format!(" SPOS={}", num(a)),
+    };
+    format!("S{} {direction}{position}", num(s.s))
+}
+
+fn speed_limits(s: &State) -> String {
+    let limit = |g: u32, v: Option<f64>| {
+        v.map_or_else(|| format!("G{g} none"), |v| format!("G{g} S{}", num(v)))
+    };
+    format!(
+        "{}, {}",
+        limit(25, s.speed_limits[0]),
+        limit(26, s.speed_limits[1])
+    )
+}
+
+fn tool_carrier(s: &State) -> String {
+    format!("TCARR={}", num(s.kinematics.tool_carrier.unwrap_or(0.0)))
+}
+
+fn sync_actions(s: &State) -> String {
+    let mut ids: Vec<String> = s
+        .sync_actions
+        .iter()
+        .map(|(n, is_static, _)| format!("{}={n}", if *is_static { "IDS" } else { "ID" }))
+        .collect();
+    ids.sort();
+    if ids.is_empty() {
+        "none".into()
+    } else {
+        ids.join(" ")
+    }
 }
 
 fn motion(m: u32) -> String {
@@ -177,9 +227,36 @@ pub(super) fn modal(t: &State, o: &State, s: &AuditSettings, axes: &[String]) ->
     ];
     let mut v: Vec<Difference> = items
         .into_iter()
+        .chain([
+            ("spindle speed limits", speed_limits(t), speed_limits(o)),
+            ("toolholder", tool_carrier(t), tool_carrier(o)),
+            ("synchronized actions", sync_actions(t), sync_actions(o)),
+            (
+                "contour offset",
+                format!("OFFN={}", num(tm.offn)),
+                format!("OFFN={}", num(om.offn)),
+            ),
+        ])
+        .chain(
+            SETTING_GROUPS
+                .iter()
+                .enumerate()
+                .map(|(k, (group, names))| {
+                    let at = |m: &crate::vm::motion::Modal| {
+                        names[usize::from(m.settings[k])].to_string()
+                    };
+                    (*group, at(tm), at(om))
+                }),
+        )
         .filter(|(_, here, original)| here != original)
         .map(|(what, here, original)| item(what, here, original))
         .collect();
+    for (n, (ts, os)) in t.others.iter().zip(&o.others).enumerate() {
+        let (here, original) = (spindle_text(ts), spindle_text(os));
+        if here != original {
+            v.push(item(&format!("spindle {}", n + 2), here, original));
+        }
+    }
     let feed = |f: Option<f64>| f.map_or_else(|| "none".to_string(), |f| format!("F{}", num(f)));
     let feeds_differ = match (tm.feed, om.feed) {
         (Some(a), Some(b)) => differ(a, b),
@@ -361,27 +438,34 @@ pub(super) fn wild_entry(t: &Frames, o: &Frames, axes: &[String]) -> Option<Corr
         })
 }
 
-/// What makes probing, STOPRE or an offset write unsafe, active now.
-pub(super) fn transforms_active(s: &State) -> Vec<String> {
+/// What makes probing, STOPRE or an offset write unsafe, active now: each as what kind it is (the same
+/// kind stays active while its values change) and a text.
+pub(super) fn transforms_active(s: &State) -> Vec<(&'static str, String)> {
     let mut v = Vec::new();
     if let Some(m) = &s.frames.linear
         && *m != IDENTITY
     {
-        v.push(format!(
-            "a rotation/scale/mirror frame {}",
-            linear(&s.frames.linear)
+        v.push((
+            "frame",
+            format!("a rotation/scale/mirror frame {}", linear(&s.frames.linear)),
         ));
     }
     if s.kinematics.swivel.is_some() {
-        v.push(format!("the swivel {}", swivel(s)));
+        v.push(("swivel", format!("the swivel {}", swivel(s))));
     }
     if let Some(t) = s.kinematics.transformation {
-        v.push(t.to_string());
+        v.push(("transformation", t.to_string()));
+    }
+    if s.kinematics.tool_carrier.is_some() {
+        v.push((
+            "toolholder",
+            format!("the orientable toolholder {}", tool_carrier(s)),
+        ));
     }
     if matches!(s.modal.compensation, 41 | 42) {
-        v.push(format!(
-            "cutter radius compensation G{}",
-            s.modal.compensation
+        v.push((
+            "compensation",
+            format!("cutter radius compensation G{}", s.modal.compensation),
         ));
     }
     v

@@ -6,6 +6,8 @@ use super::*;
 impl Interp<'_> {
     pub(super) fn apply(&mut self, u: &Rc<Unit>, i: usize, w: Words) -> Result<Flow, String> {
         let mut dwell = false;
+        // G25 / G26 (0, 1): S is the spindle's lower / upper speed limit, axis values the working area's.
+        let mut limit = None;
         let mut suppress = w.suppress_frames;
         let planes = [
             self.plane(["X", "Y", "Z"]),
@@ -17,6 +19,11 @@ impl Interp<'_> {
             match g {
                 0..=3 => modal.motion = g,
                 4 => dwell = true,
+                25 | 26 => limit = Some(g as usize - 25),
+                450 | 451 => {
+                    let (k, v) = setting(&format!("G{g}")).expect("G450 and G451 are settings");
+                    modal.settings[k] = v;
+                }
                 // Exact stop / continuous path change corners, not the path length this dry run times.
                 9 => {}
                 60 | 64 | 641..=645 => modal.path = g,
@@ -67,8 +74,10 @@ impl Interp<'_> {
         if let Some(l) = w.lims {
             self.motion.modal.lims = Some(l);
         }
-        if let Some(s) = w.s.filter(|_| !dwell) {
-            self.motion.s = s;
+        match (w.s.filter(|_| !dwell), limit) {
+            (Some(s), Some(k)) => self.motion.speed_limits[k] = Some(s),
+            (Some(s), None) => self.motion.s = s,
+            (None, _) => {}
         }
         if (w.s.is_some() || w.g.iter().any(|g| matches!(g, 96 | 97)) || w.lims.is_some())
             && self.motion.rotation != 0
@@ -85,7 +94,16 @@ impl Interp<'_> {
             self.motion.preselected = Some(t);
         }
         if let Some(d) = w.d {
-            self.motion.d = d;
+            self.select_edge(d, w.dl);
+        } else if let Some(dl) = w.dl {
+            // DL of D0 is no offset (the manual's example: "DL=2 ; No effect").
+            self.motion.dl = if self.motion.d == 0.0 { 0.0 } else { dl };
+        }
+        if let Some(n) = w.tool_carrier {
+            self.motion.kinematics.tool_carrier = (n != 0.0).then_some(n);
+        }
+        if let Some(offn) = w.offn {
+            self.motion.modal.offn = offn;
         }
         self.done.stopre = w.stopre;
         let mut end = None;
@@ -93,8 +111,11 @@ impl Interp<'_> {
             match m {
                 3 | 4 => {
                     self.motion.rotation = m;
+                    self.motion.spindle_position = None;
                     self.spindle.set(self.time_min, self.motion.spindle_rpm());
                 }
+                // M19 positions the spindle at the angle of SD43240, which the dry run does not know.
+                19 => self.position_spindle(1, f64::NAN),
                 6 => {
                     self.passes.end_segment();
                     if let Some(t) = &self.motion.preselected {
@@ -102,7 +123,9 @@ impl Interp<'_> {
                     }
                     // The new tool's first cutting edge unless the block selects one (MD20270
                     // CUTTING_EDGE_DEFAULT = 1).
-                    self.motion.d = w.d.unwrap_or(1.0);
+                    self.select_edge(w.d.unwrap_or(1.0), w.dl);
+                    // The change macro turns the spindle to its own change angle.
+                    self.motion.spindle_position = None;
                     // The change cycle stops the spindle to swap the tool; the program starts it again.
                     if self.motion.rotation != 0 && !w.m.iter().any(|m| matches!(m, 3 | 4)) {
                         self.motion.rotation = 0;
@@ -124,9 +147,13 @@ impl Interp<'_> {
                 _ => self.aux(format!("M{m}")),
             }
         }
+        for &(n, angle) in &w.spos {
+            self.position_spindle(n, angle);
+        }
+        self.other_spindles(&w);
         if let Some(frame) = &w.frame_command {
             self.frame_command(frame, &w.axes, w.rpl)?;
-        } else if !w.axes.is_empty() {
+        } else if !w.axes.is_empty() && limit.is_none() {
             self.travel(u, i, &w, suppress)?;
         }
         if dwell {
@@ -149,6 +176,7 @@ impl Interp<'_> {
                 5 => {
                     self.passes.end_segment();
                     self.motion.rotation = 0;
+                    self.motion.spindle_position = None;
                     self.spindle.set(self.time_min, 0.0);
                 }
                 0 | 1 => {
@@ -185,6 +213,7 @@ impl Interp<'_> {
         if w.ret {
             return Ok(Flow::Return);
         }
+        let mut skipped = false;
         if let Some((name, args, refs)) = w.call {
             match self.load(u, &name) {
                 Ok(unit) => {
@@ -196,6 +225,7 @@ impl Interp<'_> {
                     });
                 }
                 Err(why) if self.cfg.skip_missing_calls => {
+                    skipped = true;
                     let at = self.at(u, i);
                     self.run.messages.push(Message {
                         at,
@@ -215,10 +245,49 @@ impl Interp<'_> {
             });
             return Ok(Flow::Jump(start));
         }
-        if w.repeat.is_some() {
+        // `L200 P3` skipped as missing: its P repeats nothing.
+        if w.repeat.is_some() && !skipped {
             return Err("P (repetitions) without a subprogram call or REPEAT".into());
         }
         Ok(w.jump.map_or(Flow::Next, Flow::Jump))
+    }
+
+    /// Selects cutting edge `d` with sum offset `dl`, or the one MD20272 gives a new edge (D0: none).
+    fn select_edge(&mut self, d: f64, dl: Option<f64>) {
+        self.motion.d = d;
+        self.motion.dl = if d == 0.0 {
+            0.0
+        } else {
+            dl.unwrap_or(self.cfg.sumcorr_default)
+        };
+    }
+
+    /// SPOS / M19: spindle `n` stops in position control at `angle` (NaN: not known).
+    fn position_spindle(&mut self, n: usize, angle: f64) {
+        if n == 1 {
+            self.passes.end_segment();
+            self.motion.rotation = 0;
+            self.motion.spindle_position = Some(angle);
+            self.spindle.set(self.time_min, 0.0);
+        } else {
+            let s = &mut self.motion.others[n - 2];
+            (s.rotation, s.position) = (0, Some(angle));
+        }
+    }
+
+    /// `Sn=` and `Mn=` of spindles 2 … 4: speed, M3 / M4 / M5, M19; another M code goes to the PLC.
+    fn other_spindles(&mut self, w: &Words) {
+        for &(n, s) in &w.other_s {
+            self.motion.others[n - 2].s = s;
+        }
+        for &(n, m) in &w.other_m {
+            let s = &mut self.motion.others[n - 2];
+            match m {
+                3..=5 => (s.rotation, s.position) = (if m == 5 { 0 } else { m }, None),
+                19 => (s.rotation, s.position) = (0, Some(f64::NAN)),
+                _ => self.aux(format!("M{n}={m}")),
+            }
+        }
     }
 
     pub(super) fn plane(&self, names: [&str; 3]) -> [Option<usize>; 3] {

@@ -12,6 +12,17 @@ impl Interp<'_> {
     ) -> Result<(), String> {
         let name = u.upper(&node.children[0]);
         let args = node.call_arguments();
+        // Which axes F is the path feed of: it times rotary axes differently, moves nothing.
+        if name == "FGROUP" {
+            return match args
+                .iter()
+                .flatten()
+                .find(|a| self.axis_index(&u.upper(a)).is_none())
+            {
+                Some(a) => Err(format!("FGROUP: {} is not an axis", u.upper(a))),
+                None => Ok(()),
+            };
+        }
         let mut values = Vec::with_capacity(args.len());
         for a in &args {
             values.push(match a {
@@ -63,9 +74,10 @@ impl Interp<'_> {
                     .iter()
                     .all(|v| v.as_ref().is_none_or(|v| *v == Value::Num(1.0))) => {}
             "CYCLE800" => self.motion.kinematics.swivel = swivel_angles(&values)?,
-            "TRAORI" | "TRANSMIT" | "TRACYL" => {
+            "TRAORI" | "TRANSMIT" | "TRACYL" | "TRAANG" => {
                 self.motion.kinematics.transformation = Some(transformation(&name))
             }
+            "CANCEL" => self.cancel(&values)?,
             _ if self.cfg.probe_cycles.contains(&name) => {
                 let nums = values
                     .iter()
@@ -96,7 +108,7 @@ impl Interp<'_> {
         match name.as_str() {
             "RET" => w.ret = true,
             "STOPRE" => w.stopre = true,
-            "TRAORI" | "TRANSMIT" | "TRACYL" => {
+            "TRAORI" | "TRANSMIT" | "TRACYL" | "TRAANG" => {
                 self.motion.kinematics.transformation = Some(transformation(&name))
             }
             "TRAFOOF" => self.motion.kinematics.transformation = None,
@@ -120,6 +132,7 @@ impl Interp<'_> {
                 w.frame_command = Some(name)
             }
             _ if crate::views::NEUTRAL_COMMANDS.contains(&name.as_str()) => {}
+            _ if let Some((group, v)) = setting(&name) => self.motion.modal.settings[group] = v,
             _ if crate::views::is_predefined_command(&name) => {
                 return Err(format!("{name} is not supported by the dry run"));
             }
@@ -142,6 +155,23 @@ impl Interp<'_> {
                 w.call = Some((name, Vec::new(), Vec::new()));
                 Ok(())
             }
+            // EXTCALL loads the program from an external drive, PCALL by its path: the dry run looks the
+            // name up where it looks up any subprogram.
+            ("EXTCALL" | "PCALL", Some(target)) => {
+                let (name, args) = match target.kind {
+                    NodeKind::Str => (self.eval(u, target)?.text(), Vec::new()),
+                    NodeKind::FnCall => {
+                        let mut args = Vec::new();
+                        for a in target.call_arguments() {
+                            args.push(a.map(|a| self.eval(u, a)).transpose()?);
+                        }
+                        (u.upper(&target.children[0]), args)
+                    }
+                    _ => (u.upper(target), Vec::new()),
+                };
+                w.call = Some((program_name(&name), args, Vec::new()));
+                Ok(())
+            }
             // A modal cycle call runs a machining cycle after every move: skipped like a missing cycle.
             ("MCALL", _) if self.cfg.skip_missing_calls => Ok(()),
             _ => Err(format!("{keyword} is not supported by the dry run")),
@@ -152,7 +182,16 @@ impl Interp<'_> {
     fn is_builtin(&self, name: &str) -> bool {
         matches!(
             name,
-            "MSG" | "SETAL" | "WRITE" | "SETMS" | "CYCLE800" | "TRAORI" | "TRANSMIT" | "TRACYL"
+            "MSG"
+                | "SETAL"
+                | "WRITE"
+                | "SETMS"
+                | "CYCLE800"
+                | "TRAORI"
+                | "TRANSMIT"
+                | "TRACYL"
+                | "TRAANG"
+                | "CANCEL"
         ) || self.cfg.probe_cycles.iter().any(|c| c == name)
     }
 
@@ -274,8 +313,24 @@ fn transformation(name: &str) -> &'static str {
     match name {
         "TRAORI" => "TRAORI",
         "TRANSMIT" => "TRANSMIT",
+        "TRAANG" => "TRAANG",
         _ => "TRACYL",
     }
+}
+
+/// The program a path names (`/_N_WKS_DIR/_N_SHAFT_WPD/_N_PART1_SPF` → `PART1`, `PART1.SPF` → `PART1`).
+fn program_name(path: &str) -> String {
+    let last = path
+        .rsplit(['/', '\\'])
+        .next()
+        .unwrap_or(path)
+        .to_ascii_uppercase();
+    let last = last.strip_prefix("_N_").unwrap_or(&last);
+    [".SPF", ".MPF", "_SPF", "_MPF"]
+        .iter()
+        .find_map(|ext| last.strip_suffix(ext))
+        .unwrap_or(last)
+        .to_string()
 }
 
 pub(super) fn proc_has_save(unit: &Unit) -> bool {

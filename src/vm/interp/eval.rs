@@ -6,7 +6,7 @@ use crate::vm::motion::FRAMES;
 use crate::vm::unit::Unit;
 use crate::vm::value::{Value, Variable};
 
-use super::Interp;
+use super::{Interp, external};
 
 /// Highest R parameter number (R0 … R999).
 pub const R_COUNT: usize = 1000;
@@ -153,6 +153,12 @@ impl Interp<'_> {
         if self.axis_index(&name).is_some() {
             return Err(format!("axis {name} used as a value"));
         }
+        if external::is_cycle_result(&name) {
+            let index = n.find(NodeKind::Index).map(index_nodes).unwrap_or_default();
+            return Ok(Value::Num(
+                self.external(self.external_key(u, &name, &index)?),
+            ));
+        }
         Err(format!("variable {name} is not defined (alarm 12550)"))
     }
 
@@ -215,6 +221,7 @@ impl Interp<'_> {
                     .temp_comp_type(&self.cfg.axes[self.axis_arg(u, axis)?]),
             ),
             ("$SA_TEMP_COMP_ABS_VALUE", [axis]) => m.temp_comp[self.axis_arg(u, axis)?],
+            _ if external::is_system(&name) => self.external(self.external_key(u, &name, &idx)?),
             _ => {
                 return Err(format!(
                     "system variable {name} with {} index value(s) is not supported by the dry run",

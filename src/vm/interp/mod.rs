@@ -7,9 +7,12 @@ mod apply;
 mod calls;
 mod control;
 mod eval;
+mod external;
 mod statements;
+mod sync;
 
-use std::collections::HashMap;
+use std::cell::RefCell;
+use std::collections::{BTreeSet, HashMap};
 use std::path::PathBuf;
 use std::rc::Rc;
 
@@ -19,8 +22,8 @@ use super::VmError;
 use super::config::{Config, ProbeTarget};
 use super::machine::{Machine, ProbeCall, ProbeResult, SpindleHistory};
 use super::motion::{
-    ArcSpec, Dim, FeedMode, IDENTITY, Matrix, SPLINE, Saved, State, Tool, arc_length, multiply,
-    rotation,
+    ArcSpec, Dim, FeedMode, IDENTITY, Matrix, SPINDLES, SPLINE, Saved, State, Tool, arc_length,
+    multiply, rotation, setting,
 };
 use super::passes::{Cut, PassTracker};
 use super::report::{
@@ -113,6 +116,19 @@ struct Words {
     spline: bool,
     /// `REPEAT` section (first block, last block) to run `P` times.
     section: Option<(usize, usize)>,
+    /// `DL=`: the sum offset.
+    dl: Option<f64>,
+    /// `TCARR=`: the orientable toolholder.
+    tool_carrier: Option<f64>,
+    /// `OFFN=`.
+    offn: Option<f64>,
+    /// `SPOS=`, `SPOSA=`, `SPOS[n]=`: spindle (1 = master) and angle (NaN: not known).
+    spos: Vec<(usize, f64)>,
+    /// `Sn=` and `Mn=` of spindles other than the master: (spindle, value).
+    other_s: Vec<(usize, f64)>,
+    other_m: Vec<(usize, u32)>,
+    /// `ID=n` (false) or `IDS=n` (true) before a synchronized action.
+    sync_id: Option<(u32, bool)>,
 }
 
 const MM_PER_INCH: f64 = 25.4;
@@ -140,6 +156,12 @@ pub(super) struct Interp<'m> {
     ended: Option<End>,
     /// What the block being executed did, for [`Interp::step`].
     done: Done,
+    /// External variables ([`external`]) the program wrote, by key.
+    written: HashMap<String, f64>,
+    /// External variables the block being executed read as 0 (nothing gave them a value).
+    assumed: RefCell<Vec<String>>,
+    /// What the run has noted as assumed already.
+    noted: BTreeSet<String>,
 }
 
 /// What one executed block did, as far as a caller watching the run block by block needs to know.
@@ -225,6 +247,9 @@ impl<'m> Interp<'m> {
             archive_units: HashMap::new(),
             ended: None,
             done: Done::default(),
+            written: HashMap::new(),
+            assumed: RefCell::default(),
+            noted: BTreeSet::new(),
         }
     }
 
@@ -294,6 +319,9 @@ impl<'m> Interp<'m> {
         }
         self.done = Done::default();
         let flow = self.block(&unit, pc).map_err(|e| err_at(&unit, pc, e))?;
+        if !self.assumed.get_mut().is_empty() {
+            self.note_assumed(&unit, pc);
+        }
         self.trace(&unit, pc);
         match flow {
             Flow::Next => self.top().pc = self.next_block(pc),
@@ -388,6 +416,9 @@ impl<'m> Interp<'m> {
             archive_units: self.archive_units.clone(),
             ended: self.ended.clone(),
             done: Done::default(),
+            written: self.written.clone(),
+            assumed: RefCell::default(),
+            noted: self.noted.clone(),
         }
     }
 

@@ -35,6 +35,8 @@ impl Interp<'_> {
                 NodeKind::Proc | NodeKind::Extern => {}
                 NodeKind::ProgramCall => self.program_call(u, node, &mut w)?,
                 NodeKind::Repeat => w.section = Some(self.section(u, i, node)?),
+                // The rest of the block is the action, which runs in the interpolator, not here.
+                NodeKind::SyncCondition => return self.sync_action(u, i, node, w.sync_id),
                 k => {
                     return Err(format!(
                         "{} `{}` is not supported by the dry run",
@@ -86,15 +88,26 @@ impl Interp<'_> {
         value: &Node,
         w: &mut Words,
     ) -> Result<(), String> {
-        if target.kind == NodeKind::Var && target.find(NodeKind::Index).is_none() {
-            let name = u.upper(target);
-            if let Some(a) = self.axis_index(&name) {
-                let (dim, v) = self.axis_value(u, value)?;
+        if target.kind == NodeKind::Var {
+            let index = target.find(NodeKind::Index);
+            let name = match index {
+                Some(_) => u.upper(target.find(NodeKind::Name).ok_or("variable without name")?),
+                None => u.upper(target),
+            };
+            if let (None, Some(a)) = (index, self.axis_index(&name)) {
+                let rotary = !self.motion.frames.geo.contains(&Some(a));
+                let (dim, v) = self.axis_value(u, value, rotary)?;
                 w.axes.push((a, dim, v));
                 return Ok(());
             }
-            if self.variable(&name).is_none() && self.address(u, &name, value, w)? {
-                return Ok(());
+            if self.variable(&name).is_none() {
+                let done = match index {
+                    None => self.address(u, &name, value, w)?,
+                    Some(index) => self.indexed_address(u, &name, &index_nodes(index), value, w)?,
+                };
+                if done {
+                    return Ok(());
+                }
             }
         }
         if target.kind == NodeKind::SysVar {
@@ -104,7 +117,7 @@ impl Interp<'_> {
         self.store(u, target, v, w)
     }
 
-    /// `NAME = value` where NAME is an address: F, S, S1, T, D, M, Mn, CR, TURN, I, J, K.
+    /// `NAME = value` where NAME is an address: F, S, Sn, T, D, DL, M, Mn, CR, TURN, I, J, K, SPOS, TCARR, ….
     pub(super) fn address(
         &mut self,
         u: &Unit,
@@ -149,14 +162,32 @@ impl Interp<'_> {
                 }
                 w.repeat = Some(p as u32);
             }
-            _ if name.starts_with('M') && name[1..].bytes().all(|b| b.is_ascii_digit()) => {
-                if &name[1..] != "1" {
-                    return Err(format!("{name}=: only spindle 1 is modelled"));
+            _ if name.starts_with(['M', 'S']) && name[1..].bytes().all(|b| b.is_ascii_digit()) => {
+                let spindle = spindle_number(&name[1..])?;
+                let v = self.num(u, value)?;
+                match (name.starts_with('M'), spindle) {
+                    (true, 1) => w.m.push(v as u32),
+                    (false, 1) => w.s = Some(v),
+                    (true, n) => w.other_m.push((n, v as u32)),
+                    (false, n) => w.other_s.push((n, v)),
                 }
-                w.m.push(self.num(u, value)? as u32);
             }
-            _ if name.starts_with('S') && name[1..].bytes().all(|b| b.is_ascii_digit()) => {
-                return Err(format!("{name}=: only spindle 1 is modelled"));
+            "SPOS" | "SPOSA" => w.spos.push((1, self.spindle_angle(u, 1, value)?)),
+            "DL" => w.dl = Some(self.num(u, value)?),
+            "TCARR" => w.tool_carrier = Some(self.num(u, value)?),
+            "OFFN" => w.offn = Some(self.num(u, value)?),
+            // Rounding of G641 / G642 corners: how the path blends, not where its points are.
+            "ADIS" | "ADISPOS" => {
+                self.num(u, value)?;
+            }
+            "ID" | "IDS" => {
+                let n = self.num(u, value)?;
+                if !(1.0..=255.0).contains(&n) || n.fract() != 0.0 {
+                    return Err(format!(
+                        "{name}={n}: a synchronized action's number is 1 … 255"
+                    ));
+                }
+                w.sync_id = Some((n as u32, name == "IDS"));
             }
             // Point weight, degree and parameter interval shape a spline, not where its points are.
             "PW" | "SD" | "PL" => {
@@ -169,20 +200,27 @@ impl Interp<'_> {
     }
 
     pub(super) fn centre_value(&self, u: &Unit, value: &Node) -> Result<(f64, bool), String> {
-        let (dim, v) = self.axis_value(u, value)?;
+        let (dim, v) = self.axis_value(u, value, false)?;
         Ok((v, dim == Dim::Absolute))
     }
 
-    /// `AC(v)`, `IC(v)` or a plain value.
-    pub(super) fn axis_value(&self, u: &Unit, value: &Node) -> Result<(Dim, f64), String> {
+    /// `AC(v)`, `IC(v)` or a plain value; on a rotary axis also `DC(v)`, `ACP(v)`, `ACN(v)`, which go to the
+    /// absolute angle v by the shortest way or in one direction (the dry run takes the straight way).
+    pub(super) fn axis_value(
+        &self,
+        u: &Unit,
+        value: &Node,
+        rotary: bool,
+    ) -> Result<(Dim, f64), String> {
         if value.kind == NodeKind::FnCall {
             let name = u.upper(&value.children[0]);
             let dim = match name.as_str() {
                 "AC" => Some(Dim::Absolute),
                 "IC" => Some(Dim::Incremental),
+                "DC" | "ACP" | "ACN" if rotary => Some(Dim::Absolute),
                 "DC" | "ACP" | "ACN" => {
                     return Err(format!(
-                        "{name}() (rotary axis positioning) is not supported"
+                        "{name}() positions a rotary axis or a spindle, not a linear axis (alarm 16830)"
                     ));
                 }
                 _ => None,
@@ -196,6 +234,76 @@ impl Interp<'_> {
             }
         }
         Ok((Dim::Modal, self.num(u, value)?))
+    }
+
+    /// `NAME[index] = value` where NAME is not a variable: `SPOS[n]`, `SPOSA[n]` (spindle n), `G[group]`
+    /// (a G code by its number in its group), and the axis-wise dynamics `ACC`, `FA`, `FL`, `OVRA`, `JERKA`
+    /// (how fast, not where: accepted as they are).
+    fn indexed_address(
+        &mut self,
+        u: &Unit,
+        name: &str,
+        index: &[&Node],
+        value: &Node,
+        w: &mut Words,
+    ) -> Result<bool, String> {
+        let [index] = index else {
+            return Ok(false);
+        };
+        match name {
+            "SPOS" | "SPOSA" => {
+                let n = self.num(u, index)?;
+                let spindle = spindle_number(&crate::vm::value::format_number(n))?;
+                w.spos
+                    .push((spindle, self.spindle_angle(u, spindle, value)?));
+            }
+            "G" => {
+                let (group, number) = (self.num(u, index)?, self.num(u, value)?);
+                let g = crate::views::indirect_g(group, number).ok_or_else(|| {
+                    format!(
+                        "G[{group}]={number}: that G group or number is not modelled by the dry run"
+                    )
+                })?;
+                w.g.push(g);
+            }
+            "ACC" | "FA" | "FL" | "OVRA" | "JERKA" => {
+                let axis = u.upper(index);
+                let spindle = axis.strip_prefix('S').map(spindle_number);
+                if self.axis_index(&axis).is_none() && !matches!(spindle, Some(Ok(_))) {
+                    return Err(format!(
+                        "{name}[{axis}]: {axis} is neither an axis nor a spindle"
+                    ));
+                }
+                self.num(u, value)?;
+            }
+            _ => return Ok(false),
+        }
+        Ok(true)
+    }
+
+    /// The angle a `SPOS` of `spindle` goes to (degrees, 0 … 360): `AC`, `DC`, `ACP`, `ACN` or plain are
+    /// absolute, `IC` from where the spindle is positioned (NaN when it is not: the angle is not known).
+    fn spindle_angle(&self, u: &Unit, spindle: usize, value: &Node) -> Result<f64, String> {
+        let mode = (value.kind == NodeKind::FnCall).then(|| u.upper(&value.children[0]));
+        let (incremental, v) = match mode.as_deref() {
+            Some(m @ ("AC" | "IC" | "DC" | "ACP" | "ACN")) => {
+                let [Some(arg)] = value.call_arguments()[..] else {
+                    return Err(format!("{m}() takes one value"));
+                };
+                (m == "IC", self.num(u, arg)?)
+            }
+            _ => (false, self.num(u, value)?),
+        };
+        let at = match spindle {
+            1 => self.motion.spindle_position,
+            n => self.motion.others[n - 2].position,
+        };
+        let angle = if incremental {
+            at.map_or(f64::NAN, |a| a + v)
+        } else {
+            v
+        };
+        Ok(angle.rem_euclid(360.0))
     }
 
     /// Stores into an R parameter or a user variable.
@@ -222,6 +330,15 @@ impl Interp<'_> {
                     (Some(var), _) => var.set(&index, v),
                     (None, Some(a)) => {
                         w.axes.push((a, Dim::Modal, v.num()?));
+                        Ok(())
+                    }
+                    (None, None) if external::is_cycle_result(&name) => {
+                        let nodes: Vec<&Node> = target
+                            .find(NodeKind::Index)
+                            .map(index_nodes)
+                            .unwrap_or_default();
+                        let key = self.external_key(u, &name, &nodes)?;
+                        self.written.insert(key, v.num()?);
                         Ok(())
                     }
                     (None, None) => Err(format!("variable {name} is not defined (alarm 12550)")),
@@ -287,6 +404,12 @@ impl Interp<'_> {
                     old_mm: old,
                     new_mm: new,
                 });
+                Ok(())
+            }
+            _ if external::is_system(&name) => {
+                let key = self.external_key(u, &name, &idx)?;
+                let v = self.num(u, value)?;
+                self.written.insert(key, v);
                 Ok(())
             }
             _ => Err(format!("writing {name} is not supported by the dry run")),
@@ -408,6 +531,17 @@ impl Interp<'_> {
             None if var.dims.is_empty() => var.set(&[], self.eval(u, init)?),
             None => Err("an array is initialised with SET(…) or REP(…)".into()),
         }
+    }
+}
+
+/// The spindle an address extension names (`S2=`, `M2=`, `SPOS[2]`): 0 and 1 are the master spindle.
+fn spindle_number(digits: &str) -> Result<usize, String> {
+    match digits.parse::<usize>() {
+        Ok(0 | 1) => Ok(1),
+        Ok(n) if n <= SPINDLES => Ok(n),
+        _ => Err(format!(
+            "spindle {digits}: the dry run follows spindles 1 … {SPINDLES}"
+        )),
     }
 }
 

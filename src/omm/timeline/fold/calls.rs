@@ -5,7 +5,7 @@
 use std::rc::Rc;
 
 use super::Builder;
-use crate::omm::timeline::modal::{coolant_after, field};
+use crate::omm::timeline::modal::{POSITIONED, coolant_after, field};
 use crate::omm::timeline::read::{Move, Scan};
 use crate::omm::timeline::record::{CalleeEffect, Timeline};
 
@@ -162,7 +162,7 @@ impl Builder<'_> {
         }
         for m in s.m.iter() {
             let f = match m {
-                3..=5 => field::DIRECTION,
+                3..=5 | POSITIONED => field::DIRECTION,
                 6 => field::TOOL,
                 7..=9 => field::COOLANT,
                 _ => continue,
@@ -170,10 +170,12 @@ impl Builder<'_> {
             t[f] = true;
         }
         t[field::FEED] |= s.mv.f.is_some() && !dwell;
-        t[field::S] |= (s.s.is_some() && !dwell) || s.lims.is_some();
+        let limits = s.g.contains(25) || s.g.contains(26);
+        t[field::S] |= (s.s.is_some() && !dwell && !limits) || s.lims.is_some();
         t[field::D] |= s.d.is_some();
         t[field::SELECTED] |= s.tool.is_some();
-        t[field::FRAMES] |= s.frame_ops != 0 || s.rotary_away | s.rotary_home != 0;
+        t[field::FRAMES] |=
+            s.frame_ops != 0 || s.rotary_away | s.rotary_home != 0 || s.tool_carrier.is_some();
         t[field::OFFSET] |= s
             .offsets
             .iter()

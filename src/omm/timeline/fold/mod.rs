@@ -9,7 +9,7 @@ use std::rc::Rc;
 use crate::omm::profile::Profile;
 use crate::syntax::BlockKind;
 
-use super::modal::{Modal, coolant_after, field, frame, unknown};
+use super::modal::{Modal, POSITIONED, coolant_after, field, frame, unknown};
 use super::moves::RunRef;
 use super::read::{Chunk, Move, Scan, frame_op, head};
 use super::record::{Site, SiteKind, Timeline};
@@ -355,6 +355,15 @@ impl<'p> Builder<'p> {
         }
     }
 
+    /// A cutting edge selected (D, or the edge a tool change brings) without `DL=` in the block ends the
+    /// sum offset, as on a control whose MD20272 `SUMCORR_DEFAULT` is 0 (the default). With another value
+    /// the new edge brings that sum offset again, which a gate's own D selection brings back alike.
+    fn new_cutting_edge(&mut self, s: &Scan) {
+        if s.sum_offset.is_none() {
+            self.state.unknown &= !unknown::SUM_OFFSET;
+        }
+    }
+
     /// What a block's frame commands leave active.
     fn frames(&mut self, ops: u8) {
         use frame_op as op;
@@ -537,11 +546,18 @@ impl<'p> Builder<'p> {
             }
         }
         let dwell = s.g.contains(4);
+        // G25 / G26: S is a speed limit and the axis values are the working area's limits.
+        let limits = s.g.contains(25) || s.g.contains(26);
         self.touch(s, dwell);
         self.state.unknown |= s.unknown;
         match s.sum_offset {
             Some(true) => self.state.unknown |= unknown::SUM_OFFSET,
             Some(false) => self.state.unknown &= !unknown::SUM_OFFSET,
+            None => {}
+        }
+        match s.tool_carrier {
+            Some(true) => self.state.frames |= frame::TOOL_CARRIER,
+            Some(false) => self.state.frames &= !frame::TOOL_CARRIER,
             None => {}
         }
         if let Some(f) = s.mv.f
@@ -552,7 +568,7 @@ impl<'p> Builder<'p> {
         }
         // In a G4 block S is the dwell in spindle revolutions, not a speed: the speed programmed before it
         // stays (as F does).
-        let speed = s.s.filter(|_| !dwell);
+        let speed = s.s.filter(|_| !dwell && !limits);
         if let Some(v) = speed {
             self.state.s = v;
             self.state.unknown &= !unknown::S;
@@ -570,11 +586,12 @@ impl<'p> Builder<'p> {
         if let Some(d) = s.d {
             self.state.d = Some(d);
             self.state.unknown &= !unknown::D;
+            self.new_cutting_edge(s);
         }
         let mut direction = None;
         for m in s.m.iter() {
             match m {
-                3..=5 => direction = Some(m),
+                3..=5 | POSITIONED => direction = Some(m),
                 6 => self.m6_seen = true,
                 2 | 30 => self.t.ends.push(i),
                 7..=9 => self.state.coolant = coolant_after(self.state.coolant, m),
@@ -601,6 +618,7 @@ impl<'p> Builder<'p> {
         if tool_change {
             // M6 loads the selected tool (T alone only selects it, in a program that uses M6).
             self.state.tool = self.state.selected.clone();
+            self.new_cutting_edge(s);
         }
         let rpm = self.state.rpm();
         if s.tool.is_some() {
@@ -629,7 +647,8 @@ impl<'p> Builder<'p> {
         if let Some(modal) = &s.modal_call {
             self.modal_call = modal.as_ref().map(|n| (n.clone(), format!("MCALL {n}")));
         }
-        self.movement(i, start, &before, &s.mv, dwell, s.s, s.inexact, own_m6);
+        let mv = if limits { Move::default() } else { s.mv };
+        self.movement(i, start, &before, &mv, dwell, s.s, s.inexact, own_m6);
         self.modal_call_after(i, &s.mv);
         if let Some(prev) = tracked {
             for (f, differs) in field::differ(&prev, &self.state).into_iter().enumerate() {

@@ -66,6 +66,8 @@ pub(super) struct Scan {
     pub(super) rotary_vars: Vec<(u8, String)>,
     /// `DL=`: a sum offset selected (`true`) or deselected with `DL=0` (`false`).
     pub(super) sum_offset: Option<bool>,
+    /// `TCARR=`: an orientable toolholder selected (`true`) or deselected with `TCARR=0` (`false`).
+    pub(super) tool_carrier: Option<bool>,
     /// Plain variables the block assigns, with the value when it is a literal.
     pub(super) var_set: Vec<(String, Option<f64>)>,
 }
@@ -235,6 +237,7 @@ impl Scan {
             && !self.statement
             && self.rotary_away | self.rotary_home == 0
             && self.sum_offset.is_none()
+            && self.tool_carrier.is_none()
             // The head has no room for IC(…): such a block keeps its whole scan.
             && !self.mv.incremental.contains(&true);
         if !only_moves {

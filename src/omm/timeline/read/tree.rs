@@ -7,10 +7,23 @@ use crate::syntax::{Block, BlockKind, Node, NodeKind, Program};
 use crate::views::{AxisMode, Value, VarName, WorkOffset, facts, is_predefined_command};
 
 use super::{Bound, Count, Scan, comment, frame_op};
-use crate::omm::timeline::modal::unknown;
+use crate::omm::timeline::modal::{POSITIONED, unknown};
 
 pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
     let block = program.block(i);
+    // A synchronized action's words (`WHEN … DO M8`) act in the interpolator when its condition holds,
+    // not as the block runs: the timeline follows none of them.
+    if block
+        .root
+        .significant()
+        .any(|n| n.kind == NodeKind::SyncCondition)
+    {
+        return Scan {
+            statement: true,
+            label: facts(&block).label,
+            ..Scan::default()
+        };
+    }
     let f = facts(&block);
     let mut s = Scan {
         kind_header: block.kind == BlockKind::Header,
@@ -390,6 +403,11 @@ fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
             _ => s.unknown |= unknown::D,
         },
         b"DL" => s.sum_offset = Some(v != Some(0.0)),
+        b"TCARR" => s.tool_carrier = Some(v != Some(0.0)),
+        // The master spindle stops in position control.
+        b"SPOS" | b"SPOSA" | b"SPOS[0]" | b"SPOSA[0]" | b"SPOS[1]" | b"SPOSA[1]" => {
+            s.m.push(POSITIONED);
+        }
         b"I" => s.mv.centre[0] = v,
         b"J" => s.mv.centre[1] = v,
         b"K" => s.mv.centre[2] = v,

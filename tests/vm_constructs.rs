@@ -1,0 +1,498 @@
+//! Constructs of shop programs the dry run once stopped at, so that the safety audit covered a program only
+//! up to the first of them: each now runs, and the audit goes on past it and finds a hazard planted after
+//! it. Where the construct is state that matters to safety (a positioned spindle, a sum offset, a
+//! toolholder, a second spindle, speed limits, …) the planted blocks break exactly that state.
+
+mod common;
+
+use std::path::Path;
+
+use driftloop::omm::Profile;
+use driftloop::vm::audit::{Audit, AuditSettings, Kind, audit};
+use driftloop::vm::{Config, Run, SimpleMachine, run_source};
+
+/// A milling program with `construct` on line 9, between two cuts; line 10 is where the original resumes
+/// after blocks inserted after the construct.
+fn program(construct: &str) -> String {
+    format!(
+        "G17 G90 G94 G54\nT=\"MILL\" M6\nD1\nS3000 M3 M8\nG0 X0 Y0 Z5\nG1 Z-1 F200\nG1 X50\nG0 Z50\n\
+         {construct}\nG0 X10 Y10 Z5\nG1 Z-1 F200\nG1 X60\nG0 Z50\nM30\n"
+    )
+}
+
+/// `original` with driftloop's header and the `planted` lines (marked `;DL`) after line 9.
+fn planted(original: &str, planted: &[&str]) -> String {
+    let mut lines: Vec<String> = vec!["; driftloop-omm ;DL".into()];
+    for (k, line) in original.lines().enumerate() {
+        lines.push(line.to_string());
+        if k == 8 {
+            lines.extend(planted.iter().map(|p| format!("{p} ;DL")));
+        }
+    }
+    lines.join("\n") + "\n"
+}
+
+fn audited(original: &str, transformed: &str, dir: Option<&Path>) -> Audit {
+    let mut settings = AuditSettings::from_profile(&Profile::default_profile());
+    settings.dir = dir.map(Path::to_path_buf);
+    audit(
+        original.as_bytes(),
+        transformed.as_bytes(),
+        &settings,
+        &Config::default(),
+    )
+    .unwrap_or_else(|e| panic!("the dry run stopped: {e}"))
+}
+
+/// The audit of `construct` with `plant` after it ran to the end and found `kind` saying `text`.
+fn finds(construct: &str, plant: &[&str], kind: Kind, text: &str) -> Audit {
+    let original = program(construct);
+    let found = audited(&original, &planted(&original, plant), None);
+    assert_eq!(found.stopped, None, "{construct}");
+    assert!(
+        found
+            .findings
+            .iter()
+            .any(|f| f.kind == kind && f.message.contains(text)),
+        "{construct} with {plant:?}: no {} saying `{text}` in {:#?}",
+        kind.name(),
+        found.findings
+    );
+    found
+}
+
+/// A dry run of `src` on a machine that does not drift.
+fn dry_run(src: &[u8], cfg: &Config) -> Run {
+    run_source("p.mpf", src, None, cfg, &mut SimpleMachine::cold())
+        .unwrap_or_else(|e| panic!("the dry run stopped: {e}"))
+}
+
+/// Whether the audit noted something containing `text`.
+fn noted(found: &Audit, text: &str) -> bool {
+    found.notes.iter().any(|n| n.contains(text))
+}
+
+/// `driftloop transform PROGRAM --profile tool-setter -o out.mpf` in `dir`: its stderr. It must have
+/// written the output with the audit run to the end.
+fn transformed_and_audited(dir: &Path, program: &str) -> String {
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/omm/model.toml");
+    let args = [
+        "transform",
+        program,
+        "--model",
+        &model.display().to_string(),
+        "--profile",
+        "tool-setter",
+        "-o",
+        "out.mpf",
+    ];
+    let o = common::driftloop(dir, &args, b"");
+    let err = common::stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains("audit incomplete"), "{err}");
+    err
+}
+
+#[test]
+fn a_positioned_spindle_started_again_by_a_gate_is_found() {
+    for (construct, angle) in [
+        ("SPOS=0", "SPOS=0"),
+        ("SPOSA=0", "SPOS=0"),
+        ("SPOS[1]=90", "SPOS=90"),
+        ("SPOS=DC(0)", "SPOS=0"),
+        ("SPOS=ACP(450)", "SPOS=90"),
+        ("M19", "SPOS"),
+    ] {
+        let message = format!("spindle S3000 M3 here, S3000 M5 {angle} in the original");
+        finds(construct, &["S3000 M3"], Kind::ModalNotRestored, &message);
+        // A tool change turns the spindle to the changer's angle: the program's orientation is lost.
+        let message = format!("spindle S3000 M5 here, S3000 M5 {angle} in the original");
+        finds(
+            construct,
+            &["T=\"PROBE\" M6", "T=\"MILL\" M6", "D1"],
+            Kind::ModalNotRestored,
+            &message,
+        );
+    }
+}
+
+#[test]
+fn a_sum_offset_a_gate_drops_is_a_tool_state_finding() {
+    let found = finds(
+        "D1 DL=2",
+        &["T=\"PROBE\" M6", "T=\"MILL\" M6", "D1"],
+        Kind::ToolState,
+        "sum offset (the tool's length) DL=0 here, DL=2 in the original",
+    );
+    assert!(
+        found
+            .findings
+            .iter()
+            .filter(|f| f.kind == Kind::ToolState)
+            .all(|f| f.original_line == Some(10))
+    );
+    // A new cutting edge brings MD20272's sum offset: with 2 there, the gate's D1 gives DL=2 back.
+    let original = program("D1 DL=2");
+    let cfg = Config {
+        sumcorr_default: 2.0,
+        ..Config::default()
+    };
+    let settings = AuditSettings::from_profile(&Profile::default_profile());
+    let transformed = planted(&original, &["T=\"MILL\" M6", "D1"]);
+    let found = audit(original.as_bytes(), transformed.as_bytes(), &settings, &cfg).unwrap();
+    assert!(
+        found.findings.iter().all(|f| f.kind != Kind::ToolState),
+        "{:#?}",
+        found.findings
+    );
+}
+
+#[test]
+fn an_orientable_toolholder_is_a_transformation_and_state() {
+    finds(
+        "TCARR=1 TCOABS",
+        &["STOPRE"],
+        Kind::MeasureUnderTransform,
+        "STOPRE runs while the orientable toolholder TCARR=1 is active",
+    );
+    finds(
+        "TCARR=2 TCOFR",
+        &["TCARR=0"],
+        Kind::ModalNotRestored,
+        "toolholder TCARR=0 here, TCARR=2 in the original",
+    );
+    finds(
+        "TCOFR",
+        &["TCOABS"],
+        Kind::ModalNotRestored,
+        "toolholder orientation (G group 42) TCOABS here, TCOFR in the original",
+    );
+}
+
+#[test]
+fn the_other_spindles_and_the_speed_limits_are_compared() {
+    finds(
+        "S2=1000 M2=3",
+        &["M2=5"],
+        Kind::ModalNotRestored,
+        "spindle 2 S1000 M5 here, S1000 M3 in the original",
+    );
+    finds(
+        "G25 S4000",
+        &["G25 S0"],
+        Kind::ModalNotRestored,
+        "spindle speed limits G25 S0, G26 none here, G25 S4000, G26 none in the original",
+    );
+    finds(
+        "G26 S6000",
+        &["G26 S8000"],
+        Kind::ModalNotRestored,
+        "spindle speed limits G25 none, G26 S8000 here, G25 none, G26 S6000 in the original",
+    );
+}
+
+#[test]
+fn g26_clamps_the_speed_and_its_axis_values_are_no_move() {
+    let src = b"G26 S2000 X500\nS3000 M3\nG4 F60\nG25 S1500\nS1000\nG4 F60\nM30\n";
+    let run = dry_run(src, &Config::default());
+    let speeds: Vec<f64> = run.spindle.steps.iter().map(|s| s.1).collect();
+    assert_eq!(speeds, [2000.0, 1500.0, 0.0], "{:?}", run.spindle);
+    assert!(run.trace.iter().all(|r| r.programmed[0] == 0.0));
+}
+
+#[test]
+fn indirect_g_codes_select_as_the_g_code_would() {
+    finds(
+        "G[8]=2",
+        &["G500"],
+        Kind::ModalNotRestored,
+        "work offset G500 here, G54 in the original",
+    );
+    finds(
+        "G[18]=2",
+        &["G450"],
+        Kind::ModalNotRestored,
+        "corner behaviour (G group 18) G450 here, G451 in the original",
+    );
+    let cfg = Config {
+        offsets: vec![(2, "Z".into(), -100.0)],
+        ..Config::default()
+    };
+    let run = dry_run(b"G[8]=3\nG0 Z5\nM30\n", &cfg);
+    assert_eq!(run.trace[1].machine[2], -95.0, "G[8]=3 is G55");
+}
+
+#[test]
+fn path_settings_are_kept_as_state() {
+    for (construct, other, text) in [
+        (
+            "COMPCAD",
+            "COMPOF",
+            "compressor (G group 59) COMPOF here, COMPCAD",
+        ),
+        (
+            "UPATH",
+            "SPATH",
+            "path reference (G group 45) SPATH here, UPATH",
+        ),
+        (
+            "SPATH",
+            "UPATH",
+            "path reference (G group 45) UPATH here, SPATH",
+        ),
+        (
+            "ORIMKS",
+            "ORIWKS",
+            "orientation reference (G group 25) ORIWKS here, ORIMKS",
+        ),
+        (
+            "ORIWKS",
+            "ORIMKS",
+            "orientation reference (G group 25) ORIMKS here, ORIWKS",
+        ),
+        (
+            "CUT2DF",
+            "CUT2D",
+            "tool compensation type (G group 22) CUT2D here, CUT2DF",
+        ),
+        (
+            "CUT2D",
+            "CUT3DC",
+            "tool compensation type (G group 22) CUT3DC here, CUT2D",
+        ),
+        (
+            "G451",
+            "G450",
+            "corner behaviour (G group 18) G450 here, G451",
+        ),
+        (
+            "G450",
+            "G451",
+            "corner behaviour (G group 18) G451 here, G450",
+        ),
+        (
+            "WALIMOF",
+            "WALIMON",
+            "working area limitation (G group 28) WALIMON here, WALIMOF",
+        ),
+        (
+            "WALIMON",
+            "WALIMOF",
+            "working area limitation (G group 28) WALIMOF here, WALIMON",
+        ),
+        ("OFFN=0.1", "OFFN=0", "contour offset OFFN=0 here, OFFN=0.1"),
+    ] {
+        finds(construct, &[other], Kind::ModalNotRestored, text);
+    }
+}
+
+#[test]
+fn dynamics_and_rotary_positioning_run_on() {
+    // How fast, not where: accepted; the audit goes on and finds the coolant a block switched off.
+    for construct in [
+        "ACC[X]=50",
+        "FA[X]=100",
+        "FGROUP(X,Y,Z)",
+        "G641 ADIS=0.1",
+        "G0 A=DC(0)",
+        "G0 C=ACN(270)",
+    ] {
+        finds(
+            construct,
+            &["M9"],
+            Kind::ModalNotRestored,
+            "coolant off (M9) here, M8 in the original",
+        );
+    }
+    finds(
+        "G0 A=DC(30)",
+        &["G0 A=DC(0)"],
+        Kind::PositionNotRestored,
+        "A 0 here, 30 in the original",
+    );
+}
+
+#[test]
+fn values_the_dry_run_cannot_know_are_read_from_the_machine_file_or_noted() {
+    for (construct, key) in [
+        ("R10=$TC_DP1[1,1]", "$TC_DP1[1,1]"),
+        ("IF $A_IN[1]==1 GOTOF SKIP", "$A_IN[1]"),
+        ("R5=$AC_TIME", "$AC_TIME"),
+        ("R6=_OVR[16]", "_OVR[16]"),
+    ] {
+        let found = finds(
+            construct,
+            &["M9"],
+            Kind::ModalNotRestored,
+            "coolant off (M9) here",
+        );
+        assert!(
+            noted(&found, &format!("{key} read as 0")),
+            "{construct}: {:?}",
+            found.notes
+        );
+    }
+    // The machine file's value steers the flow: input 1 set, the jump skips the second cut.
+    let src = "IF $A_IN[1]==1 GOTOF SKIP\nG0 X10\nSKIP:\nG0 Y10\nM30\n";
+    let run_with = |text: &str| {
+        let (cfg, _) =
+            driftloop::vm::parse_machine_file(text, Path::new("."), Config::default()).unwrap();
+        dry_run(src.as_bytes(), &cfg)
+    };
+    let set = run_with("[variables]\n\"$a_in[ 1 ]\" = 1\n");
+    assert_eq!(set.trace.last().unwrap().programmed[0], 0.0, "X10 skipped");
+    assert!(set.assumptions.is_empty(), "{:?}", set.assumptions);
+    let unset = run_with("");
+    assert_eq!(unset.trace.last().unwrap().programmed[0], 10.0);
+    assert_eq!(unset.assumptions.len(), 1, "{:?}", unset.assumptions);
+    // What the program writes it reads back, with no note.
+    let wrote = dry_run(
+        b"$TC_DP3[1,1]=120.5\nR1=$TC_DP3[1,1]\n_OVR[4]=0.5\nR2=_OVR[4]\nM30\n",
+        &Config::default(),
+    );
+    assert_eq!(&wrote.r_final[1..3], &[120.5, 0.5]);
+    assert!(wrote.assumptions.is_empty(), "{:?}", wrote.assumptions);
+}
+
+#[test]
+fn synchronized_actions_are_recorded_not_run_and_said_so() {
+    let found = finds(
+        "ID=1 WHENEVER $AA_IM[Z]<-100 DO $AC_OVR=0",
+        &["CANCEL(1)"],
+        Kind::ModalNotRestored,
+        "synchronized actions none here, ID=1 in the original",
+    );
+    assert!(noted(&found, "WHENEVER … DO, ID=1"), "{:?}", found.notes);
+    let found = finds(
+        "WHEN $AA_IW[Z]<0 DO M8",
+        &["M9"],
+        Kind::ModalNotRestored,
+        "coolant off (M9) here, M8 in the original",
+    );
+    assert!(
+        noted(&found, "for the next block that moves"),
+        "{:?}",
+        found.notes
+    );
+    // An inserted move under a modal action: the note says the dry run did not check it.
+    let found = finds(
+        "IDS=2 EVERY $A_IN[1]==1 DO POS[X]=100",
+        &["G0 Z60", "M9"],
+        Kind::ModalNotRestored,
+        "coolant off (M9) here",
+    );
+    assert!(
+        noted(
+            &found,
+            "synchronized action IDS=2 of line 10 is active while inserted blocks move"
+        ),
+        "{:?}",
+        found.notes
+    );
+}
+
+#[test]
+fn extcall_and_pcall_run_the_program_they_name() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("PART1.SPF"), "G0 X30 Y30\nM17\n").unwrap();
+    for construct in [
+        "EXTCALL \"PART1\"",
+        "PCALL PART1",
+        "PCALL /_N_WKS_DIR/_N_SHAFT_WPD/_N_PART1_SPF",
+    ] {
+        let original = program(construct);
+        let found = audited(&original, &planted(&original, &["M9"]), Some(dir.path()));
+        assert_eq!(found.stopped, None);
+        assert_eq!(
+            found.original_blocks, 16,
+            "{construct}: the called program's two blocks ran"
+        );
+        assert!(
+            found
+                .findings
+                .iter()
+                .any(|f| f.kind == Kind::ModalNotRestored),
+            "{construct}: {:#?}",
+            found.findings
+        );
+    }
+}
+
+/// `L200 P3` of a subprogram neither run can find is skipped alike, its repetitions with it.
+#[test]
+fn a_missing_subprogram_called_several_times_is_skipped() {
+    finds(
+        "L200 P3",
+        &["M9"],
+        Kind::ModalNotRestored,
+        "coolant off (M9) here, M8 in the original",
+    );
+}
+
+/// A program whose last blocks run under TRAORI ends without TRAFOOF: the control's reset ends the
+/// transformation, and the offset restore before M30 moves nothing under it.
+#[test]
+fn an_offset_written_under_a_transformation_is_a_hazard_only_when_the_machine_moves_under_it() {
+    let original = "G17 G90 G94 G54\nT=\"MILL\" M6\nD1\nS3000 M3\nG0 X0 Y0 Z50\nTRAORI\nG1 Z-1 F200\n\
+                    X50\nG0 Z50\nM30\n";
+    let settings = AuditSettings::from_profile(&Profile::default_profile());
+    let audit_of = |transformed: String| {
+        let transformed = format!("; driftloop-omm ;DL\n{transformed}");
+        audit(
+            original.as_bytes(),
+            transformed.as_bytes(),
+            &settings,
+            &Config::default(),
+        )
+        .unwrap()
+    };
+    let found = audit_of(original.replace("M30\n", "STOPRE ;DL\n$P_UIFR[1,Z,TR]=0 ;DL\nM30\n"));
+    assert!(
+        found
+            .findings
+            .iter()
+            .all(|f| f.kind != Kind::MeasureUnderTransform),
+        "{:#?}",
+        found.findings
+    );
+    // The same blocks before the last cut: the machine then moves under TRAORI.
+    let found = audit_of(original.replace("X50\n", "STOPRE ;DL\nX50\n"));
+    let under: Vec<_> = found
+        .findings
+        .iter()
+        .filter(|f| f.kind == Kind::MeasureUnderTransform)
+        .collect();
+    assert_eq!(under.len(), 1, "{:#?}", found.findings);
+    assert_eq!(under[0].line, 9);
+    assert!(
+        under[0]
+            .message
+            .contains("STOPRE runs while TRAORI is active")
+    );
+}
+
+/// Through the binary: the same program transforms (the restore before M30 no longer refuses it), and
+/// its audit runs to the end.
+#[test]
+fn a_program_ending_under_traori_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let prog = "G17 G90 G94 G54\nT=\"MILL\" M6\nD1\nS3000 M3 M8\nG0 X0 Y0 Z50\nG1 Z-1 F200\nX50\n\
+                G0 Z50\nTRAORI\nG0 X10 Y10 Z5\nG1 Z-1 F200\nX60\nG0 Z50\nM30\n";
+    std::fs::write(dir.path().join("p.mpf"), prog).unwrap();
+    transformed_and_audited(dir.path(), "p.mpf");
+    let out = std::fs::read_to_string(dir.path().join("out.mpf")).unwrap();
+    let restore = out
+        .find("work offset back to its value before the program")
+        .expect("the restore before M30");
+    assert!(out[..restore].contains("TRAORI") && !out.contains("TRAFOOF"));
+}
+
+/// The shop program that measures its part zero with CYCLE978 and adds `_OVR[16]` to G54: its audit ran
+/// only to that line; it now runs to the end, and says which result it took as 0.
+#[test]
+fn the_probe_setup_shop_program_is_audited_to_its_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/shop/10_probe_setup.mpf");
+    let err = transformed_and_audited(dir.path(), &program.display().to_string());
+    assert!(err.contains("_OVR[16] read as 0"), "{err}");
+}
