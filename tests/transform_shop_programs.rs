@@ -931,8 +931,11 @@ fn an_inch_program_gates_in_mm_and_gets_its_unit_back() {
         let mut mm_blocks = 0;
         for line in out.lines() {
             let inserted = line.ends_with(";DL");
-            let mut words = line.trim_end_matches(";DL").split_whitespace();
-            if let Some(u) = words.rfind(|w| matches!(*w, "G70" | "G700" | "G710")) {
+            let words = line.trim_end_matches(";DL").split_whitespace();
+            if let Some(u) = words
+                .filter(|w| matches!(*w, "G70" | "G700" | "G710"))
+                .last()
+            {
                 now = u;
             }
             let in_mm = ["$AA_IW", "$P_IFRAME", "BL9700", "=R6"];
