@@ -507,20 +507,19 @@ fn prepare_with<'p>(
     }
     let last_rpm = plan.gates.last().map_or(0.0, |g| g.rpm);
     for &end in &timeline.ends {
-        let unit = end.checked_sub(1).and_then(|b| timeline.unit_after(b));
-        insert(&mut editor, end, emitter.end(last_rpm, unit))?;
+        insert(&mut editor, end, emitter.end(last_rpm))?;
     }
     if timeline.ends.is_empty() && timeline.unit_end > 0 {
-        let end = emitter.end(last_rpm, timeline.unit_after(timeline.unit_end - 1));
+        let end = emitter.end(last_rpm);
         inserted += end.lines().count();
         editor.insert_after(timeline.unit_end - 1, &end)?;
     }
-    for &b in timeline
-        .offset_selections
-        .iter()
-        .filter(|&&b| b >= timeline.preamble_end)
-    {
-        if let Some(text) = emitter.reapply(timeline.unit_after(b)) {
+    if let Some(text) = emitter.reapply() {
+        for &b in timeline
+            .offset_selections
+            .iter()
+            .filter(|&&b| b >= timeline.preamble_end)
+        {
             inserted += text.lines().count();
             editor.insert_after(b, &text)?;
         }

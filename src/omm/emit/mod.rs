@@ -358,23 +358,6 @@ fn r(n: u32) -> String {
     format!("R{n}")
 }
 
-/// Inserted blocks compute in mm: the profile's lengths, the registers, the positions (`$AA_IW`), frames
-/// and setting data they read and write. Under an inch unit (`unit` G70 or G700; G700 also reads feeds
-/// and system variables in inch) they run in G710 and give the program's unit back at their end, with the
-/// feed `feed` the program had, which a gate's own modal line wrote in mm/min.
-fn in_mm(mut v: Vec<String>, unit: Option<u32>, feed: Option<f64>) -> Vec<String> {
-    let Some(g @ (70 | 700)) = unit else {
-        return v;
-    };
-    let at = v.iter().take_while(|l| l.starts_with(';')).count();
-    v.insert(at, "G710".into());
-    v.push(match feed {
-        Some(f) => format!("G{g} F{}", number(f)),
-        None => format!("G{g}"),
-    });
-    v
-}
-
 impl Emitter<'_> {
     /// Lines with the marker comment appended.
     fn finish(lines: Vec<String>) -> String {
@@ -556,14 +539,13 @@ impl Emitter<'_> {
 
     /// `method = "active"`, after a block that selects a work offset: the correction again, on the newly
     /// selected offset.
-    /// `unit`: the unit of lengths in force there.
-    pub fn reapply(&self, unit: Option<u32>) -> Option<String> {
+    pub fn reapply(&self) -> Option<String> {
         (!self.selects()).then(|| {
             let mut v = vec![
                 "; driftloop: the program selected a work offset: the correction again".to_string(),
             ];
             v.extend((0..self.axes.len()).map(|k| self.set_in_force(k, self.reg(k).applied)));
-            Emitter::finish(in_mm(v, unit, None))
+            Emitter::finish(v)
         })
     }
 
@@ -1250,7 +1232,7 @@ impl Emitter<'_> {
         for k in 0..self.axes.len() {
             v.extend(self.set_targets(k, gate.rpm));
         }
-        Emitter::finish(in_mm(v, gate.before.unit, gate.before.feed))
+        Emitter::finish(v)
     }
 
     /// A gate: prediction update; if it can measure, the Cycle_in decision and the measurement module;
@@ -1343,13 +1325,12 @@ impl Emitter<'_> {
         }
         v.extend(self.temp_comp_at_gate());
         v.extend(self.apply_correction());
-        Emitter::finish(in_mm(v, gate.before.unit, gate.before.feed))
+        Emitter::finish(v)
     }
 
     /// Before the program ends: the work offset back to its value before the program; with a warm start
-    /// the states first brought up to now (the speed of the last gate held till here) and stored. `unit`:
-    /// the unit of lengths in force there.
-    pub fn end(&self, rpm: f64, unit: Option<u32>) -> String {
+    /// the states first brought up to now (the speed of the last gate held till here) and stored.
+    pub fn end(&self, rpm: f64) -> String {
         let mut v =
             vec!["; driftloop: work offset back to its value before the program".to_string()];
         if self.regs.warm.is_some() {
@@ -1359,7 +1340,7 @@ impl Emitter<'_> {
         }
         // The stored values only: the program ends here, and may not be running in the offset now.
         v.extend(self.restore_values());
-        Emitter::finish(in_mm(v, unit, None))
+        Emitter::finish(v)
     }
 }
 

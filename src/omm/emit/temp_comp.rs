@@ -15,7 +15,7 @@
 //! SD43900 = its value at the start + `sign`·`tc`; the start value comes back at the end and before every
 //! alarm, as the work offset does.
 
-use super::{Emitter, in_mm, r};
+use super::{Emitter, r};
 use crate::omm::nc::number;
 use crate::omm::plan::Gate;
 
@@ -186,6 +186,6 @@ impl Emitter<'_> {
             let a = self.reg(k);
             format!("{}+{}-{}", r(a.pred), r(a.eps), r(a.applied))
         }));
-        Emitter::finish(in_mm(v, gate.before.unit, None))
+        Emitter::finish(v)
     }
 }

@@ -34,9 +34,6 @@ pub struct Modal {
     pub offset: Option<u32>,
     /// X is programmed in diameters (DIAMON, DIAM90).
     pub diameter: bool,
-    /// The unit of lengths: G70 / G700 (inch) or G71 / G710 (metric), when the program set it; the
-    /// control's reset default (metric on the machines driftloop's profiles are written for) otherwise.
-    pub unit: Option<u32>,
     /// Under constant cutting speed (G96, `s` in m/min): the spindle speed estimated where S was set,
     /// n = 1000·v / (π·D) at the diameter the tool stood at, capped by LIMS.
     pub css_rpm: Option<f64>,
@@ -146,7 +143,7 @@ impl Modal {
 pub(super) mod field {
     use super::Modal;
 
-    pub const COUNT: usize = 19;
+    pub const COUNT: usize = 18;
     pub const TOOL: usize = 0;
     pub const D: usize = 1;
     pub const S: usize = 2;
@@ -165,7 +162,6 @@ pub(super) mod field {
     pub const UNKNOWN: usize = 15;
     pub const OFFSET: usize = 16;
     pub const DIAMETER: usize = 17;
-    pub const UNIT: usize = 18;
 
     /// The fields in which two states differ, by number.
     pub fn differ(a: &Modal, b: &Modal) -> [bool; COUNT] {
@@ -188,7 +184,6 @@ pub(super) mod field {
             a.unknown != b.unknown,
             a.offset != b.offset,
             a.diameter != b.diameter,
-            a.unit != b.unit,
         ]
     }
 }
@@ -228,13 +223,6 @@ mod tests {
                 ..d()
             },
             field::TOOL,
-        );
-        one(
-            Modal {
-                unit: Some(700),
-                ..d()
-            },
-            field::UNIT,
         );
         one(Modal { d: Some(1), ..d() }, field::D);
         one(Modal { s: 1.0, ..d() }, field::S);
@@ -321,7 +309,6 @@ mod tests {
             comp: 41,
             offset: Some(54),
             diameter: true,
-            unit: Some(70),
             css_rpm: None,
             frames: 1,
             unknown: 1,

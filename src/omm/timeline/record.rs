@@ -93,8 +93,6 @@ pub struct Timeline {
     pub offsets: Vec<(u32, usize)>,
     /// Blocks that select a settable work offset (G500, G54 …), or call a subprogram from a folder that does.
     pub offset_selections: Vec<usize>,
-    /// Blocks that set the unit of lengths (G70, G71, G700, G710), with the code, in block order.
-    pub units: Vec<(usize, u32)>,
     /// The first block with a G code of the ISO dialect (Fanuc-style) and that code: `G291`, which switches
     /// to it, or one Siemens mode does not have (G43 tool length with H, G28, G80 … G89 cycles …).
     pub iso_dialect: Option<(usize, u32)>,
@@ -137,15 +135,6 @@ pub struct Timeline {
     pub setup_end: usize,
     /// Run as a subprogram: what it does to its caller's state.
     pub as_callee: CalleeEffect,
-}
-
-impl Timeline {
-    /// The unit of lengths in force after block `block` ran (`None` where the program has set none), as
-    /// the blocks read in order give it.
-    pub fn unit_after(&self, block: usize) -> Option<u32> {
-        let set = self.units.partition_point(|&(b, _)| b <= block);
-        set.checked_sub(1).map(|k| self.units[k].1)
-    }
 }
 
 /// What a unit run as a subprogram does to its caller's modal state.

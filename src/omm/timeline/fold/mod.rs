@@ -535,10 +535,6 @@ impl<'p> Builder<'p> {
                 17..=19 => self.state.plane = Some(g),
                 40..=42 => self.state.comp = g,
                 60 | 64 | 641..=645 => self.state.path_mode = Some(g),
-                70 | 71 | 700 | 710 => {
-                    self.state.unit = Some(g);
-                    self.t.units.push((i, g));
-                }
                 g if is_iso_only(g) => {
                     self.t.iso_dialect.get_or_insert((i, g));
                 }
