@@ -942,6 +942,7 @@ mod tests {
             retract_axis: Axis::Z,
             diameter: false,
             also: Vec::new(),
+            retract_max: None,
             axis: Axis::Z,
             nominal: -5.0,
         }

@@ -93,6 +93,9 @@ pub struct Timeline {
     pub offsets: Vec<(u32, usize)>,
     /// Blocks that select a settable work offset (G500, G54 …), or call a subprogram from a folder that does.
     pub offset_selections: Vec<usize>,
+    /// Blocks of `ends` and `offset_selections` where inch dimensions are in force, with their G code (70,
+    /// 700): what driftloop inserts there switches to metric and back.
+    pub inch_at: BTreeMap<usize, u32>,
     /// Lines (1-based) of `computed_r_lines` and `offsets` that call a subprogram from a folder in which the
     /// thing was found, with the subprogram's name.
     pub found_in_call: BTreeMap<usize, String>,

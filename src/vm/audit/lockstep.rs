@@ -341,7 +341,12 @@ impl Runner<'_> {
     ) {
         let done = step;
         if let Some(m) = &done.movement {
-            self.inserted_move(at, m);
+            // A gate moves under no rotation, scale or mirror: a machine coordinate is the work
+            // coordinate plus the settable offset in force.
+            let frames = &t.motion.frames;
+            let to_machine =
+                frames.geo[self.settings.retract_axis].map_or(0.0, |a| frames.active[a]);
+            self.inserted_move(at, m, to_machine);
             self.watch.in_contour = false;
             self.watch.stopre = None;
         }
@@ -374,20 +379,25 @@ impl Runner<'_> {
         }
     }
 
-    /// Travel across the tool axis below the clearance height, and the move out of the probe point.
-    fn inserted_move(&mut self, at: &At, m: &Movement) {
+    /// Travel across the tool axis below the clearance height (work coordinates) or below the start point
+    /// of a reference in machine coordinates (the work coordinate plus `to_machine`), and the move out of
+    /// the probe point: straight up the tool axis, or — where the probe left the tool at the travel height
+    /// (a reference's start point the gate came to at that height) — across at it.
+    fn inserted_move(&mut self, at: &At, m: &Movement, to_machine: f64) {
         let s = self.settings;
         let r = s.retract_axis;
         let low = m.from[r].min(m.to[r]);
-        if geometry::moves_across(m, r) && low < s.clearance - geometry::EPS {
-            let across: Vec<usize> = (0..3).filter(|&k| k != r).collect();
-            let point = |p: [f64; 3]| {
-                across
-                    .iter()
-                    .map(|&k| format!("{}{}", AXES[k], num(p[k])))
-                    .collect::<Vec<_>>()
-                    .join(" ")
-            };
+        let across: Vec<usize> = (0..3).filter(|&k| k != r).collect();
+        let point = |p: [f64; 3]| {
+            across
+                .iter()
+                .map(|&k| format!("{}{}", AXES[k], num(p[k])))
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        let travels = geometry::moves_across(m, r);
+        let below_clearance = low < s.clearance - geometry::EPS;
+        if travels && below_clearance {
             self.add(at.finding(
                 Kind::XyBelowClearance,
                 format!(
@@ -401,8 +411,34 @@ impl Runner<'_> {
                 ),
             ));
         }
+        let below_reference = s
+            .reference_start
+            .filter(|start| low + to_machine < start - geometry::EPS);
+        if let Some(start) = below_reference.filter(|_| travels) {
+            self.add(at.finding(
+                Kind::XyBelowClearance,
+                format!(
+                    "travel from {} to {} at {}{} (machine coordinates) below the reference's start point {}{} (machine coordinates) under the work offset in force",
+                    point(m.from),
+                    point(m.to),
+                    AXES[r],
+                    num(low + to_machine),
+                    AXES[r],
+                    num(start)
+                ),
+            ));
+        }
+        // A move that goes nowhere (a retract to where the probe left the tool) is not the move out.
+        if geometry::stands_still(m) {
+            return;
+        }
+        let level_at_travel_height = travels
+            && (m.to[r] - m.from[r]).abs() <= geometry::EPS
+            && !below_clearance
+            && below_reference.is_none();
         if let Some(probe_line) = self.watch.at_probe.take()
             && !geometry::straight_up(m, r)
+            && !level_at_travel_height
         {
             let point = |p: [f64; 3]| format!("X{} Y{} Z{}", num(p[0]), num(p[1]), num(p[2]));
             self.add(at.finding(
@@ -606,7 +642,7 @@ impl Runner<'_> {
     }
 
     /// The transformed run ended while the original goes on: an abort in inserted blocks (the machine's
-    /// probe values led to one), or a flow change.
+    /// probe values or its work offsets led to one), or a flow change.
     fn ended_early(&mut self, o_unit: &Unit, o_block: usize) {
         let Some((at, inserted)) = self.last.clone() else {
             return;
@@ -622,8 +658,8 @@ impl Runner<'_> {
         );
         if inserted {
             self.audit.stopped = Some(format!(
-                "line {} (inserted) ended the transformed program on this machine's probe values; the \
-                 original from {continues} on was not compared",
+                "line {} (inserted) ended the transformed program on this machine's probe values or \
+                 work offsets; the original from {continues} on was not compared",
                 at.line
             ));
         } else {

@@ -526,6 +526,7 @@ impl<'p> Builder<'p> {
                 17..=19 => self.state.plane = Some(g),
                 40..=42 => self.state.comp = g,
                 60 | 64 | 641..=645 => self.state.path_mode = Some(g),
+                70 | 71 | 700 | 710 => self.state.units = Some(g),
                 _ => {}
             }
         }
@@ -636,6 +637,11 @@ impl<'p> Builder<'p> {
         }
         if let Some(sub) = call_loads {
             self.after_tool_change_call(i, &sub.as_callee);
+        }
+        if let (true, Some(g)) = (self.state.inch(), self.state.units)
+            && (self.t.ends.last() == Some(&i) || self.t.offset_selections.last() == Some(&i))
+        {
+            self.t.inch_at.insert(i, g);
         }
         self.loops(i, s, kind, start);
         self.jump_from(i);
