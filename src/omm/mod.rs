@@ -422,6 +422,7 @@ fn prepare_with<'p>(
             .collect(),
         label_prefix,
         fingerprint: warm::fingerprint(&models.iter().map(|m| m.sha256).collect::<Vec<_>>()),
+        tool_change_call: timeline.tool_change_call.clone(),
     };
     if let Some(w) = &profile.warm_start {
         let store = w.r_first..w.r_first + emitter.store_len();

@@ -355,6 +355,9 @@ pub struct Emitter<'a> {
     pub label_prefix: String,
     /// Tells the models apart in the warm-start store ([`crate::omm::warm::fingerprint`]).
     pub fingerprint: u32,
+    /// The subprogram the program changes tools with (`L6`): the gates' tool changes call it too, after
+    /// `T=`, instead of the profile's M6, which the machine may not take outside its macro.
+    pub tool_change_call: Option<String>,
 }
 
 fn r(n: u32) -> String {
@@ -875,11 +878,13 @@ impl Emitter<'_> {
         v
     }
 
-    /// `T=<tool>` with or without M6, as the machine changes tools.
-    fn load(&self, tool: &str) -> String {
-        match self.profile.probe.tool_change {
-            ToolChange::M6 => format!("T={tool} M6"),
-            ToolChange::T => format!("T={tool}"),
+    /// `T=<tool>` with M6, with the program's tool-change subprogram, or alone (a turret), as the machine
+    /// changes tools.
+    fn load(&self, tool: &str) -> Vec<String> {
+        match (self.profile.probe.tool_change, &self.tool_change_call) {
+            (ToolChange::M6, Some(call)) => vec![format!("T={tool}"), call.clone()],
+            (ToolChange::M6, None) => vec![format!("T={tool} M6")],
+            (ToolChange::T, _) => vec![format!("T={tool}")],
         }
     }
 
@@ -898,7 +903,7 @@ impl Emitter<'_> {
             v.push("M9".into());
         }
         if p.probe.kind == ProbeKind::SpindleProbe {
-            v.push(self.load(&format!("\"{}\"", p.probe.tool)));
+            v.extend(self.load(&format!("\"{}\"", p.probe.tool)));
             v.push(format!("D{}", p.probe.tool_offset));
             v.push(self.clear());
         }
@@ -1130,7 +1135,7 @@ impl Emitter<'_> {
                 return v;
             }
             if let Some(tool) = &b.tool {
-                v.push(self.load(tool));
+                v.extend(self.load(tool));
             }
             if let (ToolChange::M6, Some(sel)) = (p.probe.tool_change, preselection) {
                 v.push(format!("T={sel}"));

@@ -79,6 +79,9 @@ pub mod unknown {
     pub const FEED: u8 = 8;
     /// A sum offset (`DL=` other than 0) is active: a gate that changes tools does not give it back.
     pub const SUM_OFFSET: u8 = 16;
+    /// The spindle is positioned (SPOS, SPOSA, M19) and held at its angle — for a back-boring bar moved
+    /// through a bore, say: a gate would give it back turning.
+    pub const ORIENTED: u8 = 32;
 }
 
 impl Modal {
@@ -129,6 +132,8 @@ impl Modal {
             Some("the spindle speed is set by an expression")
         } else if self.unknown & unknown::FEED != 0 {
             Some("the feed is set by an expression")
+        } else if self.unknown & unknown::ORIENTED != 0 {
+            Some("the spindle is positioned (SPOS, M19): a gate would give it back turning")
         } else {
             None
         }

@@ -93,6 +93,9 @@ pub struct Timeline {
     pub offsets: Vec<(u32, usize)>,
     /// Blocks that select a settable work offset (G500, G54 …), or call a subprogram from a folder that does.
     pub offset_selections: Vec<usize>,
+    /// The subprogram the program changes tools with (the first one, as called): an `L6` whose M6 the
+    /// machine's shop macro wraps. Gates change tools the same way.
+    pub tool_change_call: Option<String>,
     /// Blocks of `ends` and `offset_selections` where inch dimensions are in force, with their G code (70,
     /// 700): what driftloop inserts there switches to metric and back.
     pub inch_at: BTreeMap<usize, u32>,

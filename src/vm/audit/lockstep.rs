@@ -45,6 +45,18 @@ impl Lines {
     }
 }
 
+impl Lines {
+    /// The key of the transformed run's next block, `block` of `unit`: a block of a subprogram an inserted
+    /// block called (a gate's tool change through the program's `L6`) is inserted too.
+    pub(super) fn key_in(&self, t: &Interp<'_>, unit: &Unit, block: usize) -> Key {
+        if t.callers().any(|(u, b)| self.key(u, b) == Key::Inserted) {
+            Key::Inserted
+        } else {
+            self.key(unit, block)
+        }
+    }
+}
+
 fn original_key(main: &Rc<Source>, unit: &Unit, block: usize) -> Key {
     if Rc::ptr_eq(&unit.source, main) {
         Key::Main(block)
@@ -249,7 +261,10 @@ impl Runner<'_> {
                     return Ok(());
                 }
                 (Some((tu, tb)), Some((ou, ob))) => {
-                    let (tk, ok) = (self.lines.key(&tu, tb), original_key(&self.o_main, &ou, ob));
+                    let (tk, ok) = (
+                        self.lines.key_in(t, &tu, tb),
+                        original_key(&self.o_main, &ou, ob),
+                    );
                     if tk != ok {
                         let at = At::of(&self.lines, &tu, tb);
                         self.add(at.finding(
@@ -297,7 +312,7 @@ impl Runner<'_> {
         let mut ran = false;
         let mut forked = false;
         while let Some((unit, block)) = t.peek() {
-            if self.lines.key(&unit, block) != Key::Inserted {
+            if self.lines.key_in(t, &unit, block) != Key::Inserted {
                 break;
             }
             if !ran {

@@ -111,7 +111,7 @@ impl Interp<'_> {
                     self.done.tool_change = true;
                     self.time_min += self.cfg.tool_change_min;
                 }
-                5 | 0 | 1 | 2 | 30 | 17 => {}
+                5 | 19 | 0 | 1 | 2 | 30 | 17 => {}
                 7..=9 => {
                     let st = &mut self.motion;
                     (st.mist, st.flood) = match m {
@@ -146,7 +146,8 @@ impl Interp<'_> {
         }
         for &m in &w.m {
             match m {
-                5 => {
+                // M19 positions the spindle (SPOS to SD43240): it stops turning.
+                5 | 19 => {
                     self.passes.end_segment();
                     self.motion.rotation = 0;
                     self.spindle.set(self.time_min, 0.0);

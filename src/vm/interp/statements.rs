@@ -125,6 +125,11 @@ impl Interp<'_> {
                 w.turn = Some(n);
             }
             "LIMS" => w.lims = Some(self.num(u, value)?),
+            // Spindle positioning: the spindle stops turning and holds the angle (as after M5 here).
+            "SPOS" | "SPOSA" => {
+                self.num(u, value)?;
+                w.m.push(5);
+            }
             "T" => {
                 w.tool = Some(match self.eval(u, value)? {
                     Value::Num(n) => Tool::Number(n),

@@ -179,7 +179,8 @@ impl Builder<'_> {
             .iter()
             .any(|g| matches!(g, 500 | 54..=57 | 505..=599));
         t[field::DIAMETER] |= s.diameter.is_some();
-        t[field::UNKNOWN] |= s.unknown != 0 || s.sum_offset.is_some();
+        t[field::UNKNOWN] |=
+            s.unknown != 0 || s.sum_offset.is_some() || s.orient || s.m.contains(19);
     }
 
     /// The spindle words of a subprogram called at block `i` and run `runs` times, applied to this

@@ -575,8 +575,18 @@ impl<'p> Builder<'p> {
                 _ => {}
             }
         }
+        // SPOS, SPOSA and M19 stop the spindle at an angle; M3, M4 and M5 take it out of that again.
+        let orient = s.orient || s.m.contains(19);
+        if orient {
+            direction = Some(5);
+        }
         if let Some(d) = direction {
             self.state.direction = d;
+            if orient {
+                self.state.unknown |= unknown::ORIENTED;
+            } else {
+                self.state.unknown &= !unknown::ORIENTED;
+            }
         }
         if s.restart {
             self.t.ends.push(i);
@@ -587,14 +597,24 @@ impl<'p> Builder<'p> {
         let own_m6 = s.m.contains(6);
         // A tool-change subprogram loads the selected tool as M6 does.
         let tool_change = own_m6 || call_loads.is_some();
+        if let (Some(_), Some(name), None) = (&call_loads, &s.call, &self.t.tool_change_call) {
+            self.t.tool_change_call = Some(name.clone());
+        }
         self.m6_seen |= call_loads.is_some();
         if let Some(tool) = &s.tool {
             self.state.selected = Some(tool.clone());
             self.state.unknown &= !unknown::TOOL;
         }
         if tool_change {
-            // M6 loads the selected tool (T alone only selects it, in a program that uses M6).
+            // M6 loads the selected tool (T alone only selects it, in a program that uses M6); the
+            // orientation was the change's.
             self.state.tool = self.state.selected.clone();
+            self.state.unknown &= !unknown::ORIENTED;
+            // The change cycle stops the spindle; the program starts it again for the new tool (a gate
+            // that gave back the last tool's speed would spin the new one at it).
+            if !s.m.iter().any(|m| matches!(m, 3 | 4)) && (own_m6 || call_loads.is_some()) {
+                self.state.direction = 5;
+            }
         }
         let rpm = self.state.rpm();
         if s.tool.is_some() {

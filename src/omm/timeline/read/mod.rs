@@ -64,6 +64,8 @@ pub(super) struct Scan {
     /// Rotary axes given a variable (`A=_A_HOME`, `C=R5`): its bit and the name, for the value the fold
     /// knows.
     pub(super) rotary_vars: Vec<(u8, String)>,
+    /// `SPOS=`, `SPOSA=` or `M19`: the spindle is positioned (stopped at an angle).
+    pub(super) orient: bool,
     /// `DL=`: a sum offset selected (`true`) or deselected with `DL=0` (`false`).
     pub(super) sum_offset: Option<bool>,
     /// Plain variables the block assigns, with the value when it is a literal.

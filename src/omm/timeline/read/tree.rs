@@ -390,6 +390,7 @@ fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
             _ => s.unknown |= unknown::D,
         },
         b"DL" => s.sum_offset = Some(v != Some(0.0)),
+        _ if name.starts_with(b"SPOS") => s.orient = true,
         b"I" => s.mv.centre[0] = v,
         b"J" => s.mv.centre[1] = v,
         b"K" => s.mv.centre[2] = v,
