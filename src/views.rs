@@ -126,7 +126,8 @@ const FRAME_COMMANDS: &[&str] = &[
 
 /// Predefined bare commands that change no programmed position (spline end conditions, the default feed
 /// profile, acceleration, look-ahead, display and single-block switches, the end of a transformation the
-/// dry run does not model): the dry run accepts them as they are.
+/// dry run does not model, the path compressor, the frame an orientation refers to): the dry run accepts
+/// them as they are.
 pub const NEUTRAL_COMMANDS: &[&str] = &[
     "BNAT",
     "BTAN",
@@ -152,6 +153,12 @@ pub const NEUTRAL_COMMANDS: &[&str] = &[
     "STOPFIFO",
     "STARTFIFO",
     "SAVE",
+    "COMPON",
+    "COMPCURV",
+    "COMPCAD",
+    "COMPOF",
+    "ORIWKS",
+    "ORIMKS",
 ];
 
 /// The other predefined instructions written as a bare name in a block (no `=`, no arguments): program
@@ -190,14 +197,8 @@ const PREDEFINED_COMMANDS: &[&str] = &[
     "CUT3DF",
     "CUT3DCC",
     "CUT3DCCD",
-    "COMPON",
-    "COMPCURV",
-    "COMPCAD",
-    "COMPOF",
     "TRAORI",
     "TRANSMIT",
-    "ORIWKS",
-    "ORIMKS",
     "ORIAXES",
     "ORIVECT",
     "ORIEULER",

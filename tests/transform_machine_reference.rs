@@ -8,45 +8,9 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-fn fixture(name: &str) -> String {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("fixtures")
-        .join(name)
-        .display()
-        .to_string()
-}
-
-/// Writes `files` into a new folder and runs driftloop there.
-fn run_in(files: &[(&str, &str)], args: &[&str]) -> (std::process::Output, tempfile::TempDir) {
-    let dir = tempfile::tempdir().unwrap();
-    for (name, text) in files {
-        std::fs::write(dir.path().join(name), text).unwrap();
-    }
-    let o = common::driftloop(dir.path(), args, b"");
-    (o, dir)
-}
-
-/// `program` transformed with `profile` (written: the command's own audits passed).
-fn transformed(program: &str, profile: &str, files: &[(&str, &str)]) -> String {
-    let model = fixture("omm/model.toml");
-    let (o, dir) = run_in(
-        files,
-        &[
-            "transform",
-            program,
-            "--model",
-            &model,
-            "--profile",
-            profile,
-            "-o",
-            "out.mpf",
-        ],
-    );
-    assert!(o.status.success(), "{}", common::stderr(&o));
-    std::fs::read_to_string(dir.path().join("out.mpf")).unwrap()
-}
+use common::{fixture, run_in, transformed_in};
 
 /// `run --audit` of `out` against `original` on a machine whose work offsets `offsets` gives (the body of
 /// `[offsets]`): exit code and the report.
@@ -94,10 +58,30 @@ fn without_the_rise(out: &str) -> String {
     kept.join("\n") + "\n"
 }
 
+/// The audit of `out` is clean and complete under each of `offsets`.
+fn clean_under(out: &str, program: &str, profile: &str, offsets: &[&str]) {
+    for offsets in offsets {
+        let (clean, report) = audit(out, program, profile, offsets);
+        assert!(clean, "{offsets}: {report}");
+        assert!(report.contains("0 finding(s)"), "{offsets}: {report}");
+        assert!(
+            !report.contains("ended the transformed program"),
+            "{offsets}: {report}"
+        );
+    }
+}
+
+/// The audit's report on `out` without its rise to the reference, under `offsets`: it must find hazards.
+fn hazard_without_the_rise(out: &str, program: &str, profile: &str, offsets: &str) -> String {
+    let (clean, report) = audit(&without_the_rise(out), program, profile, offsets);
+    assert!(!clean, "{report}");
+    report
+}
+
 #[test]
 fn a_milling_gate_rises_to_the_setters_start_point_under_a_low_work_offset() {
     let program = fixture("programs/single_tool.mpf");
-    let out = transformed(&program, "tool-setter", &[]);
+    let out = transformed_in(&[], &program, "tool-setter");
     // Clearance Z100 in G54, which lies at Z-500: the setter's start point Z-300 (machine) is 100 mm
     // higher. Each gate travels at Z-300 - offset, never at the clearance below it.
     assert!(
@@ -108,27 +92,18 @@ fn a_milling_gate_rises_to_the_setters_start_point_under_a_low_work_offset() {
         !out.contains("$AA_IM"),
         "the guard that stopped the machine is gone"
     );
-    for offsets in [
-        "G54 = { Z = -500.0 }",
-        "G54 = { Z = -380.0 }",
-        "G54 = { Z = 0.0 }",
-    ] {
-        let (clean, report) = audit(&out, &program, "tool-setter", offsets);
-        assert!(clean, "{offsets}: {report}");
-        assert!(report.contains("0 finding(s)"), "{offsets}: {report}");
-        assert!(
-            !report.contains("ended the transformed program"),
-            "{offsets}: {report}"
-        );
-    }
-    // The gate as it was travels across 100 mm below the start point and moves down after measuring.
-    let (clean, report) = audit(
-        &without_the_rise(&out),
+    clean_under(
+        &out,
         &program,
         "tool-setter",
-        "G54 = { Z = -500.0 }",
+        &[
+            "G54 = { Z = -500.0 }",
+            "G54 = { Z = -380.0 }",
+            "G54 = { Z = 0.0 }",
+        ],
     );
-    assert!(!clean, "{report}");
+    // The gate as it was travels across 100 mm below the start point and moves down after measuring.
+    let report = hazard_without_the_rise(&out, &program, "tool-setter", "G54 = { Z = -500.0 }");
     assert!(
         report.contains("at Z-400 (machine coordinates) below the reference's start point Z-300"),
         "{report}"
@@ -142,27 +117,24 @@ fn a_milling_gate_rises_to_the_setters_start_point_under_a_low_work_offset() {
 #[test]
 fn a_lathe_gate_rises_in_x_to_the_arms_start_diameter_under_an_x_offset() {
     let program = fixture("programs/lathe.mpf");
-    let out = transformed(&program, "lathe-setter", &[]);
+    let out = transformed_in(&[], &program, "lathe-setter");
     // X in radius inside the gate: the start diameter 120 is 60, the clearance diameter 200 is 100.
     assert!(
         out.contains("IF R62<60-($P_ACTFRAME[X,TR]+$P_ACTFRAME[X,FI]) ;DL"),
         "{out}"
     );
-    for offsets in ["G54 = { X = -50.0, Z = -300.0 }", "G54 = { X = 20.0 }"] {
-        let (clean, report) = audit(&out, &program, "lathe-setter", offsets);
-        assert!(clean, "{offsets}: {report}");
-        assert!(
-            !report.contains("ended the transformed program"),
-            "{report}"
-        );
-    }
-    let (clean, report) = audit(
-        &without_the_rise(&out),
+    clean_under(
+        &out,
+        &program,
+        "lathe-setter",
+        &["G54 = { X = -50.0, Z = -300.0 }", "G54 = { X = 20.0 }"],
+    );
+    let report = hazard_without_the_rise(
+        &out,
         &program,
         "lathe-setter",
         "G54 = { X = -50.0, Z = -300.0 }",
     );
-    assert!(!clean, "{report}");
     assert!(
         report.contains("at X50 (machine coordinates) below the reference's start point X60"),
         "{report}"
@@ -255,7 +227,7 @@ G1 X1
 G0 Z2
 M30
 ";
-    let out = transformed("p.mpf", "tool-setter", &[("p.mpf", prog)]);
+    let out = transformed_in(&[("p.mpf", prog)], "p.mpf", "tool-setter");
     let lines: Vec<&str> = out.lines().collect();
     let gates: Vec<usize> = (0..lines.len())
         .filter(|&k| {

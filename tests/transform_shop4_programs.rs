@@ -6,31 +6,6 @@
 
 mod common;
 
-use std::path::Path;
-
-/// `program` transformed with `profile` (a builtin name or a file written beside it), which must succeed.
-fn transformed(files: &[(&str, &str)], program: &str, profile: &str) -> String {
-    let dir = tempfile::tempdir().unwrap();
-    for (name, text) in files {
-        std::fs::write(dir.path().join(name), text).unwrap();
-    }
-    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/omm/model.toml");
-    let model = model.display().to_string();
-    let args = [
-        "transform",
-        program,
-        "--model",
-        &model,
-        "--profile",
-        profile,
-        "-o",
-        "out.mpf",
-    ];
-    let o = common::driftloop(dir.path(), &args, b"");
-    assert!(o.status.success(), "{}", common::stderr(&o));
-    std::fs::read_to_string(dir.path().join("out.mpf")).unwrap()
-}
-
 /// The builtin `name` measuring at every gate that can (the branch a pause takes on the machine).
 fn measuring(name: &str) -> String {
     let o = common::run(&["profiles", name]);
@@ -46,6 +21,27 @@ fn inserted_between<'a>(out: &'a str, from: &str, to: &str) -> Vec<&'a str> {
         .iter()
         .copied()
         .filter(|l| l.ends_with(";DL"))
+        .collect()
+}
+
+/// `prog` transformed with each of `tool-setter` and `blum-tc50` measuring at every gate: the profile, the
+/// output and the inserted lines between the original lines starting with `from` and `to`.
+fn every_gate_between(
+    prog: &str,
+    from: &str,
+    to: &str,
+) -> Vec<(&'static str, String, Vec<String>)> {
+    ["tool-setter", "blum-tc50"]
+        .into_iter()
+        .map(|profile| {
+            let files = [("p.mpf", prog), ("every.toml", &measuring(profile))];
+            let out = common::transformed_in(&files, "p.mpf", "every.toml");
+            let gate = inserted_between(&out, from, to)
+                .into_iter()
+                .map(String::from)
+                .collect();
+            (profile, out, gate)
+        })
         .collect()
 }
 
@@ -75,13 +71,7 @@ G1 X150 F1200
 G0 Z50
 M30
 ";
-    for profile in ["tool-setter", "blum-tc50"] {
-        let out = transformed(
-            &[("p.mpf", prog), ("every.toml", &measuring(profile))],
-            "p.mpf",
-            "every.toml",
-        );
-        let gate = inserted_between(&out, "T=\"FM_D80\" M6", "S2000 M3");
+    for (profile, out, gate) in every_gate_between(prog, "T=\"FM_D80\" M6", "S2000 M3") {
         assert!(
             gate.iter().any(|l| l.starts_with("G0 G90 Z=R")),
             "{profile}: a measuring gate\n{out}"
@@ -121,13 +111,7 @@ G0 X0
 M9 M5
 M30
 ";
-    for profile in ["tool-setter", "blum-tc50"] {
-        let out = transformed(
-            &[("p.mpf", prog), ("every.toml", &measuring(profile))],
-            "p.mpf",
-            "every.toml",
-        );
-        let gate = inserted_between(&out, "SPOS=0", "G0 Z-42");
+    for (profile, out, gate) in every_gate_between(prog, "SPOS=0", "G0 Z-42") {
         assert!(
             !gate.is_empty(),
             "{profile}: the pass start keeps its prediction update\n{out}"
@@ -177,7 +161,7 @@ M5 M9
 G0 SUPA Z-0.1 D0
 M30
 ";
-    let out = transformed(&[("p.mpf", prog)], "p.mpf", "blum-tc50");
+    let out = common::transformed_in(&[("p.mpf", prog)], "p.mpf", "blum-tc50");
     let lines: Vec<&str> = out.lines().collect();
     let zero = lines
         .iter()
