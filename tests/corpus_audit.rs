@@ -28,15 +28,29 @@ fn every_transformed_corpus_program_passes_the_audit() {
     assert!(files.len() >= 40, "{}", files.len());
     let mut total = 0;
     for (name, _, _) in BUILTIN {
-        // As shipped, on a control whose reset selects the offset, and with every gate measuring (the
-        // branch a pause takes on the machine, which `transform` audits too).
-        for (reset, every) in [(false, false), (true, false), (false, true)] {
+        // As shipped, on a control whose reset selects the offset, with every gate measuring (the branch a
+        // pause takes on the machine, which `transform` audits too), and that on a machine whose work
+        // offsets are not 0 (`AuditSettings::shifted_offsets`, as `transform` audits it).
+        for (reset, every, shifted) in [
+            (false, false, false),
+            (true, false, false),
+            (false, true, false),
+            (false, true, true),
+        ] {
             let mut profile = Profile::builtin(name).unwrap();
             profile.offset.reset_selects = reset;
             profile.log.measure_every_gate = every;
             let settings = AuditSettings::from_profile(&profile)
                 .drifting_as(&model)
                 .unwrap();
+            let cfg = driftloop::vm::Config {
+                offsets: if shifted {
+                    settings.shifted_offsets()
+                } else {
+                    Vec::new()
+                },
+                ..driftloop::vm::Config::default()
+            };
             let (mut transformed, mut complete, mut warned) = (0, 0, 0);
             let mut refused = Vec::new();
             for f in &files {
@@ -52,7 +66,7 @@ fn every_transformed_corpus_program_passes_the_audit() {
                 transformed += 1;
                 let mut s = settings.clone();
                 s.dir = f.parent().map(Path::to_path_buf);
-                let Ok(found) = audit(&src, &t.bytes, &s, &driftloop::vm::Config::default()) else {
+                let Ok(found) = audit(&src, &t.bytes, &s, &cfg) else {
                     continue;
                 };
                 let hazards: Vec<_> = found
@@ -64,7 +78,7 @@ fn every_transformed_corpus_program_passes_the_audit() {
                     let translated = String::from_utf8_lossy(&src).contains("TRANS");
                     assert!(
                         translated && hazards.iter().all(|h| h.kind == Kind::PositionNotRestored),
-                        "{name} (reset_selects {reset}, every gate measuring {every}), {}: {hazards:#?}",
+                        "{name} (reset_selects {reset}, every gate measuring {every}, offsets shifted {shifted}), {}: {hazards:#?}",
                         f.display()
                     );
                     refused.push(f.file_name().unwrap().to_string_lossy().into_owned());
@@ -74,7 +88,7 @@ fn every_transformed_corpus_program_passes_the_audit() {
                 warned += usize::from(!found.findings.is_empty());
             }
             println!(
-                "{name:<17} reset_selects={reset:<5} every_gate={every:<5}: {} of {} programs pass the audit ({complete} run to the end, {warned} with the probe point in the cut); refused by the audit: {refused:?}",
+                "{name:<17} reset_selects={reset:<5} every_gate={every:<5} shifted={shifted:<5}: {} of {} programs pass the audit ({complete} run to the end, {warned} with the probe point in the cut); refused by the audit: {refused:?}",
                 transformed - refused.len(),
                 files.len()
             );

@@ -1,6 +1,7 @@
 //! 26 shop-style programs written for a QA run (CAM posts for 840D with swivels, high-speed settings and
 //! drilling cycles, hand-written programs with loops, labels and frames, lathe and grinder programs, CRLF,
-//! Latin-1, an archive; subprograms in fixtures/shop/subs) through `transform` with every builtin profile.
+//! Latin-1, an archive; subprograms in fixtures/shop/subs) and 22 with tool changes for QA round 4
+//! (fixtures/shop4, its README lists them) through `transform` with every builtin profile.
 //! Each output is audited by `transform` itself (as planned and with every gate measuring); here every
 //! written program must give its original back through `strip`, and the counts of what transforms are held
 //! (a change that refuses more, or writes what it refused, shows here).
@@ -15,49 +16,77 @@ fn root() -> &'static Path {
 
 #[test]
 fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
-    let expected = [
-        ("blum-tc50", 18),
-        ("siemens-cycle978", 18),
-        ("tool-setter", 23),
-        ("grinder-gauge", 23),
-        ("lathe-setter", 23),
+    // fixtures/shop (26, QA rounds 1–2) and fixtures/shop4 (22 with tool changes, QA round 4).
+    let sets = [
+        (
+            "shop",
+            26,
+            [
+                ("blum-tc50", 18),
+                ("siemens-cycle978", 18),
+                ("tool-setter", 24),
+                ("grinder-gauge", 25),
+                ("lathe-setter", 24),
+            ],
+        ),
+        (
+            "shop4",
+            22,
+            [
+                ("blum-tc50", 20),
+                ("siemens-cycle978", 20),
+                ("tool-setter", 21),
+                ("grinder-gauge", 21),
+                ("lathe-setter", 21),
+            ],
+        ),
     ];
-    for (profile, count) in expected {
-        let out = tempfile::tempdir().unwrap();
-        let o = common::run(&[
-            "transform",
-            "fixtures/shop",
-            "--model",
-            "fixtures/omm/model.toml",
-            "--profile",
-            profile,
-            "--subprograms",
-            "fixtures/shop/subs",
-            "--keep-going",
-            "-o",
-            &out.path().display().to_string(),
-        ]);
-        let err = common::stderr(&o);
-        assert!(
-            err.contains(&format!("{count} of 26 programs transform")),
-            "{profile}: {err}"
-        );
-        assert!(
-            !err.contains("panicked") && !err.contains("internal error"),
-            "{err}"
-        );
-        let written = common::files_under(out.path(), &["mpf", "arc"]);
-        assert_eq!(written.len(), count, "{profile}");
-        for file in written {
-            let name = file.file_name().unwrap();
-            let original = std::fs::read(root().join("fixtures/shop").join(name)).unwrap();
-            let stripped = common::run(&["strip", &file.display().to_string()]);
-            assert!(stripped.status.success(), "{}", common::stderr(&stripped));
-            assert!(
-                stripped.stdout == original,
-                "{profile}: {} does not strip back",
-                name.to_string_lossy()
-            );
+    for (set, total, expected) in sets {
+        for (profile, count) in expected {
+            transforms_and_strips_back(set, total, profile, count);
         }
+    }
+}
+
+/// Transforms fixtures/`set` (its subprograms in `subs`) with `profile`: `count` of `total` written, each
+/// stripping back to its original.
+fn transforms_and_strips_back(set: &str, total: usize, profile: &str, count: usize) {
+    let dir = format!("fixtures/{set}");
+    let subs = format!("{dir}/subs");
+    let out = tempfile::tempdir().unwrap();
+    let o = common::run(&[
+        "transform",
+        &dir,
+        "--model",
+        "fixtures/omm/model.toml",
+        "--profile",
+        profile,
+        "--subprograms",
+        &subs,
+        "--keep-going",
+        "-o",
+        &out.path().display().to_string(),
+    ]);
+    let err = common::stderr(&o);
+    assert!(
+        err.contains(&format!("{count} of {total} programs transform")),
+        "{set} {profile}: {err}"
+    );
+    assert!(
+        !err.contains("panicked") && !err.contains("internal error"),
+        "{err}"
+    );
+    let written = common::files_under(out.path(), &["mpf", "arc"]);
+    assert_eq!(written.len(), count, "{set} {profile}");
+    for file in written {
+        let name = file.file_name().unwrap();
+        let original = std::fs::read(root().join(&dir).join(name)).unwrap();
+        let stripped = common::run(&["strip", &file.display().to_string()]);
+        assert!(stripped.status.success(), "{}", common::stderr(&stripped));
+        assert!(
+            stripped.stdout == original,
+            "{set} {profile}: {} does not strip back",
+            name.to_string_lossy()
+        );
     }
 }

@@ -108,13 +108,23 @@ fn every_measuring_gate_probes_both_axes_and_corrects_both() {
         "{out}"
     );
     assert!(out.contains(",drift_z_um,drift_x_um,pass,run"), "{out}");
-    // Cycle_in waits for either axis.
+    // Cycle_in waits for either axis, each comparison in brackets: on the control AND binds tighter than
+    // `<`, and `ABS(a)<d AND ABS(b)<d` would compare ABS(a) with `d AND ABS(b)`, never skipping.
     let sparse = transformed_with(&sparse_profile());
     assert!(
         sparse
             .lines()
-            .any(|l| l.starts_with("IF ABS(R") && l.contains(" AND ABS(R")),
+            .any(|l| l.starts_with("IF (ABS(R") && l.contains(") AND (ABS(R")),
         "{sparse}"
+    );
+    let mut every = sparse_profile();
+    every.log.measure_every_gate = true;
+    let (planned, all) = (run(&sparse), run(&transformed_with(&every)));
+    assert!(
+        planned.measurements.len() < all.measurements.len(),
+        "{} probings as planned, {} with every gate measuring",
+        planned.measurements.len(),
+        all.measurements.len()
     );
     // The header names both models.
     assert!(out.contains("model drift_z_um sha256 zzzz") && out.contains("model drift_x_um"));

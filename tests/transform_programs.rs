@@ -5,15 +5,7 @@
 
 mod common;
 
-use std::path::PathBuf;
-
-fn fixture(name: &str) -> String {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("fixtures")
-        .join(name)
-        .display()
-        .to_string()
-}
+use common::fixture;
 
 /// The transformed program, after checking the command succeeded with a complete audit.
 fn transformed(program: &str, profile: &str) -> String {

@@ -443,8 +443,11 @@ fn a_tool_change_subprogram_loads_the_selected_tool() {
         "p.mpf",
         "blum-tc50",
     );
-    // The probe is swapped back for the tool L6 loaded.
-    assert!(out.contains("T=3 M6 ;DL"), "{out}");
+    // The probe is swapped in and back for the tool L6 loaded the way the program changes tools: `T=` and
+    // its L6, never a bare M6 the machine may not take outside its macro (QA round 4).
+    assert!(out.contains("T=\"BLUM_TC50\" ;DL\nL6 ;DL\n"), "{out}");
+    assert!(out.contains("T=3 ;DL\nL6 ;DL\n"), "{out}");
+    assert!(!out.contains(" M6 ;DL"), "{out}");
     // L6 turned the coolant off: no gate after it turns it on before the program does.
     let lines: Vec<&str> = out.lines().collect();
     let second = lines.iter().rposition(|l| *l == "L6").unwrap();

@@ -487,7 +487,7 @@ fn transform_one(
     let audit = if args.no_audit {
         None
     } else {
-        let note = audit_output(input, &program, &edits, &refs, profile, "")?;
+        let note = audit_output(input, &program, &edits, &refs, profile, false, "")?;
         if !profile.log.measure_every_gate {
             // The dry run takes each gate's Cycle_in decision as the plan predicts it, so most gates skip
             // their measuring branch there; on the machine a pause (a stop, a feed hold) makes the
@@ -498,12 +498,15 @@ fn transform_one(
             let (every, _) = omm::prepare_timed(&program, &moves, &refs, &measuring, args.force)
                 .map_err(|e| Refusal::new(e.reason(), e))?
                 .into_edits();
+            // It runs on work offsets that are not 0 (and put the clearance below a reference in machine
+            // coordinates): a gate must hold under whatever offsets the machine has.
             audit_output(
                 input,
                 &program,
                 &every,
                 &refs,
                 &measuring,
+                true,
                 " with every gate measuring (as a gate does when a pause makes the predicted change exceed δ′; `[log] measure_every_gate = true` in the profile writes that program)",
             )?;
         }
@@ -520,13 +523,15 @@ fn transform_one(
 /// Runs the transformed program beside the original on a virtual machine that drifts as the model predicts
 /// (the safety audit, `driftloop run --audit`): a finding the inserted blocks caused refuses the program; one
 /// the profile caused (its probe point in the part's cut) is a warning; a construct the dry run cannot run
-/// ends the audit there, with a note.
+/// ends the audit there, with a note. With `shifted`, the machine starts with the work offsets of
+/// [`crate::vm::audit::AuditSettings::shifted_offsets`].
 fn audit_output(
     input: &Input,
     program: &crate::Program,
     edits: &Edits,
     models: &[ModelRef<'_>],
     profile: &Profile,
+    shifted: bool,
     variant: &str,
 ) -> Result<AuditNote, Refusal> {
     use crate::vm::audit::{AuditSettings, Kind, audit_owned};
@@ -555,6 +560,11 @@ fn audit_output(
     }
     let cfg = crate::vm::Config {
         subprogram_dirs: profile.timeline.subprograms.clone(),
+        offsets: if shifted {
+            settings.shifted_offsets()
+        } else {
+            Vec::new()
+        },
         ..crate::vm::Config::default()
     };
     let transformed = edits.to_bytes(program);

@@ -433,6 +433,7 @@ fn prepare_with<'p>(
             .collect(),
         label_prefix,
         fingerprint: warm::fingerprint(&models.iter().map(|m| m.sha256).collect::<Vec<_>>()),
+        tool_change_call: timeline.tool_change_call.clone(),
     };
     if let Some(w) = &profile.warm_start {
         let store = w.r_first..w.r_first + emitter.store_len();
@@ -507,19 +508,21 @@ fn prepare_with<'p>(
     }
     let last_rpm = plan.gates.last().map_or(0.0, |g| g.rpm);
     for &end in &timeline.ends {
-        insert(&mut editor, end, emitter.end(last_rpm))?;
+        let inch = timeline.inch_at.get(&end).copied();
+        insert(&mut editor, end, emitter.end(last_rpm, inch))?;
     }
     if timeline.ends.is_empty() && timeline.unit_end > 0 {
-        let end = emitter.end(last_rpm);
+        let last = &timeline.as_callee.end;
+        let end = emitter.end(last_rpm, last.units.filter(|_| last.inch()));
         inserted += end.lines().count();
         editor.insert_after(timeline.unit_end - 1, &end)?;
     }
-    if let Some(text) = emitter.reapply() {
-        for &b in timeline
-            .offset_selections
-            .iter()
-            .filter(|&&b| b >= timeline.preamble_end)
-        {
+    for &b in timeline
+        .offset_selections
+        .iter()
+        .filter(|&&b| b >= timeline.preamble_end)
+    {
+        if let Some(text) = emitter.reapply(timeline.inch_at.get(&b).copied()) {
             inserted += text.lines().count();
             editor.insert_after(b, &text)?;
         }

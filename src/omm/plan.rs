@@ -461,6 +461,11 @@ fn skipped_zero_is_safe(profile: &Profile) -> bool {
 
 const SUM_OFFSET: &str = "a sum offset (DL=) is active, which the probe's tool change and the cutting tool's return would not give back";
 
+const IN_PART: &str = "the tool may stand in the part there (no rapid clear of what was cut since the last cut: inside a bore, under the part), and a gate retracts along the tool axis";
+
+const D0: &str =
+    "D0 is active: heights are the spindle's, and the probe would travel a probe length above it";
+
 const TOOL_UNKNOWN: &str = "the tool in the spindle is not known there (no tool change before it), so the probe could not be swapped for it again";
 
 /// Why a site cannot carry the reference measurement with this profile's probe; `None` when it can.
@@ -474,12 +479,18 @@ fn unfit_for_reference(site: &Site, profile: &Profile, rule: OffsetRule) -> Opti
             "it lies inside an IF … ENDIF of the program, which does not run every time, and the zero must",
         );
     }
+    if site.in_part {
+        return Some(IN_PART);
+    }
     if site.state_varies {
         return Some(
             "its modal state is not known for sure (later runs of a loop reach it in another state, or a subprogram or cycle ran before it)",
         );
     }
     match profile.probe.kind {
+        // The probe travels with its tip at the height the spindle stood at: a whole probe length
+        // higher, beyond the top after the `SUPA Z0 D0` posts write before a tool change.
+        ProbeKind::SpindleProbe if site.before.d == Some(0) => Some(D0),
         ProbeKind::SpindleProbe if tool_change_follows => None,
         ProbeKind::SpindleProbe if site.before.tool.is_none() => Some(TOOL_UNKNOWN),
         ProbeKind::SpindleProbe if site.before.unknown & timeline::unknown::SUM_OFFSET != 0 => {
@@ -541,12 +552,18 @@ fn reference_site(
                 }
             }
         }
-        if let Some(k) = timeline
-            .sites
-            .iter()
-            .position(|s| matches!(s.kind, SiteKind::PassStart { .. }) && fit(s).is_none())
-        {
-            return Ok(k);
+        // After the first cut: the first fit pass start, else the first fit place after the setup (a post
+        // that retracts with D0 before every tool change leaves no pass start fit for a spindle probe).
+        let pass_start = |s: &Site| matches!(s.kind, SiteKind::PassStart { .. });
+        let after_setup = |s: &Site| s.block >= from;
+        for wanted in [&pass_start as &dyn Fn(&Site) -> bool, &after_setup] {
+            if let Some(k) = timeline
+                .sites
+                .iter()
+                .position(|s| wanted(s) && fit(s).is_none())
+            {
+                return Ok(k);
+            }
         }
     }
     let cut = timeline
@@ -566,9 +583,12 @@ fn reference_site(
         message.push_str(
             "; for a program that never changes tools measure with the tool in the spindle (`--profile tool-setter`, `grinder-gauge` or `lathe-setter`, or [probe] kind = \"tool-setter\" or \"gauge\" in your profile; `driftloop profiles` lists them), or add the tool change T=\"NAME\" M6 before the first cut",
         );
-        // A shop's tool-change subprogram counts once its file is read.
+        // A shop's tool-change subprogram counts once its file is read (Siemens' cycles change no tool).
         let before_cut = |line: usize| timeline.first_cut.is_none_or(|b| line <= b + 1);
-        if let Some((line, name)) = timeline.untimed_calls.iter().find(|c| before_cut(c.0)) {
+        let candidate = |(line, name): &&(usize, String)| {
+            before_cut(*line) && !name.to_ascii_uppercase().starts_with("CYCLE")
+        };
+        if let Some((line, name)) = timeline.untimed_calls.iter().find(candidate) {
             message.push_str(&format!(
                 "; if {name} (line {line}) changes the tool, put its file beside the program or give its folder with --subprograms DIR"
             ));
@@ -599,9 +619,7 @@ fn unfit_for_measuring(
         );
     }
     if site.in_part {
-        return Some(
-            "the tool may stand in the part there (no rapid clear of what was cut since the last cut: inside a bore, under the part), and a gate retracts along the tool axis",
-        );
+        return Some(IN_PART);
     }
     if let Some(why) = site
         .before
@@ -949,6 +967,7 @@ mod tests {
             retract_axis: Axis::Z,
             diameter: false,
             also: Vec::new(),
+            retract_max: None,
             axis: Axis::Z,
             nominal: -5.0,
         }

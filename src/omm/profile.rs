@@ -166,6 +166,11 @@ pub struct Position {
     /// Further axes every measuring gate measures and corrects, each with its own model channel.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub also: Vec<AlsoMeasured>,
+    /// The highest machine coordinate on the retract axis a gate may rise to (a diameter on X with
+    /// `diameter`): a gate whose travel height lies above it under the work offset in force stops before
+    /// it moves. Unset: the control's software limit is the only bound.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub retract_max: Option<f64>,
 }
 
 impl Position {
@@ -177,6 +182,20 @@ impl Position {
         } else {
             v
         }
+    }
+
+    /// The start point's coordinate on `axis` as the profile gives it (a diameter on X with `diameter`).
+    pub fn start(&self, axis: Axis) -> f64 {
+        match axis {
+            Axis::X => self.x,
+            Axis::Y => self.y,
+            Axis::Z => self.z,
+        }
+    }
+
+    /// The start point's coordinate on `axis` as a gate moves it, in radius on X.
+    pub fn start_in_radius(&self, axis: Axis) -> f64 {
+        self.in_radius(axis, self.start(axis))
     }
 }
 
@@ -606,6 +625,43 @@ impl Profile {
     }
 }
 
+impl Profile {
+    /// `position.retract_max` bounds how high a gate rises: a number a machine reaches, for a probe that
+    /// moves, and (for a reference in machine coordinates) not below any start point a gate descends to.
+    fn validate_retract_max(&self) -> Result<(), String> {
+        let p = &self.position;
+        let Some(max) = p.retract_max else {
+            return Ok(());
+        };
+        if !(max.is_finite() && max.abs() < 1e5) {
+            return Err(format!(
+                "position.retract_max must be a coordinate within ±100000 mm, not {max}"
+            ));
+        }
+        if self.probe.kind == ProbeKind::Gauge {
+            return Err(
+                "position.retract_max: a gauge gate moves nothing, so it bounds nothing; remove it"
+                    .into(),
+            );
+        }
+        if p.frame == MeasureFrame::Machine {
+            let axis = p.retract_axis;
+            if let Some(start) = self
+                .measured()
+                .iter()
+                .map(|at| at.start(axis))
+                .find(|start| max < *start)
+            {
+                return Err(format!(
+                    "position.retract_max {max} lies below the probing start point {}{start} (machine coordinates): a gate travels at or above the start point",
+                    axis.name(),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Highest R-parameter number a profile may give driftloop (the control's MD28050 decides how many exist).
 const LAST_R: u32 = 9999;
 /// Longest time in a profile (s): a day.
@@ -693,11 +749,7 @@ impl Profile {
             ));
         }
         let p = &self.position;
-        let start = match p.retract_axis {
-            Axis::X => p.x,
-            Axis::Y => p.y,
-            Axis::Z => p.z,
-        };
+        let start = p.start(p.retract_axis);
         if p.frame == MeasureFrame::Work
             && self.probe.kind != ProbeKind::Gauge
             && p.clearance <= start
@@ -708,6 +760,7 @@ impl Profile {
                 p.retract_axis.name()
             ));
         }
+        self.validate_retract_max()?;
         let g = self.offset_g().unwrap_or(0);
         let frame_of_select = match g {
             54..=57 => g - 53,

@@ -150,3 +150,41 @@ pub fn frame_profile_file(dir: &Path) -> PathBuf {
     std::fs::write(&path, frame_profile_text()).unwrap();
     path
 }
+
+/// `name` under the crate's fixtures folder, as a path that works from any folder.
+pub fn fixture(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+/// Writes `files` into a new folder and runs `driftloop ARGS` there: the run and the folder.
+pub fn run_in(files: &[(&str, &str)], args: &[&str]) -> (Output, tempfile::TempDir) {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text) in files {
+        std::fs::write(dir.path().join(name), text).unwrap();
+    }
+    let o = driftloop(dir.path(), args, b"");
+    (o, dir)
+}
+
+/// `program` transformed with `profile` (a builtin or a file among `files`) and the fixture model, beside
+/// `files`: the output, which must have been written (the command's own audits passed).
+pub fn transformed_in(files: &[(&str, &str)], program: &str, profile: &str) -> String {
+    let model = fixture("omm/model.toml");
+    let args = [
+        "transform",
+        program,
+        "--model",
+        &model,
+        "--profile",
+        profile,
+        "-o",
+        "out.mpf",
+    ];
+    let (o, dir) = run_in(files, &args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    std::fs::read_to_string(dir.path().join("out.mpf")).unwrap()
+}

@@ -22,6 +22,9 @@ use super::profile::{
 };
 use super::timeline::Modal;
 
+/// Metric dimensions for geometry, feed and system variables: what inserted blocks run in where the program
+/// is in inch.
+const METRIC: &str = "G710";
 /// Comment every inserted block ends with.
 pub const MARK: &str = ";DL";
 /// A value no measurement gives (mm): marks "nothing measured yet" and "the cycle returned nothing".
@@ -352,6 +355,9 @@ pub struct Emitter<'a> {
     pub label_prefix: String,
     /// Tells the models apart in the warm-start store ([`crate::omm::warm::fingerprint`]).
     pub fingerprint: u32,
+    /// The subprogram the program changes tools with (`L6`): the gates' tool changes call it too, after
+    /// `T=`, instead of the profile's M6, which the machine may not take outside its macro.
+    pub tool_change_call: Option<String>,
 }
 
 fn r(n: u32) -> String {
@@ -538,15 +544,33 @@ impl Emitter<'_> {
     }
 
     /// `method = "active"`, after a block that selects a work offset: the correction again, on the newly
-    /// selected offset.
-    pub fn reapply(&self) -> Option<String> {
+    /// selected offset; in metric when `inch` (G70, G700) is in force there.
+    pub fn reapply(&self, inch: Option<u32>) -> Option<String> {
         (!self.selects()).then(|| {
             let mut v = vec![
                 "; driftloop: the program selected a work offset: the correction again".to_string(),
             ];
+            v.extend(inch.map(|_| METRIC.to_string()));
             v.extend((0..self.axes.len()).map(|k| self.set_in_force(k, self.reg(k).applied)));
+            v.extend(inch.map(|g| format!("G{g}")));
             Emitter::finish(v)
         })
+    }
+
+    /// `lines` (a comment first) in metric where the program has inch dimensions in force (`b`): the
+    /// registers, the profile's lengths and the frames driftloop writes are mm; G710 also reads and writes
+    /// system variables in mm, where G70 reads them in the basic system and G700 in inch. The program's
+    /// unit comes back at the end, with its feed, which only G700 reads in inch.
+    fn in_metric(b: &Modal, mut lines: Vec<String>) -> Vec<String> {
+        if let (true, Some(g)) = (b.inch(), b.units) {
+            lines.insert(1.min(lines.len()), METRIC.to_string());
+            let feed = b
+                .feed
+                .map(|f| format!(" F{}", number(f)))
+                .unwrap_or_default();
+            lines.push(format!("G{g}{feed}"));
+        }
+        lines
     }
 
     /// Stops the program for good: the work offset back to its value before the program first — SETAL stops
@@ -727,9 +751,10 @@ impl Emitter<'_> {
     }
 
     /// The program's position (work coordinates), read after the gate's STOPRE: where the gate brings it
-    /// back, whatever loop run or expression led there; and the height to travel at: the clearance height,
-    /// or the program's own where that is higher (the tool never moves down to travel). Nothing when the
-    /// gate does not move the machine.
+    /// back, whatever loop run or expression led there; and the height to travel at: the highest of the
+    /// clearance height, the program's own (the tool never moves down to travel) and, for a reference in
+    /// machine coordinates, its start point under the work offset in force. Nothing when the gate does not
+    /// move the machine.
     fn save_position(&self, gate: &Gate) -> Vec<String> {
         let p = &self.profile.position;
         if self.profile.probe.kind == ProbeKind::Gauge {
@@ -748,16 +773,76 @@ impl Emitter<'_> {
             r(self.regs.height),
             number(p.in_radius(p.retract_axis, p.clearance)),
         );
-        radius
+        let mut v: Vec<String> = radius
             .into_iter()
             .chain([
                 saves.join(" "),
                 format!("{h}={}", r(self.regs.saved[self.retract_index()])),
-                format!("IF {h}<{clearance}"),
-                format!("{h}={clearance}"),
-                "ENDIF".into(),
             ])
-            .collect()
+            .collect();
+        v.extend(at_least(&h, &clearance));
+        if p.frame == MeasureFrame::Machine {
+            // The start point is in machine coordinates, the clearance in work coordinates: under a work
+            // offset on the retract axis the clearance can lie below the start point, and the way to it and
+            // back would run down towards the part. The highest start point, in work coordinates here.
+            let start = self
+                .axes
+                .iter()
+                .map(|a| a.at.start_in_radius(p.retract_axis))
+                .fold(f64::NEG_INFINITY, f64::max);
+            let start = format!("{}-{}", number(start), self.frame_shift());
+            v.extend(at_least(&h, &start));
+        }
+        v.extend(self.within_retract_max());
+        v
+    }
+
+    /// The translation of the frames in force on the retract axis (NC expression, radius on X): what
+    /// `SUPA` leaves out. A gate moves under no rotation, scale or mirror, so a coordinate of the work
+    /// offset plus this is where `SUPA` would put it. The offsets of an X kept in diameter count half.
+    fn frame_shift(&self) -> String {
+        let a = self.profile.position.retract_axis;
+        let sum = format!("$P_ACTFRAME[{n},TR]+$P_ACTFRAME[{n},FI]", n = a.name());
+        if a == Axis::X && self.profile.offset.diameter {
+            format!("({sum})/2")
+        } else {
+            format!("({sum})")
+        }
+    }
+
+    /// `position.retract_max`: a travel height above the machine's highest coordinate for the retract
+    /// cannot be reached by rising; the gate stops before it moves (a tool already that high stays there).
+    fn within_retract_max(&self) -> Vec<String> {
+        let p = &self.profile.position;
+        let Some(max) = p.retract_max else {
+            return Vec::new();
+        };
+        let axis = p.retract_axis;
+        let (h, here) = (
+            r(self.regs.height),
+            r(self.regs.saved[self.retract_index()]),
+        );
+        let mut v = vec![format!(
+            "IF {}",
+            all_of(&[
+                format!("{h}>{here}"),
+                format!(
+                    "{h}+{}>{}",
+                    self.frame_shift(),
+                    number(p.in_radius(axis, max))
+                ),
+            ])
+        )];
+        v.extend(self.abort(
+            &format!(
+                "driftloop: the travel height lies above {}{} (machine coordinates, [position] retract_max) under the work offset in force: lower [position] clearance",
+                axis.name(),
+                number(max)
+            ),
+            self.profile.registers.alarm_implausible,
+        ));
+        v.push("ENDIF".into());
+        v
     }
 
     /// Index of the retract axis in the profile's axes (and the saved position).
@@ -769,20 +854,10 @@ impl Emitter<'_> {
             .expect("validated: the axes list the retract axis")
     }
 
-    /// Axis `a`'s coordinate of the start point of axis `k`'s probing, X in radius.
-    fn start_coordinate(&self, k: usize, a: Axis) -> f64 {
-        let at = &self.axes[k].at;
-        match a {
-            Axis::X => self.profile.position.in_radius(Axis::X, at.x),
-            Axis::Y => at.y,
-            Axis::Z => at.z,
-        }
-    }
-
     /// Travel at the travel height to the start point of axis `k`'s probing, then along the tool axis to it.
     fn to_start_point(&self, k: usize) -> Vec<String> {
         let p = &self.profile.position;
-        let coordinate = |a: Axis| self.start_coordinate(k, a);
+        let coordinate = |a: Axis| self.axes[k].at.start_in_radius(a);
         let supa = match p.frame {
             MeasureFrame::Work => "",
             MeasureFrame::Machine => "SUPA ",
@@ -803,11 +878,13 @@ impl Emitter<'_> {
         v
     }
 
-    /// `T=<tool>` with or without M6, as the machine changes tools.
-    fn load(&self, tool: &str) -> String {
-        match self.profile.probe.tool_change {
-            ToolChange::M6 => format!("T={tool} M6"),
-            ToolChange::T => format!("T={tool}"),
+    /// `T=<tool>` with M6, with the program's tool-change subprogram, or alone (a turret), as the machine
+    /// changes tools.
+    fn load(&self, tool: &str) -> Vec<String> {
+        match (self.profile.probe.tool_change, &self.tool_change_call) {
+            (ToolChange::M6, Some(call)) => vec![format!("T={tool}"), call.clone()],
+            (ToolChange::M6, None) => vec![format!("T={tool} M6")],
+            (ToolChange::T, _) => vec![format!("T={tool}")],
         }
     }
 
@@ -826,36 +903,11 @@ impl Emitter<'_> {
             v.push("M9".into());
         }
         if p.probe.kind == ProbeKind::SpindleProbe {
-            v.push(self.load(&format!("\"{}\"", p.probe.tool)));
+            v.extend(self.load(&format!("\"{}\"", p.probe.tool)));
             v.push(format!("D{}", p.probe.tool_offset));
             v.push(self.clear());
         }
-        v.extend(self.above_fixed_reference());
         v.extend(self.to_start_point(0));
-        v
-    }
-
-    /// A reference fixed on the machine is approached in machine coordinates from the travel height, which
-    /// is in work coordinates: under a work offset on the retract axis that height can lie below the start
-    /// point, and the move to it and back would run towards the part. The control compares the two where
-    /// the gate stands and stops before it moves across.
-    fn above_fixed_reference(&self) -> Vec<String> {
-        let p = &self.profile.position;
-        if p.frame != MeasureFrame::Machine {
-            return Vec::new();
-        }
-        let axis = p.retract_axis;
-        let start = self.start_coordinate(0, axis);
-        let mut v = vec![format!("IF $AA_IM[{}]<{}", axis.name(), number(start))];
-        v.extend(self.abort(
-            &format!(
-                "driftloop: the travel height lies below the reference's start point {}{} (machine coordinates) under the work offset in force: raise [position] clearance",
-                axis.name(),
-                number(start)
-            ),
-            self.profile.registers.alarm_implausible,
-        ));
-        v.push("ENDIF".into());
         v
     }
 
@@ -1083,7 +1135,7 @@ impl Emitter<'_> {
                 return v;
             }
             if let Some(tool) = &b.tool {
-                v.push(self.load(tool));
+                v.extend(self.load(tool));
             }
             if let (ToolChange::M6, Some(sel)) = (p.probe.tool_change, preselection) {
                 v.push(format!("T={sel}"));
@@ -1232,7 +1284,7 @@ impl Emitter<'_> {
         for k in 0..self.axes.len() {
             v.extend(self.set_targets(k, gate.rpm));
         }
-        Emitter::finish(v)
+        Emitter::finish(Emitter::in_metric(&gate.before, v))
     }
 
     /// A gate: prediction update; if it can measure, the Cycle_in decision and the measurement module;
@@ -1265,7 +1317,7 @@ impl Emitter<'_> {
                         )
                     })
                     .collect();
-                let cycle_in = format!("IF {}", calm.join(" AND "));
+                let cycle_in = format!("IF {}", all_of(&calm));
                 // Cycle_in machines on without measuring but still logs its row, without a reading.
                 v.push(cycle_in.clone());
                 v.extend(self.log_checked(gate.rpm, gate.pass, false));
@@ -1325,14 +1377,16 @@ impl Emitter<'_> {
         }
         v.extend(self.temp_comp_at_gate());
         v.extend(self.apply_correction());
-        Emitter::finish(v)
+        Emitter::finish(Emitter::in_metric(&gate.before, v))
     }
 
     /// Before the program ends: the work offset back to its value before the program; with a warm start
-    /// the states first brought up to now (the speed of the last gate held till here) and stored.
-    pub fn end(&self, rpm: f64) -> String {
+    /// the states first brought up to now (the speed of the last gate held till here) and stored. In
+    /// metric when `inch` (G70, G700) is in force there: the stored base values are mm.
+    pub fn end(&self, rpm: f64, inch: Option<u32>) -> String {
         let mut v =
             vec!["; driftloop: work offset back to its value before the program".to_string()];
+        v.extend(inch.map(|_| METRIC.to_string()));
         if self.regs.warm.is_some() {
             v.extend(self.read_timer());
             v.extend(self.update_prediction(rpm, None));
@@ -1340,8 +1394,31 @@ impl Emitter<'_> {
         }
         // The stored values only: the program ends here, and may not be running in the offset now.
         v.extend(self.restore_values());
+        v.extend(inch.map(|g| format!("G{g}")));
         Emitter::finish(v)
     }
+}
+
+/// The conditions joined by AND, each in brackets when there are several: the control's comparisons bind
+/// looser than AND (`a<b AND c<d` is `a<(b AND c)<d`).
+fn all_of(conditions: &[String]) -> String {
+    match conditions {
+        [one] => one.clone(),
+        _ => conditions
+            .iter()
+            .map(|c| format!("({c})"))
+            .collect::<Vec<_>>()
+            .join(" AND "),
+    }
+}
+
+/// `reg` raised to `floor` where it is below (NC blocks).
+fn at_least(reg: &str, floor: &str) -> [String; 3] {
+    [
+        format!("IF {reg}<{floor}"),
+        format!("{reg}={floor}"),
+        "ENDIF".into(),
+    ]
 }
 
 /// The block that turns the coolant `c` on again (M7, M8, both for 78); nothing when it was off.

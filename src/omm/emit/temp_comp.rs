@@ -186,6 +186,6 @@ impl Emitter<'_> {
             let a = self.reg(k);
             format!("{}+{}-{}", r(a.pred), r(a.eps), r(a.applied))
         }));
-        Emitter::finish(v)
+        Emitter::finish(Emitter::in_metric(&gate.before, v))
     }
 }

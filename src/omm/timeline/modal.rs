@@ -34,6 +34,8 @@ pub struct Modal {
     pub offset: Option<u32>,
     /// X is programmed in diameters (DIAMON, DIAM90).
     pub diameter: bool,
+    /// G70 / G71 / G700 / G710 (inch or metric dimensions), when the program set it.
+    pub units: Option<u32>,
     /// Under constant cutting speed (G96, `s` in m/min): the spindle speed estimated where S was set,
     /// n = 1000·v / (π·D) at the diameter the tool stood at, capped by LIMS.
     pub css_rpm: Option<f64>,
@@ -86,6 +88,12 @@ pub mod unknown {
 }
 
 impl Modal {
+    /// Lengths are programmed in inch (G70, G700): driftloop's blocks, whose lengths are mm, switch to G710
+    /// and back.
+    pub fn inch(&self) -> bool {
+        matches!(self.units, Some(70 | 700))
+    }
+
     /// Speed the spindle turns at (rpm, 0 when stopped).
     pub fn rpm(&self) -> f64 {
         if matches!(self.direction, 3 | 4) {
@@ -143,7 +151,7 @@ impl Modal {
 pub(super) mod field {
     use super::Modal;
 
-    pub const COUNT: usize = 18;
+    pub const COUNT: usize = 19;
     pub const TOOL: usize = 0;
     pub const D: usize = 1;
     pub const S: usize = 2;
@@ -162,6 +170,7 @@ pub(super) mod field {
     pub const UNKNOWN: usize = 15;
     pub const OFFSET: usize = 16;
     pub const DIAMETER: usize = 17;
+    pub const UNITS: usize = 18;
 
     /// The fields in which two states differ, by number.
     pub fn differ(a: &Modal, b: &Modal) -> [bool; COUNT] {
@@ -184,6 +193,7 @@ pub(super) mod field {
             a.unknown != b.unknown,
             a.offset != b.offset,
             a.diameter != b.diameter,
+            a.units != b.units,
         ]
     }
 }
@@ -292,6 +302,13 @@ mod tests {
             },
             field::DIAMETER,
         );
+        one(
+            Modal {
+                units: Some(70),
+                ..d()
+            },
+            field::UNITS,
+        );
         let all = Modal {
             tool: Some("1".into()),
             selected: Some("2".into()),
@@ -309,6 +326,7 @@ mod tests {
             comp: 41,
             offset: Some(54),
             diameter: true,
+            units: Some(700),
             css_rpm: None,
             frames: 1,
             unknown: 1,

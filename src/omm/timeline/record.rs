@@ -96,6 +96,12 @@ pub struct Timeline {
     /// The first block with a G code of the ISO dialect (Fanuc-style) and that code: `G291`, which switches
     /// to it, or one Siemens mode does not have (G43 tool length with H, G28, G80 … G89 cycles …).
     pub iso_dialect: Option<(usize, u32)>,
+    /// The subprogram the program changes tools with (the first one, as called): an `L6` whose M6 the
+    /// machine's shop macro wraps. Gates change tools the same way.
+    pub tool_change_call: Option<String>,
+    /// Blocks of `ends` and `offset_selections` where inch dimensions are in force, with their G code (70,
+    /// 700): what driftloop inserts there switches to metric and back.
+    pub inch_at: BTreeMap<usize, u32>,
     /// Lines (1-based) of `computed_r_lines` and `offsets` that call a subprogram from a folder in which the
     /// thing was found, with the subprogram's name.
     pub found_in_call: BTreeMap<usize, String>,

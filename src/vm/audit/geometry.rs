@@ -24,6 +24,11 @@ pub(super) fn straight_up(m: &Movement, axis: usize) -> bool {
     !moves_across(m, axis) && m.to[axis] > m.from[axis] + EPS
 }
 
+/// Whether a move changes no geometry axis.
+pub(super) fn stands_still(m: &Movement) -> bool {
+    (0..3).all(|k| (m.to[k] - m.from[k]).abs() <= EPS)
+}
+
 /// Whether a move changes a geometry axis other than `axis`.
 pub(super) fn moves_across(m: &Movement, axis: usize) -> bool {
     (0..3).any(|k| k != axis && (m.to[k] - m.from[k]).abs() > EPS)
@@ -180,5 +185,9 @@ mod tests {
             &line(0, [20.0, 0.0, 10.0], [60.0, 0.0, 10.0]),
             0
         ));
+        // A move to where the tool stands is neither.
+        let nowhere = line(0, [1.0, 2.0, 3.0], [1.0, 2.0, 3.0]);
+        assert!(stands_still(&nowhere) && !straight_up(&nowhere, 2));
+        assert!(!stands_still(&line(0, [1.0, 2.0, 3.0], [1.0, 2.0, 3.1])));
     }
 }

@@ -45,6 +45,18 @@ impl Lines {
     }
 }
 
+impl Lines {
+    /// The key of the transformed run's next block, `block` of `unit`: a block of a subprogram an inserted
+    /// block called (a gate's tool change through the program's `L6`) is inserted too.
+    pub(super) fn key_in(&self, t: &Interp<'_>, unit: &Unit, block: usize) -> Key {
+        if t.callers().any(|(u, b)| self.key(u, b) == Key::Inserted) {
+            Key::Inserted
+        } else {
+            self.key(unit, block)
+        }
+    }
+}
+
 fn original_key(main: &Rc<Source>, unit: &Unit, block: usize) -> Key {
     if Rc::ptr_eq(&unit.source, main) {
         Key::Main(block)
@@ -259,7 +271,10 @@ impl Runner<'_> {
                     return Ok(());
                 }
                 (Some((tu, tb)), Some((ou, ob))) => {
-                    let (tk, ok) = (self.lines.key(&tu, tb), original_key(&self.o_main, &ou, ob));
+                    let (tk, ok) = (
+                        self.lines.key_in(t, &tu, tb),
+                        original_key(&self.o_main, &ou, ob),
+                    );
                     if tk != ok {
                         let at = At::of(&self.lines, &tu, tb);
                         self.add(at.finding(
@@ -307,7 +322,7 @@ impl Runner<'_> {
         let mut ran = false;
         let mut forked = false;
         while let Some((unit, block)) = t.peek() {
-            if self.lines.key(&unit, block) != Key::Inserted {
+            if self.lines.key_in(t, &unit, block) != Key::Inserted {
                 break;
             }
             if !ran {
@@ -352,7 +367,12 @@ impl Runner<'_> {
         let done = step;
         if let Some(m) = &done.movement {
             self.moved(t);
-            self.inserted_move(at, m);
+            // A gate moves under no rotation, scale or mirror: a machine coordinate is the work
+            // coordinate plus the settable offset in force.
+            let frames = &t.motion.frames;
+            let to_machine =
+                frames.geo[self.settings.retract_axis].map_or(0.0, |a| frames.active[a]);
+            self.inserted_move(at, m, to_machine);
             self.watch.in_contour = false;
             self.watch.stopre = None;
             self.moves_under_sync_actions(at, t);
@@ -433,20 +453,25 @@ impl Runner<'_> {
         }
     }
 
-    /// Travel across the tool axis below the clearance height, and the move out of the probe point.
-    fn inserted_move(&mut self, at: &At, m: &Movement) {
+    /// Travel across the tool axis below the clearance height (work coordinates) or below the start point
+    /// of a reference in machine coordinates (the work coordinate plus `to_machine`), and the move out of
+    /// the probe point: straight up the tool axis, or — where the probe left the tool at the travel height
+    /// (a reference's start point the gate came to at that height) — across at it.
+    fn inserted_move(&mut self, at: &At, m: &Movement, to_machine: f64) {
         let s = self.settings;
         let r = s.retract_axis;
         let low = m.from[r].min(m.to[r]);
-        if geometry::moves_across(m, r) && low < s.clearance - geometry::EPS {
-            let across: Vec<usize> = (0..3).filter(|&k| k != r).collect();
-            let point = |p: [f64; 3]| {
-                across
-                    .iter()
-                    .map(|&k| format!("{}{}", AXES[k], num(p[k])))
-                    .collect::<Vec<_>>()
-                    .join(" ")
-            };
+        let across: Vec<usize> = (0..3).filter(|&k| k != r).collect();
+        let point = |p: [f64; 3]| {
+            across
+                .iter()
+                .map(|&k| format!("{}{}", AXES[k], num(p[k])))
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        let travels = geometry::moves_across(m, r);
+        let below_clearance = low < s.clearance - geometry::EPS;
+        if travels && below_clearance {
             self.add(at.finding(
                 Kind::XyBelowClearance,
                 format!(
@@ -460,8 +485,34 @@ impl Runner<'_> {
                 ),
             ));
         }
+        let below_reference = s
+            .reference_start
+            .filter(|start| low + to_machine < start - geometry::EPS);
+        if let Some(start) = below_reference.filter(|_| travels) {
+            self.add(at.finding(
+                Kind::XyBelowClearance,
+                format!(
+                    "travel from {} to {} at {}{} (machine coordinates) below the reference's start point {}{} (machine coordinates) under the work offset in force",
+                    point(m.from),
+                    point(m.to),
+                    AXES[r],
+                    num(low + to_machine),
+                    AXES[r],
+                    num(start)
+                ),
+            ));
+        }
+        // A move that goes nowhere (a retract to where the probe left the tool) is not the move out.
+        if geometry::stands_still(m) {
+            return;
+        }
+        let level_at_travel_height = travels
+            && (m.to[r] - m.from[r]).abs() <= geometry::EPS
+            && !below_clearance
+            && below_reference.is_none();
         if let Some(probe_line) = self.watch.at_probe.take()
             && !geometry::straight_up(m, r)
+            && !level_at_travel_height
         {
             let point = |p: [f64; 3]| format!("X{} Y{} Z{}", num(p[0]), num(p[1]), num(p[2]));
             self.add(at.finding(
@@ -672,7 +723,7 @@ impl Runner<'_> {
     }
 
     /// The transformed run ended while the original goes on: an abort in inserted blocks (the machine's
-    /// probe values led to one), or a flow change.
+    /// probe values or its work offsets led to one), or a flow change.
     fn ended_early(&mut self, o_unit: &Unit, o_block: usize) {
         let Some((at, inserted)) = self.last.clone() else {
             return;
@@ -688,8 +739,8 @@ impl Runner<'_> {
         );
         if inserted {
             self.audit.stopped = Some(format!(
-                "line {} (inserted) ended the transformed program on this machine's probe values; the \
-                 original from {continues} on was not compared",
+                "line {} (inserted) ended the transformed program on this machine's probe values or \
+                 work offsets; the original from {continues} on was not compared",
                 at.line
             ));
         } else {

@@ -54,6 +54,9 @@ pub struct AuditSettings {
     pub probe_point: Option<[f64; 3]>,
     /// The probe point is in machine coordinates (`position.frame = "machine"`: a reference on the table).
     pub probe_point_in_machine: bool,
+    /// For a reference in machine coordinates: the highest start point on the retract axis (machine
+    /// coordinates, radius on X); inside inserted blocks, travel across that axis happens at or above it too.
+    pub reference_start: Option<f64>,
     /// `position.nominal` and `position.diameter`: what the cycle reports when nothing drifts, and whether it
     /// reports a diameter (twice the drift).
     pub nominal: f64,
@@ -90,6 +93,12 @@ pub struct AuditSettings {
     pub dir: Option<PathBuf>,
 }
 
+/// How far below a reference's start point [`AuditSettings::shifted_offsets`] puts the clearance height (mm).
+pub const REFERENCE_MARGIN_MM: f64 = 50.0;
+/// The work offsets (X, Y, Z, mm) of [`AuditSettings::shifted_offsets`]: a part on a milling table below a
+/// spindle whose machine zero is at the top.
+const SHIFT: [f64; 3] = [120.0, 80.0, -450.0];
+
 /// `--probe-margin` default (mm).
 pub const DEFAULT_PROBE_MARGIN_MM: f64 = 5.0;
 
@@ -115,6 +124,14 @@ impl AuditSettings {
                 .then(|| probe.tool.clone()),
             probe_point: (probe.kind != ProbeKind::Gauge).then_some(point),
             probe_point_in_machine: p.frame == MeasureFrame::Machine,
+            reference_start: (p.frame == MeasureFrame::Machine && probe.kind != ProbeKind::Gauge)
+                .then(|| {
+                    profile
+                        .measured()
+                        .iter()
+                        .map(|at| at.start_in_radius(p.retract_axis))
+                        .fold(f64::NEG_INFINITY, f64::max)
+                }),
             nominal: p.nominal,
             diameter: p.diameter,
             axis,
@@ -158,6 +175,26 @@ impl AuditSettings {
                 .insert(["X", "Y", "Z"][axis].to_string(), truth);
         }
         Ok(self)
+    }
+
+    /// Work offsets for a dry run that must not start at 0, where every position in work coordinates is
+    /// one in machine coordinates and a mix-up of the two never shows: every settable offset
+    /// (`$P_UIFR[0…99]`, G500 included) at X120 Y80 Z-450, but on the retract axis of a gate measuring at a
+    /// reference in machine coordinates where it finds it worst: the clearance height
+    /// [`REFERENCE_MARGIN_MM`] below the reference's start point. For `Config::offsets`.
+    pub fn shifted_offsets(&self) -> Vec<(usize, String, f64)> {
+        let mut shift = SHIFT;
+        if let Some(start) = self.reference_start {
+            shift[self.retract_axis] = start - REFERENCE_MARGIN_MM - self.clearance;
+        }
+        (0..super::motion::FRAMES)
+            .flat_map(|frame| {
+                ["X", "Y", "Z"]
+                    .iter()
+                    .zip(shift)
+                    .map(move |(axis, mm)| (frame, axis.to_string(), mm))
+            })
+            .collect()
     }
 
     /// The measured and corrected axes (0, 1, 2): `position.axis` first.

@@ -201,6 +201,16 @@ impl Interp<'_> {
                     m.frames.active[a] - m.frames.fine[f][a]
                 }
             }
+            // The complete frame: the settable offset in force and the programmable translation, all
+            // in the coarse part (a chain keeps no fine part of its own here).
+            ("$P_ACTFRAME", [axis, part]) => {
+                let a = self.axis_arg(u, axis)?;
+                if Interp::fine_part(u, part)? {
+                    0.0
+                } else {
+                    m.frames.offset(a)
+                }
+            }
             ("$AN_POWERON_TIME" | "$AN_SETUP_TIME", []) => self.time_min,
             ("$AC_CYCLE_TIME" | "$AC_OPERATING_TIME", []) => self.time_min * 60.0,
             ("$P_F", []) => m.modal.feed.unwrap_or(0.0),

@@ -280,6 +280,14 @@ impl<'m> Interp<'m> {
         Ok(())
     }
 
+    /// The calls the running block is inside, outermost first: each caller's unit and its call block.
+    pub(in crate::vm) fn callers(&self) -> impl Iterator<Item = (&Unit, usize)> {
+        let below_top = self.stack.len().saturating_sub(1);
+        self.stack[..below_top]
+            .iter()
+            .map(|f| (f.unit.as_ref(), f.pc.saturating_sub(1)))
+    }
+
     /// The block that runs next, after returning from subprograms that have run off their end; `None` once
     /// the run has ended.
     pub(super) fn peek(&mut self) -> Option<(Rc<Unit>, usize)> {

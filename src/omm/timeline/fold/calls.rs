@@ -122,7 +122,7 @@ impl Builder<'_> {
         }
         take!(D => d, FEED => feed, MOTION => motion, ABSOLUTE => absolute, FEED_MODE => feed_mode,
             PLANE => plane, PATH_MODE => path_mode, COMP => comp, OFFSET => offset,
-            DIAMETER => diameter);
+            DIAMETER => diameter, UNITS => units);
         if t[field::FEED_MODE] {
             self.per_rev = end.feed_mode == Some(95);
         }
@@ -155,6 +155,7 @@ impl Builder<'_> {
                 17..=19 => field::PLANE,
                 40..=42 => field::COMP,
                 60 | 64 | 641..=645 => field::PATH_MODE,
+                70 | 71 | 700 | 710 => field::UNITS,
                 _ => continue,
             };
             t[f] = true;

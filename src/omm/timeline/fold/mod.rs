@@ -535,6 +535,7 @@ impl<'p> Builder<'p> {
                 17..=19 => self.state.plane = Some(g),
                 40..=42 => self.state.comp = g,
                 60 | 64 | 641..=645 => self.state.path_mode = Some(g),
+                70 | 71 | 700 | 710 => self.state.units = Some(g),
                 g if is_iso_only(g) => {
                     self.t.iso_dialect.get_or_insert((i, g));
                 }
@@ -606,6 +607,9 @@ impl<'p> Builder<'p> {
         let own_m6 = s.m.contains(6);
         // A tool-change subprogram loads the selected tool as M6 does.
         let tool_change = own_m6 || call_loads.is_some();
+        if let (Some(_), Some(name), None) = (&call_loads, &s.call, &self.t.tool_change_call) {
+            self.t.tool_change_call = Some(name.clone());
+        }
         self.m6_seen |= call_loads.is_some();
         if let Some(tool) = &s.tool {
             self.state.selected = Some(tool.clone());
@@ -615,6 +619,11 @@ impl<'p> Builder<'p> {
             // M6 loads the selected tool (T alone only selects it, in a program that uses M6).
             self.state.tool = self.state.selected.clone();
             self.new_cutting_edge(s);
+            // The change cycle stops the spindle (a positioned one too); the program starts it again for
+            // the new tool (a gate that gave back the last tool's speed would spin the new one at it).
+            if !s.m.iter().any(|m| matches!(m, 3 | 4)) {
+                self.state.direction = 5;
+            }
         }
         let rpm = self.state.rpm();
         if s.tool.is_some() {
@@ -658,6 +667,11 @@ impl<'p> Builder<'p> {
         }
         if let Some(sub) = call_loads {
             self.after_tool_change_call(i, &sub.as_callee);
+        }
+        if let (true, Some(g)) = (self.state.inch(), self.state.units)
+            && (self.t.ends.last() == Some(&i) || self.t.offset_selections.last() == Some(&i))
+        {
+            self.t.inch_at.insert(i, g);
         }
         self.loops(i, s, kind, start);
         self.jump_from(i);

@@ -107,7 +107,7 @@ pub(super) fn follow(
             let Some((unit, block)) = copy.peek() else {
                 break;
             };
-            if runner.lines.key(&unit, block) != Key::Inserted {
+            if runner.lines.key_in(&copy, &unit, block) != Key::Inserted {
                 if !matches!(fault, Fault::Scrap) {
                     reached_offset(runner, &copy, o, fault, wrote.take());
                 }
