@@ -237,6 +237,8 @@ pub struct Mover {
     feed: f64,
     feed_known: bool,
     retract: u8,
+    /// A feed move of the piece was timed (see [`Mover::finish_line`]).
+    cut_seen: bool,
     block: usize,
     /// The run being extended, pushed to `runs` when a block ends it.
     open: Option<Run>,
@@ -268,6 +270,7 @@ impl Mover {
             feed: 0.0,
             feed_known: false,
             retract: UNKNOWN,
+            cut_seen: false,
             block: 0,
             open: None,
             runs: Vec::new(),
@@ -498,11 +501,24 @@ impl Mover {
         self.block += 1;
         if moves {
             self.plain_move(i);
+            self.end_run_at_first_cut();
         } else {
             self.forget();
         }
         (self.written, self.motion_word, self.moves_only) = (0, NO_MOTION, true);
         self.radius = None;
+    }
+
+    /// Ends the open run after the piece's first timed cut. The fold reads the blocks up to the program's
+    /// first cut one by one (the set-up's sites are found there), so a run holding that cut is read again
+    /// from its text; in a CAM program that run is the whole first piece. Ended here, only the run up to
+    /// the cut is read, and the moves after it start a run the fold takes at once.
+    #[inline(always)]
+    fn end_run_at_first_cut(&mut self) {
+        if !self.cut_seen && self.open.as_ref().is_some_and(|run| run.cuts) {
+            self.cut_seen = true;
+            self.close();
+        }
     }
 
     /// Reads a line the recogniser left to the grammar because of a `CR=radius` (the one assignment CAM
