@@ -33,7 +33,8 @@ struct Piece {
 
 /// Consecutive blocks that only move (`N`, `G0`-`G3`, `X Y Z I J K F`, `CR=`) and whose lengths are known from the
 /// blocks before them, in absolute dimensions with feeds per minute. A run starts after any block that is
-/// not such a move, or whose move depends on what came before the piece, and ends before the next.
+/// not such a move, or whose move depends on what came before the piece, and ends before the next, or with
+/// the piece's first cut ([`Mover::end_run_at_first_cut`]).
 #[derive(Debug, Clone)]
 pub(super) struct Run {
     pub(super) first: usize,
