@@ -79,6 +79,10 @@ pub enum TransformError {
         "line {line}: G{code} is a word of the ISO dialect (Fanuc-style, G291 mode): driftloop inserts Siemens-mode blocks, which that mode reads otherwise, and a gate's tool change would drop a tool length compensation given with G43 H; driftloop transforms Siemens-mode programs only"
     )]
     IsoDialect { line: usize, code: u32 },
+    #[error(
+        "line {line}: {call} coordinates this program with another channel of the control, which may be cutting the same part or turning the same spindle while a gate stops the spindle, changes tools or moves this channel's axes; driftloop transforms the program of one channel only (a program with START, INIT, WAITM, WAITMC, WAITE, SETM or CLEARM is refused: run it without the gates)"
+    )]
+    Channels { line: usize, call: String },
     #[error("{0}")]
     Other(String),
     #[error(
@@ -109,6 +113,7 @@ impl TransformError {
             TransformError::FrameWrite(_) => "writes a work offset itself",
             TransformError::FrameInForceWrite(_) => "writes the frame in force itself",
             TransformError::IsoDialect { .. } => "ISO dialect",
+            TransformError::Channels { .. } => "coordinates several channels",
             TransformError::Other(_) => "profile or registers",
             TransformError::LongBlock(_) => "block too long",
             TransformError::Emit(_) => "internal error",
@@ -286,6 +291,12 @@ fn plan_with(
     Ok((timeline, plan))
 }
 
+/// The procedures that start, stop or wait for another channel: while a program that calls them runs,
+/// another channel may cut the same part with the same spindle.
+const CHANNEL_COORDINATION: &[&str] = &[
+    "START", "INIT", "WAITM", "WAITMC", "WAITE", "SETM", "CLEARM",
+];
+
 /// What the timeline shows that no plan can mend: R-parameters driftloop cannot prove free, another work
 /// offset than the profile corrects.
 fn refusals(timeline: &Timeline, profile: &Profile) -> Result<(), TransformError> {
@@ -297,6 +308,16 @@ fn refusals(timeline: &Timeline, profile: &Profile) -> Result<(), TransformError
         return Err(TransformError::IsoDialect {
             line: block + 1,
             code,
+        });
+    }
+    if let Some((line, call)) = timeline
+        .untimed_calls
+        .iter()
+        .find(|(_, name)| CHANNEL_COORDINATION.contains(&name.as_str()))
+    {
+        return Err(TransformError::Channels {
+            line: *line,
+            call: call.clone(),
         });
     }
     if let Some(&line) = timeline.computed_r_lines.first() {

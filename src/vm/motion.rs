@@ -333,6 +333,8 @@ pub struct State {
     pub kinematics: Kinematics,
     /// DIAMON / DIAM90: the axis (X) whose programmed values are diameters; the machine moves half.
     pub diameter_axis: Option<usize>,
+    /// DIAM90: only absolute values of that axis are diameters, incremental ones (G91, IC) are radius.
+    pub diam90: bool,
     /// SD43900 `$SA_TEMP_COMP_ABS_VALUE` per axis (mm): persistent setting data, like the settable frames.
     pub temp_comp: Vec<f64>,
     /// The master spindle stands in position control at this angle (`SPOS`, `SPOSA`, `M19`) until M3, M4,
@@ -391,6 +393,7 @@ impl State {
             flood: false,
             kinematics: Kinematics::default(),
             diameter_axis: None,
+            diam90: false,
             temp_comp: vec![0.0; axes],
             spindle_position: None,
             speed_limits: [None; 2],

@@ -762,7 +762,7 @@ impl Emitter<'_> {
         }
         // In radius from here to the modal line: the saved X, the clearance and every move of the gate
         // mean the same on any control, whatever $AA_IW reports under DIAMON.
-        let radius = gate.before.diameter.then(|| "DIAMOF".to_string());
+        let radius = gate.before.diameter.on().then(|| "DIAMOF".to_string());
         let saves: Vec<String> = p
             .axes
             .iter()
@@ -1173,13 +1173,19 @@ impl Emitter<'_> {
     /// The modal G codes and feed the gate's moves and the cycle may have changed, as the program had them.
     fn modal_back(&self, b: &Modal) -> Vec<String> {
         let mut words = Vec::new();
-        for g in [b.plane, b.feed_mode, b.path_mode].into_iter().flatten() {
-            words.push(format!("G{g}"));
-        }
+        // Under constant cutting speed the feed type is G96 with its cutting speed: G95 (its group) would
+        // end it and leave the spindle at a fixed speed for the rest of the program.
+        let feed_mode = match b.css_rpm {
+            Some(_) => Some(format!("G96 S{}", number(b.s))),
+            None => b.feed_mode.map(|g| format!("G{g}")),
+        };
+        let plane = b.plane.map(|g| format!("G{g}"));
+        let path = b.path_mode.map(|g| format!("G{g}"));
+        words.extend([plane, feed_mode, path].into_iter().flatten());
         words.push(format!("G{}", b.motion));
         words.push(if b.absolute { "G90" } else { "G91" }.to_string());
-        if b.diameter && self.profile.probe.kind != ProbeKind::Gauge {
-            words.push("DIAMON".into());
+        if b.diameter.on() && self.profile.probe.kind != ProbeKind::Gauge {
+            words.push(b.diameter.command().into());
         }
         if let Some(f) = b.feed {
             words.push(format!("F{}", number(f)));

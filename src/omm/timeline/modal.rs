@@ -32,8 +32,9 @@ pub struct Modal {
     pub comp: u32,
     /// The work offset selected (54 … 57, 505 … 599, or 500 for none), when the program selected one.
     pub offset: Option<u32>,
-    /// X is programmed in diameters (DIAMON, DIAM90).
-    pub diameter: bool,
+    /// How X is programmed: in radius (DIAMOF), in diameters (DIAMON), or in diameters for absolute values
+    /// and radius for incremental ones (DIAM90).
+    pub diameter: Diameter,
     /// G70 / G71 / G700 / G710 (inch or metric dimensions), when the program set it.
     pub units: Option<u32>,
     /// Under constant cutting speed (G96, `s` in m/min): the spindle speed estimated where S was set,
@@ -44,6 +45,34 @@ pub struct Modal {
     /// Fields the program set by an expression the timeline cannot evaluate ([`unknown`] bits): a gate
     /// cannot write them back.
     pub unknown: u8,
+}
+
+/// How X values are read on a lathe (the commands of G group 29).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Diameter {
+    /// DIAMOF: radius.
+    #[default]
+    Off,
+    /// DIAMON: diameters, absolute and incremental.
+    On,
+    /// DIAM90: diameters for absolute values (G90, AC), radius for incremental ones (G91, IC).
+    Absolute,
+}
+
+impl Diameter {
+    /// X values are diameters, at least the absolute ones.
+    pub fn on(self) -> bool {
+        self != Diameter::Off
+    }
+
+    /// The command that selects it.
+    pub fn command(self) -> &'static str {
+        match self {
+            Diameter::Off => "DIAMOF",
+            Diameter::On => "DIAMON",
+            Diameter::Absolute => "DIAM90",
+        }
+    }
 }
 
 /// The coolant after `m` (7, 8, 9, or 78 for both) in state `before`: M7 (mist) and M8 (flood) add to each
@@ -297,7 +326,7 @@ mod tests {
         );
         one(
             Modal {
-                diameter: true,
+                diameter: Diameter::On,
                 ..d()
             },
             field::DIAMETER,
@@ -325,7 +354,7 @@ mod tests {
             coolant: Some(8),
             comp: 41,
             offset: Some(54),
-            diameter: true,
+            diameter: Diameter::On,
             units: Some(700),
             css_rpm: None,
             frames: 1,

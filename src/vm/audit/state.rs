@@ -66,8 +66,19 @@ pub(super) fn tools(t: &State, o: &State) -> Vec<Difference> {
     v
 }
 
+/// G93, G94, G95, or G96 (feed per revolution under constant cutting speed).
+fn feed_type(m: &crate::vm::motion::Modal) -> String {
+    if m.css {
+        "G96".into()
+    } else {
+        format!("G{}", m.feed_mode.g())
+    }
+}
+
 fn diameter(s: &State) -> String {
-    if s.diameter_axis.is_some() {
+    if s.diameter_axis.is_some() && s.diam90 {
+        "DIAM90"
+    } else if s.diameter_axis.is_some() {
         "DIAMON"
     } else {
         "DIAMOF"
@@ -199,7 +210,7 @@ pub(super) fn modal(t: &State, o: &State, s: &AuditSettings, axes: &[String]) ->
     let g = |n: u32| format!("G{n}");
     let items = [
         ("coolant", coolant(t), coolant(o)),
-        ("feed type", g(tm.feed_mode.g()), g(om.feed_mode.g())),
+        ("feed type", feed_type(tm), feed_type(om)),
         ("dimensions", g90(tm.absolute), g90(om.absolute)),
         ("plane", plane(&tm.plane), plane(&om.plane)),
         ("path mode", g(tm.path), g(om.path)),

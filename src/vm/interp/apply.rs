@@ -41,10 +41,13 @@ impl Interp<'_> {
                 }
                 90 => modal.absolute = true,
                 91 => modal.absolute = false,
-                93 => modal.feed_mode = FeedMode::InverseTime,
-                94 => modal.feed_mode = FeedMode::PerMinute,
-                95 => modal.feed_mode = FeedMode::PerRevolution,
-                96 | 97 => modal.css = g == 96,
+                // G93 … G97 are one group (15): a feed type ends constant cutting speed, G96 is feed per
+                // revolution with it.
+                93 => (modal.feed_mode, modal.css) = (FeedMode::InverseTime, false),
+                94 => (modal.feed_mode, modal.css) = (FeedMode::PerMinute, false),
+                95 => (modal.feed_mode, modal.css) = (FeedMode::PerRevolution, false),
+                96 => (modal.feed_mode, modal.css) = (FeedMode::PerRevolution, true),
+                97 => modal.css = false,
                 _ => return Err(format!("G{g} is not supported by the dry run")),
             }
         }
@@ -395,7 +398,13 @@ impl Interp<'_> {
                 Dim::Incremental => false,
             };
             let offset = if suppress { 0.0 } else { st.frames.offset(a) };
-            st.local[a] = if absolute { v } else { st.local[a] + v };
+            // Under DIAM90 an incremental value of the diameter axis is a radius: twice it on the diameter.
+            let step = if st.diam90 && st.diameter_axis == Some(a) {
+                2.0 * v
+            } else {
+                v
+            };
+            st.local[a] = if absolute { v } else { st.local[a] + step };
             let radius = if st.diameter_axis == Some(a) {
                 st.local[a] / 2.0
             } else {

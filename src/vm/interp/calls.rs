@@ -121,8 +121,10 @@ impl Interp<'_> {
                     self.motion.local[a] *= 2.0;
                 }
                 self.motion.diameter_axis = x;
+                self.motion.diam90 = name == "DIAM90";
             }
             "DIAMOF" => {
+                self.motion.diam90 = false;
                 if let Some(a) = self.motion.diameter_axis.take() {
                     self.motion.local[a] /= 2.0;
                 }

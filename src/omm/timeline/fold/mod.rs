@@ -573,7 +573,8 @@ impl<'p> Builder<'p> {
         if let Some(l) = s.lims {
             self.lims = Some(l);
         }
-        if s.g.contains(97) {
+        // G93 … G95 and G97 share G96's group: each ends constant cutting speed.
+        if s.g.iter().any(|g| matches!(g, 93..=95 | 97)) {
             self.state.css_rpm = None;
         } else if s.g.contains(96)
             || (self.state.css_rpm.is_some() && (speed.is_some() || s.lims.is_some()))
@@ -817,7 +818,7 @@ impl<'p> Builder<'p> {
     fn css_rpm(&self) -> f64 {
         let v = self.state.s.abs();
         let diameter = self.pos[0].map(|x| {
-            if self.state.diameter {
+            if self.state.diameter.on() {
                 x.abs()
             } else {
                 2.0 * x.abs()

@@ -4,6 +4,7 @@
 
 use std::sync::Arc;
 
+use super::modal::Diameter;
 use crate::syntax::{BlockKind, Program};
 
 mod tree;
@@ -50,8 +51,8 @@ pub(super) struct Scan {
     pub(super) statement: bool,
     /// The block moves an axis other than X, Y, Z (a rotary axis, say).
     pub(super) other_axes: bool,
-    /// DIAMON / DIAM90 (true) or DIAMOF (false): X values are diameters from here on.
-    pub(super) diameter: Option<bool>,
+    /// DIAMON, DIAM90 or DIAMOF: how X values are read from here on.
+    pub(super) diameter: Option<Diameter>,
     /// `LIMS=`: the speed limit under constant cutting speed (rpm).
     pub(super) lims: Option<f64>,
     /// `GOTOS`: back to the program's start.

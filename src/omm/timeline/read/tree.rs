@@ -7,7 +7,7 @@ use crate::syntax::{Block, BlockKind, Node, NodeKind, Program};
 use crate::views::{AxisMode, Value, VarName, WorkOffset, facts, is_predefined_command};
 
 use super::{Bound, Count, Scan, comment, frame_op};
-use crate::omm::timeline::modal::{POSITIONED, unknown};
+use crate::omm::timeline::modal::{Diameter, POSITIONED, unknown};
 
 pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
     let block = program.block(i);
@@ -126,6 +126,11 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
             s.g.push(g);
         }
     }
+    // G58 / G59 replace the absolute or the additive translation of the programmable frame on the axes
+    // they name (the axial offsets): a translation like TRANS, not a move.
+    if f.g_codes.iter().any(|g| matches!(g, 58 | 59)) && !f.axes.is_empty() {
+        s.frame_ops |= frame_op::TRANSLATE;
+    }
     for w in &f.work_offsets {
         if let WorkOffset::G(g) = w {
             s.offsets.push(*g);
@@ -159,8 +164,9 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                 let name = String::from_utf8_lossy(block.text(node)).to_ascii_uppercase();
                 s.frame_ops |= transformation_op(&name) | frame_command_op(&name, &f, &block);
                 match name.as_str() {
-                    "DIAMON" | "DIAM90" => s.diameter = Some(true),
-                    "DIAMOF" => s.diameter = Some(false),
+                    "DIAMON" => s.diameter = Some(Diameter::On),
+                    "DIAM90" => s.diameter = Some(Diameter::Absolute),
+                    "DIAMOF" => s.diameter = Some(Diameter::Off),
                     _ => {}
                 }
                 if !is_predefined_command(&name) {

@@ -79,6 +79,11 @@ fn scan_words(line: &[u8], marker: &str, s: &mut Scan) -> Option<()> {
         match letter {
             b'G' => {
                 let g = int()?;
+                // G58 / G59 change the programmable frame: their axis words are its values, which the tree
+                // path reads as such.
+                if matches!(g, 58 | 59) {
+                    return None;
+                }
                 if matches!(g, 53 | 153 | 500 | 54..=57 | 505..=599) {
                     s.offsets.push(g);
                 }
