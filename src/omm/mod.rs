@@ -5,6 +5,7 @@
 
 pub mod continuous;
 pub mod emit;
+mod iso;
 pub mod loops;
 pub mod nc;
 pub mod plan;
@@ -76,9 +77,9 @@ pub enum TransformError {
     )]
     FrameInForceWrite(usize),
     #[error(
-        "line {line}: G{code} is a word of the ISO dialect (Fanuc-style, G291 mode): driftloop inserts Siemens-mode blocks, which that mode reads otherwise, and a gate's tool change would drop a tool length compensation given with G43 H; driftloop transforms Siemens-mode programs only"
+        "line {line}: {word} is a word of the ISO dialect (Fanuc-style, G291 mode): driftloop inserts Siemens-mode blocks, which that mode reads otherwise, and a gate's tool change would drop a tool length compensation given with G43 H; driftloop transforms Siemens-mode programs only (run this one as it is)"
     )]
-    IsoDialect { line: usize, code: u32 },
+    IsoDialect { line: usize, word: String },
     #[error(
         "line {line}: {call} coordinates this program with another channel of the control, which may be cutting the same part or turning the same spindle while a gate stops the spindle, changes tools or moves this channel's axes; driftloop transforms the program of one channel only (a program with START, INIT, WAITM, WAITMC, WAITE, SETM or CLEARM is refused: run it without the gates)"
     )]
@@ -203,6 +204,11 @@ fn check_with(program: &Program, moves: Option<&Moves>, force: bool) -> Result<(
     if let Some(line) = header {
         return Err(TransformError::AlreadyTransformed(line));
     }
+    // Before the syntax errors: an ISO program's `(…)` comments do not parse in Siemens mode, and fixing
+    // them would not make it transformable.
+    if let Some((line, word)) = iso::iso_word(src) {
+        return Err(TransformError::IsoDialect { line, word });
+    }
     let errors = program
         .diagnostics()
         .iter()
@@ -307,7 +313,7 @@ fn refusals(timeline: &Timeline, profile: &Profile) -> Result<(), TransformError
     if let Some((block, code)) = timeline.iso_dialect {
         return Err(TransformError::IsoDialect {
             line: block + 1,
-            code,
+            word: format!("G{code}"),
         });
     }
     if let Some((line, call)) = timeline

@@ -411,13 +411,18 @@ impl Cx {
         }
     }
 
-    /// `target = expr`.
+    /// `target = expr`, or a polynomial's coefficients `PO[X]=(xe, a2, a3 …)` (POLY).
     fn assignment<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
+        let poly = ident(i).is_ok_and(|(_, name)| name.eq_ignore_ascii_case(b"PO"));
         let (i, target) = self.var_ref(i)?;
         let mut parts = vec![target];
         let (i, ()) = self.punct(i, "=", "`=`", &mut parts)?;
         let i = self.ws(i, &mut parts);
-        let (rest, value) = self.expr(i)?;
+        let (rest, value) = if poly && i.first() == Some(&b'(') {
+            self.args(i)?
+        } else {
+            self.expr(i)?
+        };
         parts.push(value);
         Ok((rest, Node::with_children(K::Assign, parts)))
     }

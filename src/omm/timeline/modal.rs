@@ -229,7 +229,7 @@ pub(super) mod field {
 
 #[cfg(test)]
 mod tests {
-    use super::{Modal, field};
+    use super::{Diameter, Modal, field};
 
     /// The named field numbers are the places `differ` reports those fields at.
     #[test]
