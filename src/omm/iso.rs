@@ -50,10 +50,14 @@ fn first_word(src: &[u8], word: &[u8]) -> Option<(usize, String)> {
             && after.is_none_or(|b| !(b.is_ascii_alphanumeric() || matches!(b, b'_' | b'.')));
         let quoted = before.iter().filter(|&&b| b == b'"').count() % 2 == 1;
         let open = before.iter().filter(|&&b| b == b'(').count();
-        let commented = before.contains(&b';') || open > before.iter().filter(|&&b| b == b')').count();
+        let commented =
+            before.contains(&b';') || open > before.iter().filter(|&&b| b == b')').count();
         (alone && !quoted && !commented).then(|| {
             let line = memchr::memchr_iter(b'\n', &src[..at]).count() + 1;
-            (line, String::from_utf8_lossy(&src[at..at + word.len()]).into_owned())
+            (
+                line,
+                String::from_utf8_lossy(&src[at..at + word.len()]).into_owned(),
+            )
         })
     })
 }
@@ -68,14 +72,8 @@ mod tests {
             iso_word(b"O2041 (BUCHSE)\nG90\nM30\n"),
             Some((1, "O2041".into()))
         );
-        assert_eq!(
-            iso_word(b"; head\n\nO12\nG0 X0\n"),
-            Some((3, "O12".into()))
-        );
-        assert_eq!(
-            iso_word(b"G0 X0\nM5\nM99\n"),
-            Some((3, "M99".into()))
-        );
+        assert_eq!(iso_word(b"; head\n\nO12\nG0 X0\n"), Some((3, "O12".into())));
+        assert_eq!(iso_word(b"G0 X0\nM5\nM99\n"), Some((3, "M99".into())));
         assert_eq!(
             iso_word(b"G0 X0\nN20 G291\nM99\n"),
             Some((2, "G291".into()))

@@ -32,6 +32,8 @@ impl Interp<'_> {
                 // Cutter radius compensation moves the contour in the plane, never the depth.
                 40..=42 => modal.compensation = g,
                 53 | 153 => suppress = true,
+                // G75 FP=n: its axes go to the fixed point, a machine position (below).
+                75 => suppress = true,
                 54..=57 => self.motion.frames.select(g as usize - 53),
                 505..=599 => self.motion.frames.select(g as usize - 500),
                 500 => self.motion.frames.select(0),
@@ -156,6 +158,8 @@ impl Interp<'_> {
         self.other_spindles(&w);
         if let Some(frame) = &w.frame_command {
             self.frame_command(frame, &w.axes, w.rpl)?;
+        } else if w.g.contains(&75) {
+            self.fixed_point(u, i, &w)?;
         } else if !w.axes.is_empty() && limit.is_none() {
             self.travel(u, i, &w, suppress)?;
         }
@@ -376,6 +380,30 @@ impl Interp<'_> {
             &multiply(&rotation(2, angles[2]), &rotation(1, angles[1])),
             &rotation(0, angles[0]),
         ))
+    }
+
+    /// G75 FP=n: the axes the block names go to fixed point n at rapid, a machine position
+    /// (`$MA_FIX_POINT_POS[n-1,axis]` from the machine file's `[variables]`, else 0, noted); the values
+    /// written with them are placeholders.
+    fn fixed_point(&mut self, u: &Unit, i: usize, w: &Words) -> Result<(), String> {
+        let Some(fp) = w.fixed_point else {
+            return Err("G75 needs FP=n, the fixed point (1 … 4)".into());
+        };
+        let mut axes = Vec::new();
+        for &(a, _, _) in &w.axes {
+            let name = format!("$MA_FIX_POINT_POS[{},{}]", fp - 1, self.cfg.axes[a]);
+            let key = crate::vm::config::variable_key(&name)
+                .ok_or_else(|| format!("{name} cannot be a variable's name"))?;
+            axes.push((a, Dim::Absolute, self.external(key)));
+        }
+        let to = Words {
+            axes,
+            ..Words::default()
+        };
+        let motion = std::mem::replace(&mut self.motion.modal.motion, 0);
+        let moved = self.travel(u, i, &to, true);
+        self.motion.modal.motion = motion;
+        moved
     }
 
     /// Moves the programmed axes: geometry, time, and the cut it makes.

@@ -146,12 +146,32 @@ impl Interp<'_> {
     pub(super) fn program_call(
         &mut self,
         u: &Unit,
+        i: usize,
         node: &Node,
         w: &mut Words,
     ) -> Result<(), String> {
         let parts: Vec<&Node> = node.significant().collect();
         let keyword = u.upper(parts[0]);
         match (keyword.as_str(), parts.get(1)) {
+            // CALL BLOCK start TO end: the program's own blocks from one label to the other, once, then on
+            // after the call (a section repetition with one pass).
+            ("CALL", Some(kw)) if kw.kind == NodeKind::Keyword && u.upper(kw) == "BLOCK" => {
+                let (Some(first), Some(last)) = (parts.get(2), parts.get(4)) else {
+                    return Err("CALL BLOCK needs a start and an end label".into());
+                };
+                let (first, last) = (u.upper(first), u.upper(last));
+                let (start, end) = u.section_labels(i, &first, Some(&last));
+                let start = start
+                    .ok_or_else(|| format!("CALL BLOCK: label {first} not found (alarm 14080)"))?;
+                let end = end.ok_or_else(|| {
+                    format!("CALL BLOCK: end label {last} not found after {first}")
+                })?;
+                if (start..=end).contains(&i) {
+                    return Err("CALL BLOCK would call itself".into());
+                }
+                w.section = Some((start, end));
+                Ok(())
+            }
             ("CALL", Some(target)) if target.kind != NodeKind::Text => {
                 let name = self.eval(u, target)?.text().to_ascii_uppercase();
                 w.call = Some((name, Vec::new(), Vec::new()));
@@ -176,6 +196,18 @@ impl Interp<'_> {
             }
             // A modal cycle call runs a machining cycle after every move: skipped like a missing cycle.
             ("MCALL", _) if self.cfg.skip_missing_calls => Ok(()),
+            // An ISO-dialect subprogram, which the dry run does not run: skipped like a missing one.
+            ("ISOCALL", Some(target)) if self.cfg.skip_missing_calls => {
+                let text = u.upper(target);
+                self.note(
+                    u,
+                    i,
+                    format!(
+                        "ISOCALL {text} skipped: the dry run does not run ISO-dialect programs"
+                    ),
+                );
+                Ok(())
+            }
             _ => Err(format!("{keyword} is not supported by the dry run")),
         }
     }

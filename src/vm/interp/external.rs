@@ -16,6 +16,7 @@ const SYSTEM_FAMILIES: &[&str] = &[
     "$AC_TIME",
     "$AC_MARKER",
     "$AC_PARAM",
+    "$AC_MEA",
     "$MA_",
     "$MC_",
     "$MN_",

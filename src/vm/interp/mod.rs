@@ -129,6 +129,8 @@ struct Words {
     other_m: Vec<(usize, u32)>,
     /// `ID=n` (false) or `IDS=n` (true) before a synchronized action.
     sync_id: Option<(u32, bool)>,
+    /// `FP=n` of G75: the fixed point (1 … 4) its axes go to.
+    fixed_point: Option<u32>,
 }
 
 const MM_PER_INCH: f64 = 25.4;

@@ -33,7 +33,7 @@ impl Interp<'_> {
                 NodeKind::Def => self.def(u, node)?,
                 // Parameters are bound when the program is called; EXTERN only declares a signature.
                 NodeKind::Proc | NodeKind::Extern => {}
-                NodeKind::ProgramCall => self.program_call(u, node, &mut w)?,
+                NodeKind::ProgramCall => self.program_call(u, i, node, &mut w)?,
                 NodeKind::Repeat => w.section = Some(self.section(u, i, node)?),
                 // The rest of the block is the action, which runs in the interpolator, not here.
                 NodeKind::SyncCondition => return self.sync_action(u, i, node, w.sync_id),
@@ -176,6 +176,13 @@ impl Interp<'_> {
             "DL" => w.dl = Some(self.num(u, value)?),
             "TCARR" => w.tool_carrier = Some(self.num(u, value)?),
             "OFFN" => w.offn = Some(self.num(u, value)?),
+            "FP" => {
+                let n = self.num(u, value)?;
+                if !(1.0..=4.0).contains(&n) || n.fract() != 0.0 {
+                    return Err(format!("FP={n}: a fixed point is 1 … 4"));
+                }
+                w.fixed_point = Some(n as u32);
+            }
             // Rounding of G641 / G642 corners: how the path blends, not where its points are.
             "ADIS" | "ADISPOS" => {
                 self.num(u, value)?;
