@@ -566,6 +566,20 @@ fn reference_site(
             }
         }
     }
+    // A reference fixed on the machine (or a gauge) reads nothing through the program's frames: where the
+    // setup runs straight into the first cut (`TRANS X40 Y30` then a subprogram that cuts), the last fit
+    // place before the setup and after the last tool load holds the zero as well.
+    if profile.position.frame == MeasureFrame::Machine || profile.probe.kind == ProbeKind::Gauge {
+        let before_setup = |s: &Site| {
+            s.block >= last_load.max(timeline.preamble_end)
+                && s.block < from
+                && skip_around(timeline, s.block).is_none()
+                && unfit_for_reference(s, profile, rule).is_none()
+        };
+        if let Some(k) = timeline.sites.iter().rposition(before_setup) {
+            return Ok(k);
+        }
+    }
     let cut = timeline
         .first_cut
         .map_or("the program's end".to_string(), |b| {
