@@ -49,9 +49,9 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
             [
                 ("blum-tc50", 19),
                 ("siemens-cycle978", 19),
-                ("tool-setter", 23),
+                ("tool-setter", 21),
                 ("grinder-gauge", 23),
-                ("lathe-setter", 23),
+                ("lathe-setter", 21),
             ],
         ),
     ];

@@ -261,3 +261,30 @@ M30
         assert!(zero < out.find("TRANS X40").unwrap(), "{profile}: {out}");
     }
 }
+
+#[test]
+fn a_setter_zero_is_not_measured_with_the_tool_left_before_shopmill_steps() {
+    // fixtures/shop6/01: the ShopMill steps load their tools inside their E_ cycles; the setter's zero went
+    // before E_HEAD and measured whatever the spindle held from before (or its bare nose).
+    let steps = "\
+N10 G17 G90 DIAMOF
+N20 E_HEAD(0,0,\"G54\",1,-60,-40,0,120,80,-20,0,100,0,2,1,1,100,20,0,0,0,\"\",0,0)
+N30 E_MI_PL(1,\"FACEMILL_63\",1,0.12,2,250,1,-60,-40,60,40,2,0,0.3,0.5,0.8,0.1,100,1,0,0,0,0,0,0,0,0,0)
+N40 E_END(2,0,100,0,20,1,0)
+N50 M30
+";
+    let o = transform_run(steps, "tool-setter");
+    assert_eq!(o.status.code(), Some(2));
+    let err = common::stderr(&o);
+    assert!(
+        err.contains("ShopMill steps (E_… cycles) load their tools"),
+        "{err}"
+    );
+    // With the first step's tool loaded before the steps, as the message says, the zero measures it.
+    let loaded = steps.replace(
+        "N20 E_HEAD",
+        "N12 T=\"FACEMILL_63\" M6\nN14 D1\nN16 G0 Z100\nN20 E_HEAD",
+    );
+    let o = transform_run(&loaded, "tool-setter");
+    assert!(o.status.success(), "{}", common::stderr(&o));
+}

@@ -466,6 +466,8 @@ const IN_PART: &str = "the tool may stand in the part there (no rapid clear of w
 const D0: &str =
     "D0 is active: heights are the spindle's, and the probe would travel a probe length above it";
 
+const STEP_TOOLS: &str = "the tool in the spindle is not known there, and the program's ShopMill steps (E_… cycles) load their tools themselves: a tool setter would measure a tool that does not cut (or the bare spindle); load the first step's tool before the first step (a G-code step with T=\"NAME\" M6, D1 and a move to a safe height, G0 Z100), so that the zero measures a tool that cuts";
+
 const TOOL_UNKNOWN: &str = "the tool in the spindle is not known there (no tool change before it), so the probe could not be swapped for it again";
 
 /// Why a site cannot carry the reference measurement with this profile's probe; `None` when it can.
@@ -534,10 +536,21 @@ fn reference_site(
     } else {
         &[false][..]
     };
+    // ShopMill's step cycles (E_MI_PL, E_DR, …) load the tool each step names: a tool setter's zero where
+    // no tool is known would measure whatever the spindle holds from before (or its bare nose), not a tool
+    // that cuts.
+    let steps_load_tools = profile.probe.kind == ProbeKind::ToolSetter
+        && timeline
+            .untimed_calls
+            .iter()
+            .any(|(_, name)| name.starts_with("E_") && name != "E_HEAD");
     for &allow_skipped in passes {
         let fit = |site: &Site| {
             if !allow_skipped && skip_around(timeline, site.block).is_some() {
                 return Some(SKIPPED);
+            }
+            if steps_load_tools && site.before.tool.is_none() {
+                return Some(STEP_TOOLS);
             }
             unfit_for_reference(site, profile, rule)
         };
@@ -571,7 +584,8 @@ fn reference_site(
     // place before the setup and after the last tool load holds the zero as well.
     if profile.position.frame == MeasureFrame::Machine || profile.probe.kind == ProbeKind::Gauge {
         let before_setup = |s: &Site| {
-            s.block >= last_load.max(timeline.preamble_end)
+            !(steps_load_tools && s.before.tool.is_none())
+                && s.block >= last_load.max(timeline.preamble_end)
                 && s.block < from
                 && skip_around(timeline, s.block).is_none()
                 && unfit_for_reference(s, profile, rule).is_none()
