@@ -18,18 +18,7 @@ fn every_gate(prog: &str, profile: &str) -> String {
 
 /// `prog` transformed with `profile`: the run (for a refusal's message).
 fn transform_run(prog: &str, profile: &str) -> std::process::Output {
-    let model = common::fixture("omm/model.toml");
-    let args = [
-        "transform",
-        "p.mpf",
-        "--model",
-        &model,
-        "--profile",
-        profile,
-        "-o",
-        "out.mpf",
-    ];
-    common::run_in(&[("p.mpf", prog)], &args).0
+    common::transform_in(&[("p.mpf", prog)], "p.mpf", profile).0
 }
 
 /// The inserted lines that give the modal state back (they carry the plane word the gates write).

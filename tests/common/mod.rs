@@ -170,9 +170,13 @@ pub fn run_in(files: &[(&str, &str)], args: &[&str]) -> (Output, tempfile::TempD
     (o, dir)
 }
 
-/// `program` transformed with `profile` (a builtin or a file among `files`) and the fixture model, beside
-/// `files`: the output, which must have been written (the command's own audits passed).
-pub fn transformed_in(files: &[(&str, &str)], program: &str, profile: &str) -> String {
+/// `driftloop transform PROGRAM --profile PROFILE -o out.mpf` with the fixture model, beside `files`: the
+/// run (a refusal's message in its stderr) and the folder.
+pub fn transform_in(
+    files: &[(&str, &str)],
+    program: &str,
+    profile: &str,
+) -> (Output, tempfile::TempDir) {
     let model = fixture("omm/model.toml");
     let args = [
         "transform",
@@ -184,7 +188,13 @@ pub fn transformed_in(files: &[(&str, &str)], program: &str, profile: &str) -> S
         "-o",
         "out.mpf",
     ];
-    let (o, dir) = run_in(files, &args);
+    run_in(files, &args)
+}
+
+/// `program` transformed with `profile` (a builtin or a file among `files`) and the fixture model, beside
+/// `files`: the output, which must have been written (the command's own audits passed).
+pub fn transformed_in(files: &[(&str, &str)], program: &str, profile: &str) -> String {
+    let (o, dir) = transform_in(files, program, profile);
     assert!(o.status.success(), "{}", stderr(&o));
     std::fs::read_to_string(dir.path().join("out.mpf")).unwrap()
 }
