@@ -114,7 +114,8 @@ fn predict_a_schedule_and_a_data_file() {
     let warning = text(&out.stderr);
     assert!(
         warning.contains("6000 rpm is above the top characterised speed 5000 rpm")
-            && warning.contains("last segment"),
+            && warning.contains("the power law")
+            && warning.contains("chosen by forward validation"),
         "{warning}"
     );
 
