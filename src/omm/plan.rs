@@ -466,6 +466,8 @@ const IN_PART: &str = "the tool may stand in the part there (no rapid clear of w
 const D0: &str =
     "D0 is active: heights are the spindle's, and the probe would travel a probe length above it";
 
+const MACHINE_COOLANT_ON: &str = "a machine coolant of the profile's [coolant] codes is on, and the program's own tool change follows: the gate would have to give it back with the probe still in the spindle";
+
 const TOOL_UNKNOWN: &str = "the tool in the spindle is not known there (no tool change before it), so the probe could not be swapped for it again";
 
 /// Why a site cannot carry the reference measurement with this profile's probe; `None` when it can.
@@ -491,6 +493,9 @@ fn unfit_for_reference(site: &Site, profile: &Profile, rule: OffsetRule) -> Opti
         // The probe travels with its tip at the height the spindle stood at: a whole probe length
         // higher, beyond the top after the `SUPA Z0 D0` posts write before a tool change.
         ProbeKind::SpindleProbe if site.before.d == Some(0) => Some(D0),
+        ProbeKind::SpindleProbe if tool_change_follows && site.before.machine_coolant != 0 => {
+            Some(MACHINE_COOLANT_ON)
+        }
         ProbeKind::SpindleProbe if tool_change_follows => None,
         ProbeKind::SpindleProbe if site.before.tool.is_none() => Some(TOOL_UNKNOWN),
         ProbeKind::SpindleProbe if site.before.unknown & timeline::unknown::SUM_OFFSET != 0 => {
@@ -629,6 +634,9 @@ fn unfit_for_measuring(
         return Some(why);
     }
     match profile.probe.kind {
+        ProbeKind::SpindleProbe if tool_change_follows && site.before.machine_coolant != 0 => {
+            Some(MACHINE_COOLANT_ON)
+        }
         ProbeKind::SpindleProbe if !tool_change_follows && site.before.tool.is_none() => {
             Some("the tool in the spindle is not known")
         }

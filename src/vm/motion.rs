@@ -330,6 +330,8 @@ pub struct State {
     /// M7 (mist) and M8 (flood) coolant, both off after M9.
     pub mist: bool,
     pub flood: bool,
+    /// The machine coolant pairs on (bit k: `Config::machine_coolant` pair k).
+    pub machine_coolant: u8,
     pub kinematics: Kinematics,
     /// DIAMON / DIAM90: the axis (X) whose programmed values are diameters; the machine moves half.
     pub diameter_axis: Option<usize>,
@@ -388,6 +390,7 @@ impl State {
             d: 0.0,
             dl: 0.0,
             mist: false,
+            machine_coolant: 0,
             flood: false,
             kinematics: Kinematics::default(),
             diameter_axis: None,

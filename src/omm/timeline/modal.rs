@@ -28,6 +28,8 @@ pub struct Modal {
     pub path_mode: Option<u32>,
     /// M7 / M8 (on), 78 for both (M7 and M8 add up), or M9 (off), when the program set it.
     pub coolant: Option<u32>,
+    /// The profile's machine coolant pairs that are on (bit k: `[coolant] codes[k]`).
+    pub machine_coolant: u8,
     /// Cutter radius compensation: 40, 41 or 42.
     pub comp: u32,
     /// The work offset selected (54 … 57, 505 … 599, or 500 for none), when the program selected one.
@@ -151,7 +153,7 @@ impl Modal {
 pub(super) mod field {
     use super::Modal;
 
-    pub const COUNT: usize = 19;
+    pub const COUNT: usize = 20;
     pub const TOOL: usize = 0;
     pub const D: usize = 1;
     pub const S: usize = 2;
@@ -171,6 +173,7 @@ pub(super) mod field {
     pub const OFFSET: usize = 16;
     pub const DIAMETER: usize = 17;
     pub const UNITS: usize = 18;
+    pub const MACHINE_COOLANT: usize = 19;
 
     /// The fields in which two states differ, by number.
     pub fn differ(a: &Modal, b: &Modal) -> [bool; COUNT] {
@@ -194,6 +197,7 @@ pub(super) mod field {
             a.offset != b.offset,
             a.diameter != b.diameter,
             a.units != b.units,
+            a.machine_coolant != b.machine_coolant,
         ]
     }
 }
@@ -309,6 +313,13 @@ mod tests {
             },
             field::UNITS,
         );
+        one(
+            Modal {
+                machine_coolant: 1,
+                ..d()
+            },
+            field::MACHINE_COOLANT,
+        );
         let all = Modal {
             tool: Some("1".into()),
             selected: Some("2".into()),
@@ -323,6 +334,7 @@ mod tests {
             plane: Some(17),
             path_mode: Some(64),
             coolant: Some(8),
+            machine_coolant: 1,
             comp: 41,
             offset: Some(54),
             diameter: true,

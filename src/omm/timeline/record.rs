@@ -105,6 +105,9 @@ pub struct Timeline {
     /// Lines (1-based) of `computed_r_lines` and `offsets` that call a subprogram from a folder in which the
     /// thing was found, with the subprogram's name.
     pub found_in_call: BTreeMap<usize, String>,
+    /// M-codes of the machine's own the program uses and the profile's `[coolant]` does not list (vice,
+    /// air, through-spindle coolant …): a gate leaves them as they are.
+    pub machine_m: BTreeSet<u32>,
     /// Blocks whose moves could not be timed (expressions, unknown feed).
     pub inexact_blocks: usize,
     /// The program's loops in the order they close (a section repeat at its REPEAT statement).

@@ -122,7 +122,7 @@ impl Builder<'_> {
         }
         take!(D => d, FEED => feed, MOTION => motion, ABSOLUTE => absolute, FEED_MODE => feed_mode,
             PLANE => plane, PATH_MODE => path_mode, COMP => comp, OFFSET => offset,
-            DIAMETER => diameter, UNITS => units);
+            DIAMETER => diameter, UNITS => units, MACHINE_COOLANT => machine_coolant);
         if t[field::FEED_MODE] {
             self.per_rev = end.feed_mode == Some(95);
         }
@@ -161,6 +161,7 @@ impl Builder<'_> {
             t[f] = true;
         }
         for m in s.m.iter() {
+            t[field::MACHINE_COOLANT] |= self.profile.coolant.follows(m);
             let f = match m {
                 3..=5 | POSITIONED => field::DIRECTION,
                 6 => field::TOOL,

@@ -6,6 +6,7 @@
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::rc::Rc;
 
+use crate::omm::machine_coolant::is_control_m;
 use crate::omm::profile::Profile;
 use crate::syntax::BlockKind;
 
@@ -592,8 +593,13 @@ impl<'p> Builder<'p> {
                 6 => self.m6_seen = true,
                 2 | 30 => self.t.ends.push(i),
                 7..=9 => self.state.coolant = coolant_after(self.state.coolant, m),
+                _ if !self.profile.coolant.follows(m) && !is_control_m(m) => {
+                    self.t.machine_m.insert(m);
+                }
                 _ => {}
             }
+            let machine = &self.profile.coolant;
+            self.state.machine_coolant = machine.after(self.state.machine_coolant, m);
         }
         if let Some(d) = direction {
             self.state.direction = d;
