@@ -1,7 +1,8 @@
 //! 26 shop-style programs written for a QA run (CAM posts for 840D with swivels, high-speed settings and
 //! drilling cycles, hand-written programs with loops, labels and frames, lathe and grinder programs, CRLF,
 //! Latin-1, an archive; subprograms in fixtures/shop/subs) and 22 with tool changes for QA round 4
-//! (fixtures/shop4, its README lists them) through `transform` with every builtin profile.
+//! (fixtures/shop4, its README lists them) and 25 in styles neither covers for QA round 5 (fixtures/shop5)
+//! through `transform` with every builtin profile.
 //! Each output is audited by `transform` itself (as planned and with every gate measuring); here every
 //! written program must give its original back through `strip`, and the counts of what transforms are held
 //! (a change that refuses more, or writes what it refused, shows here).
@@ -16,7 +17,8 @@ fn root() -> &'static Path {
 
 #[test]
 fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
-    // fixtures/shop (26, QA rounds 1–2) and fixtures/shop4 (22 with tool changes, QA round 4).
+    // fixtures/shop (26, QA rounds 1–2), fixtures/shop4 (22 with tool changes, QA round 4) and
+    // fixtures/shop5 (25, QA round 5).
     let sets = [
         (
             "shop",
@@ -38,6 +40,17 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
                 ("tool-setter", 21),
                 ("grinder-gauge", 21),
                 ("lathe-setter", 21),
+            ],
+        ),
+        (
+            "shop5",
+            25,
+            [
+                ("blum-tc50", 18),
+                ("siemens-cycle978", 18),
+                ("tool-setter", 24),
+                ("grinder-gauge", 25),
+                ("lathe-setter", 24),
             ],
         ),
     ];
