@@ -41,6 +41,8 @@ impl Builder<'_> {
                     }
                 } else {
                     self.state_unknown_after(name);
+                    let callee = &sub.as_callee;
+                    self.unsure_after(i, name, (!callee.leaves_unknown).then_some(callee.touched));
                 }
                 // A subprogram that cuts: the reference measurement goes before it.
                 if sub.first_cut.is_some() {
@@ -83,6 +85,7 @@ impl Builder<'_> {
             }
             None => {
                 self.state_unknown_after(name);
+                self.unsure_after(i, name, None);
                 // A cycle or subprogram driftloop cannot see into may cut (a drilling or pocket cycle):
                 // the reference measurement goes before it. The swivel, settings and measuring cycles
                 // do not cut.
@@ -101,6 +104,31 @@ impl Builder<'_> {
         if !leaves_state_known(name) {
             self.after_call = true;
             self.t.as_callee.leaves_unknown = true;
+        }
+    }
+
+    /// After the call of `name` at block `i`: the fields it may have left otherwise than the timeline has
+    /// them stay unsure at every later site until the program sets them again — a tool change does not
+    /// set them (a gate before the program's own M6 or after it gave back the motion and feed from before a
+    /// subprogram that left G1 F100: the program's next `Z-2` went down in rapid). What a subprogram the
+    /// timeline reads sets (`touched`), else every field but the position; a Siemens cycle (declared
+    /// `SAVE`: its G codes and frames come back) or one that leaves the state known, none.
+    fn unsure_after(&mut self, i: usize, name: &str, touched: Option<[bool; field::COUNT]>) {
+        if leaves_state_known(name) || is_siemens_cycle(name) {
+            return;
+        }
+        let mut unsure = touched.unwrap_or([true; field::COUNT]);
+        unsure[field::Z] = false;
+        unsure[field::UNKNOWN] = false;
+        // What a gate writes back only when the program had set it: unset, the call's value stays.
+        let st = &self.state;
+        unsure[field::FEED] &= st.feed.is_some();
+        unsure[field::PLANE] &= st.plane.is_some();
+        unsure[field::FEED_MODE] &= st.feed_mode.is_some();
+        unsure[field::PATH_MODE] &= st.path_mode.is_some();
+        unsure[field::COOLANT] &= matches!(st.coolant, Some(7 | 8 | 78));
+        if unsure.contains(&true) {
+            self.merges.push((i, i, unsure));
         }
     }
 
@@ -143,9 +171,11 @@ impl Builder<'_> {
     }
 
     /// Notes the fields block words set, for what the unit does to a caller's state (not the position,
-    /// which a gate reads from the control).
-    pub(super) fn touch(&mut self, s: &Scan, dwell: bool) {
-        let t = &mut self.touched;
+    /// which a gate reads from the control); returns them. A field written sets it even to the value it
+    /// had: after a jump, a loop or a call the state is then sure again.
+    pub(super) fn touch(&mut self, s: &Scan, dwell: bool) -> [bool; field::COUNT] {
+        let mut set = [false; field::COUNT];
+        let t = &mut set;
         for g in s.g.iter() {
             let f = match g {
                 0..=3 => field::MOTION,
@@ -183,6 +213,10 @@ impl Builder<'_> {
             .any(|g| matches!(g, 500 | 54..=57 | 505..=599));
         t[field::DIAMETER] |= s.diameter.is_some();
         t[field::UNKNOWN] |= s.unknown != 0 || s.sum_offset.is_some();
+        for (mine, now) in self.touched.iter_mut().zip(set) {
+            *mine |= now;
+        }
+        set
     }
 
     /// The spindle words of a subprogram called at block `i` and run `runs` times, applied to this
@@ -247,6 +281,18 @@ impl Builder<'_> {
 /// contour (CYCLE62) descriptions of ShopMill/ShopTurn programs, which move nothing and set nothing modal.
 fn leaves_state_known(name: &str) -> bool {
     matches!(name, "CYCLE800" | "CYCLE832" | "WORKPIECE" | "CYCLE62")
+}
+
+/// A Siemens standard cycle (`CYCLE81` … `CYCLE998`, the ShopMill pocket, slot and hole-pattern cycles),
+/// declared with `SAVE`.
+fn is_siemens_cycle(name: &str) -> bool {
+    name.strip_prefix("CYCLE")
+        .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
+        || matches!(
+            name,
+            "POCKET1" | "POCKET2" | "POCKET3" | "POCKET4" | "SLOT1" | "SLOT2" | "LONGHOLE" | "HOLES1"
+                | "HOLES2"
+        )
 }
 
 /// Siemens cycles that cut nothing: those above, and the measuring cycles of workpieces and tools

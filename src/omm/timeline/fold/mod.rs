@@ -546,7 +546,7 @@ impl<'p> Builder<'p> {
         let dwell = s.g.contains(4);
         // G25 / G26: S is a speed limit and the axis values are the working area's limits.
         let limits = s.g.contains(25) || s.g.contains(26);
-        self.touch(s, dwell);
+        let set = self.touch(s, dwell);
         self.state.unknown |= s.unknown;
         match s.sum_offset {
             Some(true) => self.state.unknown |= unknown::SUM_OFFSET,
@@ -663,7 +663,7 @@ impl<'p> Builder<'p> {
         self.modal_call_after(i, &s.mv);
         if let Some(prev) = tracked {
             for (f, differs) in field::differ(&prev, &self.state).into_iter().enumerate() {
-                if differs {
+                if differs || set[f] {
                     self.changed[f] = i + 1;
                 }
             }
