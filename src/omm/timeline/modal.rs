@@ -175,6 +175,32 @@ pub(super) mod field {
     pub const UNITS: usize = 18;
     pub const MACHINE_COOLANT: usize = 19;
 
+    /// What field `f` is, as the program writes it (for messages).
+    pub fn word(f: usize) -> &'static str {
+        [
+            "the tool (M6)",
+            "the cutting edge (D)",
+            "the spindle speed (S)",
+            "the spindle direction (M3/M4/M5)",
+            "the feed (F)",
+            "the motion (G0/G1/G2/G3)",
+            "G90/G91",
+            "the height (Z)",
+            "the tool selected (T)",
+            "the feed type (G93/G94/G95)",
+            "the plane (G17/G18/G19)",
+            "the path mode (G60/G64 …)",
+            "the coolant (M7/M8/M9)",
+            "the radius compensation (G40/G41/G42)",
+            "the frames (TRANS, ROT, TRAORI, CYCLE800 …)",
+            "values set by expressions",
+            "the work offset (G54 …)",
+            "DIAMON/DIAMOF",
+            "the unit (G70/G71/G700/G710)",
+            "a machine coolant of the profile's [coolant]",
+        ][f]
+    }
+
     /// The fields in which two states differ, by number.
     pub fn differ(a: &Modal, b: &Modal) -> [bool; COUNT] {
         [

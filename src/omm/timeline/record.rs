@@ -144,6 +144,10 @@ pub struct Timeline {
     pub setup_end: usize,
     /// Run as a subprogram: what it does to its caller's state.
     pub as_callee: CalleeEffect,
+    /// Sites whose state is not sure because of a call before them (a subprogram or cycle that may leave
+    /// fields otherwise than the timeline has them, not set again by the program since): site block →
+    /// (the call's line, 1-based; the name called; the fields, as G codes and words).
+    pub unsure_after_call: BTreeMap<usize, (usize, String, String)>,
 }
 
 /// What a unit run as a subprogram does to its caller's modal state.

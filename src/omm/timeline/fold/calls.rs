@@ -25,6 +25,8 @@ impl Builder<'_> {
         if name == "CYCLE832" {
             self.state.path_mode = None;
             self.touched[field::PATH_MODE] = true;
+            // A gate writes no path mode back where it is the cycle's.
+            self.written[field::PATH_MODE] = i + 1;
         }
         self.t.moves = true;
         if !self.called.contains(name) {
@@ -108,27 +110,97 @@ impl Builder<'_> {
     }
 
     /// After the call of `name` at block `i`: the fields it may have left otherwise than the timeline has
-    /// them stay unsure at every later site until the program sets them again — a tool change does not
-    /// set them (a gate before the program's own M6 or after it gave back the motion and feed from before a
-    /// subprogram that left G1 F100: the program's next `Z-2` went down in rapid). What a subprogram the
-    /// timeline reads sets (`touched`), else every field but the position; a Siemens cycle (declared
-    /// `SAVE`: its G codes and frames come back) or one that leaves the state known, none.
+    /// them stay unsure at every later site until the program's words set them again (see
+    /// [`Builder::note_written`]); a tool change does not set them (a gate before the program's own M6 or
+    /// after it gave back the motion and feed from before a subprogram that left G1 F100: the program's
+    /// next `Z-2` went down in rapid). What a subprogram the timeline reads sets (`touched`), else every
+    /// field but the position; a Siemens cycle (declared `SAVE`: its G codes and programmable frame come
+    /// back) or one that leaves the state known, none.
     fn unsure_after(&mut self, i: usize, name: &str, touched: Option<[bool; field::COUNT]>) {
         if leaves_state_known(name) || is_siemens_cycle(name) {
             return;
         }
         let mut unsure = touched.unwrap_or([true; field::COUNT]);
+        // The position a gate reads from the control; what is not known (expressions) the site's state
+        // says itself.
         unsure[field::Z] = false;
         unsure[field::UNKNOWN] = false;
-        // What a gate writes back only when the program had set it: unset, the call's value stays.
+        // What a gate writes back only when the program had set it: unset, the gate writes nothing and
+        // the call's value stays (a gate switches coolant off only where the timeline has it on, so a
+        // coolant the call left on stays on through the measurement: unsure whatever the timeline has).
         let st = &self.state;
         unsure[field::FEED] &= st.feed.is_some();
         unsure[field::PLANE] &= st.plane.is_some();
         unsure[field::FEED_MODE] &= st.feed_mode.is_some();
         unsure[field::PATH_MODE] &= st.path_mode.is_some();
-        unsure[field::COOLANT] &= matches!(st.coolant, Some(7 | 8 | 78));
-        if unsure.contains(&true) {
-            self.merges.push((i, i, unsure));
+        if !unsure.contains(&true) {
+            return;
+        }
+        // Calls with no site between them: the later one stands for both (what was set since the later
+        // call was set since the earlier one too).
+        let no_site_since = |call: usize| self.site_changes.last().is_none_or(|(b, ..)| *b <= call);
+        if let Some(last) = self.call_unsure.last_mut()
+            && no_site_since(last.0)
+        {
+            for (mine, its) in last.2.iter_mut().zip(unsure) {
+                *mine |= its;
+            }
+            (last.0, last.1) = (i, name.to_string());
+            return;
+        }
+        self.call_unsure.push((i, name.to_string(), unsure));
+    }
+
+    /// The sites after each call that made fields unsure ([`Builder::unsure_after`]) where one of them was
+    /// not written since: their state varies, and the timeline says which call made it so (the last one).
+    /// The call's own block counts as not setting them: its words run before the call.
+    pub(super) fn mark_unsure_after_calls(&mut self) {
+        for (call, name, unsure) in std::mem::take(&mut self.call_unsure) {
+            let from = self.site_changes.partition_point(|(b, ..)| *b <= call);
+            for (b, _, written) in &self.site_changes[from..] {
+                let open: Vec<usize> = (0..field::COUNT)
+                    .filter(|&f| unsure[f] && written[f] <= call + 1)
+                    .collect();
+                if open.is_empty() {
+                    // Every unsure field is set again: so it stays at every later site.
+                    break;
+                }
+                self.varies.insert(*b);
+                let fields = open.iter().map(|&f| field::word(f)).collect::<Vec<_>>();
+                self.t
+                    .unsure_after_call
+                    .insert(*b, (call + 1, name.clone(), fields.join(", ")));
+            }
+        }
+    }
+
+    /// The fields block `i`'s words set (`set`, from [`Builder::touch`]) to a value that does not depend
+    /// on the state before them. Not a frame (ATRANS, AROT … add to the one in force; TRANS leaves a
+    /// transformation or swivel), not M7 or M8 (each adds to the other; M9 ends both), not a machine
+    /// coolant code (a pair of the profile's), not an expression. A tool change (M6) sets the tool and
+    /// stops the spindle, as the timeline has it.
+    pub(super) fn note_written(
+        &mut self,
+        i: usize,
+        s: &Scan,
+        set: [bool; field::COUNT],
+        no_speed: bool,
+    ) {
+        let mut whole = set;
+        whole[field::FRAMES] = false;
+        whole[field::UNKNOWN] = false;
+        whole[field::MACHINE_COOLANT] = false;
+        whole[field::COOLANT] = s.m.contains(9);
+        // G96/G97 or LIMS alone leave the speed value as it was.
+        whole[field::S] = s.s.is_some() && !no_speed;
+        if s.m.contains(6) {
+            whole[field::TOOL] = true;
+            whole[field::DIRECTION] = true;
+        }
+        for (w, now) in self.written.iter_mut().zip(whole) {
+            if now {
+                *w = i + 1;
+            }
         }
     }
 
@@ -161,6 +233,25 @@ impl Builder<'_> {
         for (f, differs) in field::differ(&before, s).into_iter().enumerate() {
             if differs {
                 self.changed[f] = i + 1;
+            }
+        }
+        // What it set it set by its own words, whatever a call before it left; the tool is the one it
+        // loaded, and its change stopped the spindle (as the timeline has it after M6).
+        let mut whole = *t;
+        for f in [
+            field::FRAMES,
+            field::UNKNOWN,
+            field::MACHINE_COOLANT,
+            field::S,
+        ] {
+            whole[f] = false;
+        }
+        whole[field::COOLANT] &= end.coolant == Some(9);
+        whole[field::TOOL] = true;
+        whole[field::DIRECTION] = true;
+        for (w, now) in self.written.iter_mut().zip(whole) {
+            if now {
+                *w = i + 1;
             }
         }
         if t[field::FRAMES] {
@@ -290,7 +381,14 @@ fn is_siemens_cycle(name: &str) -> bool {
         .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
         || matches!(
             name,
-            "POCKET1" | "POCKET2" | "POCKET3" | "POCKET4" | "SLOT1" | "SLOT2" | "LONGHOLE" | "HOLES1"
+            "POCKET1"
+                | "POCKET2"
+                | "POCKET3"
+                | "POCKET4"
+                | "SLOT1"
+                | "SLOT2"
+                | "LONGHOLE"
+                | "HOLES1"
                 | "HOLES2"
         )
 }

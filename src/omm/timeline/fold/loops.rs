@@ -187,8 +187,8 @@ impl Builder<'_> {
         if !differ.contains(&true) {
             return;
         }
-        let from = self.site_changes.partition_point(|(b, _)| *b < body.0);
-        for (b, changed) in &self.site_changes[from..] {
+        let from = self.site_changes.partition_point(|(b, ..)| *b < body.0);
+        for (b, changed, _) in &self.site_changes[from..] {
             if *b > body.1 {
                 break;
             }
@@ -239,8 +239,8 @@ impl Builder<'_> {
     /// the label, on the fall-through path only.)
     pub(super) fn mark_merges(&mut self) {
         for (t, set_from, differ) in std::mem::take(&mut self.merges) {
-            let from = self.site_changes.partition_point(|(b, _)| *b <= t);
-            for (b, changed) in &self.site_changes[from..] {
+            let from = self.site_changes.partition_point(|(b, ..)| *b <= t);
+            for (b, changed, _) in &self.site_changes[from..] {
                 let set_since = |f: usize| changed[f] > set_from;
                 if !(0..field::COUNT).any(|f| differ[f] && !set_since(f)) {
                     // Every differing field is set again: so it stays at every later site.
