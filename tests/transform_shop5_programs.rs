@@ -222,3 +222,129 @@ fn a_lathe_gate_before_a_block_that_moves_nothing_is_not_taken_for_a_lost_diamet
     let gate = between(&out, "N250 T2 D1", "N260");
     assert!(gate.iter().any(|l| l.starts_with("X=R")), "{gate:#?}");
 }
+
+/// The motion code (0…3) and feed the last of `lines` to write each leaves in force: the G code of group
+/// 1 and F as plain words (comments dropped).
+fn motion_and_feed(lines: &[&str]) -> (Option<u32>, Option<String>) {
+    let (mut motion, mut feed) = (None, None);
+    for l in lines {
+        let code = l.split(';').next().unwrap_or("");
+        for w in code.split_whitespace() {
+            let w = w.to_ascii_uppercase();
+            if let Some(g) = w.strip_prefix('G').and_then(|g| g.parse::<u32>().ok())
+                && g <= 3
+            {
+                motion = Some(g);
+            } else if let Some(f) = w.strip_prefix('F')
+                && f.parse::<f64>().is_ok()
+            {
+                feed = Some(f.to_string());
+            }
+        }
+    }
+    (motion, feed)
+}
+
+/// A subprogram that ends at feed: its last move `G1 Z20 F100`, away from the part.
+const LEAVES_G1: &str = "\
+PROC POCKET_A
+G0 X30 Y30 Z5
+G1 Z-3 F200
+G1 X50 F600
+G1 Z20 F100
+M17
+";
+
+/// A subprogram that ends in rapid.
+const LEAVES_G0: &str = "\
+PROC POCKET_B
+G1 Z-3 F200
+G1 X50 F600
+G0 Z20
+M17
+";
+
+/// A first tool in G0 (or at feed, `G1 X… F300`, with `first` = "G1"), the subprogram `call`, then the
+/// second tool's change and speed, and the moves that rely on what the subprogram left: `X30 Y30` and
+/// `Z-2` run in its motion at its feed.
+fn after_call(first: &str, call: &str) -> String {
+    let before = if first == "G1" {
+        "G0 Z2\nG1 Z-1 F300\nG1 X10 F300\n"
+    } else {
+        "G0 Z2\nG1 Z-1 F300\nG1 X10\nG0 Z50\n"
+    };
+    format!(
+        "G17 G90 G94 G71 G40\nG54\nT=\"EM_D10\" M6\nD1\nS5000 M3 M8\nG0 X0 Y0 Z50\n{before}{call}\n\
+         T=\"EM_D6\" M6\nD1\nS6000 M3\nX30 Y30\nZ-2\nG0 Z50\nM9\nM5\nM30\n"
+    )
+}
+
+#[test]
+fn no_gate_after_a_subprogram_gives_back_the_motion_and_feed_from_before_it() {
+    // QA round 5: the timeline takes a subprogram's state as unknown only until the next tool change. A
+    // gate at the second tool's change (or at its speed) gave back `G0` and the feed from before a
+    // subprogram that left `G1 F100`: the program's `Z-2`, meant at F100, went down in rapid. The fields a
+    // call may leave otherwise now stay unsure until the program's own words set them again: no gate
+    // writes between the call and `Z-2` may leave another motion or feed than the subprogram's.
+    let cases = [
+        ("G0", "POCKET_A", ("POCKET_A.SPF", LEAVES_G1), (1, "F100")),
+        ("G1", "POCKET_B", ("POCKET_B.SPF", LEAVES_G0), (0, "F600")),
+    ];
+    for (first, call, sub, (motion, feed)) in cases {
+        let prog = after_call(first, call);
+        for profile in ["tool-setter", "blum-tc50", "lathe-setter"] {
+            let every = measuring(profile, "");
+            let out = common::transformed_in(
+                &[("p.mpf", &prog), sub, ("e.toml", &every)],
+                "p.mpf",
+                "e.toml",
+            );
+            let lines: Vec<&str> = out.lines().collect();
+            let from = at(&lines, call);
+            let down = from + at(&lines[from..], "Z-2");
+            let xy = from + at(&lines[from..], "X30 Y30");
+            for end in [xy, down] {
+                let (g, f) = motion_and_feed(&lines[from + 1..end]);
+                assert!(
+                    g.is_none_or(|g| g == motion) && f.as_deref().is_none_or(|f| f == feed),
+                    "{profile}, {call}: G{g:?} {f:?} in force at `{}`:\n{}",
+                    lines[end],
+                    lines[from..=end].join("\n")
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn a_site_made_unsure_by_a_call_names_the_call() {
+    // Where no place for the zero is left, the refusal says which call made the state unsure there: a
+    // subprogram that only sets `G1 F100` before the tool change, on which the program's `Z-2` relies.
+    let prog = "G17 G90 G94 G71 G40\nG54\nSET_FEED\nT=\"EM_D10\" M6\nD1\nS5000 M3\nZ-2\nG0 Z50\nM30\n";
+    let sub = "PROC SET_FEED\nG1 F100\nM17\n";
+    let model = common::fixture("omm/model.toml");
+    let (o, _dir) = common::run_in(
+        &[("p.mpf", prog), ("SET_FEED.SPF", sub)],
+        &[
+            "plan",
+            "p.mpf",
+            "--model",
+            &model,
+            "--profile",
+            "tool-setter",
+            "--subprograms",
+            ".",
+        ],
+    );
+    let err = common::stderr(&o);
+    assert!(!o.status.success(), "{err}");
+    // It reads the subprogram: only the motion is unsure (the program had set no feed, which a gate then
+    // does not write).
+    assert!(
+        err.contains("at line 6")
+            && err.contains(
+                "the call SET_FEED (line 3) may leave the motion (G0/G1/G2/G3) otherwise"
+            ),
+        "{err}"
+    );
+}

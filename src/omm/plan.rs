@@ -468,6 +468,8 @@ const D0: &str =
 
 const MACHINE_COOLANT_ON: &str = "a machine coolant of the profile's [coolant] codes is on, and the program's own tool change follows: the gate would have to give it back with the probe still in the spindle";
 
+const STATE_VARIES: &str = "its modal state is not known for sure (later runs of a loop reach it in another state, or a subprogram or cycle ran before it)";
+
 const TOOL_UNKNOWN: &str = "the tool in the spindle is not known there (no tool change before it), so the probe could not be swapped for it again";
 
 /// Why a site cannot carry the reference measurement with this profile's probe; `None` when it can.
@@ -485,9 +487,7 @@ fn unfit_for_reference(site: &Site, profile: &Profile, rule: OffsetRule) -> Opti
         return Some(IN_PART);
     }
     if site.state_varies {
-        return Some(
-            "its modal state is not known for sure (later runs of a loop reach it in another state, or a subprogram or cycle ran before it)",
-        );
+        return Some(STATE_VARIES);
     }
     match profile.probe.kind {
         // The probe travels with its tip at the height the spindle stood at: a whole probe length
@@ -570,6 +570,15 @@ fn reference_site(
                 return Ok(k);
             }
         }
+        // With no place before the first cut, the message says why the first place after the setup is not
+        // fit either.
+        if unfit.is_none() {
+            unfit = timeline
+                .sites
+                .iter()
+                .filter(|s| after_setup(s))
+                .find_map(|s| fit(s).map(|why| (s.block, why)));
+        }
     }
     let cut = timeline
         .first_cut
@@ -583,6 +592,13 @@ fn reference_site(
     let tool_unknown = unfit.is_some_and(|(_, why)| why == TOOL_UNKNOWN);
     if let Some((block, why)) = unfit {
         message.push_str(&format!(": at line {}, {why}", block + 1));
+        if let (STATE_VARIES, Some((line, name, fields))) =
+            (why, timeline.unsure_after_call.get(&block))
+        {
+            message.push_str(&format!(
+                ": the call {name} (line {line}) may leave {fields} otherwise than the program had them before it, and the program does not set them again by its own words before that place (a gate there would give back the state from before the call; write them after the call, `G0` or `G1 F…`, and a gate can go there)"
+            ));
+        }
     }
     if tool_unknown {
         message.push_str(
@@ -619,9 +635,7 @@ fn unfit_for_measuring(
         return unfit_for_gate(site, profile, rule);
     }
     if site.state_varies {
-        return Some(
-            "its modal state is not known for sure (later runs of a loop reach it in another state, or a subprogram or cycle ran before it)",
-        );
+        return Some(STATE_VARIES);
     }
     if site.in_part {
         return Some(IN_PART);
