@@ -320,7 +320,8 @@ fn no_gate_after_a_subprogram_gives_back_the_motion_and_feed_from_before_it() {
 fn a_site_made_unsure_by_a_call_names_the_call() {
     // Where no place for the zero is left, the refusal says which call made the state unsure there: a
     // subprogram that only sets `G1 F100` before the tool change, on which the program's `Z-2` relies.
-    let prog = "G17 G90 G94 G71 G40\nG54\nSET_FEED\nT=\"EM_D10\" M6\nD1\nS5000 M3\nZ-2\nG0 Z50\nM30\n";
+    let prog =
+        "G17 G90 G94 G71 G40\nG54\nSET_FEED\nT=\"EM_D10\" M6\nD1\nS5000 M3\nZ-2\nG0 Z50\nM30\n";
     let sub = "PROC SET_FEED\nG1 F100\nM17\n";
     let model = common::fixture("omm/model.toml");
     let (o, _dir) = common::run_in(
@@ -347,4 +348,43 @@ fn a_site_made_unsure_by_a_call_names_the_call() {
             ),
         "{err}"
     );
+}
+
+#[test]
+fn a_loop_brings_the_state_a_subprogram_left_to_the_sites_before_its_call() {
+    // The second run of a loop reaches the pass at `X10 Y10` after POCKET_A left `G1 F100`; the timeline
+    // has the first run's `G0` there. A gate at it gave back G0 on that run: refused by the audit (the
+    // program's `X10 Y10` would have gone in rapid). A site in a loop body before a call is now unsure
+    // unless the body writes the fields before it.
+    let prog = "\
+G17 G90 G94 G71 G40
+G54
+T=\"EM_D10\" M6
+D1
+S5000 M3 M8
+G0 X0 Y0 Z20
+FOR R1=1 TO 2
+X10 Y10 ; PASS 2
+POCKET_A
+ENDFOR
+G0 Z50
+M9
+M5
+M30
+";
+    for profile in ["tool-setter", "blum-tc50"] {
+        let every = measuring(profile, "");
+        let out = common::transformed_in(
+            &[
+                ("p.mpf", prog),
+                ("POCKET_A.SPF", LEAVES_G1),
+                ("e.toml", &every),
+            ],
+            "p.mpf",
+            "e.toml",
+        );
+        let body = between(&out, "FOR R1", "POCKET_A");
+        let (g, f) = motion_and_feed(&body);
+        assert!(g.is_none() && f.is_none(), "{profile}: {body:#?}");
+    }
 }

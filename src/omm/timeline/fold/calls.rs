@@ -152,24 +152,49 @@ impl Builder<'_> {
     }
 
     /// The sites after each call that made fields unsure ([`Builder::unsure_after`]) where one of them was
-    /// not written since: their state varies, and the timeline says which call made it so (the last one).
-    /// The call's own block counts as not setting them: its words run before the call.
+    /// not written since: their state varies, and the timeline says which call made it so. The call's own
+    /// block counts as not setting them: its words run before the call. Inside a loop body, a repeated
+    /// section or what a backward jump runs again, the sites before the call are reached after it on the
+    /// later runs too: there a field is sure only where the body writes it before the site.
     pub(super) fn mark_unsure_after_calls(&mut self) {
+        let mut bodies: Vec<(usize, usize)> = self.t.loops.iter().map(|l| l.body).collect();
+        for (&from, targets) in &self.jumps {
+            bodies.extend(targets.iter().filter(|&&t| t < from).map(|&t| (t, from)));
+        }
         for (call, name, unsure) in std::mem::take(&mut self.call_unsure) {
-            let from = self.site_changes.partition_point(|(b, ..)| *b <= call);
-            for (b, _, written) in &self.site_changes[from..] {
-                let open: Vec<usize> = (0..field::COUNT)
-                    .filter(|&f| unsure[f] && written[f] <= call + 1)
-                    .collect();
-                if open.is_empty() {
+            let open = |written: &[usize; field::COUNT], since: usize| -> Vec<usize> {
+                (0..field::COUNT)
+                    .filter(|&f| unsure[f] && written[f] <= since)
+                    .collect()
+            };
+            let mut marked: Vec<(usize, Vec<usize>)> = Vec::new();
+            let after = self.site_changes.partition_point(|(b, ..)| *b <= call);
+            for (b, _, written) in &self.site_changes[after..] {
+                let fields = open(written, call + 1);
+                if fields.is_empty() {
                     // Every unsure field is set again: so it stays at every later site.
                     break;
                 }
-                self.varies.insert(*b);
-                let fields = open.iter().map(|&f| field::word(f)).collect::<Vec<_>>();
+                marked.push((*b, fields));
+            }
+            for &(first, _) in bodies.iter().filter(|(a, z)| *a <= call && call <= *z) {
+                let from = self.site_changes.partition_point(|(b, ..)| *b < first);
+                for (b, _, written) in self.site_changes[from..]
+                    .iter()
+                    .take_while(|(b, ..)| *b <= call)
+                {
+                    let fields = open(written, first);
+                    if !fields.is_empty() {
+                        marked.push((*b, fields));
+                    }
+                }
+            }
+            for (b, fields) in marked {
+                self.varies.insert(b);
+                let words = fields.iter().map(|&f| field::word(f)).collect::<Vec<_>>();
                 self.t
                     .unsure_after_call
-                    .insert(*b, (call + 1, name.clone(), fields.join(", ")));
+                    .insert(b, (call + 1, name.clone(), words.join(", ")));
             }
         }
     }
