@@ -380,13 +380,12 @@ impl Interp<'_> {
             }
             // A whole settable frame built from translations (what it does not name is 0, coarse and
             // fine): a program setting up its offsets, which driftloop never writes so. Not noted as a
-            // correction, whose size is what the audit lets a gate's way back differ by.
+            // correction, whose size is what the audit lets a gate's way back differ by, nor counted as
+            // one in the machined error (it counted the program's 611 mm as a correction).
             ("$P_UIFR", [frame]) => {
                 let f = self.uifr_number(u, frame)?;
                 let shift = self.ctrans(u, value)?;
-                let frames = &mut self.motion.frames;
-                frames.table[f] = shift;
-                frames.fine[f] = vec![0.0; frames.fine[f].len()];
+                self.motion.frames.set_whole(f, shift);
                 Ok(())
             }
             ("$P_IFRAME", [axis, part]) => {
