@@ -596,7 +596,7 @@ fn reference_site(
             (why, timeline.unsure_after_call.get(&block))
         {
             message.push_str(&format!(
-                ": the call {name} (line {line}) may leave {fields} otherwise than the program had them before it, and the program does not set them again by its own words before that place (a gate there would give back the state from before the call; write them after the call, `G0` or `G1 F…`, and a gate can go there)"
+                ": the call {name} (line {line}) may leave {fields} otherwise than the program had them before it, and the program's own words do not set them again before that place, so a gate there would give back the state from before the call (write them after the call, e.g. `G0` or `G1 F…`; a frame cannot be written so; where driftloop did not read the subprogram, give its file beside the program or with --subprograms DIR)"
             ));
         }
     }
