@@ -12,6 +12,14 @@ fn measuring(name: &str, more: &str) -> String {
     common::stdout(&o) + "[log]\nmeasure_every_gate = true\n" + more
 }
 
+/// `p.mpf` (among `files`) transformed with the builtin `profile` measuring at every gate that can.
+fn every_gate(profile: &str, files: &[(&str, &str)]) -> String {
+    let every = measuring(profile, "");
+    let mut all = files.to_vec();
+    all.push(("e.toml", &every));
+    common::transformed_in(&all, "p.mpf", "e.toml")
+}
+
 /// This machine's through-spindle coolant: M50 on, M51 off; M9 leaves it on.
 const TSC: &str = "[coolant]\ncodes = [[50, 51]]\nm9_ends = false\n";
 
@@ -200,8 +208,7 @@ M5
 M30
 ";
     for profile in ["tool-setter", "blum-tc50"] {
-        let every = measuring(profile, "");
-        let out = common::transformed_in(&[("p.mpf", prog), ("e.toml", &every)], "p.mpf", "e.toml");
+        let out = every_gate(profile, &[("p.mpf", prog)]);
         let after = between(&out, "REPEATB", "M5");
         assert!(
             !after.iter().any(|l| l.contains("G90 F800")),
@@ -293,12 +300,7 @@ fn no_gate_after_a_subprogram_gives_back_the_motion_and_feed_from_before_it() {
     for (first, call, sub, (motion, feed)) in cases {
         let prog = after_call(first, call);
         for profile in ["tool-setter", "blum-tc50", "lathe-setter"] {
-            let every = measuring(profile, "");
-            let out = common::transformed_in(
-                &[("p.mpf", &prog), sub, ("e.toml", &every)],
-                "p.mpf",
-                "e.toml",
-            );
+            let out = every_gate(profile, &[("p.mpf", &prog), sub]);
             let lines: Vec<&str> = out.lines().collect();
             let from = at(&lines, call);
             let down = from + at(&lines[from..], "Z-2");
@@ -373,16 +375,7 @@ M5
 M30
 ";
     for profile in ["tool-setter", "blum-tc50"] {
-        let every = measuring(profile, "");
-        let out = common::transformed_in(
-            &[
-                ("p.mpf", prog),
-                ("POCKET_A.SPF", LEAVES_G1),
-                ("e.toml", &every),
-            ],
-            "p.mpf",
-            "e.toml",
-        );
+        let out = every_gate(profile, &[("p.mpf", prog), ("POCKET_A.SPF", LEAVES_G1)]);
         let body = between(&out, "FOR R1", "POCKET_A");
         let (g, f) = motion_and_feed(&body);
         assert!(g.is_none() && f.is_none(), "{profile}: {body:#?}");
