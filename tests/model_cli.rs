@@ -64,6 +64,13 @@ fn fit_json_is_one_object_with_the_model() {
     assert_eq!(v["schema"], 1);
     assert_eq!(v["spindle"]["modes"].as_array().unwrap().len(), 1);
     assert_eq!(v["fit"]["selection"], "fixed");
+    // The runs get faster in file order: the law above 5000 rpm is chosen on the folds that predict a
+    // faster run, and the grid carries it.
+    assert_eq!(v["spindle"]["extrapolation"], "power-law");
+    assert_eq!(v["spindle"]["characterised_top_rpm"], 5000.0);
+    let p = v["fit"]["speed_law"]["exponent"].as_f64().unwrap();
+    assert_eq!(v["spindle"]["modes"][0]["power_law_exponent"], p);
+    assert_eq!(v["fit"]["speed_law"]["trials"].as_array().unwrap().len(), 9);
 }
 
 #[test]
@@ -114,7 +121,8 @@ fn predict_a_schedule_and_a_data_file() {
     let warning = text(&out.stderr);
     assert!(
         warning.contains("6000 rpm is above the top characterised speed 5000 rpm")
-            && warning.contains("last segment"),
+            && warning.contains("the power law")
+            && warning.contains("chosen by forward validation"),
         "{warning}"
     );
 

@@ -1,6 +1,7 @@
 //! Real data (../shared/data/fl_thermal_first24h.csv): every channel fitted on the first 16 h with spindle
 //! speed only, predicted on 16–24 h. Asserts that the fits are structurally sound (no degeneracy, finite
-//! statistics); accuracy is printed, not asserted — a spindle-only model is expected to miss the ambient
+//! statistics) and that the law above the top speed is chosen on the fold that predicts a faster speed;
+//! accuracy is printed, not asserted — a spindle-only model is expected to miss the ambient
 //! effect on some channels.
 
 mod shared_data;
@@ -52,6 +53,45 @@ fn spindle_only_fits_on_16_h_do_not_degenerate() {
                 assert!(next.tau_min / m.tau_min >= 1.25, "{ch}: near-equal τ");
             }
         }
+        // One fold (origin at 480 min) trains on 1250 rpm only and predicts 2500 rpm: the law above 2500 rpm
+        // is chosen on it, from the candidates, and written to every mode; the fitted speeds keep their
+        // gains.
+        let law = summary
+            .speed_law
+            .as_ref()
+            .expect("a law chosen above 2500 rpm");
+        assert!(
+            matches!(law.origins_min.as_slice(), [o] if (o - 480.0).abs() < 1.0),
+            "{ch}: {:?}",
+            law.origins_min
+        );
+        assert!(
+            driftloop::model::modes_law::EXPONENTS.contains(&law.exponent),
+            "{ch}"
+        );
+        let best = law
+            .trials
+            .iter()
+            .map(|t| t[1])
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            law.trials
+                .iter()
+                .any(|t| t[0] == law.exponent && t[1] == best)
+        );
+        assert_eq!(model.spindle.characterised_top_rpm, Some(2500.0));
+        assert!(
+            model
+                .spindle
+                .modes
+                .iter()
+                .all(|m| m.power_law_exponent == Some(law.exponent))
+        );
+        let warning = driftloop::model::extrapolation_warning(&model, 3750.0).unwrap();
+        assert!(
+            warning.contains(&format!("p = {:.2}", law.exponent)),
+            "{warning}"
+        );
         let chosen = summary.orders.iter().find(|o| o.chosen).unwrap();
         assert!(!chosen.note.contains("degenerate"), "{ch}: {}", chosen.note);
         assert!(

@@ -61,7 +61,17 @@ fn recover(modes: &[(f64, f64)], seed: u64, sampling: Sampling) -> Recovery {
         modes.len(),
         "seed {seed}: wrong model order; orders tried: {orders:#?}"
     );
-    assert_eq!(model.spindle.grid_rpm, SPEEDS);
+    // The characterised speeds, then the law above 5000 rpm chosen on the folds that predict the
+    // faster runs: the truth grows as n^1.4.
+    assert_eq!(model.spindle.grid_rpm[..SPEEDS.len()], SPEEDS);
+    assert_eq!(model.spindle.characterised_top_rpm, Some(5000.0));
+    let chosen = model.fit.as_ref().unwrap().speed_law.as_ref().unwrap();
+    assert!(
+        (1.0..=1.75).contains(&chosen.exponent),
+        "seed {seed}: p = {} for a truth growing as n^1.4: {:?}",
+        chosen.exponent,
+        chosen.trials
+    );
     let mut r = Recovery {
         tau_err: Vec::new(),
         gain_err: Vec::new(),

@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use super::{Format, Global};
 use crate::data::{Dataset, Minutes, Require, read_path};
 use crate::model::dlag::{Averaging, DlagOptions, fit_dlag};
-use crate::model::fit::fmt_tau;
+use crate::model::lag::fmt_tau;
 use crate::model::{DriftModel, FitOptions, ModesChoice, fit};
 
 /// Which model `fit` makes.
@@ -200,7 +200,11 @@ pub fn summary(model: &DriftModel) -> String {
             let _ = write!(s, "  {:>9}", format!("mode {}", k + 1));
         }
         let _ = writeln!(s, "  {:>9}", "total");
+        let top = crate::model::speed_law::characterised_top(model).unwrap_or(0.0);
         for (j, rpm) in model.spindle.grid_rpm.iter().enumerate() {
+            if *rpm > top {
+                break;
+            }
             let _ = write!(s, "  {rpm:>7.0}");
             for m in modes {
                 let _ = write!(s, "  {:>9.3}", m.gain_um[j]);
@@ -209,9 +213,46 @@ pub fn summary(model: &DriftModel) -> String {
         }
         let _ = writeln!(
             s,
-            "  between speeds: piecewise linear; above {:.0} rpm: the last segment continued",
-            model.spindle.grid_rpm.last().copied().unwrap_or(0.0)
+            "  between speeds: piecewise linear; above {top:.0} rpm: {}",
+            crate::model::speed_law::extrapolation_law(model)
         );
+        if let Some(law) = model.fit.as_ref().and_then(|f| f.speed_law.as_ref()) {
+            let origins: Vec<String> = law.origins_min.iter().map(|o| format!("{o:.0}")).collect();
+            let trials: Vec<String> = law
+                .trials
+                .iter()
+                .map(|[p, rms]| format!("{p} → {rms:.3}"))
+                .collect();
+            let _ = writeln!(
+                s,
+                "    law chosen on the folds from {} min elapsed, whose later rows ran faster than the rows before ({} rows; forward RMS µm by p: {})",
+                origins.join(", "),
+                law.rows,
+                trials.join(", ")
+            );
+            if let (Some(first), Some(last)) = (law.trials.first(), law.trials.last())
+                && (law.exponent == first[0] || law.exponent == last[0])
+            {
+                let _ = writeln!(
+                    s,
+                    "    note: p = {} is the edge of the candidates {} … {}: the data want a law {} than they offer; treat speeds above {top:.0} rpm with care",
+                    law.exponent,
+                    first[0],
+                    last[0],
+                    if law.exponent == first[0] {
+                        "flatter"
+                    } else {
+                        "steeper"
+                    }
+                );
+            }
+            let _ = writeln!(
+                s,
+                "    steady state a third above the top speed, at {:.0} rpm: {:.3} µm",
+                top * 4.0 / 3.0,
+                model.steady_state_um(top * 4.0 / 3.0)
+            );
+        }
     }
     let _ = writeln!(s, "  offset {:.3} µm", model.offset_um);
     if let Some(fit) = &model.fit {

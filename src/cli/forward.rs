@@ -132,10 +132,20 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                     }
                 ))
             ),
-            None => match model.spindle.modes.len() {
-                1 => "1 spindle mode".to_string(),
-                n => format!("{n} spindle modes"),
-            },
+            None => {
+                let modes = match model.spindle.modes.len() {
+                    1 => "1 spindle mode".to_string(),
+                    n => format!("{n} spindle modes"),
+                };
+                let top = crate::model::speed_law::characterised_top(&model).unwrap_or(0.0);
+                match model.fit.as_ref().and_then(|f| f.speed_law.as_ref()) {
+                    Some(law) => format!(
+                        "{modes}, above {top:.0} rpm gain ∝ n^{} chosen by forward validation",
+                        law.exponent
+                    ),
+                    None => format!("{modes}, above {top:.0} rpm the last segment continued"),
+                }
+            }
         };
         lines.push(Line {
             channel: ch.clone(),

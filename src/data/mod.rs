@@ -248,7 +248,7 @@ impl Dataset {
 
     /// The rows whose time (in minutes) is before `until_min`; runs that start later are dropped.
     pub fn until(&self, until_min: f64) -> Dataset {
-        self.select(|t| t < until_min)
+        self.rows_where(|i| self.time_min[i] < until_min)
     }
 
     /// [`Dataset::until`] when a time is given, the whole data set (not copied) otherwise.
@@ -259,7 +259,8 @@ impl Dataset {
         }
     }
 
-    fn select(&self, keep: impl Fn(f64) -> bool) -> Dataset {
+    /// The rows `keep` accepts (by index), in their runs; runs left without a row are dropped.
+    pub fn rows_where(&self, keep: impl Fn(usize) -> bool) -> Dataset {
         let mut out = Dataset::new(self.source.clone(), self.time_unit, Vec::new());
         out.run_starts.clear();
         let mut labels = Vec::new();
@@ -267,7 +268,7 @@ impl Dataset {
         for (ri, range) in self.runs().enumerate() {
             let mut started = false;
             for i in range {
-                if !keep(self.time_min[i]) {
+                if !keep(i) {
                     continue;
                 }
                 if !started {

@@ -9,6 +9,7 @@ use rayon::prelude::*;
 
 use crate::data::{Dataset, SPINDLE};
 
+use super::lag::fmt_tau;
 use super::speed_grid::SpeedGrid;
 use super::varpro::{self, Layout, Point, Problem};
 use super::{
@@ -97,8 +98,32 @@ pub enum FitError {
     Numerical,
 }
 
-/// Fits the model of `opts.channel` to `ds`.
+/// Fits the model of `opts.channel` to `ds`; with spindle modes, the law above the top characterised speed
+/// is chosen by forward validation ([`super::modes_law`]) when the data offer a fold that predicts a
+/// faster speed than it was fitted on.
 pub fn fit(all: &Dataset, opts: &FitOptions) -> Result<DriftModel, FitError> {
+    let model = fit_window(all, opts)?;
+    if model.spindle.modes.is_empty() {
+        return Ok(model);
+    }
+    let window = all.until_opt(opts.until_min);
+    let y = channel_values(window.as_ref(), &opts.channel)?;
+    let refit = |train: &Dataset| fit_window(train, opts).ok();
+    Ok(
+        match super::modes_law::choose(window.as_ref(), y, &model, refit) {
+            Some((mut extended, choice)) => {
+                if let Some(f) = extended.fit.as_mut() {
+                    f.speed_law = Some(choice);
+                }
+                extended
+            }
+            None => model,
+        },
+    )
+}
+
+/// The fit of the rows before `opts.until_min`, its speed grid the characterised speeds only.
+fn fit_window(all: &Dataset, opts: &FitOptions) -> Result<DriftModel, FitError> {
     let window = all.until_opt(opts.until_min);
     let ds = window.as_ref();
     let prep = Prepared::new(ds, opts)?;
@@ -393,6 +418,7 @@ impl Prepared {
                     .map(|(i, tr)| tr.summary(i == chosen, &trials[chosen]))
                     .collect(),
                 forward: None,
+                speed_law: None,
             }),
             data: Some(DataProvenance {
                 file: ds.source.clone(),
@@ -629,15 +655,6 @@ fn standard_errors(
             .map(f64::sqrt)
     };
     ((0..q).map(se).collect(), (q..q + np).map(se).collect())
-}
-
-/// A time constant as summaries print it (`2.47 min`, `20.8 min`).
-pub fn fmt_tau(tau_min: f64) -> String {
-    if tau_min < 10.0 {
-        format!("{tau_min:.2} min")
-    } else {
-        format!("{tau_min:.1} min")
-    }
 }
 
 /// The starting-value scan: the unit responses of every grid time constant are computed once, with their

@@ -44,6 +44,15 @@ pub fn step(x: f64, target: f64, e: f64) -> f64 {
     target + (x - target) * e
 }
 
+/// A time constant as summaries print it (`2.47 min`, `20.8 min`).
+pub fn fmt_tau(tau_min: f64) -> String {
+    if tau_min < 10.0 {
+        format!("{tau_min:.2} min")
+    } else {
+        format!("{tau_min:.1} min")
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

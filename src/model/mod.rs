@@ -36,6 +36,7 @@ pub mod file;
 pub mod fit;
 pub mod forward;
 pub mod lag;
+pub mod modes_law;
 mod predict;
 pub mod probing;
 pub mod ridge;
@@ -187,6 +188,10 @@ pub struct FitSummary {
     /// How a forward-validated fit (`fit --kind dlag`) chose its design.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub forward: Option<dlag::ForwardSelection>,
+    /// How a spindle-mode fit chose its law above the top characterised speed (absent: no fold predicted
+    /// a faster speed than it was fitted on, and the last segment is continued).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub speed_law: Option<modes_law::LawChoice>,
 }
 
 /// Fit statistics of one run.

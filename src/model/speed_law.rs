@@ -68,6 +68,14 @@ pub fn extrapolation_law(model: &DriftModel) -> String {
     let last = sp.grid_rpm.last().copied().unwrap_or(0.0);
     match (sp.extrapolation, sp.characterised_top_rpm) {
         (Extrapolation::PowerLaw, Some(top)) => {
+            let shared = sp.modes.first().and_then(|m| m.power_law_exponent);
+            if let Some(p) = shared.filter(|p| {
+                sp.modes.len() > 1 && sp.modes.iter().all(|m| m.power_law_exponent == Some(*p))
+            }) {
+                return format!(
+                    "the power law gain ∝ (n/{top:.0} rpm)^p, p = {p:.2} for every mode (chosen by forward validation), continued linearly above {last:.0} rpm"
+                );
+            }
             let per_mode: Vec<String> = sp
                 .modes
                 .iter()
@@ -75,7 +83,7 @@ pub fn extrapolation_law(model: &DriftModel) -> String {
                     format!(
                         "{} (τ {})",
                         mode_law(model, m),
-                        super::fit::fmt_tau(m.tau_min)
+                        super::lag::fmt_tau(m.tau_min)
                     )
                 })
                 .collect();

@@ -53,6 +53,7 @@ pub(crate) fn parse_owned_in_pieces<W: Words + Send>(
             diagnostics,
             endings: Endings::default(),
             headers: Vec::new(),
+            jumps: Vec::new(),
         };
         return (program, Vec::new());
     }
@@ -69,9 +70,11 @@ pub(crate) fn parse_owned_in_pieces<W: Words + Send>(
         diagnostics,
         endings,
         headers,
+        jumps: Vec::new(),
     };
-    let structural = structure::analyze(&program).diagnostics;
-    program.diagnostics.extend(structural);
+    let structure = structure::analyze(&program);
+    program.diagnostics.extend(structure.diagnostics);
+    program.jumps = structure.jumps;
     program
         .diagnostics
         .sort_by_key(|d| (d.span.start, d.severity, d.span.end));

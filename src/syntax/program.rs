@@ -32,6 +32,17 @@ pub struct Program {
     pub(super) endings: Endings,
     /// The `%…` header blocks, in order: where program units start.
     pub(super) headers: Vec<usize>,
+    /// The jumps the structure pass resolved while parsing (see [`Program::jumps`]).
+    pub(super) jumps: Vec<Jump>,
+}
+
+/// A jump with a literal target, or a section repetition's label: source block, upper-cased target,
+/// resolved block (None: no target in the search direction).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Jump {
+    pub from: usize,
+    pub target: String,
+    pub to: Option<usize>,
 }
 
 /// How many lines end in LF, CRLF and a lone CR, counted while parsing: an editor asks for the dominant
@@ -166,6 +177,13 @@ impl Program {
     /// The `%…` header blocks (where program units start), in order.
     pub fn header_blocks(&self) -> &[usize] {
         &self.headers
+    }
+
+    /// The jumps of every program unit as the structure pass resolved them while parsing (what
+    /// [`crate::syntax::structure::analyze`] gives as `jumps`): kept, so that a reader of the program's
+    /// flow need not pass over every block again to pair its structures.
+    pub fn jumps(&self) -> &[Jump] {
+        &self.jumps
     }
 
     /// The line ending most blocks use (LF when there is none), for rendering new blocks.

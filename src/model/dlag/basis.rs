@@ -68,7 +68,7 @@ impl Term {
             if l == 0.0 {
                 String::new()
             } else {
-                format!(", lag {}", crate::model::fit::fmt_tau(l))
+                format!(", lag {}", crate::model::lag::fmt_tau(l))
             }
         };
         match self {

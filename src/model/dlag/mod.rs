@@ -762,6 +762,7 @@ impl<'a> Prepared<'a> {
                 per_run,
                 orders: Vec::new(),
                 forward: Some(forward),
+                speed_law: None,
             }),
             data: Some(DataProvenance {
                 file: ds.source.clone(),

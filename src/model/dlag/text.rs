@@ -5,7 +5,8 @@ use std::fmt::Write as _;
 
 use crate::model::DriftModel;
 use crate::model::effects::{Effect, Kind};
-use crate::model::fit::{fitted_on, fmt_tau};
+use crate::model::fit::fitted_on;
+use crate::model::lag::fmt_tau;
 use crate::model::speed_law::{extrapolation_law, mode_law};
 
 use super::{DesignTrial, ForwardSelection};

@@ -35,7 +35,7 @@ fn build_with(
     folders: &mut Folders,
 ) -> Timeline {
     let units = units(program);
-    let jumps = crate::syntax::structure::analyze(program).jumps;
+    let jumps = program.jumps();
     let names: Vec<Option<String>> = units[1..]
         .iter()
         .map(|u| subprogram_name(program, u.start))
@@ -54,7 +54,7 @@ fn build_with(
                 program,
                 moves,
                 u.clone(),
-                &jumps,
+                jumps,
                 profile,
                 &mut callees,
             ))
@@ -70,7 +70,7 @@ fn build_with(
             .any(|c| names.iter().flatten().any(|n| n == c))
         {
             let unit = units[k + 1].clone();
-            build_unit(program, moves, unit, &jumps, profile, &mut callees).0
+            build_unit(program, moves, unit, jumps, profile, &mut callees).0
         } else {
             first
         };
@@ -84,7 +84,7 @@ fn build_with(
         program,
         moves,
         units[0].clone(),
-        &jumps,
+        jumps,
         profile,
         &mut callees,
     )

@@ -33,7 +33,8 @@ struct Piece {
 
 /// Consecutive blocks that only move (`N`, `G0`-`G3`, `X Y Z I J K F`, `CR=`) and whose lengths are known from the
 /// blocks before them, in absolute dimensions with feeds per minute. A run starts after any block that is
-/// not such a move, or whose move depends on what came before the piece, and ends before the next.
+/// not such a move, or whose move depends on what came before the piece, and ends before the next, or with
+/// the piece's first cut ([`Mover::end_run_at_first_cut`]).
 #[derive(Debug, Clone)]
 pub(super) struct Run {
     pub(super) first: usize,
@@ -237,6 +238,8 @@ pub struct Mover {
     feed: f64,
     feed_known: bool,
     retract: u8,
+    /// A feed move of the piece was timed (see [`Mover::finish_line`]).
+    cut_seen: bool,
     block: usize,
     /// The run being extended, pushed to `runs` when a block ends it.
     open: Option<Run>,
@@ -268,6 +271,7 @@ impl Mover {
             feed: 0.0,
             feed_known: false,
             retract: UNKNOWN,
+            cut_seen: false,
             block: 0,
             open: None,
             runs: Vec::new(),
@@ -498,11 +502,24 @@ impl Mover {
         self.block += 1;
         if moves {
             self.plain_move(i);
+            self.end_run_at_first_cut();
         } else {
             self.forget();
         }
         (self.written, self.motion_word, self.moves_only) = (0, NO_MOTION, true);
         self.radius = None;
+    }
+
+    /// Ends the open run after the piece's first timed cut. The fold reads the blocks up to the program's
+    /// first cut one by one (the set-up's sites are found there), so a run holding that cut is read again
+    /// from its text; in a CAM program that run is the whole first piece. Ended here, only the run up to
+    /// the cut is read, and the moves after it start a run the fold takes at once.
+    #[inline(always)]
+    fn end_run_at_first_cut(&mut self) {
+        if !self.cut_seen && self.open.as_ref().is_some_and(|run| run.cuts) {
+            self.cut_seen = true;
+            self.close();
+        }
     }
 
     /// Reads a line the recogniser left to the grammar because of a `CR=radius` (the one assignment CAM

@@ -6,6 +6,8 @@
 mod jumps;
 
 pub use jumps::{JumpTarget, Search, Targets};
+// Defined with the program, which keeps the jumps its parse resolved.
+pub use super::program::Jump;
 
 use crate::diagnostic::Diagnostic;
 use crate::source::Span;
@@ -23,13 +25,6 @@ pub struct Structure {
     /// resolved block (None: no target in the search direction).
     pub jumps: Vec<Jump>,
     pub diagnostics: Vec<Diagnostic>,
-}
-
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Jump {
-    pub from: usize,
-    pub target: String,
-    pub to: Option<usize>,
 }
 
 /// Pairs control keywords and resolves jump targets of every program unit.
