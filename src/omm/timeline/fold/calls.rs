@@ -2,6 +2,7 @@
 //! words replayed onto this program's spindle, and what it leaves untimed or uses; an `MCALL`'s cycle after
 //! every block that moves.
 
+use std::collections::BTreeMap;
 use std::rc::Rc;
 
 use super::Builder;
@@ -157,45 +158,57 @@ impl Builder<'_> {
     /// section or what a backward jump runs again, the sites before the call are reached after it on the
     /// later runs too: there a field is sure only where the body writes it before the site.
     pub(super) fn mark_unsure_after_calls(&mut self) {
+        let calls = std::mem::take(&mut self.call_unsure);
+        if calls.is_empty() {
+            return;
+        }
         let mut bodies: Vec<(usize, usize)> = self.t.loops.iter().map(|l| l.body).collect();
         for (&from, targets) in &self.jumps {
             bodies.extend(targets.iter().filter(|&&t| t < from).map(|&t| (t, from)));
         }
-        for (call, name, unsure) in std::mem::take(&mut self.call_unsure) {
-            let open = |written: &[usize; field::COUNT], since: usize| -> Vec<usize> {
-                (0..field::COUNT)
-                    .filter(|&f| unsure[f] && written[f] <= since)
-                    .collect()
-            };
-            let mut marked: Vec<(usize, Vec<usize>)> = Vec::new();
-            let after = self.site_changes.partition_point(|(b, ..)| *b <= call);
-            for (b, _, written) in &self.site_changes[after..] {
-                let fields = open(written, call + 1);
-                if fields.is_empty() {
-                    // Every unsure field is set again: so it stays at every later site.
-                    break;
+        // Site block → the last call (by index) that leaves it unsure, and the fields.
+        let mut unsure_at: BTreeMap<usize, (usize, [bool; field::COUNT])> = BTreeMap::new();
+        for (k, (call, _, unsure)) in calls.iter().enumerate() {
+            let open = |written: &[usize; field::COUNT], since: usize| {
+                let mut open = [false; field::COUNT];
+                for f in 0..field::COUNT {
+                    open[f] = unsure[f] && written[f] <= since;
                 }
-                marked.push((*b, fields));
+                open.contains(&true).then_some(open)
+            };
+            let after = self.site_changes.partition_point(|(b, ..)| *b <= *call);
+            for (b, _, written) in &self.site_changes[after..] {
+                // Every unsure field set again: so it stays at every later site.
+                let Some(fields) = open(written, call + 1) else {
+                    break;
+                };
+                unsure_at.insert(*b, (k, fields));
             }
-            for &(first, _) in bodies.iter().filter(|(a, z)| *a <= call && call <= *z) {
+            for &(first, _) in bodies.iter().filter(|(a, z)| a <= call && call <= z) {
                 let from = self.site_changes.partition_point(|(b, ..)| *b < first);
-                for (b, _, written) in self.site_changes[from..]
+                let before_call = self.site_changes[from..]
                     .iter()
-                    .take_while(|(b, ..)| *b <= call)
-                {
-                    let fields = open(written, first);
-                    if !fields.is_empty() {
-                        marked.push((*b, fields));
+                    .take_while(|(b, ..)| b <= call);
+                for (b, _, written) in before_call {
+                    if let Some(fields) = open(written, first) {
+                        let e = unsure_at.entry(*b).or_insert((k, fields));
+                        for (mine, its) in e.1.iter_mut().zip(fields) {
+                            *mine |= its;
+                        }
                     }
                 }
             }
-            for (b, fields) in marked {
-                self.varies.insert(b);
-                let words = fields.iter().map(|&f| field::word(f)).collect::<Vec<_>>();
-                self.t
-                    .unsure_after_call
-                    .insert(b, (call + 1, name.clone(), words.join(", ")));
-            }
+        }
+        for (b, (k, fields)) in unsure_at {
+            self.varies.insert(b);
+            let (call, name, _) = &calls[k];
+            let words: Vec<&str> = (0..field::COUNT)
+                .filter(|&f| fields[f])
+                .map(field::word)
+                .collect();
+            self.t
+                .unsure_after_call
+                .insert(b, (call + 1, name.clone(), words.join(", ")));
         }
     }
 
