@@ -1,8 +1,9 @@
 //! 26 shop-style programs written for a QA run (CAM posts for 840D with swivels, high-speed settings and
 //! drilling cycles, hand-written programs with loops, labels and frames, lathe and grinder programs, CRLF,
 //! Latin-1, an archive; subprograms in fixtures/shop/subs) and 22 with tool changes for QA round 4
-//! (fixtures/shop4, its README lists them) and 25 in the styles QA round 6 added (fixtures/shop6: ShopMill
-//! step programs, two channels, G331, G93, POLY, G58, G75, ISO, DIAM90, a 10 648-line generated program)
+//! (fixtures/shop4, its README lists them), 25 in styles neither covers for QA round 5 (fixtures/shop5) and
+//! 25 in the styles QA round 6 added (fixtures/shop6: ShopMill step programs, two channels, G331, G93, POLY,
+//! G58, G75, ISO, DIAM90, a 10 648-line generated program)
 //! through `transform` with every builtin profile.
 //! Each output is audited by `transform` itself (as planned and with every gate measuring); here every
 //! written program must give its original back through `strip`, and the counts of what transforms are held
@@ -19,7 +20,7 @@ fn root() -> &'static Path {
 #[test]
 fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
     // fixtures/shop (26, QA rounds 1–2), fixtures/shop4 (22 with tool changes, QA round 4) and
-    // fixtures/shop6 (25, QA round 6).
+    // fixtures/shop5 (25, QA round 5) and fixtures/shop6 (25, QA round 6).
     let sets = [
         (
             "shop",
@@ -41,6 +42,17 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
                 ("tool-setter", 21),
                 ("grinder-gauge", 21),
                 ("lathe-setter", 21),
+            ],
+        ),
+        (
+            "shop5",
+            25,
+            [
+                ("blum-tc50", 18),
+                ("siemens-cycle978", 18),
+                ("tool-setter", 24),
+                ("grinder-gauge", 25),
+                ("lathe-setter", 24),
             ],
         ),
         (

@@ -496,3 +496,31 @@ fn the_probe_setup_shop_program_is_audited_to_its_end() {
     let err = transformed_and_audited(dir.path(), &program.display().to_string());
     assert!(err.contains("_OVR[16] read as 0"), "{err}");
 }
+
+/// fixtures/shop5/20 builds its work offsets with `$P_UIFR[n]=CTRANS(…)` before the first cut: the dry run
+/// stopped at that line, so every output was written without an audit. A whole frame written so now takes
+/// those translations (0 for what it leaves out, the fine part too), acting at the next selection, and the
+/// program transforms with its audit run to the end.
+#[test]
+fn a_settable_frame_built_with_ctrans_is_run() {
+    let src = "G500\n$P_UIFR[1,Y,FI]=0.5\n$P_UIFR[1]=CTRANS(X,-412.35,Z,-611.48)\nG0 X0 Y0 Z0\nG54\nG0 X0 Y0 Z0\nM30\n";
+    let run = dry_run(src.as_bytes(), &Config::default());
+    let trace = &run.trace;
+    let at = |line: usize| {
+        trace
+            .iter()
+            .find(|r| r.line == line)
+            .map(|r| r.machine.clone())
+            .unwrap()
+    };
+    assert_eq!(
+        at(4)[..3],
+        [0.0, 0.0, 0.0],
+        "not acting before the selection"
+    );
+    assert_eq!(at(6)[..3], [-412.35, 0.0, -611.48]);
+    let dir = tempfile::tempdir().unwrap();
+    let program = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures/shop5/20_g500_puifr_frames_before_first_cut.mpf");
+    transformed_and_audited(dir.path(), &program.display().to_string());
+}

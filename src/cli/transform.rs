@@ -306,6 +306,9 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                     for w in &s.warnings {
                         writeln!(stderr, "{} {path}: {w}", style::label(Severity::Warning))?;
                     }
+                    for n in &s.notes {
+                        writeln!(stderr, "{} {path}: {n}", style::label(Severity::Note))?;
+                    }
                     if let Some(a) = &o.audit {
                         for w in &a.warnings {
                             writeln!(stderr, "{} {path}: {w}", style::label(Severity::Warning))?;

@@ -7,6 +7,7 @@ pub mod continuous;
 pub mod emit;
 mod iso;
 pub mod loops;
+pub mod machine_coolant;
 pub mod nc;
 pub mod plan;
 pub mod profile;
@@ -143,6 +144,8 @@ pub struct Summary {
     pub r_parameters_needed: u32,
     /// Stretches of the plan where the predicted change exceeds δ' or Δ with no place to measure.
     pub warnings: Vec<String>,
+    /// What the operator should know that is no fault of the plan (machine M-codes a gate leaves alone).
+    pub notes: Vec<String>,
 }
 
 /// A transformed program.
@@ -576,7 +579,32 @@ fn prepare_with<'p>(
                     .map_or(0, |w| w.r_first + emitter.store_len()),
             ),
             warnings: plan.warnings.clone(),
+            notes: machine_m_note(&timeline, profile).into_iter().collect(),
         },
         plan,
     })
+}
+
+/// The machine M-codes the program uses that a gate which moves leaves as they are: a coolant through the
+/// spindle among them would go through the probe, and stay off for the tool after a probe swap, unless the
+/// profile's `[coolant]` lists it.
+fn machine_m_note(timeline: &Timeline, profile: &Profile) -> Option<String> {
+    if timeline.machine_m.is_empty() || profile.probe.kind == ProbeKind::Gauge {
+        return None;
+    }
+    let codes: Vec<String> = timeline.machine_m.iter().map(|m| format!("M{m}")).collect();
+    Some(format!(
+        "{} {} a gate leaves as {}: if one switches a coolant or air through the spindle, list its on/off pair in the profile's [coolant] codes (docs/profiles.md), so gates switch it off before they move and give it back",
+        codes.join(", "),
+        if codes.len() == 1 {
+            "is a machine M-code"
+        } else {
+            "are machine M-codes"
+        },
+        if codes.len() == 1 {
+            "it is"
+        } else {
+            "they are"
+        }
+    ))
 }

@@ -468,6 +468,10 @@ const D0: &str =
 
 const STEP_TOOLS: &str = "the tool in the spindle is not known there, and the program's ShopMill steps (E_… cycles) load their tools themselves: a tool setter would measure a tool that does not cut (or the bare spindle); load the first step's tool before the first step (a G-code step with T=\"NAME\" M6, D1 and a move to a safe height, G0 Z100), so that the zero measures a tool that cuts";
 
+const MACHINE_COOLANT_ON: &str = "a machine coolant of the profile's [coolant] codes is on, and the program's own tool change follows: the gate would have to give it back with the probe still in the spindle";
+
+const STATE_VARIES: &str = "its modal state is not known for sure (later runs of a loop reach it in another state, or a subprogram or cycle ran before it)";
+
 const TOOL_UNKNOWN: &str = "the tool in the spindle is not known there (no tool change before it), so the probe could not be swapped for it again";
 
 /// Why a site cannot carry the reference measurement with this profile's probe; `None` when it can.
@@ -485,14 +489,15 @@ fn unfit_for_reference(site: &Site, profile: &Profile, rule: OffsetRule) -> Opti
         return Some(IN_PART);
     }
     if site.state_varies {
-        return Some(
-            "its modal state is not known for sure (later runs of a loop reach it in another state, or a subprogram or cycle ran before it)",
-        );
+        return Some(STATE_VARIES);
     }
     match profile.probe.kind {
         // The probe travels with its tip at the height the spindle stood at: a whole probe length
         // higher, beyond the top after the `SUPA Z0 D0` posts write before a tool change.
         ProbeKind::SpindleProbe if site.before.d == Some(0) => Some(D0),
+        ProbeKind::SpindleProbe if tool_change_follows && site.before.machine_coolant != 0 => {
+            Some(MACHINE_COOLANT_ON)
+        }
         ProbeKind::SpindleProbe if tool_change_follows => None,
         ProbeKind::SpindleProbe if site.before.tool.is_none() => Some(TOOL_UNKNOWN),
         ProbeKind::SpindleProbe if site.before.unknown & timeline::unknown::SUM_OFFSET != 0 => {
@@ -578,6 +583,15 @@ fn reference_site(
                 return Ok(k);
             }
         }
+        // With no place before the first cut, the message says why the first place after the setup is not
+        // fit either.
+        if unfit.is_none() {
+            unfit = timeline
+                .sites
+                .iter()
+                .filter(|s| after_setup(s))
+                .find_map(|s| fit(s).map(|why| (s.block, why)));
+        }
     }
     // A reference fixed on the machine (or a gauge) reads nothing through the program's frames: where the
     // setup runs straight into the first cut (`TRANS X40 Y30` then a subprogram that cuts), the last fit
@@ -606,6 +620,13 @@ fn reference_site(
     let tool_unknown = unfit.is_some_and(|(_, why)| why == TOOL_UNKNOWN);
     if let Some((block, why)) = unfit {
         message.push_str(&format!(": at line {}, {why}", block + 1));
+        if let (STATE_VARIES, Some((line, name, fields))) =
+            (why, timeline.unsure_after_call.get(&block))
+        {
+            message.push_str(&format!(
+                ": the call {name} (line {line}) may leave {fields} otherwise than the program had them before it, and the program's own words do not set them again before that place, so a gate there would give back the state from before the call (write them after the call, e.g. `G0` or `G1 F…`; a frame cannot be written so; where driftloop did not read the subprogram, give its file beside the program or with --subprograms DIR)"
+            ));
+        }
     }
     if tool_unknown {
         message.push_str(
@@ -642,9 +663,7 @@ fn unfit_for_measuring(
         return unfit_for_gate(site, profile, rule);
     }
     if site.state_varies {
-        return Some(
-            "its modal state is not known for sure (later runs of a loop reach it in another state, or a subprogram or cycle ran before it)",
-        );
+        return Some(STATE_VARIES);
     }
     if site.in_part {
         return Some(IN_PART);
@@ -657,6 +676,9 @@ fn unfit_for_measuring(
         return Some(why);
     }
     match profile.probe.kind {
+        ProbeKind::SpindleProbe if tool_change_follows && site.before.machine_coolant != 0 => {
+            Some(MACHINE_COOLANT_ON)
+        }
         ProbeKind::SpindleProbe if !tool_change_follows && site.before.tool.is_none() => {
             Some("the tool in the spindle is not known")
         }

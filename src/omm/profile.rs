@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 use crate::data::LARGEST_UM;
 
 use super::continuous::Continuous;
+use super::machine_coolant::MachineCoolant;
 use super::warm::WarmStart;
 
 /// The profile shipped inside the binary (fixtures/omm/blum-tc50.toml), used when `--profile` is absent.
@@ -63,6 +64,9 @@ pub struct Profile {
     /// Optional: the model's states carried from one job to the next.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub warm_start: Option<WarmStart>,
+    /// Optional: the machine's own coolant M-codes, which gates switch off and give back like M7/M8.
+    #[serde(default, skip_serializing_if = "MachineCoolant::is_default")]
+    pub coolant: MachineCoolant,
 }
 
 /// How dense DRIFTLOG is and which analog inputs it carries, for `diagnose` to work with.
@@ -761,6 +765,7 @@ impl Profile {
             ));
         }
         self.validate_retract_max()?;
+        self.coolant.validate()?;
         let g = self.offset_g().unwrap_or(0);
         let frame_of_select = match g {
             54..=57 => g - 53,

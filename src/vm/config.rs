@@ -88,6 +88,9 @@ pub struct Config {
     /// Executed blocks beyond the main program's own block count after which the run stops with an error
     /// (endless loops); a straight program of any length runs through.
     pub max_blocks: u64,
+    /// The machine's own coolant M-codes (through-spindle coolant, air), followed like M7/M8 (an audit takes
+    /// them from the profile's `[coolant]`).
+    pub machine_coolant: crate::omm::machine_coolant::MachineCoolant,
     /// Keep a trace row per executed block.
     pub trace: bool,
     /// Work out the passes and their machined error (the drift at every cutting move); off, a run only
@@ -146,6 +149,7 @@ impl Default for Config {
             trace: true,
             passes: true,
             tool_change_on_t: false,
+            machine_coolant: Default::default(),
             temp_comp_type: BTreeMap::new(),
             temp_comp_start: BTreeMap::new(),
             // Monday 2025-01-06 06:00.

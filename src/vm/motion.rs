@@ -37,6 +37,9 @@ pub struct Frames {
     pub initial: Vec<Vec<f64>>,
     /// Selected frame number (0 = G500).
     pub selected: usize,
+    /// The program's own value of the selected frame at its selection (its `initial`): what a correction
+    /// is measured against.
+    pub base: Vec<f64>,
     /// Copy of the selected frame made at selection.
     pub active: Vec<f64>,
     /// Programmable translation (TRANS / ATRANS).
@@ -83,6 +86,7 @@ impl Frames {
             table: vec![vec![0.0; axes]; FRAMES],
             fine: vec![vec![0.0; axes]; FRAMES],
             initial: vec![vec![0.0; axes]; FRAMES],
+            base: vec![0.0; axes],
             selected: 0,
             active: vec![0.0; axes],
             trans: vec![0.0; axes],
@@ -128,6 +132,7 @@ impl Frames {
     pub fn select(&mut self, n: usize) {
         self.selected = n;
         self.active = self.total(n);
+        self.base = self.initial[n].clone();
     }
 
     /// Coarse plus fine offset of frame `n`.
@@ -142,6 +147,15 @@ impl Frames {
     /// Remembers the current table as the start state.
     pub fn mark_initial(&mut self) {
         self.initial = (0..FRAMES).map(|n| self.total(n)).collect();
+        self.base = self.initial[self.selected].clone();
+    }
+
+    /// Frame `n` written whole by the program (`$P_UIFR[n]=CTRANS(…)`, which driftloop never writes): its
+    /// new value is the program's own, no correction; it acts from the next selection.
+    pub fn set_whole(&mut self, n: usize, coarse: Vec<f64>) {
+        self.fine[n] = vec![0.0; self.fine[n].len()];
+        self.table[n] = coarse;
+        self.initial[n] = self.total(n);
     }
 
     /// Total offset of `axis` (local → machine).
@@ -156,7 +170,7 @@ impl Frames {
         } else {
             0.0
         };
-        self.active[axis] - self.initial[self.selected][axis] + programmable
+        self.active[axis] - self.base[axis] + programmable
     }
 }
 
@@ -330,6 +344,8 @@ pub struct State {
     /// M7 (mist) and M8 (flood) coolant, both off after M9.
     pub mist: bool,
     pub flood: bool,
+    /// The machine coolant pairs on (bit k: `Config::machine_coolant` pair k).
+    pub machine_coolant: u8,
     pub kinematics: Kinematics,
     /// DIAMON / DIAM90: the axis (X) whose programmed values are diameters; the machine moves half.
     pub diameter_axis: Option<usize>,
@@ -390,6 +406,7 @@ impl State {
             d: 0.0,
             dl: 0.0,
             mist: false,
+            machine_coolant: 0,
             flood: false,
             kinematics: Kinematics::default(),
             diameter_axis: None,
@@ -817,6 +834,33 @@ mod tests {
         assert!(
             (f.correction(2) - 0.985).abs() < 1e-12,
             "the fine offset adds to the coarse one"
+        );
+    }
+
+    /// fixtures/shop5/20 sets up its offsets with `$P_UIFR[n]=CTRANS(…)`: the machined error of a dry run
+    /// counted the 611 mm of its own Z offset as a correction.
+    #[test]
+    fn a_frame_the_program_writes_whole_is_no_correction() {
+        let mut f = Frames::new(3);
+        f.table[1][2] = -100.0;
+        f.mark_initial();
+        f.select(1);
+        f.table[1][2] = -100.02;
+        f.select(1);
+        assert!((f.correction(2) + 0.02).abs() < 1e-12);
+        f.set_whole(1, vec![-412.35, 0.0, -611.48]);
+        assert!(
+            (f.correction(2) + 0.02).abs() < 1e-12,
+            "it acts at the next selection"
+        );
+        f.select(1);
+        assert_eq!(f.correction(2), 0.0);
+        assert_eq!(f.offset(0), -412.35);
+        f.table[1][2] = -611.5;
+        f.select(1);
+        assert!(
+            (f.correction(2) + 0.02).abs() < 1e-9,
+            "a write after it is a correction of it"
         );
     }
 }

@@ -902,6 +902,8 @@ impl Emitter<'_> {
         if matches!(gate.before.coolant, Some(7 | 8 | 78)) {
             v.push("M9".into());
         }
+        // Through-spindle coolant or air must not go through the probe, nor onto the setter.
+        v.extend(p.coolant.off_block(gate.before.machine_coolant));
         if p.probe.kind == ProbeKind::SpindleProbe {
             v.extend(self.load(&format!("\"{}\"", p.probe.tool)));
             v.push(format!("D{}", p.probe.tool_offset));
@@ -1157,6 +1159,7 @@ impl Emitter<'_> {
                 v.push(format!("S{} M{}", number(b.s), b.direction));
             }
             v.extend(coolant_on(b.coolant));
+            v.extend(p.coolant.on_block(b.machine_coolant));
             v.push(format!(
                 "{}=R{}",
                 p.position.retract_axis.name(),

@@ -28,6 +28,8 @@ pub struct Modal {
     pub path_mode: Option<u32>,
     /// M7 / M8 (on), 78 for both (M7 and M8 add up), or M9 (off), when the program set it.
     pub coolant: Option<u32>,
+    /// The profile's machine coolant pairs that are on (bit k: `[coolant] codes[k]`).
+    pub machine_coolant: u8,
     /// Cutter radius compensation: 40, 41 or 42.
     pub comp: u32,
     /// The work offset selected (54 … 57, 505 … 599, or 500 for none), when the program selected one.
@@ -180,7 +182,7 @@ impl Modal {
 pub(super) mod field {
     use super::Modal;
 
-    pub const COUNT: usize = 19;
+    pub const COUNT: usize = 20;
     pub const TOOL: usize = 0;
     pub const D: usize = 1;
     pub const S: usize = 2;
@@ -200,6 +202,33 @@ pub(super) mod field {
     pub const OFFSET: usize = 16;
     pub const DIAMETER: usize = 17;
     pub const UNITS: usize = 18;
+    pub const MACHINE_COOLANT: usize = 19;
+
+    /// What field `f` is, as the program writes it (for messages).
+    pub fn word(f: usize) -> &'static str {
+        [
+            "the tool (M6)",
+            "the cutting edge (D)",
+            "the spindle speed (S)",
+            "the spindle direction (M3/M4/M5)",
+            "the feed (F)",
+            "the motion (G0/G1/G2/G3)",
+            "G90/G91",
+            "the height (Z)",
+            "the tool selected (T)",
+            "the feed type (G93/G94/G95)",
+            "the plane (G17/G18/G19)",
+            "the path mode (G60/G64 …)",
+            "the coolant (M7/M8/M9)",
+            "the radius compensation (G40/G41/G42)",
+            "the frames (TRANS, ROT, TRAORI, CYCLE800 …)",
+            "values set by expressions",
+            "the work offset (G54 …)",
+            "DIAMON/DIAMOF",
+            "the unit (G70/G71/G700/G710)",
+            "a machine coolant of the profile's [coolant]",
+        ][f]
+    }
 
     /// The fields in which two states differ, by number.
     pub fn differ(a: &Modal, b: &Modal) -> [bool; COUNT] {
@@ -223,6 +252,7 @@ pub(super) mod field {
             a.offset != b.offset,
             a.diameter != b.diameter,
             a.units != b.units,
+            a.machine_coolant != b.machine_coolant,
         ]
     }
 }
@@ -338,6 +368,13 @@ mod tests {
             },
             field::UNITS,
         );
+        one(
+            Modal {
+                machine_coolant: 1,
+                ..d()
+            },
+            field::MACHINE_COOLANT,
+        );
         let all = Modal {
             tool: Some("1".into()),
             selected: Some("2".into()),
@@ -352,6 +389,7 @@ mod tests {
             plane: Some(17),
             path_mode: Some(64),
             coolant: Some(8),
+            machine_coolant: 1,
             comp: 41,
             offset: Some(54),
             diameter: Diameter::On,

@@ -105,6 +105,9 @@ pub struct Timeline {
     /// Lines (1-based) of `computed_r_lines` and `offsets` that call a subprogram from a folder in which the
     /// thing was found, with the subprogram's name.
     pub found_in_call: BTreeMap<usize, String>,
+    /// M-codes of the machine's own the program uses and the profile's `[coolant]` does not list (vice,
+    /// air, through-spindle coolant …): a gate leaves them as they are.
+    pub machine_m: BTreeSet<u32>,
     /// Blocks whose moves could not be timed (expressions, unknown feed).
     pub inexact_blocks: usize,
     /// The program's loops in the order they close (a section repeat at its REPEAT statement).
@@ -141,6 +144,10 @@ pub struct Timeline {
     pub setup_end: usize,
     /// Run as a subprogram: what it does to its caller's state.
     pub as_callee: CalleeEffect,
+    /// Sites whose state is not sure because of a call before them (a subprogram or cycle that may leave
+    /// fields otherwise than the timeline has them, not set again by the program since): site block →
+    /// (the call's line, 1-based; the name called; the fields, as G codes and words).
+    pub unsure_after_call: BTreeMap<usize, (usize, String, String)>,
 }
 
 /// What a unit run as a subprogram does to its caller's modal state.

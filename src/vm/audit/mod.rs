@@ -38,6 +38,7 @@ use super::config::{Config, MachineSpec, ProbeTarget};
 use super::truth::ModelDrift;
 use crate::model::DriftModel;
 use crate::omm::Profile;
+use crate::omm::machine_coolant::MachineCoolant;
 use crate::omm::profile::{Axis, MeasureFrame, OffsetMethod, ProbeKind, ToolChange};
 
 /// What the audit needs to know about the inserted blocks' intent, from the machine profile.
@@ -78,6 +79,8 @@ pub struct AuditSettings {
     pub probe_result: Option<ProbeTarget>,
     /// `probe.tool_change = "t"`: T loads the tool at once (no M6).
     pub tool_change_on_t: bool,
+    /// `[coolant]`: the machine's own coolant M-codes both runs follow and the comparison includes.
+    pub machine_coolant: MachineCoolant,
     /// `limits.tolerance_um`, `limits.plausibility_um`: the scrap-size drift of the abort runs lies between.
     pub tolerance_um: f64,
     pub plausibility_um: f64,
@@ -147,6 +150,7 @@ impl AuditSettings {
             probe_cycle: cycle.to_ascii_uppercase(),
             probe_result: ProbeTarget::parse(&probe.result),
             tool_change_on_t: probe.tool_change == ToolChange::T,
+            machine_coolant: profile.coolant.clone(),
             tolerance_um: profile.limits.tolerance_um,
             plausibility_um: profile.limits.plausibility_um,
             probe_margin_mm: DEFAULT_PROBE_MARGIN_MM,
@@ -221,6 +225,7 @@ impl AuditSettings {
         let axis = ["X", "Y", "Z"][self.axis];
         cfg.probe_axis = axis.to_string();
         cfg.tool_change_on_t = self.tool_change_on_t;
+        cfg.machine_coolant = self.machine_coolant.clone();
         if self.reset_selects {
             cfg.reset_frame = self.frame;
         }

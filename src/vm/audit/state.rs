@@ -2,6 +2,7 @@
 //! transformed run's value, the original's.
 
 use super::AuditSettings;
+use crate::omm::machine_coolant::MachineCoolant;
 use crate::omm::nc::shown as num;
 use crate::omm::profile::OffsetMethod;
 use crate::vm::motion::{FRAMES, Frames, IDENTITY, Matrix, SETTING_GROUPS, Spindle, State, Tool};
@@ -86,12 +87,16 @@ fn diameter(s: &State) -> String {
     .into()
 }
 
-fn coolant(s: &State) -> String {
-    match (s.mist, s.flood) {
-        (false, false) => "off (M9)".into(),
-        (true, false) => "M7".into(),
-        (false, true) => "M8".into(),
-        (true, true) => "M7 M8".into(),
+fn coolant(s: &State, machine: &MachineCoolant) -> String {
+    let base = match (s.mist, s.flood) {
+        (false, false) => "off (M9)",
+        (true, false) => "M7",
+        (false, true) => "M8",
+        (true, true) => "M7 M8",
+    };
+    match machine.on_block(s.machine_coolant) {
+        Some(codes) => format!("{base}, {codes}"),
+        None => base.into(),
     }
 }
 
@@ -178,14 +183,18 @@ fn linear(m: &Option<Matrix>) -> String {
 }
 
 /// The programmed position of every axis the original has programmed, beyond `corrected[axis]` (mm): how far
-/// driftloop's corrections have moved that axis's offset in this run.
+/// driftloop's corrections have moved that axis's offset in this run (twice that on an axis programmed in
+/// diameters, where a shift of the offset shows doubled).
 pub(super) fn positions(
     t: &State,
     o: &State,
     axes: &[String],
     corrected: &[f64],
 ) -> Vec<Difference> {
-    let within = |d: f64, a: usize| d.is_finite() && d.abs() <= corrected[a] + MM;
+    let shown = |a: usize| {
+        if t.diameter_axis == Some(a) { 2.0 } else { 1.0 }
+    };
+    let within = |d: f64, a: usize| d.is_finite() && d.abs() <= shown(a) * corrected[a] + MM;
     axes.iter()
         .enumerate()
         .filter(|&(a, _)| {
@@ -209,7 +218,11 @@ pub(super) fn modal(t: &State, o: &State, s: &AuditSettings, axes: &[String]) ->
     let (tm, om) = (&t.modal, &o.modal);
     let g = |n: u32| format!("G{n}");
     let items = [
-        ("coolant", coolant(t), coolant(o)),
+        (
+            "coolant",
+            coolant(t, &s.machine_coolant),
+            coolant(o, &s.machine_coolant),
+        ),
         ("feed type", feed_type(tm), feed_type(om)),
         ("dimensions", g90(tm.absolute), g90(om.absolute)),
         ("plane", plane(&tm.plane), plane(&om.plane)),

@@ -113,6 +113,8 @@ impl Interp<'_> {
         self.done.stopre = w.stopre;
         let mut end = None;
         for &m in &w.m {
+            let machine = &self.cfg.machine_coolant;
+            self.motion.machine_coolant = machine.after(self.motion.machine_coolant, m);
             match m {
                 3 | 4 => {
                     self.motion.rotation = m;

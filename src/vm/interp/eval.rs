@@ -250,15 +250,20 @@ impl Interp<'_> {
         axis: &Node,
         part: &Node,
     ) -> Result<(usize, usize, bool), String> {
+        Ok((
+            self.uifr_number(u, frame)?,
+            self.axis_arg(u, axis)?,
+            Interp::fine_part(u, part)?,
+        ))
+    }
+
+    /// The frame number `n` of `$P_UIFR[n, …]`.
+    pub(super) fn uifr_number(&self, u: &Unit, frame: &Node) -> Result<usize, String> {
         let f = self.num(u, frame)?;
         if !(0.0..FRAMES as f64).contains(&f) || f.fract() != 0.0 {
             return Err(format!("$P_UIFR frame number {f} out of range 0…99"));
         }
-        Ok((
-            f as usize,
-            self.axis_arg(u, axis)?,
-            Interp::fine_part(u, part)?,
-        ))
+        Ok(f as usize)
     }
 
     /// A frame component: `TR` (coarse translation, false) or `FI` (fine, true).

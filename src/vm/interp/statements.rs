@@ -385,6 +385,16 @@ impl Interp<'_> {
                 self.record_correction(u, i, (f, a, fine), (old, new), false);
                 Ok(())
             }
+            // A whole settable frame built from translations (what it does not name is 0, coarse and
+            // fine): a program setting up its offsets, which driftloop never writes so. Not noted as a
+            // correction, whose size is what the audit lets a gate's way back differ by, nor counted as
+            // one in the machined error (it counted the program's 611 mm as a correction).
+            ("$P_UIFR", [frame]) => {
+                let f = self.uifr_number(u, frame)?;
+                let shift = self.ctrans(u, value)?;
+                self.motion.frames.set_whole(f, shift);
+                Ok(())
+            }
             ("$P_IFRAME", [axis, part]) => {
                 let (a, fine) = (self.axis_arg(u, axis)?, Interp::fine_part(u, part)?);
                 let new = self.num(u, value)?;
@@ -421,6 +431,24 @@ impl Interp<'_> {
             }
             _ => Err(format!("writing {name} is not supported by the dry run")),
         }
+    }
+
+    /// The translation of every axis a `CTRANS(axis, value, …)` frame expression sets (0 where it names
+    /// none); another frame expression (a rotation, scale or mirror) is not run.
+    fn ctrans(&self, u: &Unit, value: &Node) -> Result<Vec<f64>, String> {
+        let call = (value.kind == NodeKind::FnCall)
+            .then(|| u.upper(&value.children[0]))
+            .filter(|name| name == "CTRANS")
+            .ok_or("writing a whole $P_UIFR frame is supported for CTRANS(…) only")?;
+        let args: Vec<&Node> = value.call_arguments().into_iter().flatten().collect();
+        if args.len() % 2 != 0 {
+            return Err(format!("{call} needs axis and value pairs"));
+        }
+        let mut shift = vec![0.0; self.cfg.axes.len()];
+        for pair in args.chunks(2) {
+            shift[self.axis_arg(u, pair[0])?] = self.num(u, pair[1])?;
+        }
+        Ok(shift)
     }
 
     /// Notes a write to entry (frame, axis, fine) of a settable frame, stored or `in_force`.

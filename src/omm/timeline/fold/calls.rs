@@ -2,6 +2,7 @@
 //! words replayed onto this program's spindle, and what it leaves untimed or uses; an `MCALL`'s cycle after
 //! every block that moves.
 
+use std::collections::BTreeMap;
 use std::rc::Rc;
 
 use super::Builder;
@@ -25,6 +26,8 @@ impl Builder<'_> {
         if name == "CYCLE832" {
             self.state.path_mode = None;
             self.touched[field::PATH_MODE] = true;
+            // A gate writes no path mode back where it is the cycle's.
+            self.written[field::PATH_MODE] = i + 1;
         }
         self.t.moves = true;
         if !self.called.contains(name) {
@@ -41,6 +44,8 @@ impl Builder<'_> {
                     }
                 } else {
                     self.state_unknown_after(name);
+                    let callee = &sub.as_callee;
+                    self.unsure_after(i, name, (!callee.leaves_unknown).then_some(callee.touched));
                 }
                 // A subprogram that cuts: the reference measurement goes before it.
                 if sub.first_cut.is_some() {
@@ -83,6 +88,7 @@ impl Builder<'_> {
             }
             None => {
                 self.state_unknown_after(name);
+                self.unsure_after(i, name, None);
                 // A cycle or subprogram driftloop cannot see into may cut (a drilling or pocket cycle):
                 // the reference measurement goes before it. The swivel, settings and measuring cycles
                 // do not cut.
@@ -104,6 +110,138 @@ impl Builder<'_> {
         }
     }
 
+    /// After the call of `name` at block `i`: the fields it may have left otherwise than the timeline has
+    /// them stay unsure at every later site until the program's words set them again (see
+    /// [`Builder::note_written`]); a tool change does not set them (a gate before the program's own M6 or
+    /// after it gave back the motion and feed from before a subprogram that left G1 F100: the program's
+    /// next `Z-2` went down in rapid). What a subprogram the timeline reads sets (`touched`), else every
+    /// field but the position; a Siemens cycle (declared `SAVE`: its G codes and programmable frame come
+    /// back) or one that leaves the state known, none.
+    fn unsure_after(&mut self, i: usize, name: &str, touched: Option<[bool; field::COUNT]>) {
+        if leaves_state_known(name) || is_siemens_cycle(name) {
+            return;
+        }
+        let mut unsure = touched.unwrap_or([true; field::COUNT]);
+        // The position a gate reads from the control; what is not known (expressions) the site's state
+        // says itself.
+        unsure[field::Z] = false;
+        unsure[field::UNKNOWN] = false;
+        // What a gate writes back only when the program had set it: unset, the gate writes nothing and
+        // the call's value stays (a gate switches coolant off only where the timeline has it on, so a
+        // coolant the call left on stays on through the measurement: unsure whatever the timeline has).
+        let st = &self.state;
+        unsure[field::FEED] &= st.feed.is_some();
+        unsure[field::PLANE] &= st.plane.is_some();
+        unsure[field::FEED_MODE] &= st.feed_mode.is_some();
+        unsure[field::PATH_MODE] &= st.path_mode.is_some();
+        if !unsure.contains(&true) {
+            return;
+        }
+        // Calls with no site between them: the later one stands for both (what was set since the later
+        // call was set since the earlier one too).
+        let no_site_since = |call: usize| self.site_changes.last().is_none_or(|(b, ..)| *b <= call);
+        if let Some(last) = self.call_unsure.last_mut()
+            && no_site_since(last.0)
+        {
+            for (mine, its) in last.2.iter_mut().zip(unsure) {
+                *mine |= its;
+            }
+            (last.0, last.1) = (i, name.to_string());
+            return;
+        }
+        self.call_unsure.push((i, name.to_string(), unsure));
+    }
+
+    /// The sites after each call that made fields unsure ([`Builder::unsure_after`]) where one of them was
+    /// not written since: their state varies, and the timeline says which call made it so. The call's own
+    /// block counts as not setting them: its words run before the call. Inside a loop body, a repeated
+    /// section or what a backward jump runs again, the sites before the call are reached after it on the
+    /// later runs too: there a field is sure only where the body writes it before the site.
+    pub(super) fn mark_unsure_after_calls(&mut self) {
+        let calls = std::mem::take(&mut self.call_unsure);
+        if calls.is_empty() {
+            return;
+        }
+        let mut bodies: Vec<(usize, usize)> = self.t.loops.iter().map(|l| l.body).collect();
+        for (&from, targets) in &self.jumps {
+            bodies.extend(targets.iter().filter(|&&t| t < from).map(|&t| (t, from)));
+        }
+        // Site block → the last call (by index) that leaves it unsure, and the fields.
+        let mut unsure_at: BTreeMap<usize, (usize, [bool; field::COUNT])> = BTreeMap::new();
+        for (k, (call, _, unsure)) in calls.iter().enumerate() {
+            let open = |written: &[usize; field::COUNT], since: usize| {
+                let mut open = [false; field::COUNT];
+                for f in 0..field::COUNT {
+                    open[f] = unsure[f] && written[f] <= since;
+                }
+                open.contains(&true).then_some(open)
+            };
+            let after = self.site_changes.partition_point(|(b, ..)| *b <= *call);
+            for (b, _, written) in &self.site_changes[after..] {
+                // Every unsure field set again: so it stays at every later site.
+                let Some(fields) = open(written, call + 1) else {
+                    break;
+                };
+                unsure_at.insert(*b, (k, fields));
+            }
+            for &(first, _) in bodies.iter().filter(|(a, z)| a <= call && call <= z) {
+                let from = self.site_changes.partition_point(|(b, ..)| *b < first);
+                let before_call = self.site_changes[from..]
+                    .iter()
+                    .take_while(|(b, ..)| b <= call);
+                for (b, _, written) in before_call {
+                    if let Some(fields) = open(written, first) {
+                        let e = unsure_at.entry(*b).or_insert((k, fields));
+                        for (mine, its) in e.1.iter_mut().zip(fields) {
+                            *mine |= its;
+                        }
+                    }
+                }
+            }
+        }
+        for (b, (k, fields)) in unsure_at {
+            self.varies.insert(b);
+            let (call, name, _) = &calls[k];
+            let words: Vec<&str> = (0..field::COUNT)
+                .filter(|&f| fields[f])
+                .map(field::word)
+                .collect();
+            self.t
+                .unsure_after_call
+                .insert(b, (call + 1, name.clone(), words.join(", ")));
+        }
+    }
+
+    /// The fields block `i`'s words set (`set`, from [`Builder::touch`]) to a value that does not depend
+    /// on the state before them. Not a frame (ATRANS, AROT … add to the one in force; TRANS leaves a
+    /// transformation or swivel), not M7 or M8 (each adds to the other; M9 ends both), not a machine
+    /// coolant code (a pair of the profile's), not an expression. A tool change (M6) sets the tool and
+    /// stops the spindle, as the timeline has it.
+    pub(super) fn note_written(
+        &mut self,
+        i: usize,
+        s: &Scan,
+        set: [bool; field::COUNT],
+        no_speed: bool,
+    ) {
+        let mut whole = set;
+        whole[field::FRAMES] = false;
+        whole[field::UNKNOWN] = false;
+        whole[field::MACHINE_COOLANT] = false;
+        whole[field::COOLANT] = s.m.contains(9);
+        // G96/G97 or LIMS alone leave the speed value as it was.
+        whole[field::S] = s.s.is_some() && !no_speed;
+        if s.m.contains(6) {
+            whole[field::TOOL] = true;
+            whole[field::DIRECTION] = true;
+        }
+        for (w, now) in self.written.iter_mut().zip(whole) {
+            if now {
+                *w = i + 1;
+            }
+        }
+    }
+
     /// After a tool-change subprogram at block `i`: the fields it set hold its values (coolant off, rapid
     /// motion …), set by its own words whatever the caller's state. The tool is the caller's selection
     /// (the block is a tool change), the spindle was replayed (see [`Builder::replay_spindle`]), and the
@@ -122,7 +260,7 @@ impl Builder<'_> {
         }
         take!(D => d, FEED => feed, MOTION => motion, ABSOLUTE => absolute, FEED_MODE => feed_mode,
             PLANE => plane, PATH_MODE => path_mode, COMP => comp, OFFSET => offset,
-            DIAMETER => diameter, UNITS => units);
+            DIAMETER => diameter, UNITS => units, MACHINE_COOLANT => machine_coolant);
         if t[field::FEED_MODE] {
             self.per_rev = end.feed_mode == Some(95);
         }
@@ -135,6 +273,25 @@ impl Builder<'_> {
                 self.changed[f] = i + 1;
             }
         }
+        // What it set it set by its own words, whatever a call before it left; the tool is the one it
+        // loaded, and its change stopped the spindle (as the timeline has it after M6).
+        let mut whole = *t;
+        for f in [
+            field::FRAMES,
+            field::UNKNOWN,
+            field::MACHINE_COOLANT,
+            field::S,
+        ] {
+            whole[f] = false;
+        }
+        whole[field::COOLANT] &= end.coolant == Some(9);
+        whole[field::TOOL] = true;
+        whole[field::DIRECTION] = true;
+        for (w, now) in self.written.iter_mut().zip(whole) {
+            if now {
+                *w = i + 1;
+            }
+        }
         if t[field::FRAMES] {
             let mut frames = [false; field::COUNT];
             frames[field::FRAMES] = true;
@@ -143,9 +300,11 @@ impl Builder<'_> {
     }
 
     /// Notes the fields block words set, for what the unit does to a caller's state (not the position,
-    /// which a gate reads from the control).
-    pub(super) fn touch(&mut self, s: &Scan, dwell: bool) {
-        let t = &mut self.touched;
+    /// which a gate reads from the control); returns them. A field written sets it even to the value it
+    /// had: after a jump, a loop or a call the state is then sure again.
+    pub(super) fn touch(&mut self, s: &Scan, dwell: bool) -> [bool; field::COUNT] {
+        let mut set = [false; field::COUNT];
+        let t = &mut set;
         for g in s.g.iter() {
             let f = match g {
                 0..=3 => field::MOTION,
@@ -161,6 +320,7 @@ impl Builder<'_> {
             t[f] = true;
         }
         for m in s.m.iter() {
+            t[field::MACHINE_COOLANT] |= self.profile.coolant.follows(m);
             let f = match m {
                 3..=5 | POSITIONED => field::DIRECTION,
                 6 => field::TOOL,
@@ -182,6 +342,10 @@ impl Builder<'_> {
             .any(|g| matches!(g, 500 | 54..=57 | 505..=599));
         t[field::DIAMETER] |= s.diameter.is_some();
         t[field::UNKNOWN] |= s.unknown != 0 || s.sum_offset.is_some();
+        for (mine, now) in self.touched.iter_mut().zip(set) {
+            *mine |= now;
+        }
+        set
     }
 
     /// The spindle words of a subprogram called at block `i` and run `runs` times, applied to this
@@ -246,6 +410,25 @@ impl Builder<'_> {
 /// contour (CYCLE62) descriptions of ShopMill/ShopTurn programs, which move nothing and set nothing modal.
 fn leaves_state_known(name: &str) -> bool {
     matches!(name, "CYCLE800" | "CYCLE832" | "WORKPIECE" | "CYCLE62")
+}
+
+/// A Siemens standard cycle (`CYCLE81` … `CYCLE998`, the ShopMill pocket, slot and hole-pattern cycles),
+/// declared with `SAVE`.
+fn is_siemens_cycle(name: &str) -> bool {
+    name.strip_prefix("CYCLE")
+        .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
+        || matches!(
+            name,
+            "POCKET1"
+                | "POCKET2"
+                | "POCKET3"
+                | "POCKET4"
+                | "SLOT1"
+                | "SLOT2"
+                | "LONGHOLE"
+                | "HOLES1"
+                | "HOLES2"
+        )
 }
 
 /// Siemens cycles that cut nothing: those above, and the measuring cycles of workpieces and tools

@@ -19,6 +19,7 @@ impl Builder<'_> {
             start,
             end,
             state: before,
+            after: self.state.clone(),
         };
         self.label_times.insert(label.to_ascii_uppercase(), seen);
     }
@@ -99,6 +100,15 @@ impl Builder<'_> {
             let (body, start_min, body_min, runs, unknown) = match (section, times) {
                 (Ok(sec), Ok(n)) => {
                     self.mark_varying(&sec.entry, (sec.body.0 + 1, sec.body.1));
+                    // The program goes on after the statement in the state the section's last run left,
+                    // which its first run shows only for the fields it sets: the sites after it are not
+                    // sure of any field that differs, until the program sets it again.
+                    if let Some(left) = &sec.left {
+                        let differ = field::differ(left, &self.state);
+                        if differ.contains(&true) {
+                            self.merges.push((i, i, differ));
+                        }
+                    }
                     (
                         sec.body,
                         sec.start,
@@ -150,22 +160,23 @@ impl Builder<'_> {
                 .ok_or("the section is not before the REPEAT statement")
         };
         let first = seen(&labels[0])?;
-        let (last_block, end) = match labels.get(1) {
-            _ if single => (first.block, first.end),
+        let (last_block, end, left) = match labels.get(1) {
+            _ if single => (first.block, first.end, Some(first.after.clone())),
             Some(end) => {
                 let last = seen(end)?;
                 if last.block < first.block {
                     return Err("the section's labels are in reverse order");
                 }
-                (last.block, last.end)
+                (last.block, last.end, Some(last.after.clone()))
             }
-            None => (i.saturating_sub(1), start),
+            None => (i.saturating_sub(1), start, None),
         };
         Ok(Section {
             body: (first.block, last_block),
             start: first.start,
             end,
             entry: first.state.clone(),
+            left,
         })
     }
 
@@ -176,8 +187,8 @@ impl Builder<'_> {
         if !differ.contains(&true) {
             return;
         }
-        let from = self.site_changes.partition_point(|(b, _)| *b < body.0);
-        for (b, changed) in &self.site_changes[from..] {
+        let from = self.site_changes.partition_point(|(b, ..)| *b < body.0);
+        for (b, changed, _) in &self.site_changes[from..] {
             if *b > body.1 {
                 break;
             }
@@ -228,8 +239,8 @@ impl Builder<'_> {
     /// the label, on the fall-through path only.)
     pub(super) fn mark_merges(&mut self) {
         for (t, set_from, differ) in std::mem::take(&mut self.merges) {
-            let from = self.site_changes.partition_point(|(b, _)| *b <= t);
-            for (b, changed) in &self.site_changes[from..] {
+            let from = self.site_changes.partition_point(|(b, ..)| *b <= t);
+            for (b, changed, _) in &self.site_changes[from..] {
                 let set_since = |f: usize| changed[f] > set_from;
                 if !(0..field::COUNT).any(|f| differ[f] && !set_since(f)) {
                     // Every differing field is set again: so it stays at every later site.
@@ -250,20 +261,23 @@ impl Builder<'_> {
     }
 }
 
-/// A repeated section: its blocks, the start and end of its first run (min) and the state it starts in.
+/// A repeated section: its blocks, the start and end of its first run (min), the state it starts in and,
+/// for a section that ends before the statement (REPEATB, `REPEAT a b`), the state its first run left.
 struct Section {
     body: (usize, usize),
     start: f64,
     end: f64,
     entry: Modal,
+    left: Option<Modal>,
 }
 
-/// A label seen: its block, the start and end of its first run (min) and the state before it.
+/// A label seen: its block, the start and end of its first run (min) and the states before and after it.
 pub(super) struct Label {
     block: usize,
     start: f64,
     end: f64,
     state: Modal,
+    after: Modal,
 }
 
 /// A loop whose closing block has not come yet.

@@ -6,6 +6,7 @@
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::rc::Rc;
 
+use crate::omm::machine_coolant::is_control_m;
 use crate::omm::profile::Profile;
 use crate::syntax::BlockKind;
 
@@ -71,8 +72,15 @@ pub(super) struct Builder<'p> {
     label_times: HashMap<String, Label>,
     /// Block (+1) where each of the modal fields a gate restores last changed (see [`field`]).
     changed: [usize; field::COUNT],
-    /// Blocks that may get a site or pass mark, with `changed` there.
-    site_changes: Vec<(usize, [usize; field::COUNT])>,
+    /// Block (+1) where the program's words last set each field to a value that does not depend on the
+    /// state before them (G1, F100, M9; not M8, which adds to an M7, nor a frame, which combines): what
+    /// makes a field sure again after a call (see [`Builder::unsure_after`]).
+    written: [usize; field::COUNT],
+    /// Blocks that may get a site or pass mark, with `changed` and `written` there.
+    site_changes: Vec<(usize, [usize; field::COUNT], [usize; field::COUNT])>,
+    /// Calls after which fields may hold otherwise than the timeline has them: (call block, name called,
+    /// the fields).
+    call_unsure: Vec<(usize, String, [bool; field::COUNT])>,
     /// Blocks whose modal state differs between the runs of a loop around them.
     varies: BTreeSet<usize>,
     /// End of the last run of timed moves folded (its blocks in later chunks are skipped).
@@ -147,7 +155,9 @@ impl<'p> Builder<'p> {
             var_values: HashMap::new(),
             label_times: HashMap::new(),
             changed: [0; field::COUNT],
+            written: [0; field::COUNT],
             site_changes: Vec::new(),
+            call_unsure: Vec::new(),
             varies: BTreeSet::new(),
             run_end: 0,
             start: None,
@@ -225,6 +235,14 @@ impl<'p> Builder<'p> {
         self.start_site(i, start, !self.open_ifs.is_empty());
         self.touched[field::MOTION] |= motion.is_some();
         self.touched[field::FEED] |= mv.f.is_some();
+        for (f, set) in [
+            (field::MOTION, motion.is_some()),
+            (field::FEED, mv.f.is_some()),
+        ] {
+            if set {
+                self.written[f] = i + 1;
+            }
+        }
         if let Some(g) = motion
             && g != self.state.motion
         {
@@ -309,6 +327,15 @@ impl<'p> Builder<'p> {
         self.t.moves = true;
         self.touched[field::MOTION] |= run.motion.first.is_some();
         self.touched[field::FEED] |= run.feed.first.is_some();
+        // No site lies inside a run: its end stands for the block that wrote last.
+        for (f, set) in [
+            (field::MOTION, run.motion.first.is_some()),
+            (field::FEED, run.feed.first.is_some()),
+        ] {
+            if set {
+                self.written[f] = blocks.end;
+            }
+        }
         self.ticks = self.ticks.saturating_add(run.feed_ticks);
         // Ticks add up in any order: the run's cut ends after its feed moves and the rapids before the
         // last of them.
@@ -545,7 +572,8 @@ impl<'p> Builder<'p> {
         let dwell = s.g.contains(4);
         // G25 / G26: S is a speed limit and the axis values are the working area's limits.
         let limits = s.g.contains(25) || s.g.contains(26);
-        self.touch(s, dwell);
+        let set = self.touch(s, dwell);
+        self.note_written(i, s, set, dwell || limits);
         self.state.unknown |= s.unknown;
         match s.sum_offset {
             Some(true) => self.state.unknown |= unknown::SUM_OFFSET,
@@ -593,8 +621,13 @@ impl<'p> Builder<'p> {
                 6 => self.m6_seen = true,
                 2 | 30 => self.t.ends.push(i),
                 7..=9 => self.state.coolant = coolant_after(self.state.coolant, m),
+                _ if !self.profile.coolant.follows(m) && !is_control_m(m) => {
+                    self.t.machine_m.insert(m);
+                }
                 _ => {}
             }
+            let machine = &self.profile.coolant;
+            self.state.machine_coolant = machine.after(self.state.machine_coolant, m);
         }
         if let Some(d) = direction {
             self.state.direction = d;
@@ -851,6 +884,7 @@ impl<'p> Builder<'p> {
         self.t.total_min = total;
         self.t.last_cut_min = self.last_cut as f64 / TICKS_PER_MIN;
         self.mark_merges();
+        self.mark_unsure_after_calls();
         self.t.as_callee.touched = self.touched;
         self.t.as_callee.loads_tool |= self.m6_seen;
         self.t.as_callee.leaves_unknown |= self.after_call;

@@ -103,8 +103,8 @@ impl Builder<'_> {
         if self.after_call {
             self.varies.insert(i);
         }
-        if !self.merges.is_empty() {
-            self.site_changes.push((i, self.changed));
+        if !self.merges.is_empty() || !self.call_unsure.is_empty() {
+            self.site_changes.push((i, self.changed, self.written));
         }
         self.start = Some(Site {
             block: i,
@@ -167,8 +167,12 @@ impl Builder<'_> {
         if !self.clear {
             self.in_part.insert(i);
         }
-        if !self.open_loops.is_empty() || !self.label_times.is_empty() || !self.merges.is_empty() {
-            self.site_changes.push((i, self.changed));
+        if !self.open_loops.is_empty()
+            || !self.label_times.is_empty()
+            || !self.merges.is_empty()
+            || !self.call_unsure.is_empty()
+        {
+            self.site_changes.push((i, self.changed, self.written));
         }
         // What a subprogram or cycle left (feed, motion, …) is not known until the next tool change.
         if self.after_call {
