@@ -34,7 +34,7 @@ mod unit;
 mod tests;
 
 pub use build::{build, build_with_moves};
-pub use modal::{Modal, POSITIONED, frame, unknown};
+pub use modal::{Modal, POSITIONED, frame, is_thread, unknown};
 pub use moves::{Moves, parse_timed};
 pub use record::{Loop, LoopKind, Pass, Site, SiteKind, Timeline};
 pub(crate) use timing::on_tick;

@@ -16,7 +16,7 @@ pub struct Modal {
     pub s: f64,
     pub direction: u32,
     pub feed: Option<f64>,
-    /// Modal motion G code (0, 1, 2, 3).
+    /// Modal motion G code (0, 1, 2, 3, or a thread or tapping move: see [`is_thread`]).
     pub motion: u32,
     pub absolute: bool,
     pub z: Option<f64>,
@@ -108,6 +108,15 @@ pub mod frame {
 /// at an angle the program means (an oriented boring bar's edge, a tool changer's key).
 pub const POSITIONED: u32 = 19;
 
+/// Whether motion code `g` cuts a thread or taps: `G33` (thread cutting, constant lead), `G34`/`G35` (lead
+/// increasing or decreasing), `G331`/`G332` (rigid tapping in and out, the spindle in position control
+/// turning with the axis) and `G63` (tapping with a compensating chuck). These are G group 1 (motion) moves
+/// that cut, and while one is the modal motion the tool may stand in the thread: between a tapping-in and
+/// its tapping-out, between passes a thread chain links without a retract.
+pub fn is_thread(g: u32) -> bool {
+    matches!(g, 33..=35 | 63 | 331 | 332)
+}
+
 /// Bits of [`Modal::unknown`].
 pub mod unknown {
     pub const TOOL: u8 = 1;
@@ -137,7 +146,11 @@ impl Modal {
     /// Why no inserted block may run here (a STOPRE, a work-offset write or a move would spoil the
     /// contour or move along a tilted axis); `None` when the place is fit.
     pub fn unfit(&self) -> Option<&'static str> {
-        if matches!(self.comp, 41 | 42) {
+        if is_thread(self.motion) {
+            Some(
+                "thread cutting or tapping (G33, G34, G35, G331, G332, G63) is the modal motion: the tool may stand in the thread (between a tapping-in and its tapping-out, inside a chained thread), and a gate would retract it or stop the spindle there",
+            )
+        } else if matches!(self.comp, 41 | 42) {
             Some("cutter radius compensation (G41/G42) is active")
         } else if self.frames & frame::SWIVEL != 0 {
             Some("a swivelled plane (CYCLE800) is active")
@@ -156,7 +169,7 @@ impl Modal {
     pub fn not_restorable(&self) -> Option<&'static str> {
         if let Some(why) = self.unfit() {
             Some(why)
-        } else if self.motion >= 2 {
+        } else if matches!(self.motion, 2 | 3) {
             Some("a circle (G2/G3) is the modal motion")
         } else if self.direction == POSITIONED {
             Some(
@@ -212,7 +225,7 @@ pub(super) mod field {
             "the spindle speed (S)",
             "the spindle direction (M3/M4/M5)",
             "the feed (F)",
-            "the motion (G0/G1/G2/G3)",
+            "the motion (G0/G1/G2/G3, G33, G331 …)",
             "G90/G91",
             "the height (Z)",
             "the tool selected (T)",

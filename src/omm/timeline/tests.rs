@@ -510,3 +510,27 @@ fn times_are_whole_ticks_that_saturate() {
     let one = timeline_of("T1 M6\nS1000 M3\nG0 X0 Y0 Z0\nG1 X100 F1000\nM30\n").total_min;
     assert!((one - base() - 0.1).abs() < 1.0 / TICKS_PER_MIN);
 }
+
+/// Thread cutting and tapping are cuts timed by their lead: the axis follows the spindle (K mm per
+/// revolution at S), and no place while one is the modal motion is fit for a gate.
+#[test]
+fn threads_and_taps_are_cuts_timed_by_their_lead_and_unfit_for_gates() {
+    // 20 mm down at K1.5 × S400 = 600 mm/min: 2 s; out again the same.
+    let tap = timeline_of("T1 M6\nG0 X0 Y0 Z2\nG331 Z-18 K1.5 S400\nG332 Z2 K1.5\nG0 Z50\nM30\n");
+    assert_eq!(tap.first_cut, Some(2));
+    // Besides the tap, rapids of a few mm (well under 0.01 min).
+    let cut = tap.total_min - base() - 2.0 * 20.0 / 600.0;
+    assert!((0.0..0.01).contains(&cut), "{}", tap.total_min);
+    // Between G331 and G332 the motion is a tap and the spindle is in position control.
+    let mut between = Modal {
+        motion: 331,
+        ..Modal::default()
+    };
+    assert!(between.unfit().is_some());
+    for g in [33, 34, 35, 63, 332] {
+        between.motion = g;
+        assert!(between.unfit().is_some(), "G{g}");
+    }
+    let thread = timeline_of("T1 M6\nS900 M3\nG0 X24 Z5\nG33 Z-30 K1.5\nG0 X30\nM30\n");
+    assert_eq!(thread.first_cut, Some(3));
+}

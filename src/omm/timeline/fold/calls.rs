@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use std::rc::Rc;
 
 use super::Builder;
-use crate::omm::timeline::modal::{POSITIONED, coolant_after, field};
+use crate::omm::timeline::modal::{POSITIONED, coolant_after, field, is_thread};
 use crate::omm::timeline::read::{Move, Scan};
 use crate::omm::timeline::record::{CalleeEffect, Timeline};
 
@@ -308,6 +308,7 @@ impl Builder<'_> {
         for g in s.g.iter() {
             let f = match g {
                 0..=3 => field::MOTION,
+                g if is_thread(g) => field::MOTION,
                 90 | 91 => field::ABSOLUTE,
                 93..=95 => field::FEED_MODE,
                 96 | 97 => field::S,
@@ -319,6 +320,8 @@ impl Builder<'_> {
             };
             t[f] = true;
         }
+        // Rigid tapping takes the spindle into position control.
+        t[field::DIRECTION] |= s.g.iter().any(|g| matches!(g, 331 | 332));
         for m in s.m.iter() {
             t[field::MACHINE_COOLANT] |= self.profile.coolant.follows(m);
             let f = match m {

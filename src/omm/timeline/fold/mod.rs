@@ -10,7 +10,7 @@ use crate::omm::machine_coolant::is_control_m;
 use crate::omm::profile::Profile;
 use crate::syntax::BlockKind;
 
-use super::modal::{Modal, POSITIONED, coolant_after, field, frame, unknown};
+use super::modal::{Modal, POSITIONED, coolant_after, field, frame, is_thread, unknown};
 use super::moves::RunRef;
 use super::read::{Chunk, Move, Scan, frame_op, head};
 use super::record::{Site, SiteKind, Timeline};
@@ -116,6 +116,8 @@ pub(super) struct Builder<'p> {
     position_doubt: bool,
     /// Sites noted where the tool was not clear: a gate there could retract through the part.
     in_part: BTreeSet<usize>,
+    /// The lead (I, J or K) the last thread or tapping block wrote.
+    lead: Option<f64>,
 }
 
 impl<'p> Builder<'p> {
@@ -172,6 +174,7 @@ impl<'p> Builder<'p> {
             clear: true,
             position_doubt: false,
             in_part: BTreeSet::new(),
+            lead: None,
         }
     }
 
@@ -552,7 +555,10 @@ impl<'p> Builder<'p> {
         // Modal words first: they hold for this block's move.
         for g in s.g.iter() {
             match g {
-                0..=3 => self.state.motion = g,
+                // Thread cutting and tapping are cuts (see [`is_thread`]): no place while one is the
+                // modal motion is fit for a gate.
+                g @ (0..=3) => self.state.motion = g,
+                g if is_thread(g) => self.state.motion = g,
                 90 => self.state.absolute = true,
                 91 => self.state.absolute = false,
                 93..=95 => {
@@ -628,6 +634,11 @@ impl<'p> Builder<'p> {
             }
             let machine = &self.profile.coolant;
             self.state.machine_coolant = machine.after(self.state.machine_coolant, m);
+        }
+        // G331 / G332 turn the spindle in position control with the axis (SPOS before them or not): it
+        // stands positioned after them until M3 / M4 / M5 switch it back to speed control.
+        if s.g.iter().any(|g| matches!(g, 331 | 332)) {
+            direction = Some(POSITIONED);
         }
         if let Some(d) = direction {
             self.state.direction = d;
@@ -818,6 +829,20 @@ impl<'p> Builder<'p> {
             let length = move_length(self.state.motion, a, b, mv.centre, mv.radius);
             if self.state.motion == 0 {
                 minutes += length / self.profile.timeline.rapid_mm_per_min;
+            } else if is_thread(self.state.motion) && self.state.motion != 63 {
+                // The axis follows the spindle: the lead (mm per revolution) times its speed.
+                if let Some(lead) = mv.centre.iter().flatten().map(|l| l.abs()).reduce(f64::max) {
+                    self.lead = Some(lead);
+                }
+                let speed = if self.state.direction == POSITIONED {
+                    self.state.s.abs()
+                } else {
+                    rpm
+                };
+                match self.lead.map(|l| l * speed) {
+                    Some(f) if f > 0.0 => minutes += length / f,
+                    _ => inexact = true,
+                }
             } else {
                 let feed = self
                     .state
