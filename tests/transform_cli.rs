@@ -435,3 +435,49 @@ fn subprogram_folders_from_the_profile_or_the_command_line_are_timed() {
     assert_eq!(code(&o), 2);
     assert!(String::from_utf8_lossy(&o.stderr).contains("/no/such/folder is not a folder"));
 }
+
+/// `plan` finds a called subprogram beside the program, as `transform` does (and the control): its time
+/// counts without `--subprograms`, from whatever folder the command runs in.
+#[test]
+fn plan_finds_subprograms_beside_the_program_as_transform_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = dir.path().join("job");
+    std::fs::create_dir(&job).unwrap();
+    let main = "\
+N10 G17 G90 G94 G71 G40 G54
+N20 T=\"ROUGH_D12\" M6
+N30 D1
+N40 S3000 M3
+N50 G0 X0 Y0 Z50
+N60 G1 Z-1 F300
+N70 G0 Z50
+N80 POCKET_ROUGH
+N90 G0 Z100
+N100 M30
+";
+    std::fs::write(job.join("p.mpf"), main).unwrap();
+    std::fs::write(
+        job.join("POCKET_ROUGH.SPF"),
+        "G1 X100 F100\nG1 Y100\nG0 Z50\nM17\n",
+    )
+    .unwrap();
+    let p = job.join("p.mpf").display().to_string();
+    let plan = |extra: &[&str]| {
+        let mut args = vec!["plan", p.as_str(), "--model", "", "--format", "json"];
+        let m = model();
+        args[3] = &m;
+        args.extend_from_slice(extra);
+        let o = common::driftloop(dir.path(), &args, b"");
+        assert_eq!(code(&o), 0, "{}", String::from_utf8_lossy(&o.stderr));
+        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()
+    };
+    let json = plan(&[]);
+    assert_eq!(json["untimed_calls"], serde_json::json!([]), "{json}");
+    assert_eq!(json["timed_calls"][0]["name"], "POCKET_ROUGH", "{json}");
+    // Two minutes of the subprogram's cutting at F100 count.
+    assert!(json["program_min"].as_f64().unwrap() > 2.0, "{json}");
+    // The same as with the folder given.
+    let given = plan(&["--subprograms", &job.display().to_string()]);
+    assert_eq!(json["program_min"], given["program_min"]);
+    assert_eq!(json["timed_calls"], given["timed_calls"]);
+}

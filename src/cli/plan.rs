@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use serde::Serialize;
 
 use super::style;
-use super::transform::Setup;
+use super::transform::{Setup, beside_program};
 use super::{Format, Global};
 use crate::diagnostic::Severity;
 use crate::omm::{self, Plan};
@@ -55,8 +55,11 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     }
     let (program, moves) = omm::parse_timed(bytes);
     let name = input.to_string();
+    // The subprograms beside the program are found as `transform` finds them.
+    let beside = beside_program(&input, &profile);
+    let profile = beside.as_ref().unwrap_or(&profile);
     let planned = omm::check_timed(&program, &moves, args.force)
-        .and_then(|()| omm::plan_timed(&program, &moves, &drift, &profile));
+        .and_then(|()| omm::plan_timed(&program, &moves, &drift, profile));
     let (timeline, plan) = match planned {
         Ok(p) => p,
         Err(e) => {

@@ -437,8 +437,9 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
 
 /// The profile with the program's own folder first among the subprogram folders, as the control finds a
 /// called subprogram beside its caller (and the audit runs it from there): the registers it uses and its
-/// time count. `None` when the folder is already listed, or the input is not a file.
-fn beside_program(input: &Input, profile: &Profile) -> Option<Profile> {
+/// time count. `None` when the folder is already listed, or the input is not a file. `plan` times the
+/// program the same way.
+pub(super) fn beside_program(input: &Input, profile: &Profile) -> Option<Profile> {
     let Input::File(path) = input else {
         return None;
     };
