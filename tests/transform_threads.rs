@@ -261,3 +261,63 @@ N110 M30
         }
     }
 }
+
+/// The dry run runs G331 / G332 and G33 (the axis at lead × speed, the spindle positioned after rigid
+/// tapping): `transform` audits these programs to their end, with every gate measuring.
+#[test]
+fn threads_and_taps_are_audited_to_the_end() {
+    for (prog, profile) in [
+        (TAP_ONLY, "tool-setter"),
+        (DRILL_THEN_TAP, "blum-tc50"),
+        (LATHE_THREAD, "lathe-setter"),
+    ] {
+        let files = [("p.mpf", prog), ("every.toml", &measuring(profile))];
+        let (o, _dir) = common::transform_in(&files, "p.mpf", "every.toml");
+        let err = common::stderr(&o);
+        assert!(o.status.success(), "{profile}: {err}");
+        assert!(!err.contains("audit incomplete"), "{profile}: {err}");
+    }
+}
+
+/// The audit's own check: blocks inserted between a tapping-in and its tapping-out (what driftloop wrote
+/// before thread moves were cuts) are a `gate-in-thread` finding, once per gate.
+#[test]
+fn the_audit_finds_blocks_inserted_inside_a_tap() {
+    let transformed = "; driftloop-omm (by hand) ;DL\n".to_string()
+        + &TAP_ONLY.replace(
+            "; PASS 2 bottom of the thread\n",
+            "; PASS 2 bottom of the thread\nSTOPRE ;DL\nG0 G90 Z100 ;DL\nG0 Z-18 ;DL\n",
+        );
+    let profile = common::stdout(&common::run(&["profiles", "tool-setter"]));
+    let files = [
+        ("o.mpf", TAP_ONLY),
+        ("t.mpf", transformed.as_str()),
+        ("ts.toml", profile.as_str()),
+    ];
+    let args = [
+        "run",
+        "--audit",
+        "t.mpf",
+        "--original",
+        "o.mpf",
+        "--profile",
+        "ts.toml",
+    ];
+    let (o, _dir) = common::run_in(&files, &args);
+    let out = String::from_utf8_lossy(&o.stdout).to_string() + &common::stderr(&o);
+    assert!(out.contains("gate-in-thread 1"), "{out}");
+    assert!(out.contains("t.mpf:10: gate-in-thread"), "{out}");
+    // The original audited against itself: no finding.
+    let args = [
+        "run",
+        "--audit",
+        "o.mpf",
+        "--original",
+        "o.mpf",
+        "--profile",
+        "ts.toml",
+    ];
+    let (o, _dir) = common::run_in(&files, &args);
+    let out = String::from_utf8_lossy(&o.stdout).to_string() + &common::stderr(&o);
+    assert!(!out.contains("gate-in-thread"), "{out}");
+}

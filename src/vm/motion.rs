@@ -19,6 +19,12 @@ pub const FRAMES: usize = 100;
 /// through its programmed points, an approximation: the curve is shorter (B spline) or close to it.
 pub const SPLINE: u32 = 1000;
 
+/// Thread cutting (G33, G34, G35), rigid tapping in and out (G331, G332) and tapping with a compensating
+/// chuck (G63): G group 1 moves that cut, the axis following the spindle (G63: at the feed F).
+pub fn is_thread(motion: u32) -> bool {
+    matches!(motion, 33..=35 | 63 | 331 | 332)
+}
+
 /// How an axis value in a block is meant.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Dim {

@@ -12,7 +12,7 @@ use crate::omm::nc::shown as num;
 use crate::vm::VmError;
 use crate::vm::config::Config;
 use crate::vm::interp::{Done, Interp, Movement};
-use crate::vm::motion::{SPLINE, Tool};
+use crate::vm::motion::{SPLINE, Tool, is_thread};
 use crate::vm::report::End;
 use crate::vm::unit::{Source, Unit};
 
@@ -113,6 +113,9 @@ struct Watch {
     /// Inserted STOPREs and offset writes that ran under a transformation: the finding, with the kinds that
     /// were active, waiting for the machine to move while one of them still is.
     under_transform: Vec<(At, String, Vec<&'static str>)>,
+    /// An inserted block ran where the original's modal motion is a thread or tap (reported once until the
+    /// original runs on).
+    in_thread: bool,
 }
 
 pub(super) fn run(
@@ -365,6 +368,23 @@ impl Runner<'_> {
         wrote_offset: bool,
     ) {
         let done = step;
+        let acts = done.movement.is_some()
+            || done.probe
+            || done.stopre
+            || wrote_offset
+            || done.tool_change
+            || done.stop.is_some();
+        let motion = o.motion.modal.motion;
+        if acts && is_thread(motion) && !self.watch.in_thread {
+            self.watch.in_thread = true;
+            self.add(at.finding(
+                Kind::GateInThread,
+                format!(
+                    "inserted blocks run where the original's modal motion is G{motion} (thread cutting or \
+                     tapping): the tool may stand in the thread, and the gate retracts it or stops the spindle there"
+                ),
+            ));
+        }
         if let Some(m) = &done.movement {
             self.moved(t);
             // A gate moves under no rotation, scale or mirror: a machine coordinate is the work
@@ -632,6 +652,7 @@ impl Runner<'_> {
         t: &Interp<'_>,
         o: &Interp<'_>,
     ) {
+        self.watch.in_thread = false;
         if let Some(m) = &t_step.movement {
             self.moved(t);
             let feed = is_feed(m.motion);
@@ -767,7 +788,7 @@ fn acts(d: &Done) -> bool {
 const AXES: [&str; 3] = ["X", "Y", "Z"];
 
 fn is_feed(motion: u32) -> bool {
-    matches!(motion, 1..=3 | SPLINE)
+    matches!(motion, 1..=3 | SPLINE) || is_thread(motion)
 }
 
 fn is_continuous(path: u32) -> bool {

@@ -291,6 +291,9 @@ pub enum Kind {
     FlowChanged,
     /// A line of the original is not in the transformed program as it was.
     OriginalChanged,
+    /// Inserted blocks run where the original's modal motion is thread cutting or tapping (G33, G34, G35,
+    /// G331, G332, G63): between a tapping-in and its tapping-out, inside a chained thread.
+    GateInThread,
 }
 
 impl Kind {
@@ -307,6 +310,7 @@ impl Kind {
             Kind::ProbeInMachinedVolume => "probe-in-machined-volume",
             Kind::FlowChanged => "flow-changed",
             Kind::OriginalChanged => "original-changed",
+            Kind::GateInThread => "gate-in-thread",
         }
     }
 }

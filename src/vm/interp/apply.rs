@@ -18,6 +18,7 @@ impl Interp<'_> {
             let modal = &mut self.motion.modal;
             match g {
                 0..=3 => modal.motion = g,
+                g if is_thread(g) => modal.motion = g,
                 4 => dwell = true,
                 25 | 26 => limit = Some(g as usize - 25),
                 450 | 451 => {
@@ -164,6 +165,12 @@ impl Interp<'_> {
             self.fixed_point(u, i, &w)?;
         } else if !w.axes.is_empty() && limit.is_none() {
             self.travel(u, i, &w, suppress)?;
+        }
+        // G331 / G332 turn the spindle in position control with the axis (whether SPOS came before or the
+        // machine switches itself): it stands positioned at an angle the dry run does not follow until
+        // M3 / M4 / M5.
+        if w.g.iter().any(|g| matches!(g, 331 | 332)) {
+            self.position_spindle(1, f64::NAN);
         }
         if dwell {
             let minutes = match (w.feed, w.s) {
@@ -492,6 +499,26 @@ impl Interp<'_> {
         };
         let minutes = if motion == 0 {
             length / self.cfg.rapid_mm_min
+        } else if is_thread(motion) && motion != 63 {
+            // The axis follows the spindle: the lead (I, J or K, mm per revolution; G34 / G35 change it
+            // along the thread, taken as the starting lead) at the spindle's speed, the programmed S
+            // under position control (G331 / G332).
+            let lead = w
+                .centre
+                .iter()
+                .flatten()
+                .map(|(l, _)| l.abs())
+                .reduce(f64::max)
+                .ok_or_else(|| format!("G{motion} without a lead (I, J or K)"))?;
+            let rpm = if matches!(motion, 331 | 332) {
+                st.s.abs()
+            } else {
+                st.spindle_rpm()
+            };
+            if lead * rpm <= 0.0 {
+                return Err(format!("G{motion} with the spindle stopped or no lead"));
+            }
+            length / (lead * rpm)
         } else {
             let feed = st
                 .modal

@@ -23,7 +23,7 @@ use super::config::{Config, ProbeTarget};
 use super::machine::{Machine, ProbeCall, ProbeResult, SpindleHistory};
 use super::motion::{
     ArcSpec, Dim, FeedMode, IDENTITY, Matrix, SPINDLES, SPLINE, Saved, State, Tool, arc_length,
-    multiply, rotation, setting,
+    is_thread, multiply, rotation, setting,
 };
 use super::passes::{Cut, PassTracker};
 use super::report::{
