@@ -294,30 +294,24 @@ fn the_audit_finds_blocks_inserted_inside_a_tap() {
         ("t.mpf", transformed.as_str()),
         ("ts.toml", profile.as_str()),
     ];
-    let args = [
-        "run",
-        "--audit",
-        "t.mpf",
-        "--original",
-        "o.mpf",
-        "--profile",
-        "ts.toml",
-    ];
-    let (o, _dir) = common::run_in(&files, &args);
-    let out = String::from_utf8_lossy(&o.stdout).to_string() + &common::stderr(&o);
+    // `driftloop run --audit TRANSFORMED --original o.mpf`: what it prints.
+    let audit = |transformed: &str| {
+        let args = [
+            "run",
+            "--audit",
+            transformed,
+            "--original",
+            "o.mpf",
+            "--profile",
+            "ts.toml",
+        ];
+        let (o, _dir) = common::run_in(&files, &args);
+        String::from_utf8_lossy(&o.stdout).to_string() + &common::stderr(&o)
+    };
+    let out = audit("t.mpf");
     assert!(out.contains("gate-in-thread 1"), "{out}");
     assert!(out.contains("t.mpf:10: gate-in-thread"), "{out}");
     // The original audited against itself: no finding.
-    let args = [
-        "run",
-        "--audit",
-        "o.mpf",
-        "--original",
-        "o.mpf",
-        "--profile",
-        "ts.toml",
-    ];
-    let (o, _dir) = common::run_in(&files, &args);
-    let out = String::from_utf8_lossy(&o.stdout).to_string() + &common::stderr(&o);
+    let out = audit("o.mpf");
     assert!(!out.contains("gate-in-thread"), "{out}");
 }
