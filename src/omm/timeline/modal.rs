@@ -225,7 +225,7 @@ pub(super) mod field {
             "the spindle speed (S)",
             "the spindle direction (M3/M4/M5)",
             "the feed (F)",
-            "the motion (G0/G1/G2/G3, G33, G331 …)",
+            "the motion (G0/G1/G2/G3)",
             "G90/G91",
             "the height (Z)",
             "the tool selected (T)",
