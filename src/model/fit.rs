@@ -102,30 +102,28 @@ pub enum FitError {
 /// is chosen by forward validation ([`super::modes_law`]) when the data offer a fold that predicts a
 /// faster speed than it was fitted on.
 pub fn fit(all: &Dataset, opts: &FitOptions) -> Result<DriftModel, FitError> {
-    let model = fit_window(all, opts)?;
+    let window = all.until_opt(opts.until_min);
+    let ds = window.as_ref();
+    let model = fit_rows(ds, all.len(), opts)?;
     if model.spindle.modes.is_empty() {
         return Ok(model);
     }
-    let window = all.until_opt(opts.until_min);
-    let y = channel_values(window.as_ref(), &opts.channel)?;
-    let refit = |train: &Dataset| fit_window(train, opts).ok();
-    Ok(
-        match super::modes_law::choose(window.as_ref(), y, &model, refit) {
-            Some((mut extended, choice)) => {
-                if let Some(f) = extended.fit.as_mut() {
-                    f.speed_law = Some(choice);
-                }
-                extended
+    let y = channel_values(ds, &opts.channel)?;
+    let refit = |train: &Dataset| fit_rows(train, train.len(), opts).ok();
+    Ok(match super::modes_law::choose(ds, y, &model, refit) {
+        Some((mut extended, choice)) => {
+            if let Some(f) = extended.fit.as_mut() {
+                f.speed_law = Some(choice);
             }
-            None => model,
-        },
-    )
+            extended
+        }
+        None => model,
+    })
 }
 
-/// The fit of the rows before `opts.until_min`, its speed grid the characterised speeds only.
-fn fit_window(all: &Dataset, opts: &FitOptions) -> Result<DriftModel, FitError> {
-    let window = all.until_opt(opts.until_min);
-    let ds = window.as_ref();
+/// The fit of every row of `ds` (the window before `opts.until_min`, cut by the caller from a file of
+/// `rows` rows), its speed grid the characterised speeds only.
+fn fit_rows(ds: &Dataset, rows: usize, opts: &FitOptions) -> Result<DriftModel, FitError> {
     let prep = Prepared::new(ds, opts)?;
     let p = &prep.problem;
     let (lo, hi) = prep.tau_bounds;
@@ -188,7 +186,7 @@ fn fit_window(all: &Dataset, opts: &FitOptions) -> Result<DriftModel, FitError> 
         }
     }
     let chosen = choose(&trials).ok_or(FitError::Numerical)?;
-    Ok(prep.model(ds, all.len(), opts, &trials, chosen))
+    Ok(prep.model(ds, rows, opts, &trials, chosen))
 }
 
 /// The data of one fit and what was found out about it.

@@ -47,14 +47,14 @@ pub fn choose(
     let mut rows = 0;
     let mut origins = Vec::new();
     for fold in Origins::default().folds(&when, &usable) {
-        let fastest =
-            |rows: &mut dyn Iterator<Item = usize>| rows.map(|i| rpm[i].abs()).fold(0.0, f64::max);
-        let before = fastest(&mut (0..ds.len()).filter(|&i| when[i] < fold.origin_min));
-        let after = fastest(&mut fold.test.iter().copied());
+        // Every row before the origin, read or not: the spindle ran at its speed either way.
+        let trains = |i: usize| when[i] < fold.origin_min;
+        let before = fastest(rpm, (0..ds.len()).filter(|&i| trains(i)));
+        let after = fastest(rpm, fold.test.iter().copied());
         if before <= 0.0 || after <= before * (1.0 + 1e-9) {
             continue;
         }
-        let train = ds.rows_where(|i| when[i] < fold.origin_min);
+        let train = ds.rows_where(trains);
         let Some(fitted) = refit(&train) else {
             continue;
         };
@@ -87,6 +87,11 @@ pub fn choose(
         exponent: EXPONENTS[best],
     };
     Some((with_law(model, EXPONENTS[best]), choice))
+}
+
+/// The fastest speed (its magnitude) on `rows`.
+fn fastest(rpm: &[f64], rows: impl Iterator<Item = usize>) -> f64 {
+    rows.map(|i| rpm[i].abs()).fold(0.0, f64::max)
 }
 
 /// `model` with its grid extended above its top speed by gain(n) = gain(top)·(n / top)^p per mode; the
