@@ -243,6 +243,14 @@ pub(super) mod field {
         ][f]
     }
 
+    /// The motion and feed fields, as a plain move or a run of them sets them.
+    pub fn motion_feed(motion: bool, feed: bool) -> [bool; COUNT] {
+        let mut set = [false; COUNT];
+        set[MOTION] = motion;
+        set[FEED] = feed;
+        set
+    }
+
     /// The fields in which two states differ, by number.
     pub fn differ(a: &Modal, b: &Modal) -> [bool; COUNT] {
         [

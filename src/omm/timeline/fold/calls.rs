@@ -235,9 +235,15 @@ impl Builder<'_> {
             whole[field::TOOL] = true;
             whole[field::DIRECTION] = true;
         }
-        for (w, now) in self.written.iter_mut().zip(whole) {
+        self.mark_written(i + 1, whole);
+    }
+
+    /// Notes that the program's words set `fields` wholly, by block `at` (one past the block): a call's
+    /// unsureness of them ends there.
+    pub(super) fn mark_written(&mut self, at: usize, fields: [bool; field::COUNT]) {
+        for (w, now) in self.written.iter_mut().zip(fields) {
             if now {
-                *w = i + 1;
+                *w = at;
             }
         }
     }
@@ -287,11 +293,7 @@ impl Builder<'_> {
         whole[field::COOLANT] &= end.coolant == Some(9);
         whole[field::TOOL] = true;
         whole[field::DIRECTION] = true;
-        for (w, now) in self.written.iter_mut().zip(whole) {
-            if now {
-                *w = i + 1;
-            }
-        }
+        self.mark_written(i + 1, whole);
         if t[field::FRAMES] {
             let mut frames = [false; field::COUNT];
             frames[field::FRAMES] = true;
@@ -301,8 +303,9 @@ impl Builder<'_> {
 
     /// Notes the fields block words set, for what the unit does to a caller's state (not the position,
     /// which a gate reads from the control); returns them. A field written sets it even to the value it
-    /// had: after a jump, a loop or a call the state is then sure again.
-    pub(super) fn touch(&mut self, s: &Scan, dwell: bool) -> [bool; field::COUNT] {
+    /// had: after a jump, a loop or a call the state is then sure again. With `no_speed` the block's S is
+    /// no speed (a dwell's revolutions, a speed limit).
+    pub(super) fn touch(&mut self, s: &Scan, dwell: bool, no_speed: bool) -> [bool; field::COUNT] {
         let mut set = [false; field::COUNT];
         let t = &mut set;
         for g in s.g.iter() {
@@ -333,8 +336,7 @@ impl Builder<'_> {
             t[f] = true;
         }
         t[field::FEED] |= s.mv.f.is_some() && !dwell;
-        let limits = s.g.contains(25) || s.g.contains(26);
-        t[field::S] |= (s.s.is_some() && !dwell && !limits) || s.lims.is_some();
+        t[field::S] |= (s.s.is_some() && !no_speed) || s.lims.is_some();
         t[field::D] |= s.d.is_some();
         t[field::SELECTED] |= s.tool.is_some();
         t[field::FRAMES] |=

@@ -238,14 +238,7 @@ impl<'p> Builder<'p> {
         self.start_site(i, start, !self.open_ifs.is_empty());
         self.touched[field::MOTION] |= motion.is_some();
         self.touched[field::FEED] |= mv.f.is_some();
-        for (f, set) in [
-            (field::MOTION, motion.is_some()),
-            (field::FEED, mv.f.is_some()),
-        ] {
-            if set {
-                self.written[f] = i + 1;
-            }
-        }
+        self.mark_written(i + 1, field::motion_feed(motion.is_some(), mv.f.is_some()));
         if let Some(g) = motion
             && g != self.state.motion
         {
@@ -331,14 +324,10 @@ impl<'p> Builder<'p> {
         self.touched[field::MOTION] |= run.motion.first.is_some();
         self.touched[field::FEED] |= run.feed.first.is_some();
         // No site lies inside a run: its end stands for the block that wrote last.
-        for (f, set) in [
-            (field::MOTION, run.motion.first.is_some()),
-            (field::FEED, run.feed.first.is_some()),
-        ] {
-            if set {
-                self.written[f] = blocks.end;
-            }
-        }
+        self.mark_written(
+            blocks.end,
+            field::motion_feed(run.motion.first.is_some(), run.feed.first.is_some()),
+        );
         self.ticks = self.ticks.saturating_add(run.feed_ticks);
         // Ticks add up in any order: the run's cut ends after its feed moves and the rapids before the
         // last of them.
@@ -578,8 +567,10 @@ impl<'p> Builder<'p> {
         let dwell = s.g.contains(4);
         // G25 / G26: S is a speed limit and the axis values are the working area's limits.
         let limits = s.g.contains(25) || s.g.contains(26);
-        let set = self.touch(s, dwell);
-        self.note_written(i, s, set, dwell || limits);
+        // S is then no speed: a dwell's revolutions or a speed limit.
+        let no_speed = dwell || limits;
+        let set = self.touch(s, dwell, no_speed);
+        self.note_written(i, s, set, no_speed);
         self.state.unknown |= s.unknown;
         match s.sum_offset {
             Some(true) => self.state.unknown |= unknown::SUM_OFFSET,
@@ -599,7 +590,7 @@ impl<'p> Builder<'p> {
         }
         // In a G4 block S is the dwell in spindle revolutions, not a speed: the speed programmed before it
         // stays (as F does).
-        let speed = s.s.filter(|_| !dwell && !limits);
+        let speed = s.s.filter(|_| !no_speed);
         if let Some(v) = speed {
             self.state.s = v;
             self.state.unknown &= !unknown::S;
