@@ -48,8 +48,11 @@ pub struct Frames {
     pub base: Vec<f64>,
     /// Copy of the selected frame made at selection.
     pub active: Vec<f64>,
-    /// Programmable translation (TRANS / ATRANS).
+    /// Programmable translation, coarse plus fine: TRANS and G58 write the coarse part, ATRANS and G59
+    /// the fine one.
     pub trans: Vec<f64>,
+    /// The fine (additive) part of `trans`: the sum of ATRANS translations, or what G59 put in its place.
+    pub trans_fine: Vec<f64>,
     /// Rotation, scale and mirror of the programmable frame over the geometry axes (`None`: identity).
     pub linear: Option<Matrix>,
     /// Indices of the geometry axes X, Y, Z in the axis list.
@@ -96,6 +99,7 @@ impl Frames {
             selected: 0,
             active: vec![0.0; axes],
             trans: vec![0.0; axes],
+            trans_fine: vec![0.0; axes],
             linear: None,
             geo: [None; 3],
             trans_is_correction: false,
@@ -105,22 +109,41 @@ impl Frames {
     /// Deletes the programmable frame (what TRANS, ROT, SCALE, MIRROR do before they set their part).
     pub fn reset_programmable(&mut self) {
         self.trans.iter_mut().for_each(|t| *t = 0.0);
+        self.trans_fine.iter_mut().for_each(|t| *t = 0.0);
         self.linear = None;
     }
 
     /// Adds a translation along `axis`, in the coordinate system the programmable frame has made so far
-    /// (ATRANS after ROT translates along the rotated axis, after SCALE by the scaled amount).
-    pub fn translate(&mut self, axis: usize, v: f64) {
+    /// (ATRANS after ROT translates along the rotated axis, after SCALE by the scaled amount); an `additive`
+    /// one (ATRANS) goes into the fine part too.
+    pub fn translate(&mut self, axis: usize, v: f64, additive: bool) {
         let k = self.geo.iter().position(|g| *g == Some(axis));
-        match (k, &self.linear) {
-            (Some(k), Some(m)) => {
-                for (row, g) in m.iter().zip(self.geo) {
-                    if let Some(a) = g {
-                        self.trans[a] += row[k] * v;
-                    }
-                }
+        let steps: Vec<(usize, f64)> = match (k, &self.linear) {
+            (Some(k), Some(m)) => m
+                .iter()
+                .zip(self.geo)
+                .filter_map(|(row, g)| g.map(|a| (a, row[k] * v)))
+                .collect(),
+            _ => vec![(axis, v)],
+        };
+        for (a, d) in steps {
+            self.trans[a] += d;
+            if additive {
+                self.trans_fine[a] += d;
             }
-            _ => self.trans[axis] += v,
+        }
+    }
+
+    /// G58 (`fine` false) / G59: replaces the coarse / fine part of the programmable translation of `axis`
+    /// with `v` and keeps the other part (Programming Manual 12/2019, "Programmable work offset (G58,
+    /// G59)"). The parts are kept in the frame's own coordinates, as TRANS writes them: under a rotation
+    /// the value is not turned.
+    pub fn replace_translation(&mut self, axis: usize, v: f64, fine: bool) {
+        if fine {
+            self.trans[axis] += v - self.trans_fine[axis];
+            self.trans_fine[axis] = v;
+        } else {
+            self.trans[axis] = v + self.trans_fine[axis];
         }
     }
 
@@ -323,6 +346,7 @@ pub struct Saved {
     selected: usize,
     active: Vec<f64>,
     trans: Vec<f64>,
+    trans_fine: Vec<f64>,
     linear: Option<Matrix>,
 }
 
@@ -531,6 +555,7 @@ impl State {
             selected: self.frames.selected,
             active: self.frames.active.clone(),
             trans: self.frames.trans.clone(),
+            trans_fine: self.frames.trans_fine.clone(),
             linear: self.frames.linear,
         }
     }
@@ -540,6 +565,7 @@ impl State {
         self.frames.selected = saved.selected;
         self.frames.active = saved.active;
         self.frames.trans = saved.trans;
+        self.frames.trans_fine = saved.trans_fine;
         self.frames.linear = saved.linear;
     }
 }
@@ -804,7 +830,7 @@ mod tests {
         let mut f = Frames::new(3);
         f.geo = [Some(0), Some(1), Some(2)];
         f.compose(&rz);
-        f.translate(0, 10.0);
+        f.translate(0, 10.0, true);
         assert!(
             f.trans[0].abs() < 1e-12 && (f.trans[1] - 10.0).abs() < 1e-12,
             "ATRANS along the turned X"

@@ -342,12 +342,18 @@ fn frames(t: &Frames, o: &Frames, s: &AuditSettings, axes: &[String]) -> Vec<Dif
             ));
         }
         let skip_trans = !frame_method && is_corrected(a);
-        if !skip_trans && differ(t.trans[a], o.trans[a]) {
-            v.push(item(
-                &format!("programmable translation {name}"),
-                num(t.trans[a]),
-                num(o.trans[a]),
-            ));
+        // The fine part on its own: equal totals split otherwise act differently at the next G58 / G59.
+        for (what, here, original) in [
+            ("programmable translation", t.trans[a], o.trans[a]),
+            (
+                "fine part of the programmable translation (ATRANS, G59)",
+                t.trans_fine[a],
+                o.trans_fine[a],
+            ),
+        ] {
+            if !skip_trans && differ(here, original) {
+                v.push(item(&format!("{what} {name}"), num(here), num(original)));
+            }
         }
     }
     if let Some(c) = table_difference(t, o, axes, |f, a, fine| {

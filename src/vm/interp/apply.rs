@@ -9,6 +9,8 @@ impl Interp<'_> {
         // G25 / G26 (0, 1): S is the spindle's lower / upper speed limit, axis values the working area's.
         let mut limit = None;
         let mut suppress = w.suppress_frames;
+        // G58 / G59: the block's axis values replace a part of the programmable translation.
+        let mut axial = None;
         let planes = [
             self.plane(["X", "Y", "Z"]),
             self.plane(["Z", "X", "Y"]),
@@ -33,6 +35,7 @@ impl Interp<'_> {
                 // Cutter radius compensation moves the contour in the plane, never the depth.
                 40..=42 => modal.compensation = g,
                 53 | 153 => suppress = true,
+                58 | 59 => axial = Some(g == 59),
                 // G75 FP=n: its axes go to the fixed point, a machine position (below).
                 75 => suppress = true,
                 54..=57 => self.motion.frames.select(g as usize - 53),
@@ -160,7 +163,14 @@ impl Interp<'_> {
         }
         self.other_spindles(&w);
         if let Some(frame) = &w.frame_command {
+            if axial.is_some() {
+                return Err(format!("{frame} and G58/G59 in one block"));
+            }
             self.frame_command(frame, &w.axes, w.rpl)?;
+        } else if let Some(fine) = axial {
+            for &(a, _, v) in &w.axes {
+                self.motion.frames.replace_translation(a, v, fine);
+            }
         } else if w.g.contains(&75) {
             self.fixed_point(u, i, &w)?;
         } else if !w.axes.is_empty() && limit.is_none() {
@@ -342,7 +352,7 @@ impl Interp<'_> {
             Some(m) => f.compose(&m),
             None => {
                 for &(a, _, v) in axes {
-                    f.translate(a, v);
+                    f.translate(a, v, !absolute);
                 }
             }
         }
