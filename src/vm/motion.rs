@@ -31,6 +31,8 @@ pub enum Dim {
     Modal,
     Absolute,
     Incremental,
+    /// Absolute in machine coordinates: the axis was named by its machine axis name.
+    Machine,
 }
 
 #[derive(Debug, Clone)]
@@ -308,11 +310,11 @@ pub enum Tool {
 }
 
 impl Tool {
-    /// `$P_TOOLNO`: the number; a named tool has none the dry run knows (no tool table).
+    /// `$P_TOOLNO`: the number; a named tool's is the internal one the dry run gives its first duplo.
     pub fn number(&self) -> f64 {
         match self {
             Tool::Number(n) => *n,
-            Tool::Name(_) => 0.0,
+            Tool::Name(name) => super::tool_numbers::internal_number(name, 1),
         }
     }
 }
@@ -337,6 +339,8 @@ pub struct Kinematics {
     /// `TCARR=n`: the orientable toolholder selected, until `TCARR=0`. Its angles come from tool data or
     /// rotary axes the dry run does not evaluate, so any selected one counts as tilting the tool.
     pub tool_carrier: Option<f64>,
+    /// The tool orientation programmed under TRAORI, until the transformation ends.
+    pub orientation: super::orientation::Orientation,
 }
 
 /// What `PROC … SAVE` restores on return: modal G codes and frames.

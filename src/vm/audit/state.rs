@@ -254,6 +254,11 @@ pub(super) fn modal(t: &State, o: &State, s: &AuditSettings, axes: &[String]) ->
         .chain([
             ("spindle speed limits", speed_limits(t), speed_limits(o)),
             ("toolholder", tool_carrier(t), tool_carrier(o)),
+            (
+                "tool orientation",
+                t.kinematics.orientation.to_string(),
+                o.kinematics.orientation.to_string(),
+            ),
             ("synchronized actions", sync_actions(t), sync_actions(o)),
             (
                 "contour offset",

@@ -111,6 +111,16 @@ impl Interp<'_> {
         if let Some(n) = w.tool_carrier {
             self.motion.kinematics.tool_carrier = (n != 0.0).then_some(n);
         }
+        if !w.orientation.is_empty() {
+            let kinematics = &mut self.motion.kinematics;
+            if kinematics.transformation != Some("TRAORI") {
+                return Err(format!(
+                    "orientation {}= without the orientation transformation TRAORI",
+                    w.orientation[0].0
+                ));
+            }
+            kinematics.orientation.program(&w.orientation);
+        }
         if let Some(offn) = w.offn {
             self.motion.modal.offn = offn;
         }
@@ -438,12 +448,15 @@ impl Interp<'_> {
         let start_machine = st.machine.clone();
         let from = st.work_geometry();
         let mut geometry_moved = false;
+        let mut any_in_machine = suppress;
         for &(a, dim, v) in &w.axes {
             let absolute = match dim {
                 Dim::Modal => st.modal.absolute,
-                Dim::Absolute => true,
+                Dim::Absolute | Dim::Machine => true,
                 Dim::Incremental => false,
             };
+            let suppress = suppress || dim == Dim::Machine;
+            any_in_machine |= suppress;
             let offset = if suppress { 0.0 } else { st.frames.offset(a) };
             // Under DIAM90 an incremental value of the diameter axis is a radius: twice it on the diameter.
             let step = if st.diam90 && st.diameter_axis == Some(a) {
@@ -466,7 +479,7 @@ impl Interp<'_> {
             }
             geometry_moved |= st.frames.geo.contains(&Some(a));
         }
-        if geometry_moved && !suppress && st.frames.is_linear() {
+        if geometry_moved && !any_in_machine && st.frames.is_linear() {
             st.place_geometry();
         }
         let motion = st.modal.motion;

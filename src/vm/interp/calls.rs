@@ -74,8 +74,17 @@ impl Interp<'_> {
                     .iter()
                     .all(|v| v.as_ref().is_none_or(|v| *v == Value::Num(1.0))) => {}
             "CYCLE800" => self.motion.kinematics.swivel = swivel_angles(&values)?,
-            "TRAORI" | "TRANSMIT" | "TRACYL" | "TRAANG" => {
-                self.motion.kinematics.transformation = Some(transformation(&name))
+            "TRAORI" | "TRANSMIT" | "TRACYL" | "TRAANG" => self.select_transformation(&name),
+            "ORIRESET" => {
+                let kinematics = &mut self.motion.kinematics;
+                if kinematics.transformation != Some("TRAORI") {
+                    return Err("ORIRESET without the orientation transformation TRAORI".into());
+                }
+                let positions = values
+                    .iter()
+                    .map(|v| v.as_ref().map_or(Ok(0.0), Value::num))
+                    .collect::<Result<_, _>>()?;
+                kinematics.orientation.reset(positions);
             }
             "CANCEL" => self.cancel(&values)?,
             _ if self.cfg.probe_cycles.contains(&name) => {
@@ -88,6 +97,13 @@ impl Interp<'_> {
             _ => w.call = Some((name, values, refs)),
         }
         Ok(())
+    }
+
+    /// A kinematic transformation selected: an orientation programmed under another one no longer holds.
+    fn select_transformation(&mut self, name: &str) {
+        let kinematics = &mut self.motion.kinematics;
+        kinematics.transformation = Some(transformation(name));
+        kinematics.orientation = Default::default();
     }
 
     /// The variable an argument names, if it is one (for `VAR` parameters).
@@ -108,10 +124,12 @@ impl Interp<'_> {
         match name.as_str() {
             "RET" => w.ret = true,
             "STOPRE" => w.stopre = true,
-            "TRAORI" | "TRANSMIT" | "TRACYL" | "TRAANG" => {
-                self.motion.kinematics.transformation = Some(transformation(&name))
+            "TRAORI" | "TRANSMIT" | "TRACYL" | "TRAANG" => self.select_transformation(&name),
+            "TRAFOOF" => {
+                let kinematics = &mut self.motion.kinematics;
+                kinematics.transformation = None;
+                kinematics.orientation = Default::default();
             }
-            "TRAFOOF" => self.motion.kinematics.transformation = None,
             "SUPA" => w.suppress_frames = true,
             // The last programmed X is kept in the unit it is programmed in: switching converts it, as the
             // control shows the same position as a diameter or a radius.

@@ -131,6 +131,8 @@ struct Words {
     sync_id: Option<(u32, bool)>,
     /// `FP=n` of G75: the fixed point (1 … 4) its axes go to.
     fixed_point: Option<u32>,
+    /// Orientation words (`A3=`, `LEAD=`, …) under TRAORI.
+    orientation: Vec<(&'static str, f64)>,
 }
 
 const MM_PER_INCH: f64 = 25.4;

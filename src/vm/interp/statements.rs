@@ -100,6 +100,19 @@ impl Interp<'_> {
                 w.axes.push((a, dim, v));
                 return Ok(());
             }
+            if let (None, Some(a), None) =
+                (index, self.cfg.machine_axis(&name), self.variable(&name))
+            {
+                let rotary = !self.motion.frames.geo.contains(&Some(a));
+                let (dim, v) = self.axis_value(u, value, rotary)?;
+                if dim == Dim::Incremental {
+                    return Err(format!(
+                        "{name}=IC(…): a machine axis goes to a machine position"
+                    ));
+                }
+                w.axes.push((a, Dim::Machine, v));
+                return Ok(());
+            }
             if self.variable(&name).is_none() {
                 let done = match index {
                     None => self.address(u, &name, value, w)?,
@@ -201,6 +214,9 @@ impl Interp<'_> {
                 self.num(u, value)?;
             }
             "AP" | "RP" => return Err(format!("{name}= (polar coordinates) is not supported")),
+            _ if let Some(word) = crate::vm::orientation::word(name) => {
+                w.orientation.push((word, self.num(u, value)?));
+            }
             _ => return Ok(false),
         }
         Ok(true)
