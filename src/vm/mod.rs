@@ -23,6 +23,7 @@ mod machine;
 mod motion;
 mod orientation;
 mod passes;
+mod polynomial;
 mod report;
 mod tool_numbers;
 mod truth;

@@ -231,6 +231,8 @@ pub struct Modal {
     pub settings: [u8; SETTING_GROUPS.len()],
     /// `OFFN=`: the contour's offset under cutter compensation (mm).
     pub offn: f64,
+    /// POLYPATH: whether the path axes follow their polynomials under POLY (else they go linearly).
+    pub poly_axes: bool,
 }
 
 /// Modal groups the dry run keeps as state without modelling what they do to the path: the group, then
@@ -431,6 +433,7 @@ impl State {
                 lims: None,
                 settings: [0; SETTING_GROUPS.len()],
                 offn: 0.0,
+                poly_axes: true,
             },
             frames: Frames::new(axes),
             s: 0.0,

@@ -154,6 +154,7 @@ fn sync_actions(s: &State) -> String {
 fn motion(m: u32) -> String {
     match m {
         crate::vm::motion::SPLINE => "spline".into(),
+        crate::vm::polynomial::POLY => "POLY".into(),
         g => format!("G{g}"),
     }
 }

@@ -60,6 +60,9 @@ impl Interp<'_> {
         if w.spline {
             self.motion.modal.motion = SPLINE;
         }
+        if w.poly {
+            self.motion.modal.motion = POLY;
+        }
         let mut w = w;
         if self.motion.modal.inch {
             for (_, _, v) in &mut w.axes {
@@ -67,6 +70,13 @@ impl Interp<'_> {
             }
             for (v, _) in w.centre.iter_mut().flatten() {
                 *v *= MM_PER_INCH;
+            }
+            for c in w
+                .poly_coefficients
+                .iter_mut()
+                .flat_map(|(_, c)| c.iter_mut())
+            {
+                *c *= MM_PER_INCH;
             }
             if let Some(cr) = &mut w.cr {
                 *cr *= MM_PER_INCH;
@@ -517,6 +527,26 @@ impl Interp<'_> {
             let length = arc_length(&arc, start, end, rise)?;
             work_centre = st.work_centre(&arc, start, end, [p, q], &start_local);
             length
+        } else if motion == POLY && st.modal.poly_axes && !w.poly_coefficients.is_empty() {
+            let curves: Vec<AxisCurve> = w
+                .axes
+                .iter()
+                .map(|&(a, _, _)| {
+                    let given = w.poly_coefficients.iter().find(|(k, _)| *k == a);
+                    // A diameter axis moves half its programmed values.
+                    let scale = if st.diameter_axis == Some(a) {
+                        0.5
+                    } else {
+                        1.0
+                    };
+                    AxisCurve {
+                        start: start_machine[a],
+                        end: st.machine[a],
+                        coefficients: given.map_or([0.0; 4], |(_, c)| c.map(|v| v * scale)),
+                    }
+                })
+                .collect();
+            polynomial::length(&curves, w.pl.unwrap_or(1.0))
         } else {
             chord
         };

@@ -87,6 +87,21 @@ impl Interp<'_> {
                 kinematics.orientation.reset(positions);
             }
             "CANCEL" => self.cancel(&values)?,
+            // Which axis groups follow their polynomials: the path axes ("AXES") and the orientation
+            // ("VECT", which the dry run does not follow); a group not named goes linearly.
+            "POLYPATH" => {
+                let mut axes = false;
+                for v in values.iter().flatten() {
+                    match v.text().to_ascii_uppercase().as_str() {
+                        "AXES" => axes = true,
+                        "VECT" => {}
+                        other => {
+                            return Err(format!("POLYPATH: `{other}` is neither AXES nor VECT"));
+                        }
+                    }
+                }
+                self.motion.modal.poly_axes = axes;
+            }
             _ if self.cfg.probe_cycles.contains(&name) => {
                 let nums = values
                     .iter()
@@ -148,6 +163,7 @@ impl Interp<'_> {
                 }
             }
             "BSPLINE" | "ASPLINE" | "CSPLINE" => w.spline = true,
+            "POLY" => w.poly = true,
             "TRANS" | "ATRANS" | "ROT" | "AROT" | "SCALE" | "ASCALE" | "MIRROR" | "AMIRROR" => {
                 w.frame_command = Some(name)
             }
@@ -244,6 +260,8 @@ impl Interp<'_> {
                 | "TRACYL"
                 | "TRAANG"
                 | "CANCEL"
+                | "ORIRESET"
+                | "POLYPATH"
         ) || self.cfg.probe_cycles.iter().any(|c| c == name)
     }
 
