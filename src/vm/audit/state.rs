@@ -347,7 +347,10 @@ fn frames(t: &Frames, o: &Frames, s: &AuditSettings, axes: &[String]) -> Vec<Dif
                 num(o.active[a]),
             ));
         }
-        let skip_trans = !frame_method && is_corrected(a);
+        // Only the methods that correct through the programmable frame change it; a gate correcting the
+        // offset in force (`active`) that loses a TRANS or G58 of the program is a finding.
+        let skip_trans =
+            matches!(s.method, OffsetMethod::Trans | OffsetMethod::Atrans) && is_corrected(a);
         // The fine part on its own: equal totals split otherwise act differently at the next G58 / G59.
         for (what, here, original) in [
             ("programmable translation", t.trans[a], o.trans[a]),
