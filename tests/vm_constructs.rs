@@ -67,6 +67,14 @@ fn dry_run(src: &[u8], cfg: &Config) -> Run {
         .unwrap_or_else(|e| panic!("the dry run stopped: {e}"))
 }
 
+/// The message the dry run of `src` stops with.
+fn dry_run_error(src: &[u8], cfg: &Config) -> String {
+    match run_source("p.mpf", src, None, cfg, &mut SimpleMachine::cold()) {
+        Ok(_) => panic!("the dry run ran {}", String::from_utf8_lossy(src)),
+        Err(e) => e.message,
+    }
+}
+
 /// Whether the audit noted something containing `text`.
 fn noted(found: &Audit, text: &str) -> bool {
     found.notes.iter().any(|n| n.contains(text))
@@ -523,4 +531,225 @@ fn a_settable_frame_built_with_ctrans_is_run() {
     let program = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("fixtures/shop5/20_g500_puifr_frames_before_first_cut.mpf");
     transformed_and_audited(dir.path(), &program.display().to_string());
+}
+
+/// The machine position of every axis after the last block of `src` (X Y Z A B C).
+fn machine_at_end(src: &str, cfg: &Config) -> Vec<f64> {
+    let run = dry_run(src.as_bytes(), cfg);
+    run.trace.last().expect("a traced block").machine.clone()
+}
+
+fn near(a: f64, b: f64) -> bool {
+    (a - b).abs() < 1e-9
+}
+
+#[test]
+fn orientation_under_traori_is_state_the_audit_compares() {
+    let direction = "TRAORI ORIWKS A3=0 B3=-0.5 C3=0.866";
+    finds(
+        direction,
+        &["A3=0 B3=0 C3=1"],
+        Kind::ModalNotRestored,
+        "tool orientation A3=0 B3=0 C3=1 here, A3=0 B3=-0.5 C3=0.866 in the original",
+    );
+    // A gate that leaves the transformation and selects it again has lost the orientation.
+    finds(
+        direction,
+        &["TRAFOOF", "TRAORI"],
+        Kind::ModalNotRestored,
+        "tool orientation none here, A3=0 B3=-0.5 C3=0.866 in the original",
+    );
+    finds(
+        "TRAORI LEAD=10 TILT=5",
+        &["LEAD=0"],
+        Kind::ModalNotRestored,
+        "tool orientation LEAD=0 TILT=5 here, LEAD=10 TILT=5 in the original",
+    );
+    finds(
+        "TRAORI ORIRESET(0, 90)",
+        &["A2=0 B2=0 C2=0"],
+        Kind::ModalNotRestored,
+        "tool orientation A2=0 B2=0 C2=0 here, ORIRESET(0, 90) in the original",
+    );
+    // Orientation words and X Y Z in one block: the positions are the programmed ones.
+    let run = dry_run(
+        b"G90 G94 G54\nTRAORI\nG1 X-20 Y5 Z-2 A3=0.1 B3=-0.49 C3=0.866 F1500\nM30\n",
+        &Config::default(),
+    );
+    assert_eq!(
+        run.trace.last().unwrap().programmed[..3],
+        [-20.0, 5.0, -2.0]
+    );
+    let without = dry_run_error(b"G90 G54\nG1 X1 A3=1 F100\nM30\n", &Config::default());
+    assert!(without.contains("without the orientation transformation TRAORI"));
+}
+
+#[test]
+fn g58_and_g59_replace_the_coarse_and_the_fine_part_of_the_programmable_translation() {
+    // The Programming Manual's example: total offset X30 Y20 Z10.
+    let end = machine_at_end(
+        "G90 G500\nTRANS X10 Y10 Z10\nATRANS X5 Y5\nG58 X20\nG59 X10 Y10\nG0 X0 Y0 Z0\nM30\n",
+        &Config::default(),
+    );
+    assert_eq!(end[..3], [30.0, 20.0, 10.0]);
+    // ATRANS after a rotation goes into the fine part along the turned axis; G58 X replaces the coarse X
+    // in the frame's own coordinates and keeps the fine part.
+    let end = machine_at_end(
+        "G90 G17 G500\nTRANS X10\nAROT RPL=90\nATRANS X5\nG58 X20\nG0 X0 Y0 Z0\nM30\n",
+        &Config::default(),
+    );
+    assert!(near(end[0], 20.0) && near(end[1], 5.0), "{end:?}");
+    // TRANS deletes both parts; the settable offset stays underneath.
+    let cfg = Config {
+        offsets: vec![(1, "Z".into(), -100.0)],
+        ..Config::default()
+    };
+    let end = machine_at_end(
+        "G90 G54\nG58 Z-5\nG59 Z-0.2\nG0 Z1\nTRANS\nG0 Z1\nM30\n",
+        &cfg,
+    );
+    assert!(near(end[2], -99.0), "{end:?}");
+    let end = machine_at_end("G90 G54\nG58 Z-5\nG59 Z-0.2\nG0 Z1\nM30\n", &cfg);
+    assert!(near(end[2], -104.2), "{end:?}");
+}
+
+#[test]
+fn a_gate_that_loses_a_g58_or_g59_offset_is_found() {
+    finds(
+        "G58 Z-5",
+        &["TRANS"],
+        Kind::ModalNotRestored,
+        "programmable translation Z 0 here, -5 in the original",
+    );
+    // The same total split otherwise: the next G58 / G59 of the original would act differently.
+    finds(
+        "G59 Z-0.2",
+        &["G59 Z0", "G58 Z-0.2"],
+        Kind::ModalNotRestored,
+        "fine part of the programmable translation (ATRANS, G59) Z 0 here, -0.2 in the original",
+    );
+}
+
+#[test]
+fn poly_blocks_end_at_the_programmed_points_and_take_the_curve_s_time() {
+    // X = p, Y = p² over PL=1 at F1 mm/min: the parabola's length in minutes.
+    let parabola = (2.0 * 5f64.sqrt() + 2f64.asinh()) / 4.0;
+    for block in [
+        "POLY PO[X]=(1) PO[Y]=(1,1)",
+        "POLY X=PO(1) Y=PO(1,1)",
+        "POLY PO[X]=(1,0,0,0,0) PO[Y]=(1,1,0) PL=1",
+    ] {
+        let src = format!("G90 G94 G500\nG0 X0 Y0 Z0\nG1 F1\n{block}\nM30\n");
+        let run = dry_run(src.as_bytes(), &Config::default());
+        let last = run.trace.last().unwrap();
+        assert_eq!(last.programmed[..2], [1.0, 1.0], "{block}");
+        assert!(
+            (run.time_min - parabola).abs() < 1e-3 * parabola,
+            "{block}: {} min",
+            run.time_min
+        );
+    }
+    // Without POLY, or for the axes POLYPATH leaves out, the end point is reached along the line.
+    for src in [
+        "G90 G94 G500\nG0 X0 Y0 Z0\nG1 F1\nPO[X]=(1) PO[Y]=(1,1)\nM30\n",
+        "G90 G94 G500\nPOLYPATH(\"VECT\")\nG0 X0 Y0 Z0\nG1 F1\nPOLY PO[X]=(1) PO[Y]=(1,1)\nM30\n",
+    ] {
+        let run = dry_run(src.as_bytes(), &Config::default());
+        assert!(
+            (run.time_min - 2f64.sqrt()).abs() < 1e-9,
+            "{src}: {}",
+            run.time_min
+        );
+    }
+    let too_many = dry_run_error(
+        b"G94 G1 F1\nPOLY PO[X]=(1,1,1,1,1,1)\nM30\n",
+        &Config::default(),
+    );
+    assert!(too_many.contains("at most the coefficients a2"));
+}
+
+#[test]
+fn gett_and_the_number_of_a_named_tool_agree() {
+    let run = dry_run(
+        b"DEF INT TNR\nTNR=GETT(\"EM_D10_FIN\",2)\nR1=TNR\nR2=GETT(\"em_d10_fin\",1)\n\
+          T=\"EM_D10_FIN\"\nM6\nR3=$P_TOOLNO\nT=TNR\nM6\nR4=$P_TOOLNO\nM30\n",
+        &Config::default(),
+    );
+    let r = &run.r_final;
+    assert!(r[1] >= 1.0 && r[1].fract() == 0.0, "{}", r[1]);
+    assert_ne!(r[1], r[2], "the sister tool (duplo 2) is a tool of its own");
+    assert_eq!(
+        r[2], r[3],
+        "$P_TOOLNO of the named tool is its first duplo's number"
+    );
+    assert_eq!(r[4], r[1]);
+}
+
+#[test]
+fn a_machine_axis_name_moves_its_axis_in_machine_coordinates() {
+    let cfg = Config {
+        offsets: vec![(1, "Z".into(), -100.0)],
+        ..Config::default()
+    };
+    let end = machine_at_end("G90 G54\nG0 X5 Z1=-2\nM30\n", &cfg);
+    assert_eq!((end[0], end[2]), (5.0, -2.0));
+    let end = machine_at_end("G90 G54\nG0 Z1=-2\nG0 Z3\nM30\n", &cfg);
+    assert_eq!(
+        end[2], -97.0,
+        "the channel axis name is in the work offset again"
+    );
+    // The machine file names them when the machine's names differ (MD10000).
+    let (cfg, _) = driftloop::vm::parse_machine_file(
+        "[machine_axes]\nZS = \"Z\"\n",
+        Path::new("."),
+        Config::default(),
+    )
+    .unwrap();
+    assert_eq!(machine_at_end("G90\nG0 ZS=-7\nM30\n", &cfg)[2], -7.0);
+    assert!(dry_run_error(b"G0 Z1=-2\nM30\n", &cfg).contains("Z1 is not defined"));
+}
+
+/// The shop programs the dry run stopped at (TRAORI orientation words, a machine axis name, GETT, POLY,
+/// G58/G59) transform with every profile that writes them, audited to the end.
+#[test]
+fn the_fixture_programs_with_these_constructs_are_audited_to_the_end() {
+    let model = common::fixture("omm/model.toml");
+    for program in [
+        "shop/23_nx_traori.mpf",
+        "shop4/02_hypermill_5x_impeller_cover.mpf",
+        "shop5/06_millturn_tracyl_groove_subspindle.mpf",
+        "shop5/07_traori_5x_orireset_no_trafooff.mpf",
+        "shop5/08_toolmgmt_gett_duplo_sister.mpf",
+        "shop6/09_poly_finishing_nurbs_post.mpf",
+        "shop6/10_g58_g59_stacked_frames.mpf",
+    ] {
+        let path = common::fixture(program);
+        let subs = Path::new(&path).parent().unwrap().join("subs");
+        let subs = subs.display().to_string();
+        for profile in ["blum-tc50", "tool-setter", "lathe-setter", "grinder-gauge"] {
+            let dir = tempfile::tempdir().unwrap();
+            let args = [
+                "transform",
+                &path,
+                "--model",
+                &model,
+                "--profile",
+                profile,
+                "--subprograms",
+                &subs,
+                "-o",
+                "out.mpf",
+            ];
+            let o = common::driftloop(dir.path(), &args, b"");
+            let err = common::stderr(&o);
+            assert!(
+                !err.contains("audit incomplete"),
+                "{program} {profile}: {err}"
+            );
+            assert!(
+                !err.contains("audit findings"),
+                "{program} {profile}: {err}"
+            );
+        }
+    }
 }

@@ -48,6 +48,11 @@ use super::truth::ModelDrift;
 pub struct Config {
     /// Axis names, upper case. Names of one letter plus digits that are not listed are not axes.
     pub axes: Vec<String>,
+    /// Machine axis names (MD10000), upper case, and the channel axis each moves: a program names one to
+    /// move that axis in machine coordinates (`G74 X1=0 Z1=0`, a transfer to a counter spindle). `None`:
+    /// each channel axis's name with 1 appended (X1, Y1, Z1 …), the names the Programming Manual's
+    /// examples use.
+    pub machine_axes: Option<BTreeMap<String, String>>,
     pub rapid_mm_min: f64,
     pub tool_change_min: f64,
     /// Time the operator takes to restart after M0 / M1.
@@ -117,6 +122,15 @@ pub struct Config {
 }
 
 impl Config {
+    /// The channel axis (its index in `axes`) that machine axis `name` (upper case) moves.
+    pub fn machine_axis(&self, name: &str) -> Option<usize> {
+        let channel = match &self.machine_axes {
+            Some(names) => names.get(name)?.as_str(),
+            None => name.strip_suffix('1')?,
+        };
+        self.axes.iter().position(|a| a == channel)
+    }
+
     /// MD32750 of `axis`.
     pub fn temp_comp_type(&self, axis: &str) -> u32 {
         self.temp_comp_type.get(axis).copied().unwrap_or(1)
@@ -127,6 +141,7 @@ impl Default for Config {
     fn default() -> Self {
         Config {
             axes: ["X", "Y", "Z", "A", "B", "C"].map(String::from).to_vec(),
+            machine_axes: None,
             rapid_mm_min: 10_000.0,
             tool_change_min: 0.1,
             stop_min: 0.0,
@@ -183,6 +198,7 @@ struct MachineFile {
     #[serde(default)]
     variables: BTreeMap<String, f64>,
     axes: Option<Vec<String>>,
+    machine_axes: Option<BTreeMap<String, String>>,
 }
 
 /// Machine and setting data the program reads, per axis.
@@ -393,6 +409,20 @@ pub fn parse_machine_file(
     }
     if let Some(axes) = file.axes {
         cfg.axes = axes.iter().map(|a| a.to_ascii_uppercase()).collect();
+    }
+    if let Some(names) = file.machine_axes {
+        let mut upper = BTreeMap::new();
+        for (name, channel) in names {
+            let channel = channel.to_ascii_uppercase();
+            if !cfg.axes.contains(&channel) {
+                return Err(format!(
+                    "machine_axes.{name}: `{channel}` is not one of the axes {:?}",
+                    cfg.axes
+                ));
+            }
+            upper.insert(name.to_ascii_uppercase(), channel);
+        }
+        cfg.machine_axes = Some(upper);
     }
     for (g, values) in &file.offsets {
         let frame = offset_frame(g).ok_or_else(|| {

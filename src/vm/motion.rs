@@ -31,6 +31,8 @@ pub enum Dim {
     Modal,
     Absolute,
     Incremental,
+    /// Absolute in machine coordinates: the axis was named by its machine axis name.
+    Machine,
 }
 
 #[derive(Debug, Clone)]
@@ -48,8 +50,11 @@ pub struct Frames {
     pub base: Vec<f64>,
     /// Copy of the selected frame made at selection.
     pub active: Vec<f64>,
-    /// Programmable translation (TRANS / ATRANS).
+    /// Programmable translation, coarse plus fine: TRANS and G58 write the coarse part, ATRANS and G59
+    /// the fine one.
     pub trans: Vec<f64>,
+    /// The fine (additive) part of `trans`: the sum of ATRANS translations, or what G59 put in its place.
+    pub trans_fine: Vec<f64>,
     /// Rotation, scale and mirror of the programmable frame over the geometry axes (`None`: identity).
     pub linear: Option<Matrix>,
     /// Indices of the geometry axes X, Y, Z in the axis list.
@@ -96,6 +101,7 @@ impl Frames {
             selected: 0,
             active: vec![0.0; axes],
             trans: vec![0.0; axes],
+            trans_fine: vec![0.0; axes],
             linear: None,
             geo: [None; 3],
             trans_is_correction: false,
@@ -105,22 +111,41 @@ impl Frames {
     /// Deletes the programmable frame (what TRANS, ROT, SCALE, MIRROR do before they set their part).
     pub fn reset_programmable(&mut self) {
         self.trans.iter_mut().for_each(|t| *t = 0.0);
+        self.trans_fine.iter_mut().for_each(|t| *t = 0.0);
         self.linear = None;
     }
 
     /// Adds a translation along `axis`, in the coordinate system the programmable frame has made so far
-    /// (ATRANS after ROT translates along the rotated axis, after SCALE by the scaled amount).
-    pub fn translate(&mut self, axis: usize, v: f64) {
+    /// (ATRANS after ROT translates along the rotated axis, after SCALE by the scaled amount); an `additive`
+    /// one (ATRANS) goes into the fine part too.
+    pub fn translate(&mut self, axis: usize, v: f64, additive: bool) {
         let k = self.geo.iter().position(|g| *g == Some(axis));
-        match (k, &self.linear) {
-            (Some(k), Some(m)) => {
-                for (row, g) in m.iter().zip(self.geo) {
-                    if let Some(a) = g {
-                        self.trans[a] += row[k] * v;
-                    }
-                }
+        let steps: Vec<(usize, f64)> = match (k, &self.linear) {
+            (Some(k), Some(m)) => m
+                .iter()
+                .zip(self.geo)
+                .filter_map(|(row, g)| g.map(|a| (a, row[k] * v)))
+                .collect(),
+            _ => vec![(axis, v)],
+        };
+        for (a, d) in steps {
+            self.trans[a] += d;
+            if additive {
+                self.trans_fine[a] += d;
             }
-            _ => self.trans[axis] += v,
+        }
+    }
+
+    /// G58 (`fine` false) / G59: replaces the coarse / fine part of the programmable translation of `axis`
+    /// with `v` and keeps the other part (Programming Manual 12/2019, "Programmable work offset (G58,
+    /// G59)"). The parts are kept in the frame's own coordinates, as TRANS writes them: under a rotation
+    /// the value is not turned.
+    pub fn replace_translation(&mut self, axis: usize, v: f64, fine: bool) {
+        if fine {
+            self.trans[axis] += v - self.trans_fine[axis];
+            self.trans_fine[axis] = v;
+        } else {
+            self.trans[axis] = v + self.trans_fine[axis];
         }
     }
 
@@ -206,6 +231,8 @@ pub struct Modal {
     pub settings: [u8; SETTING_GROUPS.len()],
     /// `OFFN=`: the contour's offset under cutter compensation (mm).
     pub offn: f64,
+    /// POLYPATH: whether the path axes follow their polynomials under POLY (else they go linearly).
+    pub poly_axes: bool,
 }
 
 /// Modal groups the dry run keeps as state without modelling what they do to the path: the group, then
@@ -285,11 +312,11 @@ pub enum Tool {
 }
 
 impl Tool {
-    /// `$P_TOOLNO`: the number; a named tool has none the dry run knows (no tool table).
+    /// `$P_TOOLNO`: the number; a named tool's is the internal one the dry run gives its first duplo.
     pub fn number(&self) -> f64 {
         match self {
             Tool::Number(n) => *n,
-            Tool::Name(_) => 0.0,
+            Tool::Name(name) => super::tool_numbers::internal_number(name, 1),
         }
     }
 }
@@ -314,6 +341,8 @@ pub struct Kinematics {
     /// `TCARR=n`: the orientable toolholder selected, until `TCARR=0`. Its angles come from tool data or
     /// rotary axes the dry run does not evaluate, so any selected one counts as tilting the tool.
     pub tool_carrier: Option<f64>,
+    /// The tool orientation programmed under TRAORI, until the transformation ends.
+    pub orientation: super::orientation::Orientation,
 }
 
 /// What `PROC … SAVE` restores on return: modal G codes and frames.
@@ -323,6 +352,7 @@ pub struct Saved {
     selected: usize,
     active: Vec<f64>,
     trans: Vec<f64>,
+    trans_fine: Vec<f64>,
     linear: Option<Matrix>,
 }
 
@@ -403,6 +433,7 @@ impl State {
                 lims: None,
                 settings: [0; SETTING_GROUPS.len()],
                 offn: 0.0,
+                poly_axes: true,
             },
             frames: Frames::new(axes),
             s: 0.0,
@@ -531,6 +562,7 @@ impl State {
             selected: self.frames.selected,
             active: self.frames.active.clone(),
             trans: self.frames.trans.clone(),
+            trans_fine: self.frames.trans_fine.clone(),
             linear: self.frames.linear,
         }
     }
@@ -540,6 +572,7 @@ impl State {
         self.frames.selected = saved.selected;
         self.frames.active = saved.active;
         self.frames.trans = saved.trans;
+        self.frames.trans_fine = saved.trans_fine;
         self.frames.linear = saved.linear;
     }
 }
@@ -804,7 +837,7 @@ mod tests {
         let mut f = Frames::new(3);
         f.geo = [Some(0), Some(1), Some(2)];
         f.compose(&rz);
-        f.translate(0, 10.0);
+        f.translate(0, 10.0, true);
         assert!(
             f.trans[0].abs() < 1e-12 && (f.trans[1] - 10.0).abs() < 1e-12,
             "ATRANS along the turned X"

@@ -13,6 +13,7 @@ use crate::vm::VmError;
 use crate::vm::config::Config;
 use crate::vm::interp::{Done, Interp, Movement};
 use crate::vm::motion::{SPLINE, Tool, is_thread};
+use crate::vm::polynomial::POLY;
 use crate::vm::report::End;
 use crate::vm::unit::{Source, Unit};
 
@@ -788,7 +789,7 @@ fn acts(d: &Done) -> bool {
 const AXES: [&str; 3] = ["X", "Y", "Z"];
 
 fn is_feed(motion: u32) -> bool {
-    matches!(motion, 1..=3 | SPLINE) || is_thread(motion)
+    matches!(motion, 1..=3 | SPLINE | POLY) || is_thread(motion)
 }
 
 fn is_continuous(path: u32) -> bool {

@@ -154,6 +154,7 @@ fn sync_actions(s: &State) -> String {
 fn motion(m: u32) -> String {
     match m {
         crate::vm::motion::SPLINE => "spline".into(),
+        crate::vm::polynomial::POLY => "POLY".into(),
         g => format!("G{g}"),
     }
 }
@@ -254,6 +255,11 @@ pub(super) fn modal(t: &State, o: &State, s: &AuditSettings, axes: &[String]) ->
         .chain([
             ("spindle speed limits", speed_limits(t), speed_limits(o)),
             ("toolholder", tool_carrier(t), tool_carrier(o)),
+            (
+                "tool orientation",
+                t.kinematics.orientation.to_string(),
+                o.kinematics.orientation.to_string(),
+            ),
             ("synchronized actions", sync_actions(t), sync_actions(o)),
             (
                 "contour offset",
@@ -341,13 +347,22 @@ fn frames(t: &Frames, o: &Frames, s: &AuditSettings, axes: &[String]) -> Vec<Dif
                 num(o.active[a]),
             ));
         }
-        let skip_trans = !frame_method && is_corrected(a);
-        if !skip_trans && differ(t.trans[a], o.trans[a]) {
-            v.push(item(
-                &format!("programmable translation {name}"),
-                num(t.trans[a]),
-                num(o.trans[a]),
-            ));
+        // Only the methods that correct through the programmable frame change it; a gate correcting the
+        // offset in force (`active`) that loses a TRANS or G58 of the program is a finding.
+        let skip_trans =
+            matches!(s.method, OffsetMethod::Trans | OffsetMethod::Atrans) && is_corrected(a);
+        // The fine part on its own: equal totals split otherwise act differently at the next G58 / G59.
+        for (what, here, original) in [
+            ("programmable translation", t.trans[a], o.trans[a]),
+            (
+                "fine part of the programmable translation (ATRANS, G59)",
+                t.trans_fine[a],
+                o.trans_fine[a],
+            ),
+        ] {
+            if !skip_trans && differ(here, original) {
+                v.push(item(&format!("{what} {name}"), num(here), num(original)));
+            }
         }
     }
     if let Some(c) = table_difference(t, o, axes, |f, a, fine| {

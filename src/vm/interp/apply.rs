@@ -9,6 +9,8 @@ impl Interp<'_> {
         // G25 / G26 (0, 1): S is the spindle's lower / upper speed limit, axis values the working area's.
         let mut limit = None;
         let mut suppress = w.suppress_frames;
+        // G58 / G59: the block's axis values replace a part of the programmable translation.
+        let mut axial = None;
         let planes = [
             self.plane(["X", "Y", "Z"]),
             self.plane(["Z", "X", "Y"]),
@@ -33,6 +35,7 @@ impl Interp<'_> {
                 // Cutter radius compensation moves the contour in the plane, never the depth.
                 40..=42 => modal.compensation = g,
                 53 | 153 => suppress = true,
+                58 | 59 => axial = Some(g == 59),
                 // G75 FP=n: its axes go to the fixed point, a machine position (below).
                 75 => suppress = true,
                 54..=57 => self.motion.frames.select(g as usize - 53),
@@ -57,6 +60,9 @@ impl Interp<'_> {
         if w.spline {
             self.motion.modal.motion = SPLINE;
         }
+        if w.poly {
+            self.motion.modal.motion = POLY;
+        }
         let mut w = w;
         if self.motion.modal.inch {
             for (_, _, v) in &mut w.axes {
@@ -64,6 +70,13 @@ impl Interp<'_> {
             }
             for (v, _) in w.centre.iter_mut().flatten() {
                 *v *= MM_PER_INCH;
+            }
+            for c in w
+                .poly_coefficients
+                .iter_mut()
+                .flat_map(|(_, c)| c.iter_mut())
+            {
+                *c *= MM_PER_INCH;
             }
             if let Some(cr) = &mut w.cr {
                 *cr *= MM_PER_INCH;
@@ -107,6 +120,16 @@ impl Interp<'_> {
         }
         if let Some(n) = w.tool_carrier {
             self.motion.kinematics.tool_carrier = (n != 0.0).then_some(n);
+        }
+        if !w.orientation.is_empty() {
+            let kinematics = &mut self.motion.kinematics;
+            if kinematics.transformation != Some("TRAORI") {
+                return Err(format!(
+                    "orientation {}= without the orientation transformation TRAORI",
+                    w.orientation[0].0
+                ));
+            }
+            kinematics.orientation.program(&w.orientation);
         }
         if let Some(offn) = w.offn {
             self.motion.modal.offn = offn;
@@ -160,7 +183,14 @@ impl Interp<'_> {
         }
         self.other_spindles(&w);
         if let Some(frame) = &w.frame_command {
+            if axial.is_some() {
+                return Err(format!("{frame} and G58/G59 in one block"));
+            }
             self.frame_command(frame, &w.axes, w.rpl)?;
+        } else if let Some(fine) = axial {
+            for &(a, _, v) in &w.axes {
+                self.motion.frames.replace_translation(a, v, fine);
+            }
         } else if w.g.contains(&75) {
             self.fixed_point(u, i, &w)?;
         } else if !w.axes.is_empty() && limit.is_none() {
@@ -342,7 +372,7 @@ impl Interp<'_> {
             Some(m) => f.compose(&m),
             None => {
                 for &(a, _, v) in axes {
-                    f.translate(a, v);
+                    f.translate(a, v, !absolute);
                 }
             }
         }
@@ -428,12 +458,15 @@ impl Interp<'_> {
         let start_machine = st.machine.clone();
         let from = st.work_geometry();
         let mut geometry_moved = false;
+        let mut any_in_machine = suppress;
         for &(a, dim, v) in &w.axes {
             let absolute = match dim {
                 Dim::Modal => st.modal.absolute,
-                Dim::Absolute => true,
+                Dim::Absolute | Dim::Machine => true,
                 Dim::Incremental => false,
             };
+            let suppress = suppress || dim == Dim::Machine;
+            any_in_machine |= suppress;
             let offset = if suppress { 0.0 } else { st.frames.offset(a) };
             // Under DIAM90 an incremental value of the diameter axis is a radius: twice it on the diameter.
             let step = if st.diam90 && st.diameter_axis == Some(a) {
@@ -456,7 +489,7 @@ impl Interp<'_> {
             }
             geometry_moved |= st.frames.geo.contains(&Some(a));
         }
-        if geometry_moved && !suppress && st.frames.is_linear() {
+        if geometry_moved && !any_in_machine && st.frames.is_linear() {
             st.place_geometry();
         }
         let motion = st.modal.motion;
@@ -494,6 +527,26 @@ impl Interp<'_> {
             let length = arc_length(&arc, start, end, rise)?;
             work_centre = st.work_centre(&arc, start, end, [p, q], &start_local);
             length
+        } else if motion == POLY && st.modal.poly_axes && !w.poly_coefficients.is_empty() {
+            let curves: Vec<AxisCurve> = w
+                .axes
+                .iter()
+                .map(|&(a, _, _)| {
+                    let given = w.poly_coefficients.iter().find(|(k, _)| *k == a);
+                    // A diameter axis moves half its programmed values.
+                    let scale = if st.diameter_axis == Some(a) {
+                        0.5
+                    } else {
+                        1.0
+                    };
+                    AxisCurve {
+                        start: start_machine[a],
+                        end: st.machine[a],
+                        coefficients: given.map_or([0.0; 4], |(_, c)| c.map(|v| v * scale)),
+                    }
+                })
+                .collect();
+            polynomial::length(&curves, w.pl.unwrap_or(1.0))
         } else {
             chord
         };

@@ -74,10 +74,34 @@ impl Interp<'_> {
                     .iter()
                     .all(|v| v.as_ref().is_none_or(|v| *v == Value::Num(1.0))) => {}
             "CYCLE800" => self.motion.kinematics.swivel = swivel_angles(&values)?,
-            "TRAORI" | "TRANSMIT" | "TRACYL" | "TRAANG" => {
-                self.motion.kinematics.transformation = Some(transformation(&name))
+            "TRAORI" | "TRANSMIT" | "TRACYL" | "TRAANG" => self.select_transformation(&name),
+            "ORIRESET" => {
+                let kinematics = &mut self.motion.kinematics;
+                if kinematics.transformation != Some("TRAORI") {
+                    return Err("ORIRESET without the orientation transformation TRAORI".into());
+                }
+                let positions = values
+                    .iter()
+                    .map(|v| v.as_ref().map_or(Ok(0.0), Value::num))
+                    .collect::<Result<_, _>>()?;
+                kinematics.orientation.reset(positions);
             }
             "CANCEL" => self.cancel(&values)?,
+            // Which axis groups follow their polynomials: the path axes ("AXES") and the orientation
+            // ("VECT", which the dry run does not follow); a group not named goes linearly.
+            "POLYPATH" => {
+                let mut axes = false;
+                for v in values.iter().flatten() {
+                    match v.text().to_ascii_uppercase().as_str() {
+                        "AXES" => axes = true,
+                        "VECT" => {}
+                        other => {
+                            return Err(format!("POLYPATH: `{other}` is neither AXES nor VECT"));
+                        }
+                    }
+                }
+                self.motion.modal.poly_axes = axes;
+            }
             _ if self.cfg.probe_cycles.contains(&name) => {
                 let nums = values
                     .iter()
@@ -88,6 +112,13 @@ impl Interp<'_> {
             _ => w.call = Some((name, values, refs)),
         }
         Ok(())
+    }
+
+    /// A kinematic transformation selected: an orientation programmed under another one no longer holds.
+    fn select_transformation(&mut self, name: &str) {
+        let kinematics = &mut self.motion.kinematics;
+        kinematics.transformation = Some(transformation(name));
+        kinematics.orientation = Default::default();
     }
 
     /// The variable an argument names, if it is one (for `VAR` parameters).
@@ -108,10 +139,12 @@ impl Interp<'_> {
         match name.as_str() {
             "RET" => w.ret = true,
             "STOPRE" => w.stopre = true,
-            "TRAORI" | "TRANSMIT" | "TRACYL" | "TRAANG" => {
-                self.motion.kinematics.transformation = Some(transformation(&name))
+            "TRAORI" | "TRANSMIT" | "TRACYL" | "TRAANG" => self.select_transformation(&name),
+            "TRAFOOF" => {
+                let kinematics = &mut self.motion.kinematics;
+                kinematics.transformation = None;
+                kinematics.orientation = Default::default();
             }
-            "TRAFOOF" => self.motion.kinematics.transformation = None,
             "SUPA" => w.suppress_frames = true,
             // The last programmed X is kept in the unit it is programmed in: switching converts it, as the
             // control shows the same position as a diameter or a radius.
@@ -130,6 +163,7 @@ impl Interp<'_> {
                 }
             }
             "BSPLINE" | "ASPLINE" | "CSPLINE" => w.spline = true,
+            "POLY" => w.poly = true,
             "TRANS" | "ATRANS" | "ROT" | "AROT" | "SCALE" | "ASCALE" | "MIRROR" | "AMIRROR" => {
                 w.frame_command = Some(name)
             }
@@ -226,6 +260,8 @@ impl Interp<'_> {
                 | "TRACYL"
                 | "TRAANG"
                 | "CANCEL"
+                | "ORIRESET"
+                | "POLYPATH"
         ) || self.cfg.probe_cycles.iter().any(|c| c == name)
     }
 

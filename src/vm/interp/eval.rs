@@ -355,6 +355,22 @@ impl Interp<'_> {
                 })),
                 _ => Err(format!("{name} takes one string")),
             },
+            // Every named tool exists for the dry run (no tool table), so it never answers -1 (not found).
+            "GETT" => match &vals[..] {
+                [Value::Str(tool), duplo] => {
+                    let duplo = duplo.num()?;
+                    if duplo < 1.0 || duplo.fract() != 0.0 {
+                        return Err(format!(
+                            "GETT: duplo number {duplo} is not a whole number ≥ 1"
+                        ));
+                    }
+                    Ok(Value::Num(crate::vm::tool_numbers::internal_number(
+                        tool,
+                        duplo as u32,
+                    )))
+                }
+                _ => Err("GETT takes a tool name and a duplo number".into()),
+            },
             "IC" | "AC" | "ACP" | "ACN" | "DC" => {
                 Err(format!("{name}() is only allowed as an axis value"))
             }

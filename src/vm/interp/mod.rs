@@ -26,6 +26,7 @@ use super::motion::{
     is_thread, multiply, rotation, setting,
 };
 use super::passes::{Cut, PassTracker};
+use super::polynomial::{self, AxisCurve, POLY};
 use super::report::{
     Alarm, At, Correction, End, Measurement, Message, Run, TempCompWrite, Totals, TraceRow,
 };
@@ -131,6 +132,14 @@ struct Words {
     sync_id: Option<(u32, bool)>,
     /// `FP=n` of G75: the fixed point (1 … 4) its axes go to.
     fixed_point: Option<u32>,
+    /// Orientation words (`A3=`, `LEAD=`, …) under TRAORI.
+    orientation: Vec<(&'static str, f64)>,
+    /// POLY: polynomial interpolation from this block on.
+    poly: bool,
+    /// `PO[axis]=(end, a2 …)`: the coefficients a2 … a5 of each axis given so.
+    poly_coefficients: Vec<(usize, [f64; 4])>,
+    /// `PL=`: the parameter interval of a polynomial (or a spline) block.
+    pl: Option<f64>,
 }
 
 const MM_PER_INCH: f64 = 25.4;

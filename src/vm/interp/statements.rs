@@ -95,9 +95,25 @@ impl Interp<'_> {
                 None => u.upper(target),
             };
             if let (None, Some(a)) = (index, self.axis_index(&name)) {
+                if value.kind == NodeKind::FnCall && u.upper(&value.children[0]) == "PO" {
+                    return self.polynomial_axis(u, a, &value.call_arguments(), w);
+                }
                 let rotary = !self.motion.frames.geo.contains(&Some(a));
                 let (dim, v) = self.axis_value(u, value, rotary)?;
                 w.axes.push((a, dim, v));
+                return Ok(());
+            }
+            if let (None, Some(a), None) =
+                (index, self.cfg.machine_axis(&name), self.variable(&name))
+            {
+                let rotary = !self.motion.frames.geo.contains(&Some(a));
+                let (dim, v) = self.axis_value(u, value, rotary)?;
+                if dim == Dim::Incremental {
+                    return Err(format!(
+                        "{name}=IC(…): a machine axis goes to a machine position"
+                    ));
+                }
+                w.axes.push((a, Dim::Machine, v));
                 return Ok(());
             }
             if self.variable(&name).is_none() {
@@ -196,11 +212,21 @@ impl Interp<'_> {
                 }
                 w.sync_id = Some((n as u32, name == "IDS"));
             }
-            // Point weight, degree and parameter interval shape a spline, not where its points are.
-            "PW" | "SD" | "PL" => {
+            // Point weight and degree shape a spline, not where its points are.
+            "PW" | "SD" => {
                 self.num(u, value)?;
             }
+            "PL" => {
+                let pl = self.num(u, value)?;
+                if pl <= 0.0 {
+                    return Err(format!("PL={pl}: the parameter interval must be positive"));
+                }
+                w.pl = Some(pl);
+            }
             "AP" | "RP" => return Err(format!("{name}= (polar coordinates) is not supported")),
+            _ if let Some(word) = crate::vm::orientation::word(name) => {
+                w.orientation.push((word, self.num(u, value)?));
+            }
             _ => return Ok(false),
         }
         Ok(true)
@@ -273,6 +299,13 @@ impl Interp<'_> {
                 })?;
                 w.g.push(g);
             }
+            "PO" if value.kind == NodeKind::Args => {
+                let axis = u.upper(index);
+                let a = self
+                    .axis_index(&axis)
+                    .ok_or_else(|| format!("PO[{axis}]: {axis} is not an axis"))?;
+                self.polynomial_axis(u, a, &value.arguments(), w)?;
+            }
             "ACC" | "FA" | "FL" | "OVRA" | "JERKA" => {
                 let axis = u.upper(index);
                 let spindle = axis.strip_prefix('S').map(spindle_number);
@@ -286,6 +319,32 @@ impl Interp<'_> {
             _ => return Ok(false),
         }
         Ok(true)
+    }
+
+    /// `PO[X]=(end, a2, …, a5)` or `X=PO(end, a2, …)`: the axis goes to `end`, along its polynomial while
+    /// POLY is active (the last coefficients may be left out when 0).
+    fn polynomial_axis(
+        &self,
+        u: &Unit,
+        a: usize,
+        items: &[Option<&Node>],
+        w: &mut Words,
+    ) -> Result<(), String> {
+        let values = items
+            .iter()
+            .map(|item| self.num(u, item.ok_or("PO: an empty value")?))
+            .collect::<Result<Vec<f64>, String>>()?;
+        let [end, higher @ ..] = &values[..] else {
+            return Err("PO needs the end point".into());
+        };
+        if higher.len() > 4 {
+            return Err("PO takes the end point and at most the coefficients a2 … a5".into());
+        }
+        let mut coefficients = [0.0; 4];
+        coefficients[..higher.len()].copy_from_slice(higher);
+        w.axes.push((a, Dim::Modal, *end));
+        w.poly_coefficients.push((a, coefficients));
+        Ok(())
     }
 
     /// The angle a `SPOS` of `spindle` goes to (degrees, 0 … 360): `AC`, `DC`, `ACP`, `ACN` or plain are
