@@ -15,7 +15,7 @@ use crate::model::{DriftModel, extrapolation_warning};
 
 use super::loops::{Loop, site_runs};
 use super::nc::number;
-use super::profile::{Axis, MeasureFrame, OffsetMethod, Position, ProbeKind, Profile};
+use super::profile::{Axis, MeasureFrame, OffsetMethod, Position, ProbeKind, Profile, UnknownTool};
 use super::timeline::{self, Modal, Site, SiteKind, Timeline};
 
 /// What a gate does.
@@ -474,6 +474,12 @@ const STATE_VARIES: &str = "its modal state is not known for sure (later runs of
 
 const TOOL_UNKNOWN: &str = "the tool in the spindle is not known there (no tool change before it), so the probe could not be swapped for it again";
 
+/// A spindle probe whose gates read the tool in force at run time where the program does not name it.
+pub fn reads_tool(profile: &Profile) -> bool {
+    profile.probe.kind == ProbeKind::SpindleProbe
+        && profile.probe.unknown_tool == UnknownTool::Runtime
+}
+
 /// Why a site cannot carry the reference measurement with this profile's probe; `None` when it can.
 fn unfit_for_reference(site: &Site, profile: &Profile, rule: OffsetRule) -> Option<&'static str> {
     let tool_change_follows = matches!(site.kind, SiteKind::PassStart { tool_change: true });
@@ -499,7 +505,9 @@ fn unfit_for_reference(site: &Site, profile: &Profile, rule: OffsetRule) -> Opti
             Some(MACHINE_COOLANT_ON)
         }
         ProbeKind::SpindleProbe if tool_change_follows => None,
-        ProbeKind::SpindleProbe if site.before.tool.is_none() => Some(TOOL_UNKNOWN),
+        ProbeKind::SpindleProbe if site.before.tool.is_none() && !reads_tool(profile) => {
+            Some(TOOL_UNKNOWN)
+        }
         ProbeKind::SpindleProbe if site.before.unknown & timeline::unknown::SUM_OFFSET != 0 => {
             Some(SUM_OFFSET)
         }
@@ -679,7 +687,9 @@ fn unfit_for_measuring(
         ProbeKind::SpindleProbe if tool_change_follows && site.before.machine_coolant != 0 => {
             Some(MACHINE_COOLANT_ON)
         }
-        ProbeKind::SpindleProbe if !tool_change_follows && site.before.tool.is_none() => {
+        ProbeKind::SpindleProbe
+            if !tool_change_follows && site.before.tool.is_none() && !reads_tool(profile) =>
+        {
             Some("the tool in the spindle is not known")
         }
         ProbeKind::SpindleProbe
