@@ -102,6 +102,16 @@ pub const REFERENCE_MARGIN_MM: f64 = 50.0;
 /// spindle whose machine zero is at the top.
 const SHIFT: [f64; 3] = [120.0, 80.0, -450.0];
 
+/// A tool loaded by hand before the program, for a dry run that must not start without one: named, so
+/// that it is selected again alike by its name (tool management) and by its T number.
+pub fn hand_loaded_tool() -> crate::vm::StartTool {
+    crate::vm::StartTool {
+        number: 1.0,
+        name: Some("TOOL_IN_SPINDLE".into()),
+        d: 1.0,
+    }
+}
+
 /// `--probe-margin` default (mm).
 pub const DEFAULT_PROBE_MARGIN_MM: f64 = 5.0;
 
