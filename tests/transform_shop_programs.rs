@@ -479,10 +479,16 @@ fn a_tool_setter_measures_its_zero_after_a_tool_change_subprogram() {
 #[test]
 fn a_subprogram_that_changes_tools_and_cuts_is_no_tool_change() {
     let cutting = "M5 M9\nG0 G53 Z0\nM6\nG0 X0 Y0 Z2\nG1 Z-1 F100\nG0 Z50\nRET\n";
+    let refusing = driftloop::omm::DEFAULT_PROFILE
+        .replace("unknown_tool = \"runtime\"", "unknown_tool = \"refuse\"");
     let err = refused(
-        &[("p.mpf", L6_PROGRAM), ("L6.spf", cutting)],
+        &[
+            ("p.mpf", L6_PROGRAM),
+            ("L6.spf", cutting),
+            ("refuse.toml", &refusing),
+        ],
         "p.mpf",
-        "blum-tc50",
+        "refuse.toml",
     );
     assert!(err.contains("tool in the spindle is not known"), "{err}");
 }

@@ -259,6 +259,7 @@ impl Runner<'_> {
                 }
                 (None, Some((ou, ob))) => {
                     self.close_pending(t, o);
+                    self.wrong_tool_at_stop(t, o);
                     self.ended_early(&ou, ob);
                     return Ok(());
                 }
@@ -740,6 +741,29 @@ impl Runner<'_> {
         }
         if let Some(left) = persistent_left(t, o) {
             self.add(at.finding(Kind::OffsetLeftOnAbort, format!("the program ends {left}")));
+        }
+    }
+
+    /// Inserted blocks stopped the program with a cutting tool in the spindle other than the original's: a
+    /// gate loaded another tool than the one it swapped the probe for (its check stops it before it cuts,
+    /// but the gate is wrong). The probe in the spindle is an abort while measuring, which the fault runs
+    /// judge.
+    fn wrong_tool_at_stop(&mut self, t: &Interp<'_>, o: &Interp<'_>) {
+        let (ts, os) = (&t.motion.tool, &o.motion.tool);
+        let Some((at, true)) = self.last.clone() else {
+            return;
+        };
+        let probe = matches!((ts, &self.settings.probe_tool),
+            (Some(Tool::Name(name)), Some(probe)) if **name == **probe);
+        if ts != os && !probe {
+            self.add(at.finding(
+                Kind::ToolState,
+                format!(
+                    "the inserted blocks stop the program with {} in the spindle where the original has {}: the tool loaded after the probe is another than the one before it",
+                    state::tool_text(ts),
+                    state::tool_text(os)
+                ),
+            ));
         }
     }
 
