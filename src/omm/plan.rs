@@ -480,6 +480,14 @@ pub fn reads_tool(profile: &Profile) -> bool {
         && profile.probe.unknown_tool == UnknownTool::Runtime
 }
 
+/// Whether a gate at `site` knows from the program which tool to load again after the probe (or needs
+/// none); otherwise it reads the tool at run time.
+fn names_tool(site: &Site, profile: &Profile) -> bool {
+    !reads_tool(profile)
+        || site.before.tool.is_some()
+        || matches!(site.kind, SiteKind::PassStart { tool_change: true })
+}
+
 /// Why a site cannot carry the reference measurement with this profile's probe; `None` when it can.
 fn unfit_for_reference(site: &Site, profile: &Profile, rule: OffsetRule) -> Option<&'static str> {
     let tool_change_follows = matches!(site.kind, SiteKind::PassStart { tool_change: true });
@@ -567,16 +575,25 @@ fn reference_site(
             }
             unfit_for_reference(site, profile, rule)
         };
+        // A place whose tool the program names comes first: one that reads the tool at run time measures
+        // nothing where the operator left none in force.
+        let mut unnamed = None;
         for (k, site) in timeline.sites.iter().enumerate() {
             if site.block < from || site.block > to {
                 continue;
             }
             match fit(site) {
-                None => return Ok(k),
+                None if names_tool(site, profile) => return Ok(k),
+                None => {
+                    unnamed.get_or_insert(k);
+                }
                 Some(why) => {
                     unfit.get_or_insert((site.block, why));
                 }
             }
+        }
+        if let Some(k) = unnamed {
+            return Ok(k);
         }
         // After the first cut: the first fit pass start, else the first fit place after the setup (a post
         // that retracts with D0 before every tool change leaves no pass start fit for a spindle probe).
