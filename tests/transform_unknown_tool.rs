@@ -24,6 +24,13 @@ fn default_with(from: &str, to: &str) -> String {
     text
 }
 
+const TM_TEMPLATE: &str = "tool_by_number = \"$TC_TP2[{t}]\"";
+
+/// The default profile selecting the tool again with `T=template`.
+fn with_template(template: &str) -> String {
+    default_with(TM_TEMPLATE, &format!("tool_by_number = \"{template}\""))
+}
+
 /// The lines of the output from the comment of gate `n` to its skip label.
 fn gate_text(out: &str, n: usize) -> String {
     let lines: Vec<&str> = out.lines().collect();
@@ -125,10 +132,7 @@ fn with_no_tool_active_the_gates_do_not_swap_and_the_program_cuts_as_before() {
 fn a_tool_loaded_again_that_is_another_stops_before_the_next_cut() {
     let program = single_tool();
     // A template that selects the tool after the one read: the dry run's tool table has no such tool.
-    let wrong = default_with(
-        "tool_by_number = \"$TC_TP2[{t}]\"",
-        "tool_by_number = \"{t}+1\"",
-    );
+    let wrong = with_template("{t}+1");
     let (o, dir) = transform_in(
         &[("p.mpf", &program), ("wrong.toml", &wrong)],
         "p.mpf",
@@ -178,10 +182,7 @@ fn a_tool_loaded_again_that_is_another_stops_before_the_next_cut() {
 #[test]
 fn tool_numbers_without_tool_management_are_selected_by_number() {
     let program = single_tool();
-    let plain = default_with(
-        "tool_by_number = \"$TC_TP2[{t}]\"",
-        "tool_by_number = \"{t}\"",
-    );
+    let plain = with_template("{t}");
     let out = transformed_in(
         &[("p.mpf", &program), ("plain.toml", &plain)],
         "p.mpf",
@@ -212,10 +213,7 @@ fn tool_numbers_without_tool_management_are_selected_by_number() {
 #[test]
 fn a_turret_selects_the_tool_again_with_t_alone() {
     let program = single_tool();
-    let turret = default_with("tool_change = \"m6\"", "tool_change = \"t\"").replace(
-        "tool_by_number = \"$TC_TP2[{t}]\"",
-        "tool_by_number = \"{t}\"",
-    );
+    let turret = with_template("{t}").replace("tool_change = \"m6\"", "tool_change = \"t\"");
     let out = transformed_in(
         &[("p.mpf", &program), ("turret.toml", &turret)],
         "p.mpf",
@@ -255,10 +253,7 @@ fn a_profile_without_the_key_refuses_and_a_template_needs_the_number() {
         p.probe.unknown_tool,
         driftloop::omm::profile::UnknownTool::Refuse
     );
-    let bad = default_with(
-        "tool_by_number = \"$TC_TP2[{t}]\"",
-        "tool_by_number = \"$TC_TP2[1]\"",
-    );
+    let bad = with_template("$TC_TP2[1]");
     let err = driftloop::omm::Profile::from_toml(&bad, "p.toml")
         .unwrap_err()
         .to_string();
