@@ -744,27 +744,30 @@ impl Runner<'_> {
         }
     }
 
-    /// Inserted blocks stopped the program with a cutting tool in the spindle other than the original's: a
-    /// gate loaded another tool than the one it swapped the probe for (its check stops it before it cuts,
-    /// but the gate is wrong). The probe in the spindle is an abort while measuring, which the fault runs
-    /// judge.
+    /// A gate's check of the tool it read at run time stopped the program: it loaded another tool or edge
+    /// than the one it swapped the probe for. The check keeps the machine from cutting with it, but the gate
+    /// is wrong.
     fn wrong_tool_at_stop(&mut self, t: &Interp<'_>, o: &Interp<'_>) {
-        let (ts, os) = (&t.motion.tool, &o.motion.tool);
+        let Some(alarm) = self.settings.tool_alarm else {
+            return;
+        };
         let Some((at, true)) = self.last.clone() else {
             return;
         };
-        let probe = matches!((ts, &self.settings.probe_tool),
-            (Some(Tool::Name(name)), Some(probe)) if **name == **probe);
-        if ts != os && !probe {
-            self.add(at.finding(
-                Kind::ToolState,
-                format!(
-                    "the inserted blocks stop the program with {} in the spindle where the original has {}: the tool loaded after the probe is another than the one before it",
-                    state::tool_text(ts),
-                    state::tool_text(os)
-                ),
-            ));
+        if t.report().alarms.last().map(|a| a.number) != Some(i64::from(alarm)) {
+            return;
         }
+        let (ts, os) = (&t.motion, &o.motion);
+        self.add(at.finding(
+            Kind::ToolState,
+            format!(
+                "the inserted blocks stop the program (alarm {alarm}) with {} D{} in force where the original has {} D{}: the tool loaded after the probe is another than the one before it",
+                state::tool_text(&ts.tool),
+                crate::vm::value::format_number(ts.d),
+                state::tool_text(&os.tool),
+                crate::vm::value::format_number(os.d)
+            ),
+        ));
     }
 
     /// The transformed run ended while the original goes on: an abort in inserted blocks (the machine's

@@ -79,6 +79,9 @@ pub struct AuditSettings {
     pub probe_result: Option<ProbeTarget>,
     /// `probe.tool_change = "t"`: T loads the tool at once (no M6).
     pub tool_change_on_t: bool,
+    /// `registers.alarm_tool` where gates read the tool at run time: the alarm of their check that the tool
+    /// is back, which inserted blocks must never reach in a clean run.
+    pub tool_alarm: Option<u32>,
     /// `[coolant]`: the machine's own coolant M-codes both runs follow and the comparison includes.
     pub machine_coolant: MachineCoolant,
     /// `limits.tolerance_um`, `limits.plausibility_um`: the scrap-size drift of the abort runs lies between.
@@ -160,6 +163,8 @@ impl AuditSettings {
             probe_cycle: cycle.to_ascii_uppercase(),
             probe_result: ProbeTarget::parse(&probe.result),
             tool_change_on_t: probe.tool_change == ToolChange::T,
+            tool_alarm: crate::omm::plan::reads_tool(profile)
+                .then_some(profile.registers.alarm_tool),
             machine_coolant: profile.coolant.clone(),
             tolerance_um: profile.limits.tolerance_um,
             plausibility_um: profile.limits.plausibility_um,
