@@ -30,7 +30,7 @@ fn every_transformed_corpus_program_passes_the_audit() {
     for (name, _, _) in BUILTIN {
         // As shipped, on a control whose reset selects the offset, with every gate measuring (the branch a
         // pause takes on the machine, which `transform` audits too), and that on a machine whose work
-        // offsets are not 0 (`AuditSettings::shifted_offsets`, as `transform` audits it).
+        // offsets are not 0 (`AuditSettings::shifted_offsets`) and a tool is in force (as `transform` audits it).
         for (reset, every, shifted) in [
             (false, false, false),
             (true, false, false),
@@ -49,6 +49,8 @@ fn every_transformed_corpus_program_passes_the_audit() {
                 } else {
                     Vec::new()
                 },
+                // As `transform` audits it: gates that read the tool at run time swap the probe for it.
+                start_tool: shifted.then(driftloop::vm::audit::hand_loaded_tool),
                 ..driftloop::vm::Config::default()
             };
             let (mut transformed, mut complete, mut warned) = (0, 0, 0);

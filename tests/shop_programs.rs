@@ -26,8 +26,8 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
             "shop",
             26,
             [
-                ("blum-tc50", 18),
-                ("siemens-cycle978", 18),
+                ("blum-tc50", 24),
+                ("siemens-cycle978", 24),
                 ("tool-setter", 24),
                 ("grinder-gauge", 25),
                 ("lathe-setter", 24),
@@ -37,8 +37,8 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
             "shop4",
             22,
             [
-                ("blum-tc50", 20),
-                ("siemens-cycle978", 20),
+                ("blum-tc50", 21),
+                ("siemens-cycle978", 21),
                 ("tool-setter", 21),
                 ("grinder-gauge", 21),
                 ("lathe-setter", 21),
@@ -48,8 +48,8 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
             "shop5",
             25,
             [
-                ("blum-tc50", 18),
-                ("siemens-cycle978", 18),
+                ("blum-tc50", 24),
+                ("siemens-cycle978", 24),
                 ("tool-setter", 24),
                 ("grinder-gauge", 25),
                 ("lathe-setter", 24),
@@ -59,8 +59,8 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
             "shop6",
             25,
             [
-                ("blum-tc50", 19),
-                ("siemens-cycle978", 19),
+                ("blum-tc50", 23),
+                ("siemens-cycle978", 23),
                 ("tool-setter", 21),
                 ("grinder-gauge", 23),
                 ("lathe-setter", 21),

@@ -209,8 +209,11 @@ fn refusals_are_clear() {
         .unwrap_err()
         .to_string();
     assert!(still.contains("moves no axis"), "{still}");
-    // A spindle probe cannot be swapped for a tool nobody named; the message says what to set.
-    let no_tool = run(b"G54\nS1000 M3\nG1 X10 F100\nM30\n", &profile)
+    // With `unknown_tool = "refuse"` a spindle probe is not swapped for a tool nobody named; the message
+    // says what to set.
+    let mut refusing = profile.clone();
+    refusing.probe.unknown_tool = driftloop::omm::profile::UnknownTool::Refuse;
+    let no_tool = run(b"G54\nS1000 M3\nG1 X10 F100\nM30\n", &refusing)
         .unwrap_err()
         .to_string();
     assert!(

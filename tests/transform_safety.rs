@@ -330,8 +330,13 @@ fn the_default_r_parameters_fit_the_default_machine_data_and_the_summary_says_ho
 fn a_program_that_never_changes_tools_is_refused_with_a_spindle_probe_and_measured_with_a_tool_setter()
  {
     let src = "G54\nS3000 M3\nG0 X0 Y0 Z5\nG1 Z-1 F200\nG1 X100\nG0 Z50\nG0 X0\nG1 Z-2\nG1 X100\nG0 Z50\nM30\n";
-    let err = transformed(src, &Profile::default_profile(), &model()).unwrap_err();
+    let mut refusing = Profile::default_profile();
+    refusing.probe.unknown_tool = driftloop::omm::profile::UnknownTool::Refuse;
+    let err = transformed(src, &refusing, &model()).unwrap_err();
     assert!(err.to_string().contains("--profile tool-setter"), "{err}");
+    // As shipped, the spindle probe's gates read the tool in force at run time instead.
+    let read = transformed(src, &Profile::default_profile(), &model()).unwrap();
+    assert!(read.contains("=$P_TOOLNO ;DL"), "{read}");
     let setter = Profile::builtin("tool-setter").unwrap();
     let o = transformed(src, &setter, &model()).unwrap();
     // No tool change anywhere in the gates; the setter is reached in machine coordinates.

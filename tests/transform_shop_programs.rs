@@ -52,6 +52,12 @@ fn refused(files: &[(&str, &str)], program: &str, profile: &str) -> String {
     err
 }
 
+/// The default profile with `unknown_tool = "refuse"`: no gate measures where the program names no tool.
+fn refusing_profile() -> String {
+    driftloop::omm::DEFAULT_PROFILE
+        .replace("unknown_tool = \"runtime\"", "unknown_tool = \"refuse\"")
+}
+
 /// The line index of the first line starting with `start`.
 fn line_of(out: &str, start: &str) -> usize {
     out.lines()
@@ -480,9 +486,13 @@ fn a_tool_setter_measures_its_zero_after_a_tool_change_subprogram() {
 fn a_subprogram_that_changes_tools_and_cuts_is_no_tool_change() {
     let cutting = "M5 M9\nG0 G53 Z0\nM6\nG0 X0 Y0 Z2\nG1 Z-1 F100\nG0 Z50\nRET\n";
     let err = refused(
-        &[("p.mpf", L6_PROGRAM), ("L6.spf", cutting)],
+        &[
+            ("p.mpf", L6_PROGRAM),
+            ("L6.spf", cutting),
+            ("refuse.toml", &refusing_profile()),
+        ],
         "p.mpf",
-        "blum-tc50",
+        "refuse.toml",
     );
     assert!(err.contains("tool in the spindle is not known"), "{err}");
 }
@@ -935,11 +945,17 @@ fn a_program_in_the_iso_dialect_is_refused() {
 fn a_tool_change_subprogram_not_found_is_named_in_the_refusal() {
     let prog =
         "G17 G90 G94 G54\nT1\nL6\nD1\nS3000 M3\nG0 X10 Y10 Z2\nG1 Z-1 F200\nX40\nG0 Z50\nM30\n";
-    let err = refused(&[("p.mpf", prog)], "p.mpf", "blum-tc50");
+    let err = refused(
+        &[("p.mpf", prog), ("refuse.toml", &refusing_profile())],
+        "p.mpf",
+        "refuse.toml",
+    );
     assert!(
         err.contains("if L6 (line 3) changes the tool, put its file beside the program"),
         "{err}"
     );
+    // Reading the tool at run time, the gates need not know what L6 loaded.
+    transformed(&[("p.mpf", prog)], "p.mpf", "blum-tc50");
     transformed(
         &[("p.mpf", prog), ("L6.SPF", "PROC L6\nM6\nRET\n")],
         "p.mpf",

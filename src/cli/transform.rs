@@ -492,7 +492,19 @@ fn transform_one(
         None
     } else {
         let note = audit_output(input, &program, &edits, &refs, profile, false, "")?;
-        if !profile.log.measure_every_gate {
+        if profile.log.measure_every_gate && omm::plan::reads_tool(profile) {
+            // The first run had no tool in force, so gates that read the tool took their way around the
+            // probe; this one has a tool in force, and their swap and its check run.
+            audit_output(
+                input,
+                &program,
+                &edits,
+                &refs,
+                profile,
+                true,
+                " with a tool in force at the start",
+            )?;
+        } else if !profile.log.measure_every_gate {
             // The dry run takes each gate's Cycle_in decision as the plan predicts it, so most gates skip
             // their measuring branch there; on the machine a pause (a stop, a feed hold) makes the
             // predicted change grow and the branch runs. The same program with every gate measuring has
@@ -528,7 +540,8 @@ fn transform_one(
 /// (the safety audit, `driftloop run --audit`): a finding the inserted blocks caused refuses the program; one
 /// the profile caused (its probe point in the part's cut) is a warning; a construct the dry run cannot run
 /// ends the audit there, with a note. With `shifted`, the machine starts with the work offsets of
-/// [`crate::vm::audit::AuditSettings::shifted_offsets`].
+/// [`crate::vm::audit::AuditSettings::shifted_offsets`] and a tool in force, as one loaded by hand: a gate
+/// that reads the tool at run time swaps the probe for it (without one it goes around the probe).
 fn audit_output(
     input: &Input,
     program: &crate::Program,
@@ -569,6 +582,7 @@ fn audit_output(
         } else {
             Vec::new()
         },
+        start_tool: shifted.then(crate::vm::audit::hand_loaded_tool),
         ..crate::vm::Config::default()
     };
     let transformed = edits.to_bytes(program);

@@ -439,8 +439,13 @@ fn prepare_with<'p>(
         .map(|(m, at)| Predictor::new(m.model, &profile.log.inputs, at))
         .collect::<Result<_, _>>()
         .map_err(TransformError::Other)?;
-    let regs = Registers::allocate(profile, &predictors, &timeline.used_r)
-        .map_err(TransformError::Other)?;
+    let regs = Registers::allocate(
+        profile,
+        &predictors,
+        &timeline.used_r,
+        emit::reads_tool(&plan, profile),
+    )
+    .map_err(TransformError::Other)?;
     let label_prefix = ["DL", "DLOMM", "DRIFTLOOP"]
         .into_iter()
         .find(|p| !timeline.labels.iter().any(|l| l.starts_with(p)))
@@ -528,10 +533,10 @@ fn prepare_with<'p>(
         let needs_tool = profile.probe.kind == ProbeKind::SpindleProbe
             && gate.can_measure
             && !gate.tool_change_follows;
-        if needs_tool && gate.before.tool.is_none() {
+        if needs_tool && gate.before.tool.is_none() && !plan::reads_tool(profile) {
             return Err(TransformError::UnknownTool(gate.number));
         }
-        if gate.kind != GateKind::Reference && gate.can_measure {
+        if gate.can_measure && (gate.kind != GateKind::Reference || emitter.skips_zero(gate)) {
             labels.push(format!("{}SKIP{}", emitter.label_prefix, gate.number));
         }
         insert(&mut editor, gate.block, text)?;

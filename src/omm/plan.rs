@@ -15,7 +15,7 @@ use crate::model::{DriftModel, extrapolation_warning};
 
 use super::loops::{Loop, site_runs};
 use super::nc::number;
-use super::profile::{Axis, MeasureFrame, OffsetMethod, Position, ProbeKind, Profile};
+use super::profile::{Axis, MeasureFrame, OffsetMethod, Position, ProbeKind, Profile, UnknownTool};
 use super::timeline::{self, Modal, Site, SiteKind, Timeline};
 
 /// What a gate does.
@@ -474,6 +474,20 @@ const STATE_VARIES: &str = "its modal state is not known for sure (later runs of
 
 const TOOL_UNKNOWN: &str = "the tool in the spindle is not known there (no tool change before it), so the probe could not be swapped for it again";
 
+/// A spindle probe whose gates read the tool in force at run time where the program does not name it.
+pub fn reads_tool(profile: &Profile) -> bool {
+    profile.probe.kind == ProbeKind::SpindleProbe
+        && profile.probe.unknown_tool == UnknownTool::Runtime
+}
+
+/// Whether a gate at `site` knows from the program which tool to load again after the probe (or needs
+/// none); otherwise it reads the tool at run time.
+fn names_tool(site: &Site, profile: &Profile) -> bool {
+    !reads_tool(profile)
+        || site.before.tool.is_some()
+        || matches!(site.kind, SiteKind::PassStart { tool_change: true })
+}
+
 /// Why a site cannot carry the reference measurement with this profile's probe; `None` when it can.
 fn unfit_for_reference(site: &Site, profile: &Profile, rule: OffsetRule) -> Option<&'static str> {
     let tool_change_follows = matches!(site.kind, SiteKind::PassStart { tool_change: true });
@@ -499,7 +513,9 @@ fn unfit_for_reference(site: &Site, profile: &Profile, rule: OffsetRule) -> Opti
             Some(MACHINE_COOLANT_ON)
         }
         ProbeKind::SpindleProbe if tool_change_follows => None,
-        ProbeKind::SpindleProbe if site.before.tool.is_none() => Some(TOOL_UNKNOWN),
+        ProbeKind::SpindleProbe if site.before.tool.is_none() && !reads_tool(profile) => {
+            Some(TOOL_UNKNOWN)
+        }
         ProbeKind::SpindleProbe if site.before.unknown & timeline::unknown::SUM_OFFSET != 0 => {
             Some(SUM_OFFSET)
         }
@@ -559,16 +575,25 @@ fn reference_site(
             }
             unfit_for_reference(site, profile, rule)
         };
+        // A place whose tool the program names comes first: one that reads the tool at run time measures
+        // nothing where the operator left none in force.
+        let mut unnamed = None;
         for (k, site) in timeline.sites.iter().enumerate() {
             if site.block < from || site.block > to {
                 continue;
             }
             match fit(site) {
-                None => return Ok(k),
+                None if names_tool(site, profile) => return Ok(k),
+                None => {
+                    unnamed.get_or_insert(k);
+                }
                 Some(why) => {
                     unfit.get_or_insert((site.block, why));
                 }
             }
+        }
+        if let Some(k) = unnamed {
+            return Ok(k);
         }
         // After the first cut: the first fit pass start, else the first fit place after the setup (a post
         // that retracts with D0 before every tool change leaves no pass start fit for a spindle probe).
@@ -679,7 +704,9 @@ fn unfit_for_measuring(
         ProbeKind::SpindleProbe if tool_change_follows && site.before.machine_coolant != 0 => {
             Some(MACHINE_COOLANT_ON)
         }
-        ProbeKind::SpindleProbe if !tool_change_follows && site.before.tool.is_none() => {
+        ProbeKind::SpindleProbe
+            if !tool_change_follows && site.before.tool.is_none() && !reads_tool(profile) =>
+        {
             Some("the tool in the spindle is not known")
         }
         ProbeKind::SpindleProbe

@@ -96,6 +96,14 @@ pub struct Probe {
     /// How the machine changes tools.
     #[serde(default)]
     pub tool_change: ToolChange,
+    /// What a gate does where the program's text does not say which tool is in the spindle (no tool change
+    /// before it): refuse the place, or read the tool at run time and check it is back before cutting.
+    #[serde(default)]
+    pub unknown_tool: UnknownTool,
+    /// The value of `T=` that selects again the tool whose T number (`$P_TOOLNO`) a gate saved; `{t}` is
+    /// replaced by the R-parameter holding it. Used with `unknown_tool = "runtime"`.
+    #[serde(default = "Probe::tool_by_name")]
+    pub tool_by_number: String,
     /// Call template; `{axis}` → 1/2/3, `{nominal}` → the base-surface nominal.
     pub cycle: String,
     /// Variable the cycle leaves the measured coordinate in (mm).
@@ -105,6 +113,30 @@ pub struct Probe {
 
 fn one() -> u32 {
     1
+}
+
+impl Probe {
+    /// With tool management a tool is selected by its name, `$TC_TP2[t]` of its T number `t`.
+    fn tool_by_name() -> String {
+        "$TC_TP2[{t}]".into()
+    }
+
+    /// `T=` of the tool whose T number the R-parameter `reg` holds ([`Probe::tool_by_number`]).
+    pub fn reselect(&self, reg: &str) -> String {
+        self.tool_by_number.replace("{t}", reg)
+    }
+}
+
+/// What a spindle-probe gate does where the tool in the spindle is not known from the program's text.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum UnknownTool {
+    /// No gate measures there: the probe could not be swapped for a tool nobody named.
+    #[default]
+    Refuse,
+    /// The gate reads `$P_TOOLNO` and `$P_TOOL` before the swap, selects that tool and edge again after it,
+    /// and stops with an alarm unless both read back the same; with no tool or edge active it does not swap.
+    Runtime,
 }
 
 /// What measures the drift.
@@ -331,9 +363,18 @@ pub struct Registers {
     pub r_last: u32,
     pub alarm_implausible: u32,
     pub alarm_scrap: u32,
+    /// User alarm of a gate whose tool, read at run time, is not back after the probe's swap.
+    #[serde(default = "Registers::tool_alarm")]
+    pub alarm_tool: u32,
     pub timer: String,
     pub timer_unit: TimerUnit,
     pub log_file: String,
+}
+
+impl Registers {
+    fn tool_alarm() -> u32 {
+        65002
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -523,6 +564,7 @@ impl Profile {
         for (name, n) in [
             ("registers.alarm_implausible", r.alarm_implausible),
             ("registers.alarm_scrap", r.alarm_scrap),
+            ("registers.alarm_tool", r.alarm_tool),
         ] {
             if !(60000..=69999).contains(&n) {
                 return Err(format!(
@@ -554,6 +596,15 @@ impl Profile {
         }
         if tool.contains(['"', '\n', '\r', ';']) || tool.chars().any(char::is_control) {
             return Err("probe.tool must be a tool name without quotes, `;` or line breaks".into());
+        }
+        let reselect = &self.probe.tool_by_number;
+        if !reselect.contains("{t}")
+            || reselect.contains(['\n', '\r', ';'])
+            || reselect.chars().any(char::is_control)
+        {
+            return Err(format!(
+                "probe.tool_by_number `{reselect}` must be the value of T= that selects the tool whose T number is {{t}} (\"$TC_TP2[{{t}}]\" with tool management, \"{{t}}\" without), on one line without `;`"
+            ));
         }
         let p = &self.position;
         if p.axes.is_empty() || !p.axes.contains(&p.retract_axis) {

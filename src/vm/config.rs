@@ -31,6 +31,10 @@
 //! "$TC_DP3[1,1]" = 120.5    # the measuring cycles' results; a read of one not listed is 0, with a note
 //! "$A_IN[1]" = 1
 //! "_OVR[16]" = 0.02
+//! [tool]                    # the tool in force at the start (loaded by hand or in MDA): its T number
+//! number = 3                # ($P_TOOLNO), with tool management its name ($TC_TP2[3]; T="EM_D10" or
+//! name = "EM_D10"           # T=3 select it), and the cutting edge ($P_TOOL); without: no tool, D0
+//! d = 1
 //! [drift]                   # plus piecewise-linear drift per axis, [minutes, µm] points: effects the
 //! Z = [[0, 0], [240, -3]]   # model does not declare, or the whole truth when there is no model
 //! ```
@@ -41,6 +45,7 @@ use std::path::Path;
 use serde::Deserialize;
 
 use super::machine::{ProbeFault, SimpleMachine, piecewise_linear};
+use super::motion::Tool;
 use super::truth::ModelDrift;
 
 /// What the interpreter needs to know about the machine and the run.
@@ -119,6 +124,37 @@ pub struct Config {
     /// data, the measuring cycles' results `_OVR[n]`), by their name and index as written upper-cased:
     /// `$TC_DP3[1,1]`, `$AC_TIME`.
     pub variables: BTreeMap<String, f64>,
+    /// The tool in force when the program starts; `None`: no tool, D0.
+    pub start_tool: Option<StartTool>,
+}
+
+/// A tool the program finds in force (loaded by hand or in MDA), the one tool of the dry run's tool table:
+/// its T number and its name select it alike, and `$P_TOOLNO` of either is the number.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StartTool {
+    pub number: f64,
+    #[serde(default)]
+    pub name: Option<String>,
+    #[serde(default = "one")]
+    pub d: f64,
+}
+
+impl StartTool {
+    /// The tool as the program selects it: by its name where it has one.
+    pub fn tool(&self) -> Tool {
+        match &self.name {
+            Some(name) => Tool::Name(name.as_str().into()),
+            None => Tool::Number(self.number),
+        }
+    }
+
+    fn is(&self, t: &Tool) -> bool {
+        match t {
+            Tool::Number(n) => *n == self.number,
+            Tool::Name(name) => self.name.as_deref() == Some(&**name),
+        }
+    }
 }
 
 impl Config {
@@ -129,6 +165,30 @@ impl Config {
             None => name.strip_suffix('1')?,
         };
         self.axes.iter().position(|a| a == channel)
+    }
+
+    /// The start tool as [`StartTool::tool`] where `t` selects it (by number or by name), else `t`.
+    pub fn known_tool(&self, t: Tool) -> Tool {
+        match &self.start_tool {
+            Some(s) if s.is(&t) => s.tool(),
+            _ => t,
+        }
+    }
+
+    /// `$P_TOOLNO` of `t`: the start tool's number also where it was selected by name.
+    pub fn tool_number(&self, t: &Tool) -> f64 {
+        match &self.start_tool {
+            Some(s) if s.is(t) => s.number,
+            _ => t.number(),
+        }
+    }
+
+    /// `$TC_TP2[number]`: the name of the tool of that T number, where the dry run knows one.
+    pub fn tool_name(&self, number: f64) -> Option<&str> {
+        self.start_tool
+            .as_ref()
+            .filter(|s| s.number == number)
+            .and_then(|s| s.name.as_deref())
     }
 
     /// MD32750 of `axis`.
@@ -172,6 +232,7 @@ impl Default for Config {
             r_initial: Vec::new(),
             sumcorr_default: 0.0,
             variables: BTreeMap::new(),
+            start_tool: None,
         }
     }
 }
@@ -197,6 +258,7 @@ struct MachineFile {
     machine_data: MachineData,
     #[serde(default)]
     variables: BTreeMap<String, f64>,
+    tool: Option<StartTool>,
     axes: Option<Vec<String>>,
     machine_axes: Option<BTreeMap<String, String>>,
 }
@@ -423,6 +485,13 @@ pub fn parse_machine_file(
             upper.insert(name.to_ascii_uppercase(), channel);
         }
         cfg.machine_axes = Some(upper);
+    }
+    if let Some(tool) = file.tool {
+        let whole = |v: f64| v >= 1.0 && v.fract() == 0.0;
+        if !whole(tool.number) || !whole(tool.d) {
+            return Err("tool.number and tool.d must be whole numbers ≥ 1".into());
+        }
+        cfg.start_tool = Some(tool);
     }
     for (g, values) in &file.offsets {
         let frame = offset_frame(g).ok_or_else(|| {

@@ -16,7 +16,7 @@ use temp_comp::TempCompRegisters;
 use warm::WarmRegisters;
 
 use super::nc::number;
-use super::plan::{Gate, GateKind, Predictor};
+use super::plan::{Gate, GateKind, Plan, Predictor};
 use super::profile::{
     Axis, MeasureFrame, OffsetMethod, Position, ProbeKind, Profile, TimerUnit, ToolChange,
 };
@@ -223,6 +223,9 @@ pub struct Registers {
     temp_comp: Option<TempCompRegisters>,
     /// The warm start's, when the profile turns it on.
     warm: Option<WarmRegisters>,
+    /// The T number and D number a gate reads where the program does not name the tool
+    /// ([`crate::omm::profile::UnknownTool::Runtime`]).
+    tool: Option<[u32; 2]>,
 }
 
 /// Registers shared by every axis (not counting the saved position).
@@ -235,6 +238,7 @@ impl Registers {
         profile: &Profile,
         predictors: &[Predictor],
         used: &BTreeSet<u32>,
+        read_tool: bool,
     ) -> Result<Registers, String> {
         let r = &profile.registers;
         let result_r = result_r_number(&profile.probe.result);
@@ -255,7 +259,8 @@ impl Registers {
                 WarmRegisters::count(predictors.len())
             } else {
                 0
-            };
+            }
+            + if read_tool { 2 } else { 0 };
         let free: Vec<u32> = (r.r_first..=r.r_last)
             .filter(|n| !used.contains(n) && Some(*n) != result_r)
             .take(needed)
@@ -291,6 +296,7 @@ impl Registers {
                 .collect(),
             temp_comp: continuous.then(|| TempCompRegisters::take(predictors.len(), &mut next)),
             warm: warm.then(|| WarmRegisters::take(predictors.len(), &mut next)),
+            tool: read_tool.then(|| [next(), next()]),
         })
     }
 
@@ -322,9 +328,21 @@ impl Registers {
         if let Some(w) = &self.warm {
             v.extend(w.all());
         }
+        v.extend(self.tool.iter().flatten());
         v.sort_unstable();
         v
     }
+}
+
+/// Whether a gate of the plan reads the tool at run time ([`Emitter::reads_tool_at`]): the registers for it
+/// are taken only then, so other programs' outputs keep theirs.
+pub fn reads_tool(plan: &Plan, profile: &Profile) -> bool {
+    crate::omm::plan::reads_tool(profile) && plan.gates.iter().any(swaps_unnamed_tool)
+}
+
+/// A gate that swaps the probe for a tool the program's text does not name.
+fn swaps_unnamed_tool(gate: &Gate) -> bool {
+    gate.can_measure && !gate.tool_change_follows && gate.before.tool.is_none()
 }
 
 /// `R2` / `R[2]` → 2.
@@ -577,8 +595,13 @@ impl Emitter<'_> {
     /// the interpreter, so nothing after it runs, and the offset persists through a RESET — then message,
     /// user alarm, and M0 / M30 should the control go on.
     fn abort(&self, message: &str, alarm: u32) -> Vec<String> {
+        self.abort_with(&format!("\"{}\"", message.replace('"', "'")), alarm)
+    }
+
+    /// [`Emitter::abort`] with the message an NC string expression (`"…"<<R1`).
+    fn abort_with(&self, message: &str, alarm: u32) -> Vec<String> {
         let mut v = self.restore_offset();
-        v.push(format!("MSG(\"{}\")", message.replace('"', "'")));
+        v.push(format!("MSG({message})"));
         v.push(format!("SETAL({alarm})"));
         v.push("M0".into());
         v.push("M30".into());
@@ -888,6 +911,45 @@ impl Emitter<'_> {
         }
     }
 
+    /// A reference gate that leaves out the zero where no tool is active (it has a skip label then).
+    pub fn skips_zero(&self, gate: &Gate) -> bool {
+        self.reads_tool_at(gate).is_some()
+    }
+
+    /// The T and D registers of a gate that reads the tool in force before it swaps in the probe.
+    fn reads_tool_at(&self, gate: &Gate) -> Option<[u32; 2]> {
+        self.regs.tool.filter(|_| swaps_unnamed_tool(gate))
+    }
+
+    /// Reads the tool and cutting edge in force into `t` and `d`: preprocessing values, which a STOPRE before
+    /// (the gate's first) makes those of the blocks run so far.
+    fn read_tool([t, d]: [u32; 2]) -> [String; 2] {
+        [format!("{}=$P_TOOLNO", r(t)), format!("{}=$P_TOOL", r(d))]
+    }
+
+    /// No tool or no cutting edge active: nothing to swap the probe back for.
+    fn no_tool([t, d]: [u32; 2]) -> [String; 2] {
+        [format!("{}<=0", r(t)), format!("{}<=0", r(d))]
+    }
+
+    /// After the tool read at run time is selected again: once the change has run (STOPRE), the tool and
+    /// edge in force must be those read, else the program stops before the first move with the wrong one.
+    fn tool_back(&self, gate: &Gate, [t, d]: [u32; 2]) -> Vec<String> {
+        let wrong = [format!("$P_TOOLNO<>{}", r(t)), format!("$P_TOOL<>{}", r(d))];
+        let mut v = vec!["STOPRE".to_string(), format!("IF {}", any_of(&wrong))];
+        v.extend(self.abort_with(
+            &format!(
+                "\"driftloop: gate {}: the tool in force after the probe is not T\"<<{}<<\" D\"<<{}<<\" as before it: stopped before cutting\"",
+                gate.number,
+                r(t),
+                r(d)
+            ),
+            self.profile.registers.alarm_tool,
+        ));
+        v.push("ENDIF".into());
+        v
+    }
+
     /// From the program's position to the first probing start point: up along the tool axis with the
     /// cutting tool, spindle and coolant off, the probe in (spindle probe), across at the travel height,
     /// down.
@@ -1136,14 +1198,22 @@ impl Emitter<'_> {
                 v.extend(self.modal_back(b));
                 return v;
             }
-            if let Some(tool) = &b.tool {
-                v.extend(self.load(tool));
+            let read = self.reads_tool_at(gate);
+            match (&b.tool, read) {
+                (Some(tool), _) => v.extend(self.load(tool)),
+                (None, Some([t, _])) => v.extend(self.load(&p.probe.reselect(&r(t)))),
+                (None, None) => {}
             }
             if let (ToolChange::M6, Some(sel)) = (p.probe.tool_change, preselection) {
                 v.push(format!("T={sel}"));
             }
-            if let Some(d) = b.d {
-                v.push(format!("D{d}"));
+            match (read, b.d) {
+                (Some([_, d]), _) => v.push(format!("D={}", r(d))),
+                (None, Some(d)) => v.push(format!("D{d}")),
+                (None, None) => {}
+            }
+            if let Some(read) = read {
+                v.extend(self.tool_back(gate, read));
             }
             v.push(self.clear());
         }
@@ -1280,6 +1350,17 @@ impl Emitter<'_> {
         if self.selects() {
             v.push(p.offset.select.clone());
         }
+        // With no tool active there is no zero: the gates after see the measurement counter at 0 and do not
+        // measure either.
+        let read = self.reads_tool_at(gate);
+        let skip = format!("{}SKIP{}", self.label_prefix, gate.number);
+        if let Some(read) = read {
+            v.extend(Emitter::read_tool(read));
+            v.push(format!(
+                "IF {} GOTOF {skip}",
+                any_of(&Emitter::no_tool(read))
+            ));
+        }
         v.extend(self.save_position(gate));
         v.extend(self.probe_in(gate));
         v.push("; driftloop stage 4: reference measurement, the zero".into());
@@ -1290,6 +1371,9 @@ impl Emitter<'_> {
         ));
         v.extend(self.log_checked(cut_rpm, gate.pass, true));
         v.extend(self.give_back(gate));
+        if read.is_some() {
+            v.push(format!("{skip}:"));
+        }
         for k in 0..self.axes.len() {
             v.extend(self.set_targets(k, gate.rpm));
         }
@@ -1313,6 +1397,7 @@ impl Emitter<'_> {
         v.extend(self.warm_store());
         if gate.can_measure {
             let skip = format!("{}SKIP{}", self.label_prefix, gate.number);
+            let mut no_measurement = Vec::new();
             if !self.profile.log.measure_every_gate {
                 // Cycle_in: no axis's prediction changed by δ' since its last measurement.
                 let calm: Vec<String> = (0..self.axes.len())
@@ -1326,7 +1411,18 @@ impl Emitter<'_> {
                         )
                     })
                     .collect();
-                let cycle_in = format!("IF {}", all_of(&calm));
+                no_measurement.push(all_of(&calm));
+            }
+            if let Some(read) = self.reads_tool_at(gate) {
+                v.extend(Emitter::read_tool(read));
+                no_measurement.extend(Emitter::no_tool(read));
+            }
+            if self.regs.tool.is_some() {
+                // The zero was not measured (no tool active at the reference): nothing to measure against.
+                no_measurement.push(format!("{}==0", r(self.regs.nbl)));
+            }
+            if !no_measurement.is_empty() {
+                let cycle_in = format!("IF {}", any_of(&no_measurement));
                 // Cycle_in machines on without measuring but still logs its row, without a reading.
                 v.push(cycle_in.clone());
                 v.extend(self.log_checked(gate.rpm, gate.pass, false));
@@ -1411,13 +1507,22 @@ impl Emitter<'_> {
 /// The conditions joined by AND, each in brackets when there are several: the control's comparisons bind
 /// looser than AND (`a<b AND c<d` is `a<(b AND c)<d`).
 fn all_of(conditions: &[String]) -> String {
+    joined(conditions, " AND ")
+}
+
+/// The conditions joined by OR, bracketed as in [`all_of`].
+fn any_of(conditions: &[String]) -> String {
+    joined(conditions, " OR ")
+}
+
+fn joined(conditions: &[String], operator: &str) -> String {
     match conditions {
         [one] => one.clone(),
         _ => conditions
             .iter()
             .map(|c| format!("({c})"))
             .collect::<Vec<_>>()
-            .join(" AND "),
+            .join(operator),
     }
 }
 

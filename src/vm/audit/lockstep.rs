@@ -260,6 +260,7 @@ impl Runner<'_> {
                 }
                 (None, Some((ou, ob))) => {
                     self.close_pending(t, o);
+                    self.wrong_tool_at_stop(t, o);
                     self.ended_early(&ou, ob);
                     return Ok(());
                 }
@@ -742,6 +743,32 @@ impl Runner<'_> {
         if let Some(left) = persistent_left(t, o) {
             self.add(at.finding(Kind::OffsetLeftOnAbort, format!("the program ends {left}")));
         }
+    }
+
+    /// A gate's check of the tool it read at run time stopped the program: it loaded another tool or edge
+    /// than the one it swapped the probe for. The check keeps the machine from cutting with it, but the gate
+    /// is wrong.
+    fn wrong_tool_at_stop(&mut self, t: &Interp<'_>, o: &Interp<'_>) {
+        let Some(alarm) = self.settings.tool_alarm else {
+            return;
+        };
+        let Some((at, true)) = self.last.clone() else {
+            return;
+        };
+        if t.report().alarms.last().map(|a| a.number) != Some(i64::from(alarm)) {
+            return;
+        }
+        let (ts, os) = (&t.motion, &o.motion);
+        self.add(at.finding(
+            Kind::ToolState,
+            format!(
+                "the inserted blocks stop the program (alarm {alarm}) with {} D{} in force where the original has {} D{}: the tool loaded after the probe is another than the one before it",
+                state::tool_text(&ts.tool),
+                crate::vm::value::format_number(ts.d),
+                state::tool_text(&os.tool),
+                crate::vm::value::format_number(os.d)
+            ),
+        ));
     }
 
     /// The transformed run ended while the original goes on: an abort in inserted blocks (the machine's

@@ -79,6 +79,9 @@ pub struct AuditSettings {
     pub probe_result: Option<ProbeTarget>,
     /// `probe.tool_change = "t"`: T loads the tool at once (no M6).
     pub tool_change_on_t: bool,
+    /// `registers.alarm_tool` where gates read the tool at run time: the alarm of their check that the tool
+    /// is back, which inserted blocks must never reach in a clean run.
+    pub tool_alarm: Option<u32>,
     /// `[coolant]`: the machine's own coolant M-codes both runs follow and the comparison includes.
     pub machine_coolant: MachineCoolant,
     /// `limits.tolerance_um`, `limits.plausibility_um`: the scrap-size drift of the abort runs lies between.
@@ -101,6 +104,16 @@ pub const REFERENCE_MARGIN_MM: f64 = 50.0;
 /// The work offsets (X, Y, Z, mm) of [`AuditSettings::shifted_offsets`]: a part on a milling table below a
 /// spindle whose machine zero is at the top.
 const SHIFT: [f64; 3] = [120.0, 80.0, -450.0];
+
+/// A tool loaded by hand before the program, for a dry run that must not start without one: named, so
+/// that it is selected again alike by its name (tool management) and by its T number.
+pub fn hand_loaded_tool() -> crate::vm::StartTool {
+    crate::vm::StartTool {
+        number: 1.0,
+        name: Some("TOOL_IN_SPINDLE".into()),
+        d: 1.0,
+    }
+}
 
 /// `--probe-margin` default (mm).
 pub const DEFAULT_PROBE_MARGIN_MM: f64 = 5.0;
@@ -150,6 +163,8 @@ impl AuditSettings {
             probe_cycle: cycle.to_ascii_uppercase(),
             probe_result: ProbeTarget::parse(&probe.result),
             tool_change_on_t: probe.tool_change == ToolChange::T,
+            tool_alarm: crate::omm::plan::reads_tool(profile)
+                .then_some(profile.registers.alarm_tool),
             machine_coolant: profile.coolant.clone(),
             tolerance_um: profile.limits.tolerance_um,
             plausibility_um: profile.limits.plausibility_um,

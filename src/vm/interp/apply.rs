@@ -104,6 +104,7 @@ impl Interp<'_> {
             self.spindle.set(self.time_min, self.motion.spindle_rpm());
         }
         if let Some(t) = w.tool.take() {
+            let t = self.cfg.known_tool(t);
             if self.cfg.tool_change_on_t {
                 self.passes.end_segment();
                 self.motion.tool = Some(t.clone());

@@ -179,6 +179,11 @@ impl Interp<'_> {
                 .ok_or("system variable without name")?,
         );
         let idx: Vec<&Node> = n.find(NodeKind::Index).map(index_nodes).unwrap_or_default();
+        if let ("$TC_TP2", [t]) = (name.as_str(), idx.as_slice())
+            && let Some(name) = self.cfg.tool_name(self.num(u, t)?)
+        {
+            return Ok(Value::Str(name.to_string()));
+        }
         let m = &self.motion;
         let v = match (name.as_str(), idx.as_slice()) {
             ("$P_UIFR", [frame, axis, tr]) => {
@@ -215,7 +220,7 @@ impl Interp<'_> {
             ("$AC_CYCLE_TIME" | "$AC_OPERATING_TIME", []) => self.time_min * 60.0,
             ("$P_F", []) => m.modal.feed.unwrap_or(0.0),
             ("$AA_S", [_] | []) => m.spindle_rpm(),
-            ("$P_TOOLNO", []) => m.tool.as_ref().map_or(0.0, |t| t.number()),
+            ("$P_TOOLNO", []) => m.tool.as_ref().map_or(0.0, |t| self.cfg.tool_number(t)),
             ("$A_INA", [n]) => {
                 let n = self.num(u, n)?;
                 self.machine_input(n as usize).ok_or_else(|| {

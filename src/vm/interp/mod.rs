@@ -224,6 +224,11 @@ impl<'m> Interp<'m> {
             }
         }
         motion.frames.mark_initial();
+        if let Some(t) = &cfg.start_tool {
+            motion.tool = Some(t.tool());
+            motion.preselected = motion.tool.clone();
+            motion.d = t.d;
+        }
         for (a, name) in cfg.axes.iter().enumerate() {
             motion.temp_comp[a] = cfg.temp_comp_start.get(name).copied().unwrap_or(0.0);
         }
