@@ -2,7 +2,7 @@
 
 use crate::syntax::{Node, NodeKind};
 
-use crate::vm::motion::FRAMES;
+use crate::vm::motion::{FRAMES, Tool};
 use crate::vm::unit::Unit;
 use crate::vm::value::{Value, Variable};
 
@@ -369,10 +369,12 @@ impl Interp<'_> {
                             "GETT: duplo number {duplo} is not a whole number ≥ 1"
                         ));
                     }
-                    Ok(Value::Num(crate::vm::tool_numbers::internal_number(
-                        tool,
-                        duplo as u32,
-                    )))
+                    // The first duplo is the tool `T="name"` selects, the start tool's number included.
+                    Ok(Value::Num(if duplo == 1.0 {
+                        self.cfg.tool_number(&Tool::Name(tool.as_str().into()))
+                    } else {
+                        crate::vm::tool_numbers::internal_number(tool, duplo as u32)
+                    }))
                 }
                 _ => Err("GETT takes a tool name and a duplo number".into()),
             },
