@@ -265,3 +265,21 @@ fn the_gate_that_reads_the_tool() {
     let out = transformed_in(&[("p.mpf", &single_tool())], "p.mpf", "blum-tc50");
     insta::assert_snapshot!("unknown_tool_gate", gate_text(&out, 3));
 }
+
+/// A program that faces with the tool in the spindle and then loads, with a bare `M6`, the tool the
+/// operator preselected in MDA.
+const BARE_M6: &str = "G17 G90 G94 G71 G40\nG54\nD1\nS3000 M3 M8\nG0 X-30 Y10 Z30\nG0 Z2\nG1 Z0 F500\n\
+G1 X130 F1800\nG0 Z30\nG1 Z0 F500\nG1 X-30 F1800\nG0 Z100\nM5 M9\nM6\nD1\nS2000 M3\nG0 X0 Y40 Z30\n\
+G1 Z-1 F300\nG1 X100 F1000\nG0 Z100\nM30\n";
+
+#[test]
+fn no_probe_swap_before_an_m6_that_loads_the_operators_preselection() {
+    for profile in SPINDLE_PROBES {
+        let out = transformed_in(&[("p.mpf", BARE_M6)], "p.mpf", profile);
+        let m6 = out.find("\nM6\n").expect("the program's M6");
+        // Before the program's M6 no gate loads the probe (its T would replace the preselection the M6
+        // loads); the zero goes after it, with the tool read at run time.
+        assert!(!out[..m6].contains("M6 ;DL"), "{profile}:\n{out}");
+        assert!(out[m6..].contains("=$P_TOOLNO ;DL"), "{profile}:\n{out}");
+    }
+}

@@ -474,6 +474,20 @@ const STATE_VARIES: &str = "its modal state is not known for sure (later runs of
 
 const TOOL_UNKNOWN: &str = "the tool in the spindle is not known there (no tool change before it), so the probe could not be swapped for it again";
 
+const OUTSIDE_PRESELECTION: &str = "the program's tool change later loads a tool preselected outside the program (an M6 with no T before it), and the probe's swap would replace that preselection";
+
+/// Why a spindle probe may not be swapped in at `site`: a later M6 of the program loads the tool the
+/// operator preselected, which the swap's `T` would replace (the control cannot tell the gate which it was).
+fn swap_loses_preselection(
+    timeline: &Timeline,
+    site: &Site,
+    profile: &Profile,
+) -> Option<&'static str> {
+    (profile.probe.kind == ProbeKind::SpindleProbe
+        && timeline.outside_load.is_some_and(|load| site.block <= load))
+    .then_some(OUTSIDE_PRESELECTION)
+}
+
 /// A spindle probe whose gates read the tool in force at run time where the program does not name it.
 pub fn reads_tool(profile: &Profile) -> bool {
     profile.probe.kind == ProbeKind::SpindleProbe
@@ -574,6 +588,7 @@ fn reference_site(
                 return Some(STEP_TOOLS);
             }
             unfit_for_reference(site, profile, rule)
+                .or_else(|| swap_loses_preselection(timeline, site, profile))
         };
         // A place whose tool the program names comes first: one that reads the tool at run time measures
         // nothing where the operator left none in force.
@@ -866,8 +881,9 @@ pub fn plan(
         } else {
             site.block
         };
-        let restorable =
-            unfit_for_measuring(site, profile, rule, reference_tool.as_ref()).is_none();
+        let restorable = unfit_for_measuring(site, profile, rule, reference_tool.as_ref())
+            .or_else(|| swap_loses_preselection(timeline, site, profile))
+            .is_none();
         let (kind, can_measure) = match site.kind {
             _ if reference => (GateKind::Reference, true),
             SiteKind::PassStart { .. } => (GateKind::PassStart, restorable),

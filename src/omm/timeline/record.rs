@@ -108,6 +108,9 @@ pub struct Timeline {
     /// M-codes of the machine's own the program uses and the profile's `[coolant]` does not list (vice,
     /// air, through-spindle coolant …): a gate leaves them as they are.
     pub machine_m: BTreeSet<u32>,
+    /// The first tool change that loads a tool the program did not select (an `M6` with no `T` before
+    /// it: the operator preselected it in MDA). A probe swap before it would replace that preselection.
+    pub outside_load: Option<usize>,
     /// Blocks whose moves could not be timed (expressions, unknown feed).
     pub inexact_blocks: usize,
     /// The program's loops in the order they close (a section repeat at its REPEAT statement).

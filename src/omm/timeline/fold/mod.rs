@@ -652,6 +652,9 @@ impl<'p> Builder<'p> {
             self.state.unknown &= !unknown::TOOL;
         }
         if tool_change {
+            if self.state.selected.is_none() && self.state.unknown & unknown::TOOL == 0 {
+                self.t.outside_load.get_or_insert(i);
+            }
             // M6 loads the selected tool (T alone only selects it, in a program that uses M6).
             self.state.tool = self.state.selected.clone();
             self.new_cutting_edge(s);
