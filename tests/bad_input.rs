@@ -749,3 +749,37 @@ fn a_walk_over_a_deep_expression_and_a_program_over_16_mib_reports_without_a_pan
     );
     assert!(e.contains("checked 2 files"), "{e}");
 }
+
+#[test]
+fn a_fit_window_before_the_files_first_row_says_where_its_clock_starts() {
+    // A log that continues an earlier one: its clock starts at 24 h.
+    let dir = tempfile::tempdir().unwrap();
+    let mut csv = String::from("time_min,spindle_rpm,z_um,ambient_c\n");
+    for k in 0..200 {
+        let t = 1440 + 5 * k;
+        let rpm = if k % 80 < 40 { 3000 } else { 0 };
+        csv.push_str(&format!(
+            "{t},{rpm},{},{}\n",
+            f64::from(k % 80) * 0.1,
+            20.0 + 0.01 * f64::from(k)
+        ));
+    }
+    std::fs::write(dir.path().join("later.csv"), csv).unwrap();
+    let needle = "no rows before 960 min: the data's first row is at 1440 min of the file's own clock (`--until 2400min` fits the first 960 min of it)";
+    for args in [
+        vec!["fit", "later.csv", "--until", "16h", "-o", "m.toml"],
+        vec![
+            "fit",
+            "later.csv",
+            "--kind",
+            "dlag",
+            "--until",
+            "16h",
+            "-o",
+            "m.toml",
+        ],
+        vec!["forward", "later.csv", "--until", "16h"],
+    ] {
+        assert_refused(&run_in(dir.path(), &args), &[needle]);
+    }
+}

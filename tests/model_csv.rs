@@ -82,12 +82,12 @@ fn refuses_bad_cells_naming_line_and_column() {
         "log.csv:3:3: column `z_um`: `abc` is not a number"
     );
     assert_eq!(
-        error("time_s,spindle_rpm,z_um\n0,0,0\n15,,1\n"),
-        "log.csv:3:2: column `spindle_rpm` is empty"
+        error("time_s,spindle_rpm,z_um\n0,,0\n15,,1\n"),
+        "log.csv:2:2: column `spindle_rpm` is empty"
     );
     assert_eq!(
-        error("time_s,spindle_rpm,z_um\n0,0,NaN\n"),
-        "log.csv:2:3: column `z_um`: `NaN` is not a finite number"
+        error("time_s,spindle_rpm,z_um\nNaN,0,0\n"),
+        "log.csv:2:1: column `time_s`: `NaN` is not a finite number"
     );
     assert_eq!(
         error("time_s,spindle_rpm,z_um\n0,0,inf\n"),

@@ -67,19 +67,15 @@ fn an_empty_displacement_cell_is_a_row_without_a_reading_and_writes_back_empty()
     let mut out = Vec::new();
     ds.write_csv(&mut out).unwrap();
     assert_eq!(String::from_utf8(out).unwrap(), text);
-    // Everything else stays strict: an empty time or input cell is an error at its line and column.
+    // An empty time cell is an error at its line and column, and so is an input with no value at all.
     for (bad, msg) in [
-        (
-            "time_min,spindle_rpm,z_um\n0,1000,0\n10,,1\n",
-            "log.csv:3:2: column `spindle_rpm` is empty",
-        ),
         (
             "time_min,spindle_rpm,z_um\n0,1000,0\n,1000,1\n",
             "log.csv:3:1: column `time_min` is empty",
         ),
         (
-            "time_min,z_um,ambient_c\n0,0,20\n10,1,\n",
-            "log.csv:3:3: column `ambient_c` is empty",
+            "time_min,z_um,ambient_c\n0,0,\n10,1,nan\n",
+            "log.csv:2:3: column `ambient_c` is empty",
         ),
     ] {
         let err = read_bytes("log.csv", bad.as_bytes(), Require::Displacement).unwrap_err();
@@ -259,4 +255,45 @@ fn predict_data_leaves_the_residual_empty_where_nothing_was_measured() {
     assert!(row[3].parse::<f64>().unwrap() > 10.0, "{text}");
     let last: Vec<&str> = lines[3].split(',').collect();
     assert!(last[4].parse::<f64>().is_ok(), "{text}");
+}
+
+#[test]
+fn a_missing_input_sample_holds_the_value_before_it_and_a_note_says_so() {
+    let text = "time_min,spindle_rpm,z_um,ambient_c,coolant_c\n0,,0,,18\n10,2000,NaN,20.5,18.2\n\
+20,,1.5,N/A,\n30,1000,2,21,18.4\n";
+    let ds = read(text);
+    // Before its first value an input takes that value; after it, the value before the gap.
+    assert_eq!(
+        ds.values("spindle_rpm").unwrap(),
+        &[2000.0, 2000.0, 2000.0, 1000.0]
+    );
+    assert_eq!(ds.values("ambient_c").unwrap(), &[20.5, 20.5, 20.5, 21.0]);
+    assert_eq!(ds.values("coolant_c").unwrap(), &[18.0, 18.2, 18.2, 18.4]);
+    // A logger's NaN in a channel is a row without a reading, as an empty cell is.
+    assert!(ds.values("z_um").unwrap()[1].is_nan());
+    assert_eq!(ds.notes.len(), 3, "{:?}", ds.notes);
+    assert!(
+        ds.notes[0].contains("`spindle_rpm`: 2 missing values (the first at line 2)"),
+        "{:?}",
+        ds.notes
+    );
+    assert!(ds.notes[2].contains("`coolant_c`: 1 missing value (the first at line 4)"));
+}
+
+#[test]
+fn a_text_column_among_the_signals_is_left_out_but_a_named_one_must_be_numbers() {
+    let ds = read("time_min,spindle_rpm,z_um,operator\n0,0,0,bob\n10,1000,1,ann\n");
+    assert!(ds.values("operator").is_none());
+    assert_eq!(ds.columns.len(), 2);
+    assert!(ds.notes[0].contains("column `operator` holds text (`bob` at line 2)"));
+    let err = read_bytes(
+        "log.csv",
+        b"time_min,spindle_rpm,z_um,ambient_c\n0,0,0,warm\n",
+        Require::Displacement,
+    )
+    .unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "log.csv:2:4: column `ambient_c`: `warm` is not a number"
+    );
 }

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use super::{Format, Global};
-use crate::data::{Dataset, Minutes, Require, read_path};
+use crate::data::{Dataset, Minutes, Require};
 use crate::model::dlag::{Averaging, DlagOptions, fit_dlag};
 use crate::model::lag::fmt_tau;
 use crate::model::{DriftModel, FitOptions, ModesChoice, fit};
@@ -91,7 +91,7 @@ pub struct Args {
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     super::output::refuse_overwriting(&[("-o", args.output.as_deref())], &[&args.data])?;
-    let ds = read_path(&args.data, Require::Displacement)?;
+    let ds = super::log::read_data(&args.data, Require::Displacement)?;
     let channel = only_channel(&ds, args.channel.as_deref())?;
     let until_min = args.until.map(|u| u.0);
     let model = match args.kind {

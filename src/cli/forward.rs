@@ -11,7 +11,7 @@ use serde::Serialize;
 use super::fit::{Design, Kind};
 use super::progress::Progress;
 use super::{Format, Global};
-use crate::data::{Minutes, Require, read_path};
+use crate::data::{Minutes, Require};
 use crate::diagnose::holdout::{HoldoutScore, rate};
 use crate::model::dlag::{DlagOptions, fit_dlag};
 use crate::model::probing::Probing;
@@ -63,7 +63,7 @@ struct Line {
 }
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
-    let ds = read_path(&args.data, Require::Displacement)?;
+    let ds = super::log::read_data(&args.data, Require::Displacement)?;
     let until = args.until.0;
     let to = args.to.map_or(f64::INFINITY, |t| t.0);
     anyhow::ensure!(

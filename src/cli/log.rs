@@ -1,6 +1,6 @@
 //! `driftloop log merge FILE…`: characterisation CSVs and DRIFTLOG files as one measurement series.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
@@ -37,6 +37,15 @@ pub struct MergeArgs {
     pub output: Option<PathBuf>,
 }
 
+/// Reads a measurement file; what the reader filled in goes to stderr as notes.
+pub(crate) fn read_data(path: &Path, require: Require) -> anyhow::Result<crate::data::Dataset> {
+    let data = read_path(path, require)?;
+    for n in &data.notes {
+        anstream::eprintln!("{} {n}", style::label(Severity::Note));
+    }
+    Ok(data)
+}
+
 /// Reads and merges `files`; the notes go to stderr.
 pub(crate) fn read_merged(
     files: &[PathBuf],
@@ -44,8 +53,8 @@ pub(crate) fn read_merged(
 ) -> anyhow::Result<crate::data::Dataset> {
     let parts = files
         .iter()
-        .map(|f| read_path(f, Require::InputsOnly))
-        .collect::<Result<Vec<_>, _>>()?;
+        .map(|f| read_data(f, Require::InputsOnly))
+        .collect::<anyhow::Result<Vec<_>>>()?;
     if parts.len() == 1 && renames.is_empty() {
         return Ok(parts.into_iter().next().expect("one part"));
     }

@@ -8,7 +8,7 @@ use anyhow::Context;
 
 use super::Global;
 use super::style;
-use crate::data::{Dataset, Require, SPINDLE, read_path};
+use crate::data::{Dataset, Require, SPINDLE};
 use crate::diagnostic::Severity;
 use crate::model::{DriftModel, Schedule, extrapolation_warning};
 
@@ -54,7 +54,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             .map_err(|e| anyhow::anyhow!("{e}: use a larger --step"))?;
             schedule.to_dataset(args.step)
         }
-        (None, Some(path)) => read_path(path, Require::InputsOnly)?,
+        (None, Some(path)) => super::log::read_data(path, Require::InputsOnly)?,
         (None, None) => anyhow::bail!("give --schedule or --data"),
     };
     warn_extrapolation(&model, &input);

@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 
 use super::{Format, Global};
-use crate::data::{Minutes, Require, read_path};
+use crate::data::{Minutes, Require};
 use crate::sensors::position::analyse_position;
 use crate::sensors::{Options, analyse};
 
@@ -47,7 +47,7 @@ pub struct Args {
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     super::output::refuse_overwriting(&[("-o", args.output.as_deref())], &[&args.data])?;
-    let ds = read_path(&args.data, Require::Displacement)?;
+    let ds = super::log::read_data(&args.data, Require::Displacement)?;
     let channel = super::fit::only_channel(&ds, args.channel.as_deref())?;
     let mut opts = Options::new(&channel);
     opts.threshold = args.threshold;

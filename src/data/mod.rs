@@ -139,6 +139,8 @@ pub struct Dataset {
     pub columns: Vec<Column>,
     /// SHA-256 (hex) of the file the data were read from; `None` for generated data.
     pub sha256: Option<String>,
+    /// What the reader did that the user should know (missing input samples filled in).
+    pub notes: Vec<String>,
 }
 
 impl Dataset {
@@ -152,6 +154,7 @@ impl Dataset {
             run_starts: vec![0],
             columns: Vec::new(),
             sha256: None,
+            notes: Vec::new(),
         }
     }
 

@@ -167,6 +167,9 @@ pub fn read_bytes(file: &str, bytes: &[u8], require: Require) -> Result<Dataset,
     ds.sha256 = Some(sha256);
     let mut values: Vec<Vec<f64>> = vec![Vec::new(); layout.numeric.len()];
     let mut labels: Vec<String> = Vec::new();
+    // Lines of each numeric column's missing input cells.
+    let mut gaps: Vec<Vec<u64>> = vec![Vec::new(); layout.numeric.len()];
+    let mut text_columns = std::collections::BTreeSet::new();
     let mut record = csv::StringRecord::new();
     while reader.read_record(&mut record).map_err(csv_err)? {
         let line = record.position().map_or(0, |p| p.line());
@@ -236,34 +239,114 @@ pub fn read_bytes(file: &str, bytes: &[u8], require: Require) -> Result<Dataset,
                 previous: previous / unit,
             });
         }
+        // A column of text among the signals (a date, an operator, a part name) is left out, decided on
+        // the first row; named as a speed, drift, temperature or position it must be numbers.
+        if ds.time_min.is_empty() {
+            for (k, &col) in layout.numeric.iter().enumerate() {
+                let c = cell(col);
+                if ColumnKind::of(c.name) == ColumnKind::Signal
+                    && !c.missing()
+                    && c.text.parse::<f64>().is_err()
+                {
+                    text_columns.insert(k);
+                    ds.notes.push(format!(
+                        "{file}: column `{}` holds text (`{}` at line {line}), not numbers: left out",
+                        c.name, c.text
+                    ));
+                }
+            }
+        }
         ds.time_min.push(time);
-        for (v, &col) in values.iter_mut().zip(&layout.numeric) {
+        for (k, ((v, &col), gaps)) in values
+            .iter_mut()
+            .zip(&layout.numeric)
+            .zip(&mut gaps)
+            .enumerate()
+        {
+            if text_columns.contains(&k) {
+                continue;
+            }
             let c = cell(col);
-            // An empty displacement cell: the row carries time and inputs, but this channel was not
-            // measured there (a log row at every gate, a measurement only at some).
-            v.push(
-                if c.text.is_empty() && ColumnKind::of(c.name) == ColumnKind::Displacement {
-                    f64::NAN
-                } else {
-                    c.number()?
-                },
-            );
+            // A missing cell (empty, or a logger's NaN): a displacement channel was not measured there (a
+            // log row at every gate, a measurement only at some); an input is filled in below.
+            v.push(if c.missing() {
+                if ColumnKind::of(c.name) != ColumnKind::Displacement {
+                    gaps.push(line);
+                }
+                f64::NAN
+            } else {
+                c.number()?
+            });
         }
     }
     if ds.time_min.is_empty() {
         return Err(DataError::NoRows { file: file_s });
+    }
+    for (k, ((v, &col), lines)) in values
+        .iter_mut()
+        .zip(&layout.numeric)
+        .zip(&gaps)
+        .enumerate()
+    {
+        if text_columns.contains(&k) {
+            continue;
+        }
+        if let Some(note) = fill_gaps(file, &header[col], col, v, lines)? {
+            ds.notes.push(note);
+        }
     }
     if layout.run.is_some() {
         ds.run_labels = Some(labels);
     }
     // Names are known unique (checked with the header): pushed as they are, not looked up one by one,
     // which a file of 100 000 columns would pay for with 5·10⁹ comparisons.
-    for (values, &col) in values.into_iter().zip(&layout.numeric) {
+    for (k, (values, &col)) in values.into_iter().zip(&layout.numeric).enumerate() {
+        if text_columns.contains(&k) {
+            continue;
+        }
         let name = header[col].clone();
         let kind = ColumnKind::of(&name);
         ds.columns.push(super::Column { name, kind, values });
     }
     Ok(ds)
+}
+
+/// An input (a temperature, the spindle speed …) whose logger missed a sample holds its last value until
+/// the next one, as the models treat every input between two rows; before its first value it takes that
+/// value. The note says how many were filled and where the first was; a column with no value at all is
+/// refused.
+fn fill_gaps(
+    file: &str,
+    name: &str,
+    col: usize,
+    values: &mut [f64],
+    lines: &[u64],
+) -> Result<Option<String>, DataError> {
+    let Some(&first_line) = lines.first() else {
+        return Ok(None);
+    };
+    let Some(first) = values.iter().copied().find(|v| !v.is_nan()) else {
+        return Err(DataError::EmptyCell {
+            file: file.to_string(),
+            line: first_line,
+            column: col + 1,
+            name: name.to_string(),
+        });
+    };
+    let mut last = first;
+    for v in values.iter_mut() {
+        if v.is_nan() {
+            *v = last;
+        } else {
+            last = *v;
+        }
+    }
+    let count = lines.len();
+    Ok(Some(format!(
+        "{file}: column `{name}`: {count} missing value{} (the first at line {first_line}) filled with the value before {}",
+        if count == 1 { "" } else { "s" },
+        if count == 1 { "it" } else { "each" },
+    )))
 }
 
 /// Where the time, run and numeric columns are.
@@ -337,6 +420,14 @@ struct Cell<'a> {
 }
 
 impl<'a> Cell<'a> {
+    /// An empty cell, or the text loggers and spreadsheets write for a missing sample.
+    fn missing(&self) -> bool {
+        self.text.is_empty()
+            || ["nan", "na", "n/a", "null"]
+                .iter()
+                .any(|m| self.text.eq_ignore_ascii_case(m))
+    }
+
     fn text(&self) -> Result<&'a str, DataError> {
         if self.text.is_empty() {
             return Err(DataError::EmptyCell {

@@ -86,6 +86,15 @@ pub enum FitError {
     MissingInput { source_name: String, column: String },
     #[error("`{0}` is a displacement channel, not an input")]
     ChannelAsInput(String),
+    #[error(
+        "no rows before {until_min} min: the data's first row is at {first_min} min of the file's own clock (`--until {suggest_min}min` fits the first {span_min} min of it)"
+    )]
+    NothingBefore {
+        until_min: f64,
+        first_min: f64,
+        suggest_min: f64,
+        span_min: f64,
+    },
     #[error("no inputs declared: declare spindle_rpm and/or other columns")]
     NoInputs,
     #[error(
@@ -102,7 +111,7 @@ pub enum FitError {
 /// is chosen by forward validation ([`super::modes_law`]) when the data offer a fold that predicts a
 /// faster speed than it was fitted on.
 pub fn fit(all: &Dataset, opts: &FitOptions) -> Result<DriftModel, FitError> {
-    let window = all.until_opt(opts.until_min);
+    let window = fit_window(all, opts.until_min)?;
     let ds = window.as_ref();
     let model = fit_rows(ds, all.len(), opts)?;
     if model.spindle.modes.is_empty() {
@@ -119,6 +128,24 @@ pub fn fit(all: &Dataset, opts: &FitOptions) -> Result<DriftModel, FitError> {
         }
         None => model,
     })
+}
+
+/// The rows before `until_min` (all without it); none is an error that says where the file's clock
+/// starts, as a file that continues an earlier one (its time from 24 h on) has no rows before `--until 16h`.
+pub(crate) fn fit_window(
+    all: &Dataset,
+    until_min: Option<f64>,
+) -> Result<std::borrow::Cow<'_, Dataset>, FitError> {
+    let window = all.until_opt(until_min);
+    match (until_min, all.time_min.first()) {
+        (Some(until_min), Some(&first_min)) if window.len() == 0 => Err(FitError::NothingBefore {
+            until_min,
+            first_min,
+            suggest_min: first_min + until_min,
+            span_min: until_min,
+        }),
+        _ => Ok(window),
+    }
 }
 
 /// The fit of every row of `ds` (the window before `opts.until_min`, cut by the caller from a file of

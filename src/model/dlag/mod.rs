@@ -159,7 +159,7 @@ struct Prepared<'a> {
 
 /// Fits the distributed-lag model of `opts.channel`.
 pub fn fit_dlag(all: &Dataset, opts: &DlagOptions) -> Result<DriftModel, FitError> {
-    let window = all.until_opt(opts.until_min);
+    let window = crate::model::fit::fit_window(all, opts.until_min)?;
     let ds = window.as_ref();
     let prep = Prepared::new(ds, opts)?;
     let mut scored: Vec<Scored> = Vec::new();
