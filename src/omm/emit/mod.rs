@@ -334,7 +334,7 @@ impl Registers {
     }
 }
 
-/// Whether a gate of the plan reads the tool at run time ([`Emitter::reads_tool_at`]): the registers for it
+/// Whether a gate of the plan reads the tool at run time (`Emitter::reads_tool_at`): the registers for it
 /// are taken only then, so other programs' outputs keep theirs.
 pub fn reads_tool(plan: &Plan, profile: &Profile) -> bool {
     crate::omm::plan::reads_tool(profile) && plan.gates.iter().any(swaps_unnamed_tool)
