@@ -61,8 +61,8 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
             "shop6",
             25,
             [
-                ("blum-tc50", 19),
-                ("siemens-cycle978", 19),
+                ("blum-tc50", 21),
+                ("siemens-cycle978", 21),
                 ("tool-setter", 21),
                 ("grinder-gauge", 23),
                 ("lathe-setter", 21),
