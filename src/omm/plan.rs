@@ -476,6 +476,28 @@ const TOOL_UNKNOWN: &str = "the tool in the spindle is not known there (no tool 
 
 const OUTSIDE_PRESELECTION: &str = "the program's tool change later loads a tool preselected outside the program (an M6 with no T before it), and the probe's swap would replace that preselection";
 
+const HAND_SPINDLE: &str = "the program cuts with the spindle as the operator left it (no M3/M4/M5 or tool change of its own before the cut: started in MDA), which a gate stops for the probe and could not start again at a speed it does not know; program the speed and direction (S… M3) before the first cut";
+
+/// Why a gate that moves (and stops the spindle on the way) may not measure at `site`: from there on the
+/// program cuts at a spindle speed it never set.
+fn stops_hand_spindle(timeline: &Timeline, site: &Site, profile: &Profile) -> Option<&'static str> {
+    (profile.probe.kind != ProbeKind::Gauge
+        && timeline.hand_spindle.is_some_and(|set| site.block < set))
+    .then_some(HAND_SPINDLE)
+}
+
+const TURNING_READS_TOOL: &str = "the program turns or grinds (X in diameters or constant cutting speed: DIAMON, DIAM90, G96) and names no tool loaded by M6 there, so a spindle-probe gate would read the tool at run time and swap it with M6 after a retract along Z alone: a turret indexes on T wherever X stands, a grinding wheel is not changed by M6, and Y0 may be no axis; measure with `--profile lathe-setter` or `grinder-gauge`, or with a lathe probe profile ([position] diameter = true)";
+
+/// Why a spindle-probe gate that reads the tool at run time may not measure at `site`: the program is a
+/// lathe's or a grinder's, whose tools the milling probe's M6 swap does not change as it assumes.
+fn turning_reads_tool(site: &Site, profile: &Profile) -> Option<&'static str> {
+    (profile.probe.kind == ProbeKind::SpindleProbe
+        && !names_tool(site, profile)
+        && !profile.position.diameter
+        && (site.before.diameter.on() || site.before.css_rpm.is_some()))
+    .then_some(TURNING_READS_TOOL)
+}
+
 /// Why a spindle probe may not be swapped in at `site`: a later M6 of the program loads the tool the
 /// operator preselected, which the swap's `T` would replace (the control cannot tell the gate which it was).
 fn swap_loses_preselection(
@@ -589,6 +611,8 @@ fn reference_site(
             }
             unfit_for_reference(site, profile, rule)
                 .or_else(|| swap_loses_preselection(timeline, site, profile))
+                .or_else(|| stops_hand_spindle(timeline, site, profile))
+                .or_else(|| turning_reads_tool(site, profile))
         };
         // A place whose tool the program names comes first: one that reads the tool at run time measures
         // nothing where the operator left none in force.
@@ -643,6 +667,7 @@ fn reference_site(
                 && s.block < from
                 && skip_around(timeline, s.block).is_none()
                 && unfit_for_reference(s, profile, rule).is_none()
+                && stops_hand_spindle(timeline, s, profile).is_none()
         };
         if let Some(k) = timeline.sites.iter().rposition(before_setup) {
             return Ok(k);
@@ -883,6 +908,8 @@ pub fn plan(
         };
         let restorable = unfit_for_measuring(site, profile, rule, reference_tool.as_ref())
             .or_else(|| swap_loses_preselection(timeline, site, profile))
+            .or_else(|| stops_hand_spindle(timeline, site, profile))
+            .or_else(|| turning_reads_tool(site, profile))
             .is_none();
         let (kind, can_measure) = match site.kind {
             _ if reference => (GateKind::Reference, true),

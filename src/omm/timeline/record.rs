@@ -126,6 +126,10 @@ pub struct Timeline {
     pub unit_end: usize,
     /// First block that moves at feed (G1, G2, G3): the first cut.
     pub first_cut: Option<usize>,
+    /// Where the program first sets the spindle itself (M3/M4/M5, SPOS, a tool change), when it cuts before
+    /// that (`usize::MAX`: never): up to there it cuts with the spindle as the operator left it (started in
+    /// MDA), which a gate's M5 would stop and could not start again.
+    pub hand_spindle: Option<usize>,
     /// When the last cut ended (min from the start).
     pub last_cut_min: f64,
     /// The program moves an axis, or calls a subprogram or cycle that may.

@@ -49,7 +49,7 @@ impl Builder<'_> {
                 }
                 // A subprogram that cuts: the reference measurement goes before it.
                 if sub.first_cut.is_some() {
-                    self.t.first_cut.get_or_insert(i);
+                    self.cuts(i, sub.hand_spindle.is_some());
                 }
                 self.t
                     .timed_calls
@@ -93,7 +93,9 @@ impl Builder<'_> {
                 // the reference measurement goes before it. The swivel, settings and measuring cycles
                 // do not cut.
                 if !cuts_nothing(name) && !self.profile.cycle_call().starts_with(name) {
-                    self.t.first_cut.get_or_insert(i);
+                    // Siemens' machining cycles cut at the spindle they find; a shop's subprogram (a warm-up,
+                    // a ShopMill step) may start its own.
+                    self.cuts(i, name.to_ascii_uppercase().starts_with("CYCLE"));
                 }
                 self.t.untimed_calls.push((i + 1, shown.to_string()));
                 None
@@ -370,6 +372,7 @@ impl Builder<'_> {
                 }
                 if let Some(d) = direction {
                     self.state.direction = d;
+                    self.spindle_set_at(i);
                 }
                 self.t.spindle_words.push((offset + t, s, direction));
                 let rpm = self.state.rpm();

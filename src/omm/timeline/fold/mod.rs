@@ -59,6 +59,8 @@ pub(super) struct Builder<'p> {
     pass_marks: Vec<PassMark>,
     tool_marks: Vec<PassMark>,
     m6_seen: bool,
+    /// The program set the spindle (M3/M4/M5, SPOS, a tool change): before that it is the operator's.
+    spindle_set: bool,
     rpm: f64,
     loop_depth: usize,
     /// A loop started and no retract site in its body yet.
@@ -149,6 +151,7 @@ impl<'p> Builder<'p> {
             pass_marks: Vec::new(),
             tool_marks: Vec::new(),
             m6_seen: false,
+            spindle_set: false,
             rpm: 0.0,
             loop_depth: 0,
             loop_gate_pending: false,
@@ -175,6 +178,25 @@ impl<'p> Builder<'p> {
             position_doubt: false,
             in_part: BTreeSet::new(),
             lead: None,
+        }
+    }
+
+    /// Block `i` is the first cut; `by_hand`: it cuts at the spindle it finds (a subprogram that sets the
+    /// spindle before its first cut does not), so before the program sets the spindle, the operator's.
+    pub(super) fn cuts(&mut self, i: usize, by_hand: bool) {
+        self.t.first_cut.get_or_insert(i);
+        if by_hand && !self.spindle_set {
+            self.t.hand_spindle.get_or_insert(usize::MAX);
+        }
+    }
+
+    /// Block `i` sets the spindle: where the operator's spindle ends, if the program cut with it.
+    pub(super) fn spindle_set_at(&mut self, i: usize) {
+        if !self.spindle_set {
+            self.spindle_set = true;
+            if self.t.hand_spindle.is_some() {
+                self.t.hand_spindle = Some(i);
+            }
         }
     }
 
@@ -633,6 +655,7 @@ impl<'p> Builder<'p> {
         }
         if let Some(d) = direction {
             self.state.direction = d;
+            self.spindle_set_at(i);
         }
         if s.restart {
             self.t.ends.push(i);
@@ -652,6 +675,7 @@ impl<'p> Builder<'p> {
             self.state.unknown &= !unknown::TOOL;
         }
         if tool_change {
+            self.spindle_set_at(i);
             if self.state.selected.is_none() && self.state.unknown & unknown::TOOL == 0 {
                 self.t.outside_load.get_or_insert(i);
             }
@@ -806,7 +830,7 @@ impl<'p> Builder<'p> {
             }
         }
         if self.t.first_cut.is_none() && moves_somehow && !g4 && self.state.motion != 0 {
-            self.t.first_cut = Some(i);
+            self.cuts(i, true);
         }
         let mut minutes = 0.0;
         if g4 {
