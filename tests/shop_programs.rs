@@ -72,11 +72,11 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
             "shop7",
             4,
             [
-                ("blum-tc50", 1),
-                ("siemens-cycle978", 1),
-                ("tool-setter", 3),
+                ("blum-tc50", 2),
+                ("siemens-cycle978", 2),
+                ("tool-setter", 4),
                 ("grinder-gauge", 4),
-                ("lathe-setter", 3),
+                ("lathe-setter", 4),
             ],
         ),
     ];

@@ -21,26 +21,111 @@ fn refused_because(name: &str, profile: &str, why: &str) {
     assert!(err.contains(why), "{name} {profile}: {err}");
 }
 
+/// A machine that does not drift, with T3 (`EM_D80`, D1) in force at the start.
+const TOOL_LOADED: &str = "[tool]\nnumber = 3\nname = \"EM_D80\"\nd = 1\n";
+
+/// The same machine with the spindle turning as the operator started it in MDA (`S2000 M3`).
+fn mda_spindle() -> String {
+    format!("{TOOL_LOADED}[spindle]\nrpm = 2000\ndirection = 3\n")
+}
+
+/// The speed of each pass the run cut (rpm).
+fn pass_speeds(run: &driftloop::vm::Run) -> Vec<f64> {
+    run.passes.iter().map(|p| p.spindle_rpm).collect()
+}
+
+const MOVING_PROFILES: [&str; 4] = [
+    "blum-tc50",
+    "siemens-cycle978",
+    "tool-setter",
+    "lathe-setter",
+];
+
 #[test]
-fn no_gate_stops_a_spindle_the_operator_started() {
+fn a_gate_before_the_programs_spindle_measures_only_where_the_spindle_stands() {
     // 01: the program has no S/M3 (the operator started the spindle in MDA). The zero's `M5` stopped it for
     // the probe and nothing started it again: N40 `G1 Z-0.5 F600` fed the cutter into the part standing
-    // still. The audit's machine starts with the spindle off, so it saw nothing.
-    for profile in [
-        "blum-tc50",
-        "siemens-cycle978",
-        "tool-setter",
-        "lathe-setter",
-    ] {
-        refused_because(
-            "01_mda_spindle_face.mpf",
-            profile,
-            "at line 4, the program cuts with the spindle as the operator left it",
+    // still. Now the zero reads the actual speed after its STOPRE and goes around the probe where the
+    // spindle turns.
+    let prog = std::fs::read_to_string(common::fixture("shop7/01_mda_spindle_face.mpf")).unwrap();
+    for profile in MOVING_PROFILES {
+        let (o, out) = transform_fixture("01_mda_spindle_face.mpf", profile);
+        let out = out.unwrap_or_else(|| panic!("{profile}: {}", common::stderr(&o)));
+        let check = out.find("$AA_S[1]<>0").expect("the spindle check");
+        assert!(check < out.find("N40 ").unwrap(), "{profile}: {out}");
+        assert!(out[..check].contains("STOPRE"), "{profile}: {out}");
+        let first_m5 = out
+            .find("M5 ;DL")
+            .expect("the gate stops a standing spindle");
+        assert!(check < first_m5, "{profile}: {out}");
+        // The tool setters' cycles are the profile's own, which the dry run knows only in the transform's
+        // audit (it ran with the spindle turning there too, or nothing was written).
+        if !profile.starts_with("blum") && !profile.starts_with("siemens") {
+            continue;
+        }
+        // Turning: no measurement, no M5, and every pass cut at the operator's speed as in the original.
+        let original = common::run_on_machine(&mda_spindle(), &[], &prog);
+        let turning = common::run_on_machine(&mda_spindle(), &[], &out);
+        assert!(
+            matches!(turning.end, driftloop::vm::End::ProgramEnd { .. }),
+            "{profile}: {:?}",
+            turning.end
+        );
+        assert!(turning.alarms.is_empty(), "{profile}: {:?}", turning.alarms);
+        assert!(turning.measurements.is_empty(), "{profile}: measured");
+        assert_eq!(pass_speeds(&turning), pass_speeds(&original), "{profile}");
+        assert!(pass_speeds(&turning).iter().all(|&n| n == 2000.0));
+        // Standing: the gate measures (and gives back no speed: there was none).
+        let standing = common::run_on_machine(TOOL_LOADED, &[], &out);
+        assert!(!standing.measurements.is_empty(), "{profile}: not measured");
+    }
+    // A gauge moves nothing and stops nothing: no check.
+    let (o, out) = transform_fixture("01_mda_spindle_face.mpf", "grinder-gauge");
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    assert!(!out.unwrap().contains("$AA_S"));
+}
+
+#[test]
+fn a_gate_without_the_spindle_check_is_caught_with_a_turning_start_spindle() {
+    // The same output with the check taken out stops the operator's spindle for good: on the machine the
+    // passes are cut with a standing spindle, and `run --audit` on a machine whose spindle turns at the
+    // start finds it.
+    let (o, out) = transform_fixture("01_mda_spindle_face.mpf", "blum-tc50");
+    let out = out.unwrap_or_else(|| panic!("{}", common::stderr(&o)));
+    let planted = out.replace(" OR ($AA_S[1]<>0)", "");
+    assert_ne!(planted, out, "the check as written");
+    let run = common::run_on_machine(&mda_spindle(), &[], &planted);
+    assert!(!run.measurements.is_empty());
+    assert!(
+        pass_speeds(&run).iter().all(|&n| n == 0.0),
+        "{:?}",
+        pass_speeds(&run)
+    );
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("m.toml"), mda_spindle()).unwrap();
+    // Both report the profile's probe point in the cut (a warning: exit 1); only the planted gate leaves
+    // the spindle stopped where the original resumes.
+    for (name, text, clean) in [("planted.mpf", &planted, false), ("out.mpf", &out, true)] {
+        std::fs::write(dir.path().join(name), text).unwrap();
+        let args = [
+            "run",
+            name,
+            "--machine",
+            "m.toml",
+            "--audit",
+            "--profile",
+            "blum-tc50",
+        ];
+        let o = common::driftloop(dir.path(), &args, b"");
+        let report = String::from_utf8_lossy(&o.stdout);
+        let stopped = "modal-not-restored: where the original resumes: spindle S2000 M5 here, S2000 M3 in the original";
+        assert_eq!(
+            report.contains(stopped),
+            !clean,
+            "{name}: {report}{}",
+            common::stderr(&o)
         );
     }
-    // A gauge moves nothing and stops nothing.
-    let (o, _) = transform_fixture("01_mda_spindle_face.mpf", "grinder-gauge");
-    assert!(o.status.success(), "{}", common::stderr(&o));
 }
 
 #[test]

@@ -477,9 +477,14 @@ fn transform_one(
         .iter()
         .map(|(model, sha)| ModelRef { model, sha256: sha })
         .collect();
-    let (edits, summary) = omm::prepare_timed(&program, &moves, &refs, profile, args.force)
-        .map_err(|e| Refusal::new(e.reason(), e))?
-        .into_edits();
+    let prepared = omm::prepare_timed(&program, &moves, &refs, profile, args.force)
+        .map_err(|e| Refusal::new(e.reason(), e))?;
+    let on_hand_spindle = prepared
+        .plan
+        .gates
+        .iter()
+        .any(|g| g.can_measure && g.hand_spindle);
+    let (edits, summary) = prepared.into_edits();
     if args.setup.strict
         && let Some(w) = summary.warnings.first()
     {
@@ -491,7 +496,17 @@ fn transform_one(
     let audit = if args.no_audit {
         None
     } else {
-        let note = audit_output(input, &program, &edits, &refs, profile, false, "")?;
+        let note = audit_output(input, &program, &edits, &refs, profile, Start::Bare, "")?;
+        // The same program with every gate measuring has the same gates, each taking its measuring branch,
+        // audited on work offsets that are not 0 and with a tool in force.
+        let audit_measuring = |start: Start, variant: &str| {
+            let mut measuring = profile.clone();
+            measuring.log.measure_every_gate = true;
+            let (every, _) = omm::prepare_timed(&program, &moves, &refs, &measuring, args.force)
+                .map_err(|e| Refusal::new(e.reason(), e))?
+                .into_edits();
+            audit_output(input, &program, &every, &refs, &measuring, start, variant)
+        };
         if profile.log.measure_every_gate && omm::plan::reads_tool(profile) {
             // The first run had no tool in force, so gates that read the tool took their way around the
             // probe; this one has a tool in force, and their swap and its check run.
@@ -501,29 +516,27 @@ fn transform_one(
                 &edits,
                 &refs,
                 profile,
-                true,
+                Start::Shifted,
                 " with a tool in force at the start",
             )?;
         } else if !profile.log.measure_every_gate {
             // The dry run takes each gate's Cycle_in decision as the plan predicts it, so most gates skip
             // their measuring branch there; on the machine a pause (a stop, a feed hold) makes the
-            // predicted change grow and the branch runs. The same program with every gate measuring has
-            // the same gates, each taking that branch: it must pass too.
-            let mut measuring = profile.clone();
-            measuring.log.measure_every_gate = true;
-            let (every, _) = omm::prepare_timed(&program, &moves, &refs, &measuring, args.force)
-                .map_err(|e| Refusal::new(e.reason(), e))?
-                .into_edits();
-            // It runs on work offsets that are not 0 (and put the clearance below a reference in machine
-            // coordinates): a gate must hold under whatever offsets the machine has.
-            audit_output(
-                input,
-                &program,
-                &every,
-                &refs,
-                &measuring,
-                true,
+            // predicted change grow and the branch runs: it must pass too. It runs on work offsets that
+            // are not 0 (and put the clearance below a reference in machine coordinates): a gate must hold
+            // under whatever offsets the machine has.
+            audit_measuring(
+                Start::Shifted,
                 " with every gate measuring (as a gate does when a pause makes the predicted change exceed δ′; `[log] measure_every_gate = true` in the profile writes that program)",
+            )?;
+        }
+        if on_hand_spindle {
+            // The runs above start with the spindle standing, so the gates before the program sets its
+            // spindle measured there; on the machine the operator may have started it in MDA, and a gate
+            // that stopped it then would leave the program cutting with a standing spindle.
+            audit_measuring(
+                Start::ShiftedTurning,
+                " with the spindle turning at the start (started in MDA) and every gate measuring",
             )?;
         }
         Some(note)
@@ -536,22 +549,35 @@ fn transform_one(
     })))
 }
 
+/// How the machine stands when an audit's dry run starts.
+#[derive(Clone, Copy, PartialEq)]
+enum Start {
+    /// No work offsets, no tool, the spindle standing.
+    Bare,
+    /// Work offsets that are not 0 and a tool in force (`shifted` below).
+    Shifted,
+    /// As `Shifted`, with the spindle turning as the operator started it in MDA.
+    ShiftedTurning,
+}
+
 /// Runs the transformed program beside the original on a virtual machine that drifts as the model predicts
 /// (the safety audit, `driftloop run --audit`): a finding the inserted blocks caused refuses the program; one
 /// the profile caused (its probe point in the part's cut) is a warning; a construct the dry run cannot run
-/// ends the audit there, with a note. With `shifted`, the machine starts with the work offsets of
-/// [`crate::vm::audit::AuditSettings::shifted_offsets`] and a tool in force, as one loaded by hand: a gate
-/// that reads the tool at run time swaps the probe for it (without one it goes around the probe).
+/// ends the audit there, with a note. Shifted (`start` not `Start::Bare`), the machine starts with the work
+/// offsets of [`crate::vm::audit::AuditSettings::shifted_offsets`] and a tool in force, as one loaded by
+/// hand: a gate that reads the tool at run time swaps the probe for it (without one it goes around the
+/// probe).
 fn audit_output(
     input: &Input,
     program: &crate::Program,
     edits: &Edits,
     models: &[ModelRef<'_>],
     profile: &Profile,
-    shifted: bool,
+    start: Start,
     variant: &str,
 ) -> Result<AuditNote, Refusal> {
     use crate::vm::audit::{AuditSettings, Kind, audit_owned};
+    let shifted = start != Start::Bare;
     // The virtual machine drifts as each axis's model predicts from the spindle; the terms it reads from
     // sensors have no signal there and are left out.
     let ordered = omm::models_for_axes(profile, models, |m: ModelRef<'_>| m.model.channel.as_str())
@@ -583,6 +609,8 @@ fn audit_output(
             Vec::new()
         },
         start_tool: shifted.then(crate::vm::audit::hand_loaded_tool),
+        start_spindle: (start == Start::ShiftedTurning)
+            .then(crate::vm::audit::hand_started_spindle),
         ..crate::vm::Config::default()
     };
     let transformed = edits.to_bytes(program);

@@ -138,7 +138,7 @@ pub(crate) fn fit_window(
 ) -> Result<std::borrow::Cow<'_, Dataset>, FitError> {
     let window = all.until_opt(until_min);
     match (until_min, all.time_min.first()) {
-        (Some(until_min), Some(&first_min)) if window.len() == 0 => Err(FitError::NothingBefore {
+        (Some(until_min), Some(&first_min)) if window.is_empty() => Err(FitError::NothingBefore {
             until_min,
             first_min,
             suggest_min: first_min + until_min,

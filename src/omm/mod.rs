@@ -469,6 +469,11 @@ fn prepare_with<'p>(
         label_prefix,
         fingerprint: warm::fingerprint(&models.iter().map(|m| m.sha256).collect::<Vec<_>>()),
         tool_change_call: timeline.tool_change_call.clone(),
+        zero_may_skip: emit::reads_tool(&plan, profile)
+            || plan
+                .gates
+                .iter()
+                .any(|g| g.kind == GateKind::Reference && g.can_measure && g.hand_spindle),
     };
     if let Some(w) = &profile.warm_start {
         let store = w.r_first..w.r_first + emitter.store_len();

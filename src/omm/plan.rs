@@ -63,6 +63,10 @@ pub struct Gate {
     /// Minutes from the end of the last cut before the gate to the gate: the scrap decision judges the
     /// part by the drift at that cut, not by what the machine drifted since without cutting.
     pub idle_min: f64,
+    /// The gate stands where the program cuts with the operator's spindle (`on_hand_spindle`): it
+    /// measures only where that spindle stands at run time.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub hand_spindle: bool,
     #[serde(skip)]
     pub before: Modal,
 }
@@ -476,14 +480,13 @@ const TOOL_UNKNOWN: &str = "the tool in the spindle is not known there (no tool 
 
 const OUTSIDE_PRESELECTION: &str = "the program's tool change later loads a tool preselected outside the program (an M6 with no T before it), and the probe's swap would replace that preselection";
 
-const HAND_SPINDLE: &str = "the program cuts with the spindle as the operator left it (no M3/M4/M5 or tool change of its own before the cut: started in MDA), which a gate stops for the probe and could not start again at a speed it does not know; program the speed and direction (S… M3) before the first cut";
-
-/// Why a gate that moves (and stops the spindle on the way) may not measure at `site`: from there on the
-/// program cuts at a spindle speed it never set.
-fn stops_hand_spindle(timeline: &Timeline, site: &Site, profile: &Profile) -> Option<&'static str> {
-    (profile.probe.kind != ProbeKind::Gauge
-        && timeline.hand_spindle.is_some_and(|set| site.block < set))
-    .then_some(HAND_SPINDLE)
+/// Whether a gate that moves (and stops the spindle on the way) at `site` stands where the program cuts
+/// with the spindle as the operator left it (no M3/M4/M5 or tool change of its own before the cut: started
+/// in MDA). Its M5 would stop that spindle for good, as the gate cannot give back a speed it never knew: it
+/// measures only where the spindle stands at run time (`$AA_S[1]`), and a standing spindle stays standing.
+fn on_hand_spindle(timeline: &Timeline, site: &Site, profile: &Profile) -> bool {
+    profile.probe.kind != ProbeKind::Gauge
+        && timeline.hand_spindle.is_some_and(|set| site.block < set)
 }
 
 const TURNING_READS_TOOL: &str = "the program turns or grinds (X in diameters or constant cutting speed: DIAMON, DIAM90, G96) and names no tool loaded by M6 there, so a spindle-probe gate would read the tool at run time and swap it with M6 after a retract along Z alone: a turret indexes on T wherever X stands, a grinding wheel is not changed by M6, and Y0 may be no axis; measure with `--profile lathe-setter` or `grinder-gauge`, or with a lathe probe profile ([position] diameter = true)";
@@ -611,7 +614,6 @@ fn reference_site(
             }
             unfit_for_reference(site, profile, rule)
                 .or_else(|| swap_loses_preselection(timeline, site, profile))
-                .or_else(|| stops_hand_spindle(timeline, site, profile))
                 .or_else(|| turning_reads_tool(site, profile))
         };
         // A place whose tool the program names comes first: one that reads the tool at run time measures
@@ -667,7 +669,6 @@ fn reference_site(
                 && s.block < from
                 && skip_around(timeline, s.block).is_none()
                 && unfit_for_reference(s, profile, rule).is_none()
-                && stops_hand_spindle(timeline, s, profile).is_none()
         };
         if let Some(k) = timeline.sites.iter().rposition(before_setup) {
             return Ok(k);
@@ -908,7 +909,6 @@ pub fn plan(
         };
         let restorable = unfit_for_measuring(site, profile, rule, reference_tool.as_ref())
             .or_else(|| swap_loses_preselection(timeline, site, profile))
-            .or_else(|| stops_hand_spindle(timeline, site, profile))
             .or_else(|| turning_reads_tool(site, profile))
             .is_none();
         let (kind, can_measure) = match site.kind {
@@ -975,6 +975,7 @@ pub fn plan(
             runs: 0,
             measurements: 0,
             idle_min: site.idle_min,
+            hand_spindle: on_hand_spindle(timeline, site, profile),
             before: site.before.clone(),
         });
         // A refresh a later run of a loop measures at becomes that run's gate.

@@ -126,6 +126,23 @@ pub struct Config {
     pub variables: BTreeMap<String, f64>,
     /// The tool in force when the program starts; `None`: no tool, D0.
     pub start_tool: Option<StartTool>,
+    /// The spindle turning when the program starts (started in MDA); `None`: it stands.
+    pub start_spindle: Option<StartSpindle>,
+}
+
+/// A spindle the program finds turning, started by the operator before it (MDA): a program that cuts
+/// with it before its own M3/M4 must find it turning after every gate too.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StartSpindle {
+    pub rpm: f64,
+    /// 3 (M3, clockwise) or 4 (M4).
+    #[serde(default = "clockwise")]
+    pub direction: u32,
+}
+
+fn clockwise() -> u32 {
+    3
 }
 
 /// A tool the program finds in force (loaded by hand or in MDA), the one tool of the dry run's tool table:
@@ -233,6 +250,7 @@ impl Default for Config {
             sumcorr_default: 0.0,
             variables: BTreeMap::new(),
             start_tool: None,
+            start_spindle: None,
         }
     }
 }
@@ -259,6 +277,7 @@ struct MachineFile {
     #[serde(default)]
     variables: BTreeMap<String, f64>,
     tool: Option<StartTool>,
+    spindle: Option<StartSpindle>,
     axes: Option<Vec<String>>,
     machine_axes: Option<BTreeMap<String, String>>,
 }
@@ -492,6 +511,14 @@ pub fn parse_machine_file(
             return Err("tool.number and tool.d must be whole numbers ≥ 1".into());
         }
         cfg.start_tool = Some(tool);
+    }
+    if let Some(spindle) = file.spindle {
+        if !(spindle.rpm > 0.0 && spindle.rpm.is_finite() && matches!(spindle.direction, 3 | 4)) {
+            return Err(
+                "spindle.rpm must be a speed > 0 and spindle.direction 3 (M3) or 4 (M4)".into(),
+            );
+        }
+        cfg.start_spindle = Some(spindle);
     }
     for (g, values) in &file.offsets {
         let frame = offset_frame(g).ok_or_else(|| {

@@ -32,7 +32,9 @@ mod value;
 
 use std::path::Path;
 
-pub use config::{Config, MachineSpec, ProbeTarget, StartTool, offset_frame, parse_machine_file};
+pub use config::{
+    Config, MachineSpec, ProbeTarget, StartSpindle, StartTool, offset_frame, parse_machine_file,
+};
 pub use machine::{
     LaterJob, Machine, ProbeCall, ProbeFault, ProbeResult, SimpleMachine, SpindleHistory,
 };

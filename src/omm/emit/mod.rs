@@ -376,6 +376,9 @@ pub struct Emitter<'a> {
     /// The subprogram the program changes tools with (`L6`): the gates' tool changes call it too, after
     /// `T=`, instead of the profile's M6, which the machine may not take outside its macro.
     pub tool_change_call: Option<String>,
+    /// The reference may leave out the zero at run time (no tool to swap the probe back for, or the
+    /// operator's spindle turning): the gates after it see the measurement counter at 0 then.
+    pub zero_may_skip: bool,
 }
 
 fn r(n: u32) -> String {
@@ -911,9 +914,24 @@ impl Emitter<'_> {
         }
     }
 
-    /// A reference gate that leaves out the zero where no tool is active (it has a skip label then).
+    /// A reference gate that leaves out the zero where no tool is active or the operator's spindle turns
+    /// (it has a skip label then).
     pub fn skips_zero(&self, gate: &Gate) -> bool {
-        self.reads_tool_at(gate).is_some()
+        self.reads_tool_at(gate).is_some() || gate.hand_spindle
+    }
+
+    /// Where the gate stands before the program sets its spindle while it cuts with the operator's: a
+    /// comment and the condition that leaves the measurement out when that spindle turns (`$AA_S[1]`, the
+    /// actual speed of spindle 1, a main-run value: the gate's STOPRE before makes it that of the blocks run
+    /// so far). The gate's M5 would stop it for good: it cannot give back a speed it never knew.
+    fn hand_spindle_turns(gate: &Gate) -> Option<[String; 2]> {
+        gate.hand_spindle.then(|| {
+            [
+                "; driftloop: the spindle as the operator left it: measured only where it stands"
+                    .into(),
+                "$AA_S[1]<>0".into(),
+            ]
+        })
     }
 
     /// The T and D registers of a gate that reads the tool in force before it swaps in the probe.
@@ -1354,12 +1372,17 @@ impl Emitter<'_> {
         // measure either.
         let read = self.reads_tool_at(gate);
         let skip = format!("{}SKIP{}", self.label_prefix, gate.number);
+        let mut no_zero = Vec::new();
         if let Some(read) = read {
             v.extend(Emitter::read_tool(read));
-            v.push(format!(
-                "IF {} GOTOF {skip}",
-                any_of(&Emitter::no_tool(read))
-            ));
+            no_zero.extend(Emitter::no_tool(read));
+        }
+        if let Some([why, turns]) = Emitter::hand_spindle_turns(gate) {
+            v.push(why);
+            no_zero.push(turns);
+        }
+        if !no_zero.is_empty() {
+            v.push(format!("IF {} GOTOF {skip}", any_of(&no_zero)));
         }
         v.extend(self.save_position(gate));
         v.extend(self.probe_in(gate));
@@ -1371,7 +1394,7 @@ impl Emitter<'_> {
         ));
         v.extend(self.log_checked(cut_rpm, gate.pass, true));
         v.extend(self.give_back(gate));
-        if read.is_some() {
+        if self.skips_zero(gate) {
             v.push(format!("{skip}:"));
         }
         for k in 0..self.axes.len() {
@@ -1417,8 +1440,13 @@ impl Emitter<'_> {
                 v.extend(Emitter::read_tool(read));
                 no_measurement.extend(Emitter::no_tool(read));
             }
-            if self.regs.tool.is_some() {
-                // The zero was not measured (no tool active at the reference): nothing to measure against.
+            if let Some([why, turns]) = Emitter::hand_spindle_turns(gate) {
+                v.push(why);
+                no_measurement.push(turns);
+            }
+            if self.zero_may_skip {
+                // The zero was not measured (no tool active or the operator's spindle turning at the
+                // reference): nothing to measure against.
                 no_measurement.push(format!("{}==0", r(self.regs.nbl)));
             }
             if !no_measurement.is_empty() {

@@ -115,6 +115,15 @@ pub fn hand_loaded_tool() -> crate::vm::StartTool {
     }
 }
 
+/// A spindle the operator started in MDA before the program, for the dry run of a program that cuts with
+/// it: a gate before the program's own spindle words must leave it turning.
+pub fn hand_started_spindle() -> crate::vm::StartSpindle {
+    crate::vm::StartSpindle {
+        rpm: 3000.0,
+        direction: 3,
+    }
+}
+
 /// `--probe-margin` default (mm).
 pub const DEFAULT_PROBE_MARGIN_MM: f64 = 5.0;
 

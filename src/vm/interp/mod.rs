@@ -229,6 +229,10 @@ impl<'m> Interp<'m> {
             motion.preselected = motion.tool.clone();
             motion.d = t.d;
         }
+        if let Some(sp) = &cfg.start_spindle {
+            motion.s = sp.rpm;
+            motion.rotation = sp.direction;
+        }
         for (a, name) in cfg.axes.iter().enumerate() {
             motion.temp_comp[a] = cfg.temp_comp_start.get(name).copied().unwrap_or(0.0);
         }
