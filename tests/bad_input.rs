@@ -633,6 +633,89 @@ fn binary_and_utf16_files_get_their_own_diagnostic() {
     }
 }
 
+/// Data, model, profile and machine files that are UTF-16, binary or Latin-1 were refused with the CSV
+/// tokeniser's `invalid utf-8 … byte index 0` or serde's `stream did not contain valid UTF-8`.
+#[test]
+fn binary_utf16_and_latin1_data_and_toml_files_say_what_they_hold() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let utf16 = |text: &str| -> Vec<u8> {
+        let mut bytes = vec![0xFF, 0xFE];
+        bytes.extend(text.encode_utf16().flat_map(u16::to_le_bytes));
+        bytes
+    };
+    std::fs::write(
+        d.join("u.csv"),
+        utf16(&text_of("data/characterisation.csv")),
+    )
+    .unwrap();
+    std::fs::write(d.join("u.toml"), utf16(&text_of("omm/model.toml"))).unwrap();
+    let binary: Vec<u8> = (0..=255u8).cycle().take(3000).collect();
+    std::fs::write(d.join("b.csv"), &binary).unwrap();
+    std::fs::write(d.join("b.toml"), &binary).unwrap();
+    std::fs::write(
+        d.join("l.csv"),
+        b"time_min,spindle_rpm,z_um,hall_\xB0c\n0,1000,0.1,20\n",
+    )
+    .unwrap();
+    let mut latin = std::fs::read(fixture("omm/model.toml")).unwrap();
+    latin.extend(b"\n# Fr\xE4se\n");
+    std::fs::write(d.join("l.toml"), latin).unwrap();
+    let m = default_model();
+    let p = fixture("omm/handwritten.mpf").display().to_string();
+    let csv_cases: [(&str, &[&str]); 3] = [
+        ("u.csv", &["u.csv: UTF-16 text: save it as UTF-8"]),
+        ("b.csv", &["b.csv: a binary file, not a CSV file"]),
+        (
+            "l.csv",
+            &["l.csv:1: column 4: a cell that is not UTF-8 text; save it as UTF-8"],
+        ),
+    ];
+    for (file, needles) in csv_cases {
+        for args in [
+            vec!["fit", file],
+            vec!["forward", file, "--until", "1h"],
+            vec!["sensors", file],
+            vec!["diagnose", &m, file],
+            vec!["log", "merge", file],
+            vec!["predict", &m, "--data", file],
+        ] {
+            assert_refused(&run_in(d, &args), needles);
+        }
+    }
+    for (file, needle) in [("u.csv", "UTF-16 text"), ("b.csv", "a binary file")] {
+        assert_refused(&run_in(d, &["positioning", file]), &[file, needle]);
+    }
+    let toml_cases: [(&str, &str); 3] = [
+        (
+            "u.toml",
+            "u.toml: cannot read: UTF-16 text: save it as UTF-8",
+        ),
+        (
+            "b.toml",
+            "b.toml: cannot read: a binary file, not a TOML file",
+        ),
+        (
+            "l.toml",
+            "l.toml: cannot read: line 20, column 5: byte 0xE4 is not UTF-8 text",
+        ),
+    ];
+    for (file, needle) in toml_cases {
+        for args in [
+            vec!["predict", file, "--schedule", "1000:10"],
+            vec!["plan", &p, "--model", file],
+            vec!["plan", &p, "--model", &m, "--profile", file],
+        ] {
+            assert_refused(&run_in(d, &args), &[needle]);
+        }
+        assert_failed(
+            &run_in(d, &["run", &p, "--machine", file]),
+            &[file, needle.split(": cannot read: ").nth(1).unwrap()],
+            &[],
+        );
+    }
+}
+
 #[test]
 fn a_closed_or_empty_stdin_is_no_program_and_a_missing_subprogram_folder_an_error() {
     let dir = tempfile::tempdir().unwrap();

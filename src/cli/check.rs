@@ -126,14 +126,12 @@ fn check_file(input: &Input, format: Format, color: bool) -> FileReport {
         notes: 0,
         read_error: None,
     };
-    let source =
-        input
-            .read()
-            .map_err(|e| e.to_string())
-            .and_then(|bytes| match walk::not_text(&bytes) {
-                Some(why) => Err(format!("{path}: {why}")),
-                None => Ok(bytes),
-            });
+    let source = input.read().map_err(|e| e.to_string()).and_then(|bytes| {
+        match crate::text::not_text(&bytes, crate::text::NC_PROGRAM) {
+            Some(why) => Err(format!("{path}: {why}")),
+            None => Ok(bytes),
+        }
+    });
     let source = match source {
         Ok(source) => source,
         Err(message) => {

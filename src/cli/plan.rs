@@ -50,7 +50,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         Input::File(args.program.clone())
     };
     let bytes = input.read()?;
-    if let Some(why) = crate::walk::not_text(&bytes) {
+    if let Some(why) = crate::text::not_text(&bytes, crate::text::NC_PROGRAM) {
         anyhow::bail!("{input}: {why}");
     }
     let (program, moves) = omm::parse_timed(bytes);

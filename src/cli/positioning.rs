@@ -64,17 +64,19 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     } else {
         args.data.display().to_string()
     };
-    let samples = if from_stdin {
+    let bytes = if from_stdin {
         let mut text = Vec::new();
         std::io::stdin()
             .read_to_end(&mut text)
             .context("reading stdin")?;
-        read_samples(text.as_slice(), &source, MIN_APPROACHES)?
+        text
     } else {
-        let file =
-            std::fs::File::open(&args.data).with_context(|| format!("cannot open {source}"))?;
-        read_samples(std::io::BufReader::new(file), &source, MIN_APPROACHES)?
+        std::fs::read(&args.data).with_context(|| format!("cannot read {source}"))?
     };
+    if let Some(why) = crate::text::not_text(&bytes, crate::text::CSV) {
+        bail!("{source}: {why}");
+    }
+    let samples = read_samples(bytes.as_slice(), &source, MIN_APPROACHES)?;
     for choice in &grids {
         if let Some(axis) = &choice.axis
             && !samples.iter().any(|s| &s.axis == axis)

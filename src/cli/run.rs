@@ -81,7 +81,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     };
     let mut spec = MachineSpec::default();
     if let Some(path) = &args.machine {
-        let text = std::fs::read_to_string(path)
+        let text = crate::text::read_utf8(path, crate::text::TOML)
             .with_context(|| format!("cannot read {}", path.display()))?;
         let dir = path.parent().unwrap_or(Path::new("."));
         (cfg, spec) = vm::parse_machine_file(&text, dir, cfg)

@@ -85,12 +85,10 @@ impl Setup {
     pub fn load(&self) -> anyhow::Result<(Vec<(DriftModel, String)>, Profile)> {
         let mut models = Vec::new();
         for path in &self.model {
-            let bytes =
-                std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
-            let text = String::from_utf8(bytes.clone())
-                .with_context(|| format!("{}: not UTF-8 text", path.display()))?;
+            let text = crate::text::read_utf8(path, crate::text::TOML)
+                .with_context(|| format!("{}: cannot read", path.display()))?;
             let model = DriftModel::from_toml(&text, &path.display().to_string())?;
-            let sha: String = Sha256::digest(&bytes)
+            let sha: String = Sha256::digest(text.as_bytes())
                 .iter()
                 .map(|b| format!("{b:02x}"))
                 .collect();
@@ -462,7 +460,7 @@ fn transform_one(
     args: &Args,
 ) -> Result<Done, Refusal> {
     let bytes = input.read().map_err(|e| Refusal::new("unreadable", e))?;
-    if let Some(why) = walk::not_text(&bytes) {
+    if let Some(why) = crate::text::not_text(&bytes, crate::text::NC_PROGRAM) {
         return Err(Refusal::new("not a text program", why));
     }
     if (args.check || args.diff)
