@@ -479,6 +479,10 @@ fn an_output_that_is_an_input_is_refused_before_anything_is_written() {
         vec!["transform", "p.mpf", "--model", "m.toml", "-o", "m.toml"],
         vec!["predict", "m.toml", "--data", "data.csv", "-o", "data.csv"],
         vec!["sensors", "data.csv", "-o", "data.csv"],
+        vec!["sensors", "data.csv", "--report", "./data.csv"],
+        vec!["log", "merge", "data.csv", "-o", "data.csv"],
+        vec!["strip", "p.mpf", "-o", "p.mpf"],
+        vec!["run", "p.mpf", "--trace", "p.mpf"],
     ];
     for args in &cases {
         assert_refused(&run_in(d, args), &["is the input", "would destroy"]);

@@ -68,6 +68,8 @@ pub(crate) fn read_merged(
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     match args.command {
         LogCommand::Merge(m) => {
+            let inputs: Vec<&Path> = m.files.iter().map(PathBuf::as_path).collect();
+            super::output::refuse_overwriting(&[("-o", m.output.as_deref())], &inputs)?;
             let data = read_merged(&m.files, &m.rename)?;
             let mut bytes = Vec::new();
             data.write_csv(&mut bytes)?;

@@ -74,6 +74,12 @@ pub struct Args {
 /// Exit 0 when the program ran to its end, 1 when an alarm stopped it, 2 for errors (unsupported construct,
 /// endless loop, unreadable files). With `--audit`: 0 clean, 1 findings, 2 errors.
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
+    let inputs: Vec<&Path> = [Some(&args.program), args.machine.as_ref()]
+        .into_iter()
+        .flatten()
+        .map(PathBuf::as_path)
+        .collect();
+    super::output::refuse_overwriting(&[("--trace", args.trace.as_deref())], &inputs)?;
     let mut cfg = Config {
         max_blocks: args.max_blocks,
         trace: args.trace.is_some(),

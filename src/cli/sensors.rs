@@ -46,7 +46,13 @@ pub struct Args {
 }
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
-    super::output::refuse_overwriting(&[("-o", args.output.as_deref())], &[&args.data])?;
+    super::output::refuse_overwriting(
+        &[
+            ("-o", args.output.as_deref()),
+            ("--report", args.report.as_deref()),
+        ],
+        &[&args.data],
+    )?;
     let ds = super::log::read_data(&args.data, Require::Displacement)?;
     let channel = super::fit::only_channel(&ds, args.channel.as_deref())?;
     let mut opts = Options::new(&channel);

@@ -44,6 +44,8 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     if args.in_place && inputs.contains(&Input::Stdin) {
         bail!("--in-place cannot replace stdin");
     }
+    let paths: Vec<&std::path::Path> = args.paths.iter().map(PathBuf::as_path).collect();
+    super::output::refuse_overwriting(&[("-o", args.output.as_deref())], &paths)?;
     let mut stderr = io::stderr().lock();
     let mut transformed = 0;
     let mut unreadable = 0;
