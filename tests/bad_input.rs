@@ -720,6 +720,37 @@ fn binary_utf16_and_latin1_data_and_toml_files_say_what_they_hold() {
     }
 }
 
+/// `plan` and `transform` said only "the program has 1 syntax error(s)"; the user had to run `check` to
+/// learn where. And the message showed an unclosed quote as `\"hello`, Rust's escape.
+#[test]
+fn a_refusal_for_syntax_errors_names_the_first_one_where_it_is() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("s.mpf"), "G0 X0\nMSG(\"hello\nG1 X10 F100\nM30\n").unwrap();
+    std::fs::write(d.join("i.mpf"), "R1=1\nIF R1==1\nG0 X0\nM30\n").unwrap();
+    let m = default_model();
+    for (file, needle) in [
+        (
+            "s.mpf",
+            "s.mpf: the program has 1 syntax error(s), the first at line 2, column 5: expected a closed string, found `\"hello`; fix them (`driftloop check` shows each with a hint) or pass --force",
+        ),
+        (
+            "i.mpf",
+            "i.mpf: the program has 1 syntax error(s), the first at line 2, column 1: IF on line 2 has no ENDIF",
+        ),
+    ] {
+        assert_refused(&run_in(d, &["plan", file, "--model", &m]), &[needle]);
+        assert_refused(
+            &run_in(d, &["transform", file, "--model", &m, "-o", "out.mpf"]),
+            &[needle],
+        );
+        assert!(!d.join("out.mpf").exists());
+    }
+    let o = run_in(d, &["check", "s.mpf"]);
+    assert_eq!(code(&o), 1);
+    assert!(err(&o).contains("found `\"hello`"), "{}", err(&o));
+}
+
 #[test]
 fn a_closed_or_empty_stdin_is_no_program_and_a_missing_subprogram_folder_an_error() {
     let dir = tempfile::tempdir().unwrap();
