@@ -8,6 +8,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 
 use super::{Format, Global};
+use crate::data::Minutes;
 use crate::model::DriftModel;
 use crate::omm::Profile;
 use crate::vm::audit::AuditSettings;
@@ -63,9 +64,10 @@ pub struct Args {
     /// control) and the machine's warmth carry from one job to the next, the clock runs on.
     #[arg(long, default_value_t = 1, value_name = "N", conflicts_with = "audit")]
     pub jobs: u32,
-    /// Minutes between the end of one job and the start of the next (spindle stopped), with `--jobs`.
-    #[arg(long, default_value_t = 0.0, value_name = "MIN", requires = "jobs")]
-    pub pause: f64,
+    /// Time between the end of one job and the start of the next (spindle stopped), with `--jobs`: `90s`,
+    /// `30min`, `1h`; a bare number is minutes.
+    #[arg(long, default_value = "0min", value_name = "TIME", requires = "jobs")]
+    pub pause: Minutes,
     /// A cutting move of the original this close to the probe point (mm, across the measured axis) touches it.
     #[arg(long, value_name = "MM", default_value_t = vm::audit::DEFAULT_PROBE_MARGIN_MM, requires = "audit")]
     pub probe_margin: f64,
@@ -153,10 +155,8 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
 /// R-parameters the last left, on a machine still as warm as the history makes it. Each job's report in
 /// turn (JSON: an array); the exit code of the last.
 fn jobs(args: &Args, mut cfg: Config, machine: &mut vm::SimpleMachine) -> anyhow::Result<ExitCode> {
-    anyhow::ensure!(
-        args.pause >= 0.0 && args.pause.is_finite(),
-        "--pause must be minutes ≥ 0"
-    );
+    let pause = args.pause.0;
+    anyhow::ensure!(pause >= 0.0, "--pause must be a time ≥ 0");
     anyhow::ensure!(
         args.program != Path::new("-"),
         "--jobs needs a program file"
@@ -179,8 +179,8 @@ fn jobs(args: &Args, mut cfg: Config, machine: &mut vm::SimpleMachine) -> anyhow
         before.set(start + run.time_min, 0.0);
         let clock = cfg.clock_start_min;
         cfg.r_initial = run.r_final.clone();
-        cfg.clock_start_min = clock + run.time_min + args.pause;
-        start += run.time_min + args.pause;
+        cfg.clock_start_min = clock + run.time_min + pause;
+        start += run.time_min + pause;
         runs.push(run);
     }
     match args.format {
