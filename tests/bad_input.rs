@@ -751,6 +751,70 @@ fn a_refusal_for_syntax_errors_names_the_first_one_where_it_is() {
     assert!(err(&o).contains("found `\"hello`"), "{}", err(&o));
 }
 
+/// CSVs a logger or a spreadsheet gets wrong: each refusal names the file, where there is one the line, and
+/// what to do. A fit of rows that span no time said "20 samples …; the model needs at least 3", and the
+/// errors of a fit or diagnosis that cannot start named no file.
+#[test]
+fn measurement_files_that_cannot_be_fitted_say_which_and_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let head = "time_min,spindle_rpm,drift_z_um\n";
+    let rows = |times: &[u32]| -> String {
+        times
+            .iter()
+            .map(|t| format!("{t},3000,{}\n", f64::from(*t) * 0.01))
+            .collect()
+    };
+    std::fs::write(d.join("header.csv"), head).unwrap();
+    std::fs::write(d.join("ragged.csv"), format!("{head}0,1000,0.1\n5,1000\n")).unwrap();
+    std::fs::write(
+        d.join("back.csv"),
+        format!("{head}{}", rows(&[0, 10, 5, 15])),
+    )
+    .unwrap();
+    std::fs::write(d.join("few.csv"), format!("{head}{}", rows(&[0, 5, 5, 10]))).unwrap();
+    std::fs::write(d.join("same.csv"), format!("{head}{}", rows(&[7; 20]))).unwrap();
+    let m = default_model();
+    for (file, needles) in [
+        (
+            "header.csv",
+            &["header.csv: no data rows after the header"][..],
+        ),
+        (
+            "ragged.csv",
+            &["ragged.csv:3: 2 fields, but the header has 3: every row needs one value per column"],
+        ),
+        (
+            "back.csv",
+            &["back.csv:4:1: time goes backwards within run 1: 5 after 10"],
+        ),
+        (
+            "few.csv",
+            &[
+                "few.csv: 4 samples in the fitted rows; the model needs at least",
+                "measure longer",
+            ],
+        ),
+        (
+            "same.csv",
+            &[
+                "same.csv: the fitted rows span no time",
+                "check the time column",
+            ],
+        ),
+    ] {
+        assert_refused(&run_in(d, &["fit", file]), needles);
+    }
+    assert_refused(
+        &run_in(d, &["forward", "few.csv", "--until", "8"]),
+        &["few.csv: drift_z_um: 3 samples in the fitted rows"],
+    );
+    assert_refused(
+        &run_in(d, &["diagnose", &m, "few.csv"]),
+        &["few.csv: only", "rows before the holdout", "--holdout-from"],
+    );
+}
+
 #[test]
 fn a_closed_or_empty_stdin_is_no_program_and_a_missing_subprogram_folder_an_error() {
     let dir = tempfile::tempdir().unwrap();

@@ -95,7 +95,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     };
     opts.max_effects = args.max_effects;
     opts.probe_every_min = Some(args.probe_every.0);
-    let d = diagnose(&model, &ds, &opts)?;
+    let d = diagnose(&model, &ds, &opts).map_err(|e| super::log::of_data(&ds, e))?;
     match args.format {
         Format::Human => super::output::print(&d.human())?,
         Format::Json => {

@@ -104,7 +104,8 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 modes: args.modes,
                 until_min,
             },
-        )?,
+        )
+        .map_err(|e| super::log::of_data(&ds, e))?,
         Kind::Dlag => {
             let mut opts = DlagOptions::new(channel);
             if let Some(lags) = &args.spindle_lags {
@@ -138,7 +139,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 );
                 opts.sensor_lags = vec![lags];
             }
-            fit_dlag(&ds, &opts)?
+            fit_dlag(&ds, &opts).map_err(|e| super::log::of_data(&ds, e))?
         }
     };
     let report = match args.format {

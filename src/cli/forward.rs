@@ -84,12 +84,12 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 o.until_min = Some(until);
                 o.probe_every_min = Some(args.probe_every.0);
                 o.averaging = args.design.averaging();
-                fit_dlag(&ds, &o)?
+                fit_dlag(&ds, &o).map_err(|e| super::log::of_data(&ds, format!("{ch}: {e}")))?
             }
             Kind::Modes => {
                 let mut o = FitOptions::new(ch.clone());
                 o.until_min = Some(until);
-                fit(&ds, &o)?
+                fit(&ds, &o).map_err(|e| super::log::of_data(&ds, format!("{ch}: {e}")))?
             }
         };
         let predicted = model.predict(&ds)?;

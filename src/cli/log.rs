@@ -46,6 +46,17 @@ pub(crate) fn read_data(path: &Path, require: Require) -> anyhow::Result<crate::
     Ok(data)
 }
 
+/// An error of the work on `ds` (a fit, a diagnosis) with the file it came from, unless it names it already:
+/// the message of a fit that cannot start speaks of rows and samples, which the user finds in that file.
+pub(crate) fn of_data(ds: &crate::data::Dataset, e: impl std::fmt::Display) -> anyhow::Error {
+    let message = e.to_string();
+    if message.starts_with(&ds.source) {
+        anyhow::anyhow!(message)
+    } else {
+        anyhow::anyhow!("{}: {message}", ds.source)
+    }
+}
+
 /// Reads and merges `files`; the notes go to stderr.
 pub(crate) fn read_merged(
     files: &[PathBuf],

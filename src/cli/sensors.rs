@@ -61,7 +61,8 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     opts.holdout_from_min = args.holdout_from.map(|m| m.0);
     let (report, model, html) = match &args.position_column {
         Some(p) => {
-            let analysis = analyse_position(&ds, &p.to_ascii_lowercase(), &opts)?;
+            let analysis = analyse_position(&ds, &p.to_ascii_lowercase(), &opts)
+                .map_err(|e| super::log::of_data(&ds, e))?;
             let report = match args.format {
                 Format::Human => analysis.human(),
                 Format::Json => analysis.json(),
@@ -70,7 +71,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             (report, analysis.to_model(), html)
         }
         None => {
-            let analysis = analyse(&ds, &opts)?;
+            let analysis = analyse(&ds, &opts).map_err(|e| super::log::of_data(&ds, e))?;
             let report = match args.format {
                 Format::Human => analysis.human(),
                 Format::Json => analysis.json(),
