@@ -392,3 +392,59 @@ fn the_readme_picture_is_what_the_demo_draws() {
     );
     assert!(drawn.starts_with("<svg") && drawn.contains("machined error"));
 }
+
+/// A new user reads `--help` first: every flag says what it does (`--format` of nine commands showed only
+/// its possible values), and every command ends with examples that use its own flags.
+#[test]
+fn every_help_describes_each_flag_and_ends_with_examples() {
+    let mut problems = Vec::new();
+    for command in COMMANDS {
+        let mut args: Vec<&str> = command.split(' ').collect();
+        args.push("--help");
+        let out = Command::new(env!("CARGO_BIN_EXE_driftloop"))
+            .args(&args)
+            .output()
+            .unwrap();
+        let help = String::from_utf8(out.stdout).unwrap();
+        let lines: Vec<&str> = help.lines().collect();
+        for (i, line) in lines.iter().enumerate() {
+            let option = line.trim_start();
+            // Options only: not the `- value: …` lines of a list of possible values.
+            if !option.starts_with('-') || option.starts_with("- ") {
+                continue;
+            }
+            let next = lines.get(i + 1).map_or("", |l| l.trim());
+            if next.is_empty()
+                || next.starts_with("Possible values")
+                || next.starts_with("[default")
+            {
+                problems.push(format!("{command}: `{option}` has no description"));
+            }
+        }
+        let Some(examples) = help.split("\nExamples:\n").nth(1) else {
+            problems.push(format!("{command}: no Examples section"));
+            continue;
+        };
+        for example in examples.lines().filter(|l| !l.trim().is_empty()) {
+            if !example.trim().starts_with(&format!("driftloop {command}")) {
+                problems.push(format!(
+                    "{command}: example `{example}` runs another command"
+                ));
+            }
+            for flag in example.split_whitespace().filter(|w| w.starts_with('-')) {
+                let long = flag.split('=').next().unwrap();
+                let declared = lines.iter().any(|l| {
+                    let option = l.trim_start();
+                    option.starts_with('-')
+                        && option
+                            .split([' ', ','])
+                            .any(|w| w.split(['=', '<']).next() == Some(long))
+                });
+                if long != "-" && !declared {
+                    problems.push(format!("{command}: example flag {long} is not in --help"));
+                }
+            }
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}

@@ -18,6 +18,9 @@ use crate::diagnostic::Severity;
 use crate::walk::{self, Input};
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop check fixtures/omm/handwritten.mpf\n  driftloop check programs/ --format json"
+)]
 pub struct Args {
     /// Programs or directories (walked recursively for .mpf .spf .arc .nc .def); `-` reads stdin.
     #[arg(required = true, value_name = "PATH")]

@@ -39,6 +39,9 @@ impl Design {
 }
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop fit fixtures/data/characterisation.csv --channel drift_z_um -o model.toml\n  driftloop fit data.csv --kind dlag --until 16h -o model.toml"
+)]
 pub struct Args {
     /// Measurement CSV (time_s|time_min|time_h, spindle_rpm, *_um channels, …); `-` reads stdin.
     pub data: PathBuf,
@@ -86,6 +89,7 @@ pub struct Args {
     /// Write the model file here (`-` = stdout, the report then goes to stderr).
     #[arg(short, long)]
     pub output: Option<PathBuf>,
+    /// `human`: the report as text; `json`: the model as JSON.
     #[arg(long, value_enum, default_value_t = Format::Human)]
     pub format: Format,
 }

@@ -18,6 +18,9 @@ use crate::model::probing::Probing;
 use crate::model::{FitOptions, fit};
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop forward data.csv --until 16h\n  driftloop forward data.csv --until 8h --to 16h --probe-every 30min"
+)]
 pub struct Args {
     /// Measurement CSV with the channels, the spindle speed and the sensors; `-` reads stdin.
     pub data: PathBuf,
@@ -46,6 +49,7 @@ pub struct Args {
     /// gain the dlag fit chose by forward validation (default: re-zero only).
     #[arg(long)]
     pub probe_trend: bool,
+    /// `human`: a table; `json`: one JSON array with every number.
     #[arg(long, value_enum, default_value_t = Format::Human)]
     pub format: Format,
 }

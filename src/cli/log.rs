@@ -25,6 +25,9 @@ pub enum LogCommand {
 }
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop log merge fixtures/data/characterisation.csv job1/DRIFTLOG job2/DRIFTLOG -o merged.csv"
+)]
 pub struct MergeArgs {
     /// Measurement files in the order they were recorded (CSV or DRIFTLOG; `-` reads stdin once).
     #[arg(required = true)]

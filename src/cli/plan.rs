@@ -15,12 +15,16 @@ use crate::omm::{self, Plan};
 use crate::walk::Input;
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop plan fixtures/omm/handwritten.mpf --model fixtures/omm/model.toml --profile blum-tc50"
+)]
 pub struct Args {
     /// The program (`-` reads stdin).
     #[arg(value_name = "PROGRAM")]
     program: PathBuf,
     #[command(flatten)]
     setup: Setup,
+    /// `human`: tables; `json`: the plan as JSON.
     #[arg(long, value_enum, default_value_t = Format::Human)]
     format: Format,
     /// Plan programs with syntax errors too.

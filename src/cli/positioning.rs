@@ -22,12 +22,16 @@ pub enum TableFormat {
 }
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop positioning fixtures/positioning/paper_row.csv --standard iso230-2 --table comp.csv"
+)]
 pub struct Args {
     /// Measurements CSV (axis,target_mm,direction,run,deviation_um); `-` reads stdin.
     pub data: PathBuf,
     /// Whose definitions and coverage factor to use (k = 3 for DSTU and VDI, 2 for ISO).
     #[arg(long, value_enum, default_value_t = Standard::Dstu27843)]
     pub standard: Standard,
+    /// `human`: tables; `json`: one JSON object with the same numbers.
     #[arg(long, value_enum, default_value_t = Format::Human)]
     pub format: Format,
     /// Write a self-contained HTML report here.

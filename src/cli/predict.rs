@@ -13,6 +13,9 @@ use crate::diagnostic::Severity;
 use crate::model::{DriftModel, Schedule, extrapolation_warning};
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop predict model.toml --schedule 5000:1h,0:30min --step 5min\n  driftloop predict model.toml --data log.csv -o predicted.csv"
+)]
 #[command(group(clap::ArgGroup::new("input").required(true).args(["schedule", "data"])))]
 pub struct Args {
     /// Model file from `driftloop fit`.

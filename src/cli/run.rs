@@ -15,6 +15,9 @@ use crate::vm::audit::AuditSettings;
 use crate::vm::{self, Config, End, MachineSpec};
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop run PART_DL.MPF --machine vm.toml\n  driftloop run --audit PART_DL.MPF --model model.toml --profile machine.toml\n  driftloop run PART_DL.MPF --machine vm.toml --jobs 3 --pause 30min"
+)]
 pub struct Args {
     /// The main program (`-` reads stdin; subprograms are then looked up in the current folder).
     pub program: PathBuf,
@@ -34,6 +37,7 @@ pub struct Args {
     /// Executed blocks beyond the program's own block count after which the run is stopped as an endless loop.
     #[arg(long, default_value_t = 1_000_000)]
     pub max_blocks: u64,
+    /// `human`: the report as text; `json`: the run as one JSON object (passes, measurements, corrections, alarms, files).
     #[arg(long, value_enum, default_value_t = Format::Human)]
     pub format: Format,
     /// Write the per-block trace (positions, time, spindle speed) as CSV to this file (`-`: stdout).

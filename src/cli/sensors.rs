@@ -12,6 +12,9 @@ use crate::sensors::position::analyse_position;
 use crate::sensors::{Options, analyse};
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop sensors data.csv --channel ch3_um --holdout-from 16h -o sensors.toml --report sensors.html"
+)]
 pub struct Args {
     /// Measurement CSV with a displacement channel and `*_c` temperature columns; `-` reads stdin.
     pub data: PathBuf,
@@ -32,6 +35,7 @@ pub struct Args {
     /// number is minutes; default: the last third of the time span).
     #[arg(long, value_name = "TIME")]
     pub holdout_from: Option<Minutes>,
+    /// `human`: text; `json`: the analysis as JSON.
     #[arg(long, value_enum, default_value_t = Format::Human)]
     pub format: Format,
     /// Write the regression as a model file that `predict`, `diagnose` and `transform` read (`-` = stdout,

@@ -13,6 +13,9 @@ use crate::strip::strip;
 use crate::walk::{self, Input};
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop strip PART_DL.MPF -o PART.MPF\n  driftloop strip --check programs/"
+)]
 pub struct Args {
     /// Transformed programs or directories (walked recursively for .mpf .spf .arc .nc .def); `-` reads stdin.
     #[arg(required = true, value_name = "PATH")]

@@ -21,6 +21,9 @@ use crate::omm::{self, ModelRef, Profile, Summary};
 use crate::walk::{self, Input};
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop transform PART.MPF --model model.toml --profile tool-setter -o PART_DL.MPF\n  driftloop transform PART.MPF --model model.toml --diff\n  driftloop transform programs/ --model model.toml -o out/ --keep-going"
+)]
 pub struct Args {
     /// Programs or directories (walked recursively for .mpf .spf .arc .nc .def); `-` reads stdin.
     #[arg(required = true, value_name = "PATH")]
