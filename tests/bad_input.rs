@@ -815,6 +815,46 @@ fn measurement_files_that_cannot_be_fitted_say_which_and_why() {
     );
 }
 
+/// An output that cannot be written (its folder is a file) names the output, and nothing half-written is
+/// left; `transform` and `strip` said only "cannot create h.mpf: File exists".
+#[test]
+fn an_output_that_cannot_be_written_is_named_with_the_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::copy(fixture("omm/handwritten.mpf"), d.join("p.mpf")).unwrap();
+    std::fs::copy(fixture("data/characterisation.csv"), d.join("data.csv")).unwrap();
+    let m = default_model();
+    let cases: [(&[&str], &str); 5] = [
+        (
+            &["transform", "p.mpf", "--model", &m, "-o", "p.mpf/x.mpf"],
+            "cannot write p.mpf/x.mpf: cannot create its folder p.mpf",
+        ),
+        (
+            &["strip", "p.mpf", "-o", "p.mpf/x.mpf"],
+            "cannot write p.mpf/x.mpf: cannot create its folder p.mpf",
+        ),
+        (
+            &["fit", "data.csv", "-o", "p.mpf/m.toml"],
+            "cannot write the model file p.mpf/m.toml",
+        ),
+        (
+            &["log", "merge", "data.csv", "-o", "p.mpf/x.csv"],
+            "cannot write p.mpf/x.csv",
+        ),
+        (
+            &["run", "p.mpf", "--trace", "p.mpf/t.csv"],
+            "cannot write p.mpf/t.csv",
+        ),
+    ];
+    for (args, needle) in cases {
+        assert_failed(&run_in(d, args), &[needle], &[]);
+    }
+    assert_eq!(
+        std::fs::read(d.join("p.mpf")).unwrap(),
+        std::fs::read(fixture("omm/handwritten.mpf")).unwrap()
+    );
+}
+
 #[test]
 fn a_closed_or_empty_stdin_is_no_program_and_a_missing_subprogram_folder_an_error() {
     let dir = tempfile::tempdir().unwrap();

@@ -798,7 +798,13 @@ pub(super) fn write_atomic(
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    std::fs::create_dir_all(&dir).with_context(|| {
+        format!(
+            "cannot write {}: cannot create its folder {}",
+            path.display(),
+            dir.display()
+        )
+    })?;
     let name = path.file_name().context("output without a file name")?;
     let written = (|| -> io::Result<()> {
         let (mut tmp, _registered) = super::signals::create_registered(
