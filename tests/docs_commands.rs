@@ -154,15 +154,31 @@ fn workspace(shared: Option<&Path>) -> (tempfile::TempDir, PathBuf) {
     (tmp, work)
 }
 
-/// Runs the pages' commands; `slow` runs the slow ones and the commands as written instead of their fast
-/// variants. Returns the failures.
-fn run_pages(slow: bool) -> Vec<String> {
+/// `PATH` with the built binary's folder first, so the pages' `driftloop` is the one under test.
+fn path_with_the_binary() -> String {
     let bin_dir = Path::new(env!("CARGO_BIN_EXE_driftloop")).parent().unwrap();
-    let path = format!(
+    format!(
         "{}:{}",
         bin_dir.display(),
         std::env::var("PATH").unwrap_or_default()
-    );
+    )
+}
+
+/// The `--help` of a command (`log merge`: of the subcommand).
+fn help_of(command: &str) -> String {
+    let mut args: Vec<&str> = command.split(' ').collect();
+    args.push("--help");
+    let out = Command::new(env!("CARGO_BIN_EXE_driftloop"))
+        .args(&args)
+        .output()
+        .unwrap();
+    String::from_utf8(out.stdout).unwrap()
+}
+
+/// Runs the pages' commands; `slow` runs the slow ones and the commands as written instead of their fast
+/// variants. Returns the failures.
+fn run_pages(slow: bool) -> Vec<String> {
+    let path = path_with_the_binary();
     let shared = shared_data::path("");
     let mut failures = Vec::new();
     let mut ran = 0;
@@ -282,13 +298,7 @@ fn every_flag_is_in_its_reference_page() {
             .join(format!("{}.md", command.split(' ').next().unwrap()));
         let text =
             std::fs::read_to_string(&page).unwrap_or_else(|e| panic!("{}: {e}", page.display()));
-        let mut args: Vec<&str> = command.split(' ').collect();
-        args.push("--help");
-        let out = Command::new(env!("CARGO_BIN_EXE_driftloop"))
-            .args(&args)
-            .output()
-            .unwrap();
-        let help = String::from_utf8(out.stdout).unwrap();
+        let help = help_of(command);
         for line in help.lines() {
             let option = line.trim_start();
             if !option.starts_with('-') {
@@ -403,13 +413,7 @@ fn the_readme_picture_is_what_the_demo_draws() {
 fn every_help_describes_each_flag_and_ends_with_examples() {
     let mut problems = Vec::new();
     for command in COMMANDS {
-        let mut args: Vec<&str> = command.split(' ').collect();
-        args.push("--help");
-        let out = Command::new(env!("CARGO_BIN_EXE_driftloop"))
-            .args(&args)
-            .output()
-            .unwrap();
-        let help = String::from_utf8(out.stdout).unwrap();
+        let help = help_of(command);
         let lines: Vec<&str> = help.lines().collect();
         for (i, line) in lines.iter().enumerate() {
             let option = line.trim_start();
@@ -490,12 +494,7 @@ fn the_tutorial_shows_what_its_commands_print() {
             }
         }
     }
-    let bin_dir = Path::new(env!("CARGO_BIN_EXE_driftloop")).parent().unwrap();
-    let path = format!(
-        "{}:{}",
-        bin_dir.display(),
-        std::env::var("PATH").unwrap_or_default()
-    );
+    let path = path_with_the_binary();
     let (_tmp, work) = workspace(None);
     let mut stale = Vec::new();
     let mut compared = 0;
