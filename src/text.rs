@@ -150,7 +150,7 @@ mod tests {
         let valid = bytes.iter().position(|&b| b == 0xE4).unwrap();
         let why = not_utf8(bytes, valid, TOML);
         assert!(
-            why.starts_with("line 2, column 12: byte 0xE4 is not UTF-8 text"),
+            why.starts_with("line 2, column 11: byte 0xE4 is not UTF-8 text"),
             "{why}"
         );
     }
