@@ -114,7 +114,7 @@ fn every_measuring_gate_probes_both_axes_and_corrects_both() {
     assert!(
         sparse
             .lines()
-            .any(|l| l.starts_with("IF (ABS(R") && l.contains(") AND (ABS(R")),
+            .any(|l| l.starts_with("IF ((ABS(R") && l.contains(") AND (ABS(R")),
         "{sparse}"
     );
     let mut every = sparse_profile();

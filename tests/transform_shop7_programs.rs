@@ -85,6 +85,42 @@ fn a_gate_before_the_programs_spindle_measures_only_where_the_spindle_stands() {
     assert!(!out.unwrap().contains("$AA_S"));
 }
 
+/// A face whose cuts are in a shop subprogram that is not beside the program when it is transformed.
+const SHOP_SUB_MAIN: &str = "; FACING IN A SHOP SUBPROGRAM - SPINDLE STARTED IN MDA\nN10 G17 G90 G94 G71\n\
+N20 G54 D1\nN30 G0 X-50 Y0 Z20\nN40 FACE_PASS\nN50 G0 Z100\nN60 M30\n";
+const SHOP_SUB: &str = "PROC FACE_PASS\nG1 Z-0.5 F600\nX250 F1600\nY60\nX-50\nG0 Z20\nRET\n";
+
+#[test]
+fn a_gate_before_a_shop_subprogram_it_cannot_read_checks_the_operators_spindle() {
+    // The first cut is a call of a subprogram driftloop could not read. Trusted to start its own spindle,
+    // the zero before it stopped the operator's with its M5, and FACE_PASS, which has no spindle word,
+    // fed the cutter into the part standing still.
+    let sub = [("FACE_PASS.SPF", SHOP_SUB.to_string())];
+    for profile in ["blum-tc50", "siemens-cycle978"] {
+        let (o, dir) = common::transform_in(&[("p.mpf", SHOP_SUB_MAIN)], "p.mpf", profile);
+        assert!(o.status.success(), "{profile}: {}", common::stderr(&o));
+        let out = std::fs::read_to_string(dir.path().join("out.mpf")).unwrap();
+        let check = out.find("$AA_S[1]<>0").expect("the spindle check");
+        assert!(
+            check < out.find("N40 FACE_PASS").unwrap(),
+            "{profile}: {out}"
+        );
+        let original = common::run_on_machine(&mda_spindle(), &sub, SHOP_SUB_MAIN);
+        let turning = common::run_on_machine(&mda_spindle(), &sub, &out);
+        assert!(
+            matches!(turning.end, driftloop::vm::End::ProgramEnd { .. }),
+            "{profile}: {:?}",
+            turning.end
+        );
+        assert!(turning.alarms.is_empty(), "{profile}: {:?}", turning.alarms);
+        assert!(turning.measurements.is_empty(), "{profile}: measured");
+        assert!(!original.passes.is_empty());
+        assert_eq!(pass_speeds(&turning), pass_speeds(&original), "{profile}");
+        let standing = common::run_on_machine(TOOL_LOADED, &sub, &out);
+        assert!(!standing.measurements.is_empty(), "{profile}: not measured");
+    }
+}
+
 #[test]
 fn a_gate_without_the_spindle_check_is_caught_with_a_turning_start_spindle() {
     // The same output with the check taken out stops the operator's spindle for good: on the machine the

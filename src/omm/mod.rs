@@ -483,11 +483,6 @@ fn prepare_with<'p>(
         label_prefix,
         fingerprint: warm::fingerprint(&models.iter().map(|m| m.sha256).collect::<Vec<_>>()),
         tool_change_call: timeline.tool_change_call.clone(),
-        zero_may_skip: emit::reads_tool(&plan, profile)
-            || plan
-                .gates
-                .iter()
-                .any(|g| g.kind == GateKind::Reference && g.can_measure && g.hand_spindle),
     };
     if let Some(w) = &profile.warm_start {
         let store = w.r_first..w.r_first + emitter.store_len();
@@ -555,7 +550,7 @@ fn prepare_with<'p>(
         if needs_tool && gate.before.tool.is_none() && !plan::reads_tool(profile) {
             return Err(TransformError::UnknownTool(gate.number));
         }
-        if gate.can_measure && (gate.kind != GateKind::Reference || emitter.skips_zero(gate)) {
+        if gate.can_measure {
             labels.push(format!("{}SKIP{}", emitter.label_prefix, gate.number));
         }
         insert(&mut editor, gate.block, text)?;

@@ -85,12 +85,21 @@ pub fn facing_passes(select: &str, every_pass: bool, surface: f64) -> String {
 }
 
 /// Runs `program` on the virtual machine the machine file `machine` describes, with `files` (name, text)
-/// written beside it (the models it names).
+/// written beside it (the models it names, the subprograms it calls).
 pub fn run_on_machine(
     machine: &str,
     files: &[(&str, String)],
     program: &str,
 ) -> driftloop::vm::Run {
+    try_run_on_machine(machine, files, program).unwrap()
+}
+
+/// [`run_on_machine`], where the dry run may stop with an error (what a control stops with an alarm).
+pub fn try_run_on_machine(
+    machine: &str,
+    files: &[(&str, String)],
+    program: &str,
+) -> Result<driftloop::vm::Run, driftloop::vm::VmError> {
     let dir = tempfile::tempdir().unwrap();
     for (name, text) in files {
         std::fs::write(dir.path().join(name), text).unwrap();
@@ -99,7 +108,13 @@ pub fn run_on_machine(
         driftloop::vm::parse_machine_file(machine, dir.path(), driftloop::vm::Config::default())
             .unwrap();
     let mut m = spec.build(1);
-    driftloop::vm::run_source("part.mpf", program.as_bytes(), None, &cfg, &mut m).unwrap()
+    driftloop::vm::run_source(
+        "part.mpf",
+        program.as_bytes(),
+        Some(dir.path()),
+        &cfg,
+        &mut m,
+    )
 }
 
 /// Audits `transformed` against `original` on the virtual machine `settings` describe and asserts that the

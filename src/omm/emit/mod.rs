@@ -376,9 +376,6 @@ pub struct Emitter<'a> {
     /// The subprogram the program changes tools with (`L6`): the gates' tool changes call it too, after
     /// `T=`, instead of the profile's M6, which the machine may not take outside its macro.
     pub tool_change_call: Option<String>,
-    /// The reference may leave out the zero at run time (no tool to swap the probe back for, or the
-    /// operator's spindle turning): the gates after it see the measurement counter at 0 then.
-    pub zero_may_skip: bool,
 }
 
 fn r(n: u32) -> String {
@@ -914,10 +911,41 @@ impl Emitter<'_> {
         }
     }
 
-    /// A reference gate that leaves out the zero where no tool is active or the operator's spindle turns
-    /// (it has a skip label then).
-    pub fn skips_zero(&self, gate: &Gate) -> bool {
-        self.reads_tool_at(gate).is_some() || gate.hand_spindle
+    /// Where the control interprets the program without machining it: a block search (`$P_SEARCH`, 1…5,
+    /// also during SERUPRO), program test (`$P_ISTEST`) or the operator panel's simulation (`$P_SIM`). The
+    /// probe does not touch anything there, so the gate's agreement loop would stop with an alarm, and a
+    /// reading taken from a stale result would correct the part wrongly: a comment and the condition that
+    /// leaves the measurement out.
+    fn not_machining() -> [String; 2] {
+        [
+            "; driftloop: no measurement in a block search, program test or simulation".into(),
+            "$P_SEARCH OR $P_ISTEST OR $P_SIM".into(),
+        ]
+    }
+
+    /// Where the tool read at run time is the probe itself, a gate stopped before had left it in the
+    /// spindle (its alarm ends the program with the probe loaded): the program would cut with it, so the
+    /// gate stops before any move until the operator loads the program's tool. The name is read only for
+    /// a tool that exists (T0 has no data, and the control evaluates both sides of an AND), and only under
+    /// tool management, where tools are selected by name (`$TC_TP2`).
+    fn probe_left_in(&self, gate: &Gate, [t, _]: [u32; 2]) -> Vec<String> {
+        let probe = &self.profile.probe.tool;
+        if !self.profile.probe.tool_by_number.contains("$TC_TP2") {
+            return Vec::new();
+        }
+        let mut v = vec![
+            format!("IF {}>0", r(t)),
+            format!("IF $TC_TP2[{}]==\"{probe}\"", r(t)),
+        ];
+        v.extend(self.abort(
+            &format!(
+                "driftloop: gate {}: the probe {probe} is in the spindle: load the program's tool, then start again",
+                gate.number
+            ),
+            self.profile.registers.alarm_tool,
+        ));
+        v.extend(["ENDIF".into(), "ENDIF".into()]);
+        v
     }
 
     /// Where the gate stands before the program sets its spindle while it cuts with the operator's: a
@@ -964,7 +992,7 @@ impl Emitter<'_> {
             ),
             self.profile.registers.alarm_tool,
         ));
-        v.push("ENDIF".into());
+        v.extend(["ENDIF".into(), "ENDIF".into()]);
         v
     }
 
@@ -1370,20 +1398,25 @@ impl Emitter<'_> {
         }
         // With no tool active there is no zero: the gates after see the measurement counter at 0 and do not
         // measure either.
-        let read = self.reads_tool_at(gate);
         let skip = format!("{}SKIP{}", self.label_prefix, gate.number);
-        let mut no_zero = Vec::new();
-        if let Some(read) = read {
+        let [why, searching] = Emitter::not_machining();
+        v.push(why);
+        let mut no_zero = vec![searching];
+        if let Some(read) = self.reads_tool_at(gate) {
             v.extend(Emitter::read_tool(read));
+            v.extend(self.probe_left_in(gate, read));
             no_zero.extend(Emitter::no_tool(read));
         }
         if let Some([why, turns]) = Emitter::hand_spindle_turns(gate) {
             v.push(why);
             no_zero.push(turns);
         }
-        if !no_zero.is_empty() {
-            v.push(format!("IF {} GOTOF {skip}", any_of(&no_zero)));
-        }
+        // Without its zero the run still logs the row, without a reading, as a gate that does not measure.
+        let no_zero = format!("IF {}", any_of(&no_zero));
+        v.push(no_zero.clone());
+        v.extend(self.log_checked(cut_rpm, gate.pass, false));
+        v.push("ENDIF".into());
+        v.push(format!("{no_zero} GOTOF {skip}"));
         v.extend(self.save_position(gate));
         v.extend(self.probe_in(gate));
         v.push("; driftloop stage 4: reference measurement, the zero".into());
@@ -1394,9 +1427,7 @@ impl Emitter<'_> {
         ));
         v.extend(self.log_checked(cut_rpm, gate.pass, true));
         v.extend(self.give_back(gate));
-        if self.skips_zero(gate) {
-            v.push(format!("{skip}:"));
-        }
+        v.push(format!("{skip}:"));
         for k in 0..self.axes.len() {
             v.extend(self.set_targets(k, gate.rpm));
         }
@@ -1436,27 +1467,27 @@ impl Emitter<'_> {
                     .collect();
                 no_measurement.push(all_of(&calm));
             }
+            let [why, searching] = Emitter::not_machining();
+            v.push(why);
+            no_measurement.push(searching);
             if let Some(read) = self.reads_tool_at(gate) {
                 v.extend(Emitter::read_tool(read));
+                v.extend(self.probe_left_in(gate, read));
                 no_measurement.extend(Emitter::no_tool(read));
             }
             if let Some([why, turns]) = Emitter::hand_spindle_turns(gate) {
                 v.push(why);
                 no_measurement.push(turns);
             }
-            if self.zero_may_skip {
-                // The zero was not measured (no tool active or the operator's spindle turning at the
-                // reference): nothing to measure against.
-                no_measurement.push(format!("{}==0", r(self.regs.nbl)));
-            }
-            if !no_measurement.is_empty() {
-                let cycle_in = format!("IF {}", any_of(&no_measurement));
-                // Cycle_in machines on without measuring but still logs its row, without a reading.
-                v.push(cycle_in.clone());
-                v.extend(self.log_checked(gate.rpm, gate.pass, false));
-                v.push("ENDIF".into());
-                v.push(format!("{cycle_in} GOTOF {skip}"));
-            }
+            // The zero was not measured (a block search started after it, no tool active or the
+            // operator's spindle turning at the reference): nothing to measure against.
+            no_measurement.push(format!("{}==0", r(self.regs.nbl)));
+            let cycle_in = format!("IF {}", any_of(&no_measurement));
+            // Cycle_in machines on without measuring but still logs its row, without a reading.
+            v.push(cycle_in.clone());
+            v.extend(self.log_checked(gate.rpm, gate.pass, false));
+            v.push("ENDIF".into());
+            v.push(format!("{cycle_in} GOTOF {skip}"));
             v.extend(self.save_position(gate));
             v.extend(self.probe_in(gate));
             v.extend(self.measure_axes(&what, |k| self.expected(k), |k| self.measured_drift(k)));

@@ -220,6 +220,11 @@ impl Interp<'_> {
             ("$AC_CYCLE_TIME" | "$AC_OPERATING_TIME", []) => self.time_min * 60.0,
             ("$P_F", []) => m.modal.feed.unwrap_or(0.0),
             ("$AA_S", [_] | []) => m.spindle_rpm(),
+            // The dry run machines in automatic mode; the machine file may set these to run a program
+            // as a block search, a program test or a simulation would.
+            ("$P_SEARCH" | "$P_SEARCHL" | "$P_ISTEST" | "$P_SIM" | "$P_DRYRUN", []) => {
+                self.cfg.variables.get(&name).copied().unwrap_or(0.0)
+            }
             ("$P_TOOLNO", []) => m.tool.as_ref().map_or(0.0, |t| self.cfg.tool_number(t)),
             ("$A_INA", [n]) => {
                 let n = self.num(u, n)?;

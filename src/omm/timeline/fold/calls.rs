@@ -93,9 +93,10 @@ impl Builder<'_> {
                 // the reference measurement goes before it. The swivel, settings and measuring cycles
                 // do not cut.
                 if !cuts_nothing(name) && !self.profile.cycle_call().starts_with(name) {
-                    // Siemens' machining cycles cut at the spindle they find; a shop's subprogram (a warm-up,
-                    // a ShopMill step) may start its own.
-                    self.cuts(i, name.to_ascii_uppercase().starts_with("CYCLE"));
+                    // Siemens' machining cycles cut at the spindle they find; a shop's subprogram driftloop
+                    // cannot read may start its own or cut with the operator's, so the gates before it
+                    // check the spindle at run time as before a cycle.
+                    self.cuts(i, true);
                 }
                 self.t.untimed_calls.push((i + 1, shown.to_string()));
                 None
