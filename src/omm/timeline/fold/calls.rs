@@ -61,7 +61,7 @@ impl Builder<'_> {
                 self.add_minutes(runs * sub.total_min);
                 self.t.inexact_blocks += sub.inexact_blocks;
                 let line = |own: usize| if elsewhere { i + 1 } else { own };
-                if !sub.offset_selections.is_empty() {
+                if !sub.offset_selections.is_empty() && self.state.unfit().is_none() {
                     self.t.offset_selections.push(i);
                 }
                 self.t.untimed_calls.extend(
@@ -95,7 +95,11 @@ impl Builder<'_> {
                 if !cuts_nothing(name) && !self.profile.cycle_call().starts_with(name) {
                     // Siemens' machining cycles cut at the spindle they find; a shop's subprogram (a warm-up,
                     // a ShopMill step) may start its own.
-                    self.cuts(i, name.to_ascii_uppercase().starts_with("CYCLE"));
+                    let siemens = name.to_ascii_uppercase().starts_with("CYCLE");
+                    if !siemens && self.t.first_cut.is_none() {
+                        self.t.first_cut_call = Some((i + 1, shown.to_string()));
+                    }
+                    self.cuts(i, siemens);
                 }
                 self.t.untimed_calls.push((i + 1, shown.to_string()));
                 None

@@ -523,9 +523,13 @@ impl<'p> Builder<'p> {
         for &g in &s.offsets {
             self.offset(g, i);
         }
+        // Under a swivel or a transformation no inserted block writes the frame in force (a post that
+        // selects `G54 D1` after CYCLE800): the correction the selection dropped stays off until the next
+        // gate, which reads back what is in force.
         if s.offsets
             .iter()
             .any(|g| matches!(g, 500 | 54..=57 | 505..=599))
+            && self.state.unfit().is_none()
         {
             self.t.offset_selections.push(i);
         }

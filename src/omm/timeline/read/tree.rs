@@ -63,9 +63,15 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                 if let Some(bit) = ["A", "B", "C"].iter().position(|r| *r == other) {
                     let bit = 1 << bit;
                     match (&a.value, a.mode) {
-                        (Value::Number(v), AxisMode::Modal | AxisMode::Ac) if *v == 0.0 => {
-                            s.rotary_home |= bit
-                        }
+                        // DC, ACP and ACN go to the absolute angle too, by their own way round.
+                        (
+                            Value::Number(v),
+                            AxisMode::Modal
+                            | AxisMode::Ac
+                            | AxisMode::Dc
+                            | AxisMode::Acp
+                            | AxisMode::Acn,
+                        ) if *v == 0.0 => s.rotary_home |= bit,
                         (Value::Expr(span), AxisMode::Modal | AxisMode::Ac)
                             if is_name(&program.source()[span.start..span.end]) =>
                         {
@@ -151,7 +157,15 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                 let name = name.to_ascii_uppercase();
                 s.frame_ops |= transformation_op(&name);
                 if name == "CYCLE800" {
-                    s.frame_ops |= swivel_op(&block, node);
+                    let op = swivel_op(&block, node);
+                    s.frame_ops |= op;
+                    // The swivel turns the rotary axes of its data set (which ones, the kinematics say),
+                    // and deselecting it (`CYCLE800()`) deletes its frames without moving them back: the
+                    // part stays turned under a probe point in work coordinates until the program moves
+                    // the axes to 0 itself.
+                    if op == frame_op::SWIVEL_ON {
+                        s.rotary_away |= 0b111;
+                    }
                 }
                 if corrects_work_offset(&block, node, &name) {
                     s.frame_ops |= frame_op::WRITE;
