@@ -727,9 +727,13 @@ fn reference_site(
 
 /// A gate that moves would measure at `site` before a builder's or shop's cycle that is the program's first
 /// cut, with no tool of the program's known: what it measures with is what the previous program left
-/// (a gauge reads where the machine stands and moves nothing).
+/// (a gauge reads where the machine stands and moves nothing; a spindle probe before the program's own
+/// tool change leaves that change to load the program's tool).
 fn before_setup_call(timeline: &Timeline, site: &Site, profile: &Profile) -> bool {
+    let own_change_follows = profile.probe.kind == ProbeKind::SpindleProbe
+        && matches!(site.kind, SiteKind::PassStart { tool_change: true });
     profile.probe.kind != ProbeKind::Gauge
+        && !own_change_follows
         && site.before.tool.is_none()
         && timeline
             .first_cut_call

@@ -157,15 +157,7 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                 let name = name.to_ascii_uppercase();
                 s.frame_ops |= transformation_op(&name);
                 if name == "CYCLE800" {
-                    let op = swivel_op(&block, node);
-                    s.frame_ops |= op;
-                    // The swivel turns the rotary axes of its data set (which ones, the kinematics say),
-                    // and deselecting it (`CYCLE800()`) deletes its frames without moving them back: the
-                    // part stays turned under a probe point in work coordinates until the program moves
-                    // the axes to 0 itself.
-                    if op == frame_op::SWIVEL_ON {
-                        s.rotary_away |= 0b111;
-                    }
+                    s.frame_ops |= swivel_op(&block, node);
                 }
                 if corrects_work_offset(&block, node, &name) {
                     s.frame_ops |= frame_op::WRITE;
