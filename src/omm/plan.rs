@@ -669,8 +669,8 @@ fn reference_site(
     // place before the setup and after the last tool load holds the zero as well.
     if profile.position.frame == MeasureFrame::Machine || profile.probe.kind == ProbeKind::Gauge {
         let before_setup = |s: &Site| {
-            !(steps_load_tools && s.before.tool.is_none())
-                && !before_setup_call(timeline, s, profile)
+            !(before_setup_call(timeline, s, profile)
+                || steps_load_tools && s.before.tool.is_none())
                 && s.block >= last_load.max(timeline.preamble_end)
                 && s.block < from
                 && skip_around(timeline, s.block).is_none()
@@ -702,7 +702,7 @@ fn reference_site(
     }
     if let (Some((_, SETUP_CALL)), Some((line, name))) = (unfit, &timeline.first_cut_call) {
         message.push_str(&format!(
-            ": the call {name} (line {line}); put its file beside the program or give its folder with --subprograms DIR, or load the first tool (T=\"NAME\" M6, D1) before it"
+            "; if {name} (line {line}) changes the tool, put its file beside the program or give its folder with --subprograms DIR, or load the first tool (T=\"NAME\" M6, D1) before it"
         ));
     }
     if tool_unknown {
