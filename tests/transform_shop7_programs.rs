@@ -34,13 +34,6 @@ fn pass_speeds(run: &driftloop::vm::Run) -> Vec<f64> {
     run.passes.iter().map(|p| p.spindle_rpm).collect()
 }
 
-const MOVING_PROFILES: [&str; 4] = [
-    "blum-tc50",
-    "siemens-cycle978",
-    "tool-setter",
-    "lathe-setter",
-];
-
 #[test]
 fn a_gate_before_the_programs_spindle_measures_only_where_the_spindle_stands() {
     // 01: the program has no S/M3 (the operator started the spindle in MDA). The zero's `M5` stopped it for
@@ -48,7 +41,7 @@ fn a_gate_before_the_programs_spindle_measures_only_where_the_spindle_stands() {
     // still. Now the zero reads the actual speed after its STOPRE and goes around the probe where the
     // spindle turns.
     let prog = std::fs::read_to_string(common::fixture("shop7/01_mda_spindle_face.mpf")).unwrap();
-    for profile in MOVING_PROFILES {
+    for profile in common::MOVING_PROFILES {
         let (o, out) = transform_fixture("01_mda_spindle_face.mpf", profile);
         let out = out.unwrap_or_else(|| panic!("{profile}: {}", common::stderr(&o)));
         let check = out.find("$AA_S[1]<>0").expect("the spindle check");
@@ -91,13 +84,20 @@ N20 G54 D1\nN30 G0 X-50 Y0 Z20\nN40 FACE_PASS\nN50 G0 Z100\nN60 M30\n";
 const SHOP_SUB: &str = "PROC FACE_PASS\nG1 Z-0.5 F600\nX250 F1600\nY60\nX-50\nG0 Z20\nRET\n";
 
 #[test]
-fn a_gate_before_a_shop_subprogram_it_cannot_read_checks_the_operators_spindle() {
-    // The first cut is a call of a subprogram driftloop could not read. Trusted to start its own spindle,
-    // the zero before it stopped the operator's with its M5, and FACE_PASS, which has no spindle word,
-    // fed the cutter into the part standing still.
+fn a_shop_subprogram_that_cuts_with_the_operators_spindle_gets_no_gate_that_stops_it() {
+    // The first cut is a call of a shop subprogram with no spindle word. Unread, it is refused (no zero
+    // before a call that may set up the tool, QA round 8); read from beside the program, the zero before
+    // it checks the operator's spindle at run time, and FACE_PASS cuts at the speed the operator set.
     let sub = [("FACE_PASS.SPF", SHOP_SUB.to_string())];
     for profile in ["blum-tc50", "siemens-cycle978"] {
-        let (o, dir) = common::transform_in(&[("p.mpf", SHOP_SUB_MAIN)], "p.mpf", profile);
+        let (o, _) = common::transform_in(&[("p.mpf", SHOP_SUB_MAIN)], "p.mpf", profile);
+        assert_eq!(o.status.code(), Some(2), "{profile}");
+        assert!(common::stderr(&o).contains("FACE_PASS"), "{profile}");
+        let (o, dir) = common::transform_in(
+            &[("p.mpf", SHOP_SUB_MAIN), ("FACE_PASS.SPF", SHOP_SUB)],
+            "p.mpf",
+            profile,
+        );
         assert!(o.status.success(), "{profile}: {}", common::stderr(&o));
         let out = std::fs::read_to_string(dir.path().join("out.mpf")).unwrap();
         let check = out.find("$AA_S[1]<>0").expect("the spindle check");

@@ -63,9 +63,15 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                 if let Some(bit) = ["A", "B", "C"].iter().position(|r| *r == other) {
                     let bit = 1 << bit;
                     match (&a.value, a.mode) {
-                        (Value::Number(v), AxisMode::Modal | AxisMode::Ac) if *v == 0.0 => {
-                            s.rotary_home |= bit
-                        }
+                        // DC, ACP and ACN go to the absolute angle too, by their own way round.
+                        (
+                            Value::Number(v),
+                            AxisMode::Modal
+                            | AxisMode::Ac
+                            | AxisMode::Dc
+                            | AxisMode::Acp
+                            | AxisMode::Acn,
+                        ) if *v == 0.0 => s.rotary_home |= bit,
                         (Value::Expr(span), AxisMode::Modal | AxisMode::Ac)
                             if is_name(&program.source()[span.start..span.end]) =>
                         {
