@@ -128,3 +128,59 @@ fn a_fixed_point_approach_without_fp_is_audited() {
         assert!(!err.contains("audit incomplete"), "{profile}: {err}");
     }
 }
+
+/// A mill that also drives a second spindle with extended words (`S2=`, `M2=3`) between tool changes.
+const SECOND_SPINDLE: &str = "N10 G17 G90 G94 G71\nN20 T=\"EM_D10\" M6\nN30 D1\nN40 G54\nN50 S3000 M3\n\
+N60 G0 X0 Y0 Z20\nN70 G1 Z-1 F300\nN80 X100 F1000\nN90 G0 Z100\nN100 T=\"EM_D6\" M6\nN110 D1\nN120 S4000 M3\n\
+N130 G0 X0 Y50 Z20\nN140 G1 Z-1 F300\nN150 X100 F1000\nN160 G0 Z100\nN170 S2=2000 M2=3\nN180 T=\"EM_D8\" M6\n\
+N190 D1\nN200 S3500 M3\nN210 G0 X0 Y80 Z20\nN220 G1 Z-1 F300\nN230 X100 F1000\nN240 G0 Z100\nN250 M2=5\nN260 M30\n";
+
+#[test]
+fn no_gate_that_moves_measures_once_the_program_drives_another_spindle() {
+    // A gate stops the master spindle with M5 and gives back its S and M3 only: with `S2=2000 M2=3` (or
+    // `SETMS(2)`, `SPOS[2]`) the spindle that turns may be another, which the timeline does not follow.
+    let every = format!(
+        "{}\n[log]\nmeasure_every_gate = true\n",
+        driftloop::omm::DEFAULT_PROFILE
+    );
+    let model = common::fixture("omm/model.toml");
+    for (program, after) in [
+        (SECOND_SPINDLE.to_string(), "N170 "),
+        (
+            SECOND_SPINDLE.replace("N170 S2=2000 M2=3", "N170 SETMS(2)"),
+            "N170 ",
+        ),
+        (
+            SECOND_SPINDLE.replace("N170 S2=2000 M2=3", "N170 SPOS[2]=90"),
+            "N170 ",
+        ),
+    ] {
+        let (o, _dir) = common::run_in(
+            &[("p.mpf", &program), ("every.toml", &every)],
+            &[
+                "plan",
+                "p.mpf",
+                "--model",
+                &model,
+                "--profile",
+                "every.toml",
+                "--format",
+                "json",
+            ],
+        );
+        assert!(o.status.success(), "{}", common::stderr(&o));
+        let plan: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let line = program.lines().position(|l| l.starts_with(after)).unwrap() as u64;
+        let gates = plan["gates"].as_array().unwrap();
+        let measuring = |before: bool| {
+            gates.iter().any(|g| {
+                g["can_measure"] == true && (g["block"].as_u64().unwrap() < line) == before
+            })
+        };
+        assert!(measuring(true), "{program}: no gate measures before");
+        assert!(
+            !measuring(false),
+            "{program}: a gate measures after {after}"
+        );
+    }
+}
