@@ -34,6 +34,30 @@ fn pass_speeds(run: &driftloop::vm::Run) -> Vec<f64> {
     run.passes.iter().map(|p| p.spindle_rpm).collect()
 }
 
+/// `out`, transformed from `original`, run with the operator's spindle turning (`S2000 M3` in MDA): no
+/// measurement, no M5, every pass at that speed as in the original; and with it standing: measured (no
+/// speed given back: there was none).
+fn measures_only_where_the_spindle_stands(
+    profile: &str,
+    files: &[(&str, String)],
+    original: &str,
+    out: &str,
+) {
+    let plain = common::run_on_machine(&mda_spindle(), files, original);
+    let turning = common::run_on_machine(&mda_spindle(), files, out);
+    assert!(
+        matches!(turning.end, driftloop::vm::End::ProgramEnd { .. }),
+        "{profile}: {:?}",
+        turning.end
+    );
+    assert!(turning.alarms.is_empty(), "{profile}: {:?}", turning.alarms);
+    assert!(turning.measurements.is_empty(), "{profile}: measured");
+    assert_eq!(pass_speeds(&turning), pass_speeds(&plain), "{profile}");
+    assert!(!plain.passes.is_empty() && pass_speeds(&turning).iter().all(|&n| n == 2000.0));
+    let standing = common::run_on_machine(TOOL_LOADED, files, out);
+    assert!(!standing.measurements.is_empty(), "{profile}: not measured");
+}
+
 #[test]
 fn a_gate_before_the_programs_spindle_measures_only_where_the_spindle_stands() {
     // 01: the program has no S/M3 (the operator started the spindle in MDA). The zero's `M5` stopped it for
@@ -56,21 +80,7 @@ fn a_gate_before_the_programs_spindle_measures_only_where_the_spindle_stands() {
         if !profile.starts_with("blum") && !profile.starts_with("siemens") {
             continue;
         }
-        // Turning: no measurement, no M5, and every pass cut at the operator's speed as in the original.
-        let original = common::run_on_machine(&mda_spindle(), &[], &prog);
-        let turning = common::run_on_machine(&mda_spindle(), &[], &out);
-        assert!(
-            matches!(turning.end, driftloop::vm::End::ProgramEnd { .. }),
-            "{profile}: {:?}",
-            turning.end
-        );
-        assert!(turning.alarms.is_empty(), "{profile}: {:?}", turning.alarms);
-        assert!(turning.measurements.is_empty(), "{profile}: measured");
-        assert_eq!(pass_speeds(&turning), pass_speeds(&original), "{profile}");
-        assert!(pass_speeds(&turning).iter().all(|&n| n == 2000.0));
-        // Standing: the gate measures (and gives back no speed: there was none).
-        let standing = common::run_on_machine(TOOL_LOADED, &[], &out);
-        assert!(!standing.measurements.is_empty(), "{profile}: not measured");
+        measures_only_where_the_spindle_stands(profile, &[], &prog, &out);
     }
     // A gauge moves nothing and stops nothing: no check.
     let (o, out) = transform_fixture("01_mda_spindle_face.mpf", "grinder-gauge");
@@ -105,19 +115,7 @@ fn a_shop_subprogram_that_cuts_with_the_operators_spindle_gets_no_gate_that_stop
             check < out.find("N40 FACE_PASS").unwrap(),
             "{profile}: {out}"
         );
-        let original = common::run_on_machine(&mda_spindle(), &sub, SHOP_SUB_MAIN);
-        let turning = common::run_on_machine(&mda_spindle(), &sub, &out);
-        assert!(
-            matches!(turning.end, driftloop::vm::End::ProgramEnd { .. }),
-            "{profile}: {:?}",
-            turning.end
-        );
-        assert!(turning.alarms.is_empty(), "{profile}: {:?}", turning.alarms);
-        assert!(turning.measurements.is_empty(), "{profile}: measured");
-        assert!(!original.passes.is_empty());
-        assert_eq!(pass_speeds(&turning), pass_speeds(&original), "{profile}");
-        let standing = common::run_on_machine(TOOL_LOADED, &sub, &out);
-        assert!(!standing.measurements.is_empty(), "{profile}: not measured");
+        measures_only_where_the_spindle_stands(profile, &sub, SHOP_SUB_MAIN, &out);
     }
 }
 
