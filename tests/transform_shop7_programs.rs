@@ -198,3 +198,33 @@ fn no_spindle_probe_swap_on_a_lathe_or_grinder_that_names_no_m6_tool() {
         assert!(o.status.success(), "{name}: {}", common::stderr(&o));
     }
 }
+
+#[test]
+fn every_gate_before_the_programs_spindle_checks_it_not_only_the_zero() {
+    // With a measurement at every gate the face gets two gates before any spindle word of its own (the
+    // zero and the one at M1): both check the operator's spindle, and measure only where it stands.
+    let prog = std::fs::read_to_string(common::fixture("shop7/01_mda_spindle_face.mpf")).unwrap();
+    let every = format!(
+        "{}\n[log]\nmeasure_every_gate = true\n",
+        driftloop::omm::DEFAULT_PROFILE
+    );
+    let out = common::transformed_in(
+        &[("p.mpf", &prog), ("every.toml", &every)],
+        "p.mpf",
+        "every.toml",
+    );
+    let checks = out
+        .lines()
+        .filter(|l| l.contains("($AA_S[1]<>0)") && l.contains("GOTOF DLSKIP"))
+        .count();
+    assert_eq!(checks, 2, "{out}");
+    measures_only_where_the_spindle_stands("every", &[], &prog, &out);
+    let standing = common::run_on_machine(TOOL_LOADED, &[], &out);
+    // Each gate has its own probe call: one line per gate that measured.
+    let gates_measured = standing
+        .measurements
+        .iter()
+        .map(|m| m.at.line)
+        .collect::<std::collections::BTreeSet<_>>();
+    assert_eq!(gates_measured.len(), 2, "{:?}", standing.measurements);
+}
