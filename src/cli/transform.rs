@@ -435,10 +435,40 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     })
 }
 
+/// Folders a control searches for a called subprogram after its caller's own: the SPF directory beside
+/// the part programs' (`_N_SPF_DIR` next to `_N_MPF_DIR` in an archive or data backup, a shop's `spf` or
+/// `subroutines` folder next to `routines`), or such a folder inside the program's (any case).
+const SPF_FOLDERS: &[&str] = &["_N_SPF_DIR", "SPF", "SUBPROGRAMS", "SUBROUTINES", "SUBS"];
+
+/// The [`SPF_FOLDERS`] inside `dir` and beside it, in that order, each sorted by name.
+fn spf_folders(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut found = Vec::new();
+    for base in [dir.to_path_buf(), dir.join("..")] {
+        let Ok(entries) = std::fs::read_dir(&base) else {
+            continue;
+        };
+        let mut here: Vec<_> = entries
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| {
+                p.is_dir()
+                    && p.file_name().is_some_and(|n| {
+                        SPF_FOLDERS
+                            .iter()
+                            .any(|f| n.to_string_lossy().eq_ignore_ascii_case(f))
+                    })
+            })
+            .collect();
+        here.sort();
+        found.extend(here);
+    }
+    found
+}
+
 /// The profile with the program's own folder first among the subprogram folders, as the control finds a
-/// called subprogram beside its caller (and the audit runs it from there): the registers it uses and its
-/// time count. `None` when the folder is already listed, or the input is not a file. `plan` times the
-/// program the same way.
+/// called subprogram beside its caller (and the audit runs it from there), then its SPF folders
+/// ([`SPF_FOLDERS`]) after the profile's: the registers a subprogram uses and its time count. `None` when
+/// every one is already listed, or the input is not a file. `plan` times the program the same way.
 pub(super) fn beside_program(input: &Input, profile: &Profile) -> Option<Profile> {
     let Input::File(path) = input else {
         return None;
@@ -447,12 +477,17 @@ pub(super) fn beside_program(input: &Input, profile: &Profile) -> Option<Profile
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => std::path::PathBuf::from("."),
     };
-    if profile.timeline.subprograms.contains(&dir) {
-        return None;
-    }
     let mut with = profile.clone();
-    with.timeline.subprograms.insert(0, dir);
-    Some(with)
+    let listed = &mut with.timeline.subprograms;
+    if !listed.contains(&dir) {
+        listed.insert(0, dir.clone());
+    }
+    for spf in spf_folders(&dir) {
+        if !listed.contains(&spf) {
+            listed.push(spf);
+        }
+    }
+    (with.timeline.subprograms != profile.timeline.subprograms).then_some(with)
 }
 
 fn transform_one(
