@@ -448,10 +448,12 @@ fn subprograms_in_an_spf_folder_beside_or_inside_the_programs_are_found() {
     // place for the zero (no tool known); read, it is timed and the program transforms.
     let main = "N10 G17 G90 G94 G71 G40 G54\nN20 G0 SUPA Z0\nN30 G0 SUPA X0 Y0\nN40 WARM_UP\nN50 G0 Z100\nN60 M30\n";
     let sub = "PROC WARM_UP\nS3000 M3\nG0 X0 Y0 Z50\nG1 Z10 F300\nG1 X100 F1000\nG0 Z50\nM5\nRET\n";
-    for (programs, subprograms) in [
-        ("_N_MPF_DIR", "_N_SPF_DIR"),
-        ("routines", "subroutines"),
-        ("job", "job/spf"),
+    // Beside only as a pair: `job` and `subs` side by side are two folders, not the control's.
+    for (programs, subprograms, found) in [
+        ("_N_MPF_DIR", "_N_SPF_DIR", true),
+        ("routines", "subroutines", true),
+        ("job", "job/spf", true),
+        ("job", "subs", false),
     ] {
         let dir = tempfile::tempdir().unwrap();
         let (p, s) = (dir.path().join(programs), dir.path().join(subprograms));
@@ -468,7 +470,7 @@ fn subprograms_in_an_spf_folder_beside_or_inside_the_programs_are_found() {
         let o = common::driftloop(dir.path(), &args, b"");
         assert_eq!(
             code(&o),
-            1,
+            if found { 1 } else { 2 },
             "{subprograms}: {}",
             String::from_utf8_lossy(&o.stderr)
         );

@@ -435,32 +435,53 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     })
 }
 
-/// Folders a control searches for a called subprogram after its caller's own: the SPF directory beside
-/// the part programs' (`_N_SPF_DIR` next to `_N_MPF_DIR` in an archive or data backup, a shop's `spf` or
-/// `subroutines` folder next to `routines`), or such a folder inside the program's (any case).
+/// Folders a control searches for a called subprogram after its caller's own: an SPF folder inside the
+/// program's (any case).
 const SPF_FOLDERS: &[&str] = &["_N_SPF_DIR", "SPF", "SUBPROGRAMS", "SUBROUTINES", "SUBS"];
 
-/// The [`SPF_FOLDERS`] inside `dir` and beside it, in that order, each sorted by name.
+/// A folder of main programs and its subprograms' folder beside it: an archive's or data backup's
+/// `_N_MPF_DIR` / `_N_SPF_DIR`, a shop's `routines` / `subroutines`. Only a pair: any folder that happens
+/// to sit beside the program's (in a temporary or home folder) is not the control's.
+const SPF_BESIDE: &[(&str, &str)] = &[
+    ("_N_MPF_DIR", "_N_SPF_DIR"),
+    ("MPF", "SPF"),
+    ("ROUTINES", "SUBROUTINES"),
+    ("PROGRAMS", "SUBPROGRAMS"),
+];
+
+/// The folders in `base` whose name is one of `names` (any case), sorted.
+fn folders_named(base: &std::path::Path, names: &[&str]) -> Vec<std::path::PathBuf> {
+    let Ok(entries) = std::fs::read_dir(base) else {
+        return Vec::new();
+    };
+    let mut found: Vec<_> = entries
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| {
+            p.is_dir()
+                && p.file_name().is_some_and(|n| {
+                    names
+                        .iter()
+                        .any(|f| n.to_string_lossy().eq_ignore_ascii_case(f))
+                })
+        })
+        .collect();
+    found.sort();
+    found
+}
+
+/// The [`SPF_FOLDERS`] inside `dir`, then the [`SPF_BESIDE`] partner of `dir` beside it.
 fn spf_folders(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
-    let mut found = Vec::new();
-    for base in [dir.to_path_buf(), dir.join("..")] {
-        let Ok(entries) = std::fs::read_dir(&base) else {
-            continue;
-        };
-        let mut here: Vec<_> = entries
-            .flatten()
-            .map(|e| e.path())
-            .filter(|p| {
-                p.is_dir()
-                    && p.file_name().is_some_and(|n| {
-                        SPF_FOLDERS
-                            .iter()
-                            .any(|f| n.to_string_lossy().eq_ignore_ascii_case(f))
-                    })
-            })
-            .collect();
-        here.sort();
-        found.extend(here);
+    let mut found = folders_named(dir, SPF_FOLDERS);
+    let name = std::fs::canonicalize(dir).ok().and_then(|d| {
+        d.file_name()
+            .map(|n| n.to_string_lossy().to_ascii_uppercase())
+    });
+    if let Some((_, spf)) = SPF_BESIDE
+        .iter()
+        .find(|(mpf, _)| Some(*mpf) == name.as_deref())
+    {
+        found.extend(folders_named(&dir.join(".."), &[spf]));
     }
     found
 }

@@ -702,7 +702,7 @@ fn reference_site(
     }
     if let (Some((_, SETUP_CALL)), Some((line, name))) = (unfit, &timeline.first_cut_call) {
         message.push_str(&format!(
-            "; if {name} (line {line}) changes the tool, put its file beside the program or in an SPF folder beside it (subroutines, spf, _N_SPF_DIR), or give its folder with --subprograms DIR, or load the first tool (T=\"NAME\" M6, D1) before it"
+            "; if {name} (line {line}) changes the tool, put its file beside the program or in its SPF folder (spf or subroutines inside it, _N_SPF_DIR beside _N_MPF_DIR), or give its folder with --subprograms DIR, or load the first tool (T=\"NAME\" M6, D1) before it"
         ));
     }
     if tool_unknown {
@@ -716,7 +716,7 @@ fn reference_site(
         };
         if let Some((line, name)) = timeline.untimed_calls.iter().find(candidate) {
             message.push_str(&format!(
-                "; if {name} (line {line}) changes the tool, put its file beside the program or in an SPF folder beside it (subroutines, spf, _N_SPF_DIR), or give its folder with --subprograms DIR"
+                "; if {name} (line {line}) changes the tool, put its file beside the program or in its SPF folder (spf or subroutines inside it, _N_SPF_DIR beside _N_MPF_DIR), or give its folder with --subprograms DIR"
             ));
         }
     } else if unfit.is_none() {
