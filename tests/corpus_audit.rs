@@ -99,3 +99,40 @@ fn every_transformed_corpus_program_passes_the_audit() {
     }
     assert!(total > 0);
 }
+
+/// The README's command over the corpus, as a user runs it (no subprogram folder given: the warm-up
+/// routines find theirs in `../subroutines`): how many programs each profile transforms, audit on.
+#[test]
+fn the_readme_command_transforms_what_the_readme_says() {
+    let Some(corpus) = shared_data::path("corpus") else {
+        return;
+    };
+    let model = common::fixture("omm/model.toml");
+    let corpus = corpus.display().to_string();
+    for (profile, checked) in [
+        ("blum-tc50", 36),
+        ("siemens-cycle978", 36),
+        ("tool-setter", 37),
+        ("grinder-gauge", 36),
+        ("lathe-setter", 37),
+    ] {
+        let args = [
+            "transform",
+            "--check",
+            &corpus,
+            "--model",
+            &model,
+            "--profile",
+            profile,
+            "--keep-going",
+        ];
+        let o = common::run(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        let summary = format!("the other {checked} checked");
+        assert!(
+            err.contains(&summary),
+            "{profile}: {}",
+            err.lines().last().unwrap_or("")
+        );
+    }
+}

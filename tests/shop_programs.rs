@@ -4,7 +4,9 @@
 //! (fixtures/shop4, its README lists them), 25 in styles neither covers for QA round 5 (fixtures/shop5) and
 //! 25 in the styles QA round 6 added (fixtures/shop6: ShopMill step programs, two channels, G331, G93, POLY,
 //! G58, G75, ISO, DIAM90, a 10 648-line generated program) and 4 for QA round 7 (fixtures/shop7: a spindle
-//! the operator started, a turret lathe and a grinder that name no tool loaded by M6)
+//! the operator started, a turret lathe and a grinder that name no tool loaded by M6) and 15 for QA round 8
+//! (fixtures/shop8: machine builders' dialects — DMG MORI, Monforts, STAMA, Burkhardt+Weber, Pittler,
+//! Hermle, INDEX)
 //! through `transform` with every builtin profile.
 //! Each output is audited by `transform` itself (as planned and with every gate measuring); here every
 //! written program must give its original back through `strip`, and the counts of what transforms are held
@@ -21,8 +23,8 @@ fn root() -> &'static Path {
 #[test]
 fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
     // fixtures/shop (26, QA rounds 1–2), fixtures/shop4 (22 with tool changes, QA round 4) and
-    // fixtures/shop5 (25, QA round 5), fixtures/shop6 (25, QA round 6) and fixtures/shop7 (4, QA round 7:
-    // what the run-time tool read admitted).
+    // fixtures/shop5 (25, QA round 5), fixtures/shop6 (25, QA round 6), fixtures/shop7 (4, QA round 7:
+    // what the run-time tool read admitted) and fixtures/shop8 (15, QA round 8: builders' dialects).
     let sets = [
         (
             "shop",
@@ -61,8 +63,8 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
             "shop6",
             25,
             [
-                ("blum-tc50", 21),
-                ("siemens-cycle978", 21),
+                ("blum-tc50", 19),
+                ("siemens-cycle978", 19),
                 ("tool-setter", 21),
                 ("grinder-gauge", 23),
                 ("lathe-setter", 21),
@@ -77,6 +79,17 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
                 ("tool-setter", 4),
                 ("grinder-gauge", 4),
                 ("lathe-setter", 4),
+            ],
+        ),
+        (
+            "shop8",
+            15,
+            [
+                ("blum-tc50", 3),
+                ("siemens-cycle978", 3),
+                ("tool-setter", 3),
+                ("grinder-gauge", 7),
+                ("lathe-setter", 3),
             ],
         ),
     ];

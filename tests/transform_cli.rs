@@ -330,7 +330,8 @@ fn plan_and_transform_name_the_calls_they_cannot_time() {
 #[test]
 fn subprogram_folders_from_the_profile_or_the_command_line_are_timed() {
     let dir = tempfile::tempdir().unwrap();
-    let spf = dir.path().join("spf");
+    // Not a folder name the lookup finds by itself (`spf`, `subroutines`, …).
+    let spf = dir.path().join("lib");
     std::fs::create_dir(&spf).unwrap();
     // R900 lies in the default free range: the transform must take others.
     std::fs::write(
@@ -370,7 +371,7 @@ fn subprogram_folders_from_the_profile_or_the_command_line_are_timed() {
     let profile = dir.path().join("machine.toml");
     let text = driftloop::omm::profile::DEFAULT_PROFILE.replace(
         "tool_change_s = 10.0\n",
-        "tool_change_s = 10.0\nsubprograms = [\"spf\"]\n",
+        "tool_change_s = 10.0\nsubprograms = [\"lib\"]\n",
     );
     assert_ne!(text, driftloop::omm::profile::DEFAULT_PROFILE);
     std::fs::write(&profile, text).unwrap();
@@ -440,6 +441,42 @@ fn subprogram_folders_from_the_profile_or_the_command_line_are_timed() {
 
 /// `plan` finds a called subprogram beside the program, as `transform` does (and the control): its time
 /// counts without `--subprograms`, from whatever folder the command runs in.
+#[test]
+fn subprograms_in_an_spf_folder_beside_or_inside_the_programs_are_found() {
+    // A control finds a called subprogram in its SPF directory; an archive or a shop keeps the main
+    // programs and the subprograms in sibling folders. Unread, the call that is the first cut leaves no
+    // place for the zero (no tool known); read, it is timed and the program transforms.
+    let main = "N10 G17 G90 G94 G71 G40 G54\nN20 G0 SUPA Z0\nN30 G0 SUPA X0 Y0\nN40 WARM_UP\nN50 G0 Z100\nN60 M30\n";
+    let sub = "PROC WARM_UP\nS3000 M3\nG0 X0 Y0 Z50\nG1 Z10 F300\nG1 X100 F1000\nG0 Z50\nM5\nRET\n";
+    // Beside only as a pair: `job` and `subs` side by side are two folders, not the control's.
+    for (programs, subprograms, found) in [
+        ("_N_MPF_DIR", "_N_SPF_DIR", true),
+        ("routines", "subroutines", true),
+        ("job", "job/spf", true),
+        ("job", "subs", false),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let (p, s) = (dir.path().join(programs), dir.path().join(subprograms));
+        std::fs::create_dir_all(&p).unwrap();
+        std::fs::create_dir_all(&s).unwrap();
+        std::fs::write(p.join("W.MPF"), main).unwrap();
+        let program = p.join("W.MPF").display().to_string();
+        let m = model();
+        let args = ["transform", program.as_str(), "--model", &m, "--check"];
+        let o = common::driftloop(dir.path(), &args, b"");
+        assert_eq!(code(&o), 2, "{subprograms}: without the subprogram");
+        assert!(String::from_utf8_lossy(&o.stderr).contains("WARM_UP"));
+        std::fs::write(s.join("WARM_UP.SPF"), sub).unwrap();
+        let o = common::driftloop(dir.path(), &args, b"");
+        assert_eq!(
+            code(&o),
+            if found { 1 } else { 2 },
+            "{subprograms}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+}
+
 #[test]
 fn plan_finds_subprograms_beside_the_program_as_transform_does() {
     let dir = tempfile::tempdir().unwrap();

@@ -34,12 +34,29 @@ fn pass_speeds(run: &driftloop::vm::Run) -> Vec<f64> {
     run.passes.iter().map(|p| p.spindle_rpm).collect()
 }
 
-const MOVING_PROFILES: [&str; 4] = [
-    "blum-tc50",
-    "siemens-cycle978",
-    "tool-setter",
-    "lathe-setter",
-];
+/// `out`, transformed from `original`, run with the operator's spindle turning (`S2000 M3` in MDA): no
+/// measurement, no M5, every pass at that speed as in the original; and with it standing: measured (no
+/// speed given back: there was none).
+fn measures_only_where_the_spindle_stands(
+    profile: &str,
+    files: &[(&str, String)],
+    original: &str,
+    out: &str,
+) {
+    let plain = common::run_on_machine(&mda_spindle(), files, original);
+    let turning = common::run_on_machine(&mda_spindle(), files, out);
+    assert!(
+        matches!(turning.end, driftloop::vm::End::ProgramEnd { .. }),
+        "{profile}: {:?}",
+        turning.end
+    );
+    assert!(turning.alarms.is_empty(), "{profile}: {:?}", turning.alarms);
+    assert!(turning.measurements.is_empty(), "{profile}: measured");
+    assert_eq!(pass_speeds(&turning), pass_speeds(&plain), "{profile}");
+    assert!(!plain.passes.is_empty() && pass_speeds(&turning).iter().all(|&n| n == 2000.0));
+    let standing = common::run_on_machine(TOOL_LOADED, files, out);
+    assert!(!standing.measurements.is_empty(), "{profile}: not measured");
+}
 
 #[test]
 fn a_gate_before_the_programs_spindle_measures_only_where_the_spindle_stands() {
@@ -48,7 +65,7 @@ fn a_gate_before_the_programs_spindle_measures_only_where_the_spindle_stands() {
     // still. Now the zero reads the actual speed after its STOPRE and goes around the probe where the
     // spindle turns.
     let prog = std::fs::read_to_string(common::fixture("shop7/01_mda_spindle_face.mpf")).unwrap();
-    for profile in MOVING_PROFILES {
+    for profile in common::MOVING_PROFILES {
         let (o, out) = transform_fixture("01_mda_spindle_face.mpf", profile);
         let out = out.unwrap_or_else(|| panic!("{profile}: {}", common::stderr(&o)));
         let check = out.find("$AA_S[1]<>0").expect("the spindle check");
@@ -63,21 +80,7 @@ fn a_gate_before_the_programs_spindle_measures_only_where_the_spindle_stands() {
         if !profile.starts_with("blum") && !profile.starts_with("siemens") {
             continue;
         }
-        // Turning: no measurement, no M5, and every pass cut at the operator's speed as in the original.
-        let original = common::run_on_machine(&mda_spindle(), &[], &prog);
-        let turning = common::run_on_machine(&mda_spindle(), &[], &out);
-        assert!(
-            matches!(turning.end, driftloop::vm::End::ProgramEnd { .. }),
-            "{profile}: {:?}",
-            turning.end
-        );
-        assert!(turning.alarms.is_empty(), "{profile}: {:?}", turning.alarms);
-        assert!(turning.measurements.is_empty(), "{profile}: measured");
-        assert_eq!(pass_speeds(&turning), pass_speeds(&original), "{profile}");
-        assert!(pass_speeds(&turning).iter().all(|&n| n == 2000.0));
-        // Standing: the gate measures (and gives back no speed: there was none).
-        let standing = common::run_on_machine(TOOL_LOADED, &[], &out);
-        assert!(!standing.measurements.is_empty(), "{profile}: not measured");
+        measures_only_where_the_spindle_stands(profile, &[], &prog, &out);
     }
     // A gauge moves nothing and stops nothing: no check.
     let (o, out) = transform_fixture("01_mda_spindle_face.mpf", "grinder-gauge");
@@ -91,13 +94,20 @@ N20 G54 D1\nN30 G0 X-50 Y0 Z20\nN40 FACE_PASS\nN50 G0 Z100\nN60 M30\n";
 const SHOP_SUB: &str = "PROC FACE_PASS\nG1 Z-0.5 F600\nX250 F1600\nY60\nX-50\nG0 Z20\nRET\n";
 
 #[test]
-fn a_gate_before_a_shop_subprogram_it_cannot_read_checks_the_operators_spindle() {
-    // The first cut is a call of a subprogram driftloop could not read. Trusted to start its own spindle,
-    // the zero before it stopped the operator's with its M5, and FACE_PASS, which has no spindle word,
-    // fed the cutter into the part standing still.
+fn a_shop_subprogram_that_cuts_with_the_operators_spindle_gets_no_gate_that_stops_it() {
+    // The first cut is a call of a shop subprogram with no spindle word. Unread, it is refused (no zero
+    // before a call that may set up the tool, QA round 8); read from beside the program, the zero before
+    // it checks the operator's spindle at run time, and FACE_PASS cuts at the speed the operator set.
     let sub = [("FACE_PASS.SPF", SHOP_SUB.to_string())];
     for profile in ["blum-tc50", "siemens-cycle978"] {
-        let (o, dir) = common::transform_in(&[("p.mpf", SHOP_SUB_MAIN)], "p.mpf", profile);
+        let (o, _) = common::transform_in(&[("p.mpf", SHOP_SUB_MAIN)], "p.mpf", profile);
+        assert_eq!(o.status.code(), Some(2), "{profile}");
+        assert!(common::stderr(&o).contains("FACE_PASS"), "{profile}");
+        let (o, dir) = common::transform_in(
+            &[("p.mpf", SHOP_SUB_MAIN), ("FACE_PASS.SPF", SHOP_SUB)],
+            "p.mpf",
+            profile,
+        );
         assert!(o.status.success(), "{profile}: {}", common::stderr(&o));
         let out = std::fs::read_to_string(dir.path().join("out.mpf")).unwrap();
         let check = out.find("$AA_S[1]<>0").expect("the spindle check");
@@ -105,19 +115,7 @@ fn a_gate_before_a_shop_subprogram_it_cannot_read_checks_the_operators_spindle()
             check < out.find("N40 FACE_PASS").unwrap(),
             "{profile}: {out}"
         );
-        let original = common::run_on_machine(&mda_spindle(), &sub, SHOP_SUB_MAIN);
-        let turning = common::run_on_machine(&mda_spindle(), &sub, &out);
-        assert!(
-            matches!(turning.end, driftloop::vm::End::ProgramEnd { .. }),
-            "{profile}: {:?}",
-            turning.end
-        );
-        assert!(turning.alarms.is_empty(), "{profile}: {:?}", turning.alarms);
-        assert!(turning.measurements.is_empty(), "{profile}: measured");
-        assert!(!original.passes.is_empty());
-        assert_eq!(pass_speeds(&turning), pass_speeds(&original), "{profile}");
-        let standing = common::run_on_machine(TOOL_LOADED, &sub, &out);
-        assert!(!standing.measurements.is_empty(), "{profile}: not measured");
+        measures_only_where_the_spindle_stands(profile, &sub, SHOP_SUB_MAIN, &out);
     }
 }
 
@@ -199,4 +197,34 @@ fn no_spindle_probe_swap_on_a_lathe_or_grinder_that_names_no_m6_tool() {
         let (o, _) = transform_fixture(name, profile);
         assert!(o.status.success(), "{name}: {}", common::stderr(&o));
     }
+}
+
+#[test]
+fn every_gate_before_the_programs_spindle_checks_it_not_only_the_zero() {
+    // With a measurement at every gate the face gets two gates before any spindle word of its own (the
+    // zero and the one at M1): both check the operator's spindle, and measure only where it stands.
+    let prog = std::fs::read_to_string(common::fixture("shop7/01_mda_spindle_face.mpf")).unwrap();
+    let every = format!(
+        "{}\n[log]\nmeasure_every_gate = true\n",
+        driftloop::omm::DEFAULT_PROFILE
+    );
+    let out = common::transformed_in(
+        &[("p.mpf", &prog), ("every.toml", &every)],
+        "p.mpf",
+        "every.toml",
+    );
+    let checks = out
+        .lines()
+        .filter(|l| l.contains("($AA_S[1]<>0)") && l.contains("GOTOF DLSKIP"))
+        .count();
+    assert_eq!(checks, 2, "{out}");
+    measures_only_where_the_spindle_stands("every", &[], &prog, &out);
+    let standing = common::run_on_machine(TOOL_LOADED, &[], &out);
+    // Each gate has its own probe call: one line per gate that measured.
+    let gates_measured = standing
+        .measurements
+        .iter()
+        .map(|m| m.at.line)
+        .collect::<std::collections::BTreeSet<_>>();
+    assert_eq!(gates_measured.len(), 2, "{:?}", standing.measurements);
 }

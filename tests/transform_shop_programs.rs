@@ -954,8 +954,10 @@ fn a_tool_change_subprogram_not_found_is_named_in_the_refusal() {
         err.contains("if L6 (line 3) changes the tool, put its file beside the program"),
         "{err}"
     );
-    // Reading the tool at run time, the gates need not know what L6 loaded.
-    transformed(&[("p.mpf", prog)], "p.mpf", "blum-tc50");
+    // Reading the tool at run time does not help before L6: the probe would be swapped for the previous
+    // program's tool with a bare M6 where this machine changes tools in L6 (QA round 8).
+    let err = refused(&[("p.mpf", prog)], "p.mpf", "blum-tc50");
+    assert!(err.contains("if L6 (line 3) changes the tool"), "{err}");
     transformed(
         &[("p.mpf", prog), ("L6.SPF", "PROC L6\nM6\nRET\n")],
         "p.mpf",

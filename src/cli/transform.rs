@@ -436,10 +436,61 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     })
 }
 
+/// Folders a control searches for a called subprogram after its caller's own: an SPF folder inside the
+/// program's (any case).
+const SPF_FOLDERS: &[&str] = &["_N_SPF_DIR", "SPF", "SUBPROGRAMS", "SUBROUTINES", "SUBS"];
+
+/// A folder of main programs and its subprograms' folder beside it: an archive's or data backup's
+/// `_N_MPF_DIR` / `_N_SPF_DIR`, a shop's `routines` / `subroutines`. Only a pair: any folder that happens
+/// to sit beside the program's (in a temporary or home folder) is not the control's.
+const SPF_BESIDE: &[(&str, &str)] = &[
+    ("_N_MPF_DIR", "_N_SPF_DIR"),
+    ("MPF", "SPF"),
+    ("ROUTINES", "SUBROUTINES"),
+    ("PROGRAMS", "SUBPROGRAMS"),
+];
+
+/// The folders in `base` whose name is one of `names` (any case), sorted.
+fn folders_named(base: &std::path::Path, names: &[&str]) -> Vec<std::path::PathBuf> {
+    let Ok(entries) = std::fs::read_dir(base) else {
+        return Vec::new();
+    };
+    let mut found: Vec<_> = entries
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| {
+            p.is_dir()
+                && p.file_name().is_some_and(|n| {
+                    names
+                        .iter()
+                        .any(|f| n.to_string_lossy().eq_ignore_ascii_case(f))
+                })
+        })
+        .collect();
+    found.sort();
+    found
+}
+
+/// The [`SPF_FOLDERS`] inside `dir`, then the [`SPF_BESIDE`] partner of `dir` beside it.
+fn spf_folders(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut found = folders_named(dir, SPF_FOLDERS);
+    let name = std::fs::canonicalize(dir).ok().and_then(|d| {
+        d.file_name()
+            .map(|n| n.to_string_lossy().to_ascii_uppercase())
+    });
+    if let Some((_, spf)) = SPF_BESIDE
+        .iter()
+        .find(|(mpf, _)| Some(*mpf) == name.as_deref())
+    {
+        found.extend(folders_named(&dir.join(".."), &[spf]));
+    }
+    found
+}
+
 /// The profile with the program's own folder first among the subprogram folders, as the control finds a
-/// called subprogram beside its caller (and the audit runs it from there): the registers it uses and its
-/// time count. `None` when the folder is already listed, or the input is not a file. `plan` times the
-/// program the same way.
+/// called subprogram beside its caller (and the audit runs it from there), then its SPF folders
+/// ([`SPF_FOLDERS`]) after the profile's: the registers a subprogram uses and its time count. `None` when
+/// every one is already listed, or the input is not a file. `plan` times the program the same way.
 pub(super) fn beside_program(input: &Input, profile: &Profile) -> Option<Profile> {
     let Input::File(path) = input else {
         return None;
@@ -448,12 +499,17 @@ pub(super) fn beside_program(input: &Input, profile: &Profile) -> Option<Profile
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => std::path::PathBuf::from("."),
     };
-    if profile.timeline.subprograms.contains(&dir) {
-        return None;
-    }
     let mut with = profile.clone();
-    with.timeline.subprograms.insert(0, dir);
-    Some(with)
+    let listed = &mut with.timeline.subprograms;
+    if !listed.contains(&dir) {
+        listed.insert(0, dir.clone());
+    }
+    for spf in spf_folders(&dir) {
+        if !listed.contains(&spf) {
+            listed.push(spf);
+        }
+    }
+    (with.timeline.subprograms != profile.timeline.subprograms).then_some(with)
 }
 
 fn transform_one(

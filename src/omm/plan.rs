@@ -474,6 +474,8 @@ const STEP_TOOLS: &str = "the tool in the spindle is not known there, and the pr
 
 const MACHINE_COOLANT_ON: &str = "a machine coolant of the profile's [coolant] codes is on, and the program's own tool change follows: the gate would have to give it back with the probe still in the spindle";
 
+const SETUP_CALL: &str = "no tool of the program's is known there and its first cut is a call driftloop cannot read: a builder's or shop's cycle at the program's start (a tool change such as TC(1), L706 or WZW, a datum cycle such as NPL or NEWCOORD, a table or clamp cycle) sets up the tool, the work offset and the part more often than it cuts, so a zero before it would measure with what the previous program left";
+
 const STATE_VARIES: &str = "its modal state is not known for sure (later runs of a loop reach it in another state, or a subprogram or cycle ran before it)";
 
 const TOOL_UNKNOWN: &str = "the tool in the spindle is not known there (no tool change before it), so the probe could not be swapped for it again";
@@ -612,6 +614,9 @@ fn reference_site(
             if steps_load_tools && site.before.tool.is_none() {
                 return Some(STEP_TOOLS);
             }
+            if before_setup_call(timeline, site, profile) {
+                return Some(SETUP_CALL);
+            }
             unfit_for_reference(site, profile, rule)
                 .or_else(|| swap_loses_preselection(timeline, site, profile))
                 .or_else(|| turning_reads_tool(site, profile))
@@ -664,7 +669,8 @@ fn reference_site(
     // place before the setup and after the last tool load holds the zero as well.
     if profile.position.frame == MeasureFrame::Machine || profile.probe.kind == ProbeKind::Gauge {
         let before_setup = |s: &Site| {
-            !(steps_load_tools && s.before.tool.is_none())
+            !(before_setup_call(timeline, s, profile)
+                || steps_load_tools && s.before.tool.is_none())
                 && s.block >= last_load.max(timeline.preamble_end)
                 && s.block < from
                 && skip_around(timeline, s.block).is_none()
@@ -694,6 +700,11 @@ fn reference_site(
             ));
         }
     }
+    if let (Some((_, SETUP_CALL)), Some((line, name))) = (unfit, &timeline.first_cut_call) {
+        message.push_str(&format!(
+            "; if {name} (line {line}) changes the tool, put its file beside the program or in its SPF folder (spf or subroutines inside it, _N_SPF_DIR beside _N_MPF_DIR), or give its folder with --subprograms DIR, or load the first tool (T=\"NAME\" M6, D1) before it"
+        ));
+    }
     if tool_unknown {
         message.push_str(
             "; for a program that never changes tools measure with the tool in the spindle (`--profile tool-setter`, `grinder-gauge` or `lathe-setter`, or [probe] kind = \"tool-setter\" or \"gauge\" in your profile; `driftloop profiles` lists them), or add the tool change T=\"NAME\" M6 before the first cut",
@@ -705,13 +716,29 @@ fn reference_site(
         };
         if let Some((line, name)) = timeline.untimed_calls.iter().find(candidate) {
             message.push_str(&format!(
-                "; if {name} (line {line}) changes the tool, put its file beside the program or give its folder with --subprograms DIR"
+                "; if {name} (line {line}) changes the tool, put its file beside the program or in its SPF folder (spf or subroutines inside it, _N_SPF_DIR beside _N_MPF_DIR), or give its folder with --subprograms DIR"
             ));
         }
     } else if unfit.is_none() {
         message.push_str("; mark a pass at a safe place ([passes] marker / lines)");
     }
     Err(PlanError::NoReference(message))
+}
+
+/// A gate that moves would measure at `site` before a builder's or shop's cycle that is the program's first
+/// cut, with no tool of the program's known: what it measures with is what the previous program left
+/// (a gauge reads where the machine stands and moves nothing; a spindle probe before the program's own
+/// tool change leaves that change to load the program's tool).
+fn before_setup_call(timeline: &Timeline, site: &Site, profile: &Profile) -> bool {
+    let own_change_follows = profile.probe.kind == ProbeKind::SpindleProbe
+        && matches!(site.kind, SiteKind::PassStart { tool_change: true });
+    profile.probe.kind != ProbeKind::Gauge
+        && !own_change_follows
+        && site.before.tool.is_none()
+        && timeline
+            .first_cut_call
+            .as_ref()
+            .is_some_and(|(line, _)| site.block < *line)
 }
 
 /// Why a gate here cannot measure, or `None` when it can: the place must be fit, its state the same on

@@ -213,3 +213,11 @@ pub fn transformed_in(files: &[(&str, &str)], program: &str, profile: &str) -> S
     assert!(o.status.success(), "{}", stderr(&o));
     std::fs::read_to_string(dir.path().join("out.mpf")).unwrap()
 }
+
+/// The builtin profiles whose gates move the machine (all but the gauge's).
+pub const MOVING_PROFILES: [&str; 4] = [
+    "blum-tc50",
+    "siemens-cycle978",
+    "tool-setter",
+    "lathe-setter",
+];

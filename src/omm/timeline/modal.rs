@@ -125,6 +125,9 @@ pub mod unknown {
     pub const FEED: u8 = 8;
     /// A sum offset (`DL=` other than 0) is active: a gate that changes tools does not give it back.
     pub const SUM_OFFSET: u8 = 16;
+    /// The program addressed a spindle other than the first (`S4=`, `M4=3`, `SETMS(4)`, `SPOS[2]=`): a gate
+    /// stops and gives back the master spindle only, which may not be the one that turns.
+    pub const OTHER_SPINDLE: u8 = 32;
 }
 
 impl Modal {
@@ -185,6 +188,10 @@ impl Modal {
             Some("the spindle speed is set by an expression")
         } else if self.unknown & unknown::FEED != 0 {
             Some("the feed is set by an expression")
+        } else if self.unknown & unknown::OTHER_SPINDLE != 0 {
+            Some(
+                "the program addresses a spindle other than spindle 1 (S4=, M4=3, SETMS(4), SPOS[2]): a gate's M5 and the speed it gives back act on the master spindle only",
+            )
         } else {
             None
         }

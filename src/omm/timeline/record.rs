@@ -126,6 +126,9 @@ pub struct Timeline {
     pub unit_end: usize,
     /// First block that moves at feed (G1, G2, G3): the first cut.
     pub first_cut: Option<usize>,
+    /// The first cut when it is a call of a shop's or builder's subprogram driftloop cannot read (not a
+    /// Siemens cycle): (line, name as written).
+    pub first_cut_call: Option<(usize, String)>,
     /// Where the program first sets the spindle itself (M3/M4/M5, SPOS, a tool change), when it cuts before
     /// that (`usize::MAX`: never): up to there it cuts with the spindle as the operator left it (started in
     /// MDA), which a gate's M5 would stop and could not start again.

@@ -424,11 +424,10 @@ impl Interp<'_> {
 
     /// G75 FP=n: the axes the block names go to fixed point n at rapid, a machine position
     /// (`$MA_FIX_POINT_POS[n-1,axis]` from the machine file's `[variables]`, else 0, noted); the values
-    /// written with them are placeholders.
+    /// written with them are placeholders. Without FP= the control approaches fixed point 1 (a DMG post's
+    /// `G75 Z0`).
     fn fixed_point(&mut self, u: &Unit, i: usize, w: &Words) -> Result<(), String> {
-        let Some(fp) = w.fixed_point else {
-            return Err("G75 needs FP=n, the fixed point (1 … 4)".into());
-        };
+        let fp = w.fixed_point.unwrap_or(1);
         let mut axes = Vec::new();
         for &(a, _, _) in &w.axes {
             let name = format!("$MA_FIX_POINT_POS[{},{}]", fp - 1, self.cfg.axes[a]);

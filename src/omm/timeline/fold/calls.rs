@@ -61,7 +61,7 @@ impl Builder<'_> {
                 self.add_minutes(runs * sub.total_min);
                 self.t.inexact_blocks += sub.inexact_blocks;
                 let line = |own: usize| if elsewhere { i + 1 } else { own };
-                if !sub.offset_selections.is_empty() {
+                if !sub.offset_selections.is_empty() && self.state.unfit().is_none() {
                     self.t.offset_selections.push(i);
                 }
                 self.t.untimed_calls.extend(
@@ -96,6 +96,10 @@ impl Builder<'_> {
                     // Siemens' machining cycles cut at the spindle they find; a shop's subprogram driftloop
                     // cannot read may start its own or cut with the operator's, so the gates before it
                     // check the spindle at run time as before a cycle.
+                    if !name.to_ascii_uppercase().starts_with("CYCLE") && self.t.first_cut.is_none()
+                    {
+                        self.t.first_cut_call = Some((i + 1, shown.to_string()));
+                    }
                     self.cuts(i, true);
                 }
                 self.t.untimed_calls.push((i + 1, shown.to_string()));

@@ -120,6 +120,10 @@ pub(super) struct Builder<'p> {
     in_part: BTreeSet<usize>,
     /// The lead (I, J or K) the last thread or tapping block wrote.
     lead: Option<f64>,
+    /// Rotary axes the program itself sent away from 0 (bits as in [`frame::ROTARY`], unshifted).
+    rotary_sent: u8,
+    /// A swivel (CYCLE800 with an angle) turned its rotary axes, and no block has sent them home since.
+    swivel_turned: bool,
 }
 
 impl<'p> Builder<'p> {
@@ -178,6 +182,8 @@ impl<'p> Builder<'p> {
             position_doubt: false,
             in_part: BTreeSet::new(),
             lead: None,
+            rotary_sent: 0,
+            swivel_turned: false,
         }
     }
 
@@ -424,6 +430,13 @@ impl<'p> Builder<'p> {
                 *f &= !bit;
             }
         }
+        // The swivel turns the rotary axes of its data set (which ones, the kinematics say), and its
+        // deselection (`CYCLE800()`) deletes its frames without moving them back: the part stays turned
+        // under a probe point in work coordinates until the program sends the axes home itself.
+        if ops & op::SWIVEL_ON != 0 {
+            *f |= frame::ROTARY;
+            self.swivel_turned = true;
+        }
     }
 
     /// A settable work offset selected at block `i` (noted at its first selection).
@@ -523,9 +536,13 @@ impl<'p> Builder<'p> {
         for &g in &s.offsets {
             self.offset(g, i);
         }
+        // Under a swivel or a transformation no inserted block writes the frame in force (a post that
+        // selects `G54 D1` after CYCLE800): the correction the selection dropped stays off until the next
+        // gate, which reads back what is in force.
         if s.offsets
             .iter()
             .any(|g| matches!(g, 500 | 54..=57 | 505..=599))
+            && self.state.unfit().is_none()
         {
             self.t.offset_selections.push(i);
         }

@@ -151,8 +151,15 @@ impl Builder<'_> {
                 away |= bit;
             }
         }
+        self.rotary_sent = (self.rotary_sent & !home) | away;
         let f = &mut self.state.frames;
         *f = (*f & !(home << frame::ROTARY_SHIFT)) | (away << frame::ROTARY_SHIFT);
+        // A five-axis post brings a swivel's two axes home in one block (`G0 A0 C0`, `G0 B0 C0`); one
+        // axis alone may leave the other turned.
+        if self.swivel_turned && home.count_ones() >= 2 {
+            self.swivel_turned = false;
+            *f = (*f & !frame::ROTARY) | (self.rotary_sent << frame::ROTARY_SHIFT);
+        }
     }
 
     /// The speed from the start site's block on.

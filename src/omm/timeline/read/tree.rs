@@ -63,9 +63,15 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                 if let Some(bit) = ["A", "B", "C"].iter().position(|r| *r == other) {
                     let bit = 1 << bit;
                     match (&a.value, a.mode) {
-                        (Value::Number(v), AxisMode::Modal | AxisMode::Ac) if *v == 0.0 => {
-                            s.rotary_home |= bit
-                        }
+                        // DC, ACP and ACN go to the absolute angle too, by their own way round.
+                        (
+                            Value::Number(v),
+                            AxisMode::Modal
+                            | AxisMode::Ac
+                            | AxisMode::Dc
+                            | AxisMode::Acp
+                            | AxisMode::Acn,
+                        ) if *v == 0.0 => s.rotary_home |= bit,
                         (Value::Expr(span), AxisMode::Modal | AxisMode::Ac)
                             if is_name(&program.source()[span.start..span.end]) =>
                         {
@@ -113,6 +119,17 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
     {
         s.m.push(v as u32);
     }
+    // A speed or a spindle function of another spindle (`S4=1500`, `M4=3`); `M20=151` and the like are a
+    // builder's functions with an address extension, not spindles.
+    let other = |a: &&crate::views::AddressValue| a.extension.is_some_and(|e| e != 1);
+    let spindle_function = |a: &crate::views::AddressValue| {
+        num(&a.value).is_none_or(|m| matches!(m as u32, 3 | 4 | 5 | 19 | 40..=45 | 70))
+    };
+    if f.spindle_speeds.iter().any(|a| other(&a))
+        || f.m_codes.iter().filter(other).any(spindle_function)
+    {
+        s.unknown |= unknown::OTHER_SPINDLE;
+    }
     if let Some(a) = f.tools.first() {
         let text = tool_text(&block, a.span);
         if is_tool_literal(text) {
@@ -152,6 +169,9 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                 s.frame_ops |= transformation_op(&name);
                 if name == "CYCLE800" {
                     s.frame_ops |= swivel_op(&block, node);
+                }
+                if name == "SETMS" && master_spindle(&block, node).is_some_and(|n| n != Some(1.0)) {
+                    s.unknown |= unknown::OTHER_SPINDLE;
                 }
                 if corrects_work_offset(&block, node, &name) {
                     s.frame_ops |= frame_op::WRITE;
@@ -414,6 +434,9 @@ fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
         b"SPOS" | b"SPOSA" | b"SPOS[0]" | b"SPOSA[0]" | b"SPOS[1]" | b"SPOSA[1]" => {
             s.m.push(POSITIONED);
         }
+        _ if name.starts_with(b"SPOS[") || name.starts_with(b"SPOSA[") => {
+            s.unknown |= unknown::OTHER_SPINDLE;
+        }
         b"I" => s.mv.centre[0] = v,
         b"J" => s.mv.centre[1] = v,
         b"K" => s.mv.centre[2] = v,
@@ -435,6 +458,14 @@ fn is_name(text: &[u8]) -> bool {
 
 fn upper_text(text: &[u8]) -> String {
     String::from_utf8_lossy(text.trim_ascii()).to_ascii_uppercase()
+}
+
+/// The spindle `SETMS(n)` makes the master: `None` for `SETMS` alone (back to the machine's default
+/// master), `Some(None)` for an expression.
+fn master_spindle(block: &Block<'_>, call: &Node) -> Option<Option<f64>> {
+    let args = call.call_arguments();
+    let first = args.first()?.as_ref()?;
+    Some(literal(block, first))
 }
 
 /// A number written as such, with an optional sign (`12.5`, `-3`); `None` for any other expression.
