@@ -54,6 +54,7 @@ mod shared_data;
 pub mod source;
 pub mod strip;
 pub mod syntax;
+pub mod text;
 pub mod toml_span;
 pub mod views;
 pub mod vm;

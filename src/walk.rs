@@ -169,42 +169,6 @@ fn walk_dir(dir: &Path, out: &mut Vec<Input>) {
     }
 }
 
-/// Why `bytes` are no NC program at all, if they are not: UTF-16 text (the control reads 8-bit text) or a
-/// binary file (many control bytes). A PC-format archive (binary bytes in its first line only) is text.
-pub fn not_text(bytes: &[u8]) -> Option<String> {
-    let head = &bytes[..bytes.len().min(8192)];
-    if head.starts_with(b"\xFF\xFE") || head.starts_with(b"\xFE\xFF") || utf16_without_bom(head) {
-        return Some(
-            "UTF-16 text: the control reads 8-bit text; save the program as UTF-8 or Latin-1 (ANSI)"
-                .into(),
-        );
-    }
-    let control = head
-        .iter()
-        .filter(|&&b| b < 0x20 && !matches!(b, b'\t' | b'\n' | b'\r' | 0x0B | 0x0C | 0x1A))
-        .count();
-    (control * 10 >= head.len() && control > 0).then(|| {
-        format!(
-            "a binary file, not an NC program ({control} of its first {} bytes are control bytes)",
-            head.len()
-        )
-    })
-}
-
-/// Text in UTF-16 without a byte-order mark: NUL in every other byte.
-fn utf16_without_bom(head: &[u8]) -> bool {
-    let pairs = head.len() / 2;
-    if pairs < 2 {
-        return false;
-    }
-    let nul_at = |parity: usize| {
-        head.chunks_exact(2)
-            .filter(|p| p[parity] == 0 && p[1 - parity] != 0)
-            .count()
-    };
-    nul_at(0).max(nul_at(1)) * 10 >= pairs * 9
-}
-
 /// The `.SPF` / `.MPF` files of a folder (`_N_NAME_SPF` too) by upper-cased program name, as a call names
 /// them (`NAME`, `L123`); of two that differ only in case or form, the
 /// first in byte order.
@@ -322,27 +286,5 @@ mod tests {
             let err = got[2].read().unwrap_err().to_string();
             assert!(err.contains("b.mpf") && err.contains("dangling"), "{err}");
         }
-    }
-
-    #[test]
-    fn utf16_and_binary_bytes_are_told_from_programs_and_archives() {
-        let utf16: Vec<u8> = "G0 X1\r\nM30\r\n"
-            .encode_utf16()
-            .flat_map(u16::to_le_bytes)
-            .collect();
-        assert!(not_text(&utf16).unwrap().contains("UTF-16"));
-        let mut with_bom = vec![0xFF, 0xFE];
-        with_bom.extend(&utf16);
-        assert!(not_text(&with_bom).unwrap().contains("UTF-16"));
-        let binary: Vec<u8> = (0..=255u8).cycle().take(4096).collect();
-        assert!(not_text(&binary).unwrap().contains("binary"));
-        assert_eq!(not_text(b"G0 X1\nM30\n"), None);
-        assert_eq!(not_text(b""), None);
-        let archive = fs::read(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/fixtures/nc/archive.arc"
-        ))
-        .unwrap();
-        assert_eq!(not_text(&archive), None);
     }
 }

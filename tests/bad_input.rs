@@ -479,6 +479,10 @@ fn an_output_that_is_an_input_is_refused_before_anything_is_written() {
         vec!["transform", "p.mpf", "--model", "m.toml", "-o", "m.toml"],
         vec!["predict", "m.toml", "--data", "data.csv", "-o", "data.csv"],
         vec!["sensors", "data.csv", "-o", "data.csv"],
+        vec!["sensors", "data.csv", "--report", "./data.csv"],
+        vec!["log", "merge", "data.csv", "-o", "data.csv"],
+        vec!["strip", "p.mpf", "-o", "p.mpf"],
+        vec!["run", "p.mpf", "--trace", "p.mpf"],
     ];
     for args in &cases {
         assert_refused(&run_in(d, args), &["is the input", "would destroy"]);
@@ -631,6 +635,224 @@ fn binary_and_utf16_files_get_their_own_diagnostic() {
             assert_failed(&run_in(d, args), &[file, needle], &["PC-format archive"]);
         }
     }
+}
+
+/// Data, model, profile and machine files that are UTF-16, binary or Latin-1 were refused with the CSV
+/// tokeniser's `invalid utf-8 … byte index 0` or serde's `stream did not contain valid UTF-8`.
+#[test]
+fn binary_utf16_and_latin1_data_and_toml_files_say_what_they_hold() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let utf16 = |text: &str| -> Vec<u8> {
+        let mut bytes = vec![0xFF, 0xFE];
+        bytes.extend(text.encode_utf16().flat_map(u16::to_le_bytes));
+        bytes
+    };
+    std::fs::write(
+        d.join("u.csv"),
+        utf16(&text_of("data/characterisation.csv")),
+    )
+    .unwrap();
+    std::fs::write(d.join("u.toml"), utf16(&text_of("omm/model.toml"))).unwrap();
+    let binary: Vec<u8> = (0..=255u8).cycle().take(3000).collect();
+    std::fs::write(d.join("b.csv"), &binary).unwrap();
+    std::fs::write(d.join("b.toml"), &binary).unwrap();
+    std::fs::write(
+        d.join("l.csv"),
+        b"time_min,spindle_rpm,z_um,hall_\xB0c\n0,1000,0.1,20\n",
+    )
+    .unwrap();
+    let mut latin = std::fs::read(fixture("omm/model.toml")).unwrap();
+    latin.extend(b"\n# Fr\xE4se\n");
+    std::fs::write(d.join("l.toml"), latin).unwrap();
+    let m = default_model();
+    let p = fixture("omm/handwritten.mpf").display().to_string();
+    let csv_cases: [(&str, &[&str]); 3] = [
+        ("u.csv", &["u.csv: UTF-16 text: save it as UTF-8"]),
+        ("b.csv", &["b.csv: a binary file, not a CSV file"]),
+        (
+            "l.csv",
+            &["l.csv:1: column 4: a cell that is not UTF-8 text; save it as UTF-8"],
+        ),
+    ];
+    for (file, needles) in csv_cases {
+        for args in [
+            vec!["fit", file],
+            vec!["forward", file, "--until", "1h"],
+            vec!["sensors", file],
+            vec!["diagnose", &m, file],
+            vec!["log", "merge", file],
+            vec!["predict", &m, "--data", file],
+        ] {
+            assert_refused(&run_in(d, &args), needles);
+        }
+    }
+    for (file, needle) in [("u.csv", "UTF-16 text"), ("b.csv", "a binary file")] {
+        assert_refused(&run_in(d, &["positioning", file]), &[file, needle]);
+    }
+    let toml_cases: [(&str, &str); 3] = [
+        (
+            "u.toml",
+            "u.toml: cannot read: UTF-16 text: save it as UTF-8",
+        ),
+        (
+            "b.toml",
+            "b.toml: cannot read: a binary file, not a TOML file",
+        ),
+        (
+            "l.toml",
+            "l.toml: cannot read: line 20, column 5: byte 0xE4 is not UTF-8 text",
+        ),
+    ];
+    for (file, needle) in toml_cases {
+        for args in [
+            vec!["predict", file, "--schedule", "1000:10"],
+            vec!["plan", &p, "--model", file],
+            vec!["plan", &p, "--model", &m, "--profile", file],
+        ] {
+            assert_refused(&run_in(d, &args), &[needle]);
+        }
+        assert_failed(
+            &run_in(d, &["run", &p, "--machine", file]),
+            &[file, needle.split(": cannot read: ").nth(1).unwrap()],
+            &[],
+        );
+    }
+}
+
+/// `plan` and `transform` said only "the program has 1 syntax error(s)"; the user had to run `check` to
+/// learn where. And the message showed an unclosed quote as `\"hello`, Rust's escape.
+#[test]
+fn a_refusal_for_syntax_errors_names_the_first_one_where_it_is() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("s.mpf"), "G0 X0\nMSG(\"hello\nG1 X10 F100\nM30\n").unwrap();
+    std::fs::write(d.join("i.mpf"), "R1=1\nIF R1==1\nG0 X0\nM30\n").unwrap();
+    let m = default_model();
+    for (file, needle) in [
+        (
+            "s.mpf",
+            "s.mpf: the program has 1 syntax error(s), the first at line 2, column 5: expected a closed string, found `\"hello`; fix them (`driftloop check` shows each with a hint) or pass --force",
+        ),
+        (
+            "i.mpf",
+            "i.mpf: the program has 1 syntax error(s), the first at line 2, column 1: IF on line 2 has no ENDIF",
+        ),
+    ] {
+        assert_refused(&run_in(d, &["plan", file, "--model", &m]), &[needle]);
+        assert_refused(
+            &run_in(d, &["transform", file, "--model", &m, "-o", "out.mpf"]),
+            &[needle],
+        );
+        assert!(!d.join("out.mpf").exists());
+    }
+    let o = run_in(d, &["check", "s.mpf"]);
+    assert_eq!(code(&o), 1);
+    assert!(err(&o).contains("found `\"hello`"), "{}", err(&o));
+}
+
+/// CSVs a logger or a spreadsheet gets wrong: each refusal names the file, where there is one the line, and
+/// what to do. A fit of rows that span no time said "20 samples …; the model needs at least 3", and the
+/// errors of a fit or diagnosis that cannot start named no file.
+#[test]
+fn measurement_files_that_cannot_be_fitted_say_which_and_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let head = "time_min,spindle_rpm,drift_z_um\n";
+    let rows = |times: &[u32]| -> String {
+        times
+            .iter()
+            .map(|t| format!("{t},3000,{}\n", f64::from(*t) * 0.01))
+            .collect()
+    };
+    std::fs::write(d.join("header.csv"), head).unwrap();
+    std::fs::write(d.join("ragged.csv"), format!("{head}0,1000,0.1\n5,1000\n")).unwrap();
+    std::fs::write(
+        d.join("back.csv"),
+        format!("{head}{}", rows(&[0, 10, 5, 15])),
+    )
+    .unwrap();
+    std::fs::write(d.join("few.csv"), format!("{head}{}", rows(&[0, 5, 5, 10]))).unwrap();
+    std::fs::write(d.join("same.csv"), format!("{head}{}", rows(&[7; 20]))).unwrap();
+    let m = default_model();
+    for (file, needles) in [
+        (
+            "header.csv",
+            &["header.csv: no data rows after the header"][..],
+        ),
+        (
+            "ragged.csv",
+            &["ragged.csv:3: 2 fields, but the header has 3: every row needs one value per column"],
+        ),
+        (
+            "back.csv",
+            &["back.csv:4:1: time goes backwards within run 1: 5 after 10"],
+        ),
+        (
+            "few.csv",
+            &[
+                "few.csv: 4 samples in the fitted rows; the model needs at least",
+                "measure longer",
+            ],
+        ),
+        (
+            "same.csv",
+            &[
+                "same.csv: the fitted rows span no time",
+                "check the time column",
+            ],
+        ),
+    ] {
+        assert_refused(&run_in(d, &["fit", file]), needles);
+    }
+    assert_refused(
+        &run_in(d, &["forward", "few.csv", "--until", "8"]),
+        &["few.csv: drift_z_um: 3 samples in the fitted rows"],
+    );
+    assert_refused(
+        &run_in(d, &["diagnose", &m, "few.csv"]),
+        &["few.csv: only", "rows before the holdout", "--holdout-from"],
+    );
+}
+
+/// An output that cannot be written (its folder is a file) names the output, and nothing half-written is
+/// left; `transform` and `strip` said only "cannot create h.mpf: File exists".
+#[test]
+fn an_output_that_cannot_be_written_is_named_with_the_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::copy(fixture("omm/handwritten.mpf"), d.join("p.mpf")).unwrap();
+    std::fs::copy(fixture("data/characterisation.csv"), d.join("data.csv")).unwrap();
+    let m = default_model();
+    let cases: [(&[&str], &str); 5] = [
+        (
+            &["transform", "p.mpf", "--model", &m, "-o", "p.mpf/x.mpf"],
+            "cannot write p.mpf/x.mpf: cannot create its folder p.mpf",
+        ),
+        (
+            &["strip", "p.mpf", "-o", "p.mpf/x.mpf"],
+            "cannot write p.mpf/x.mpf: cannot create its folder p.mpf",
+        ),
+        (
+            &["fit", "data.csv", "-o", "p.mpf/m.toml"],
+            "cannot write the model file p.mpf/m.toml",
+        ),
+        (
+            &["log", "merge", "data.csv", "-o", "p.mpf/x.csv"],
+            "cannot write p.mpf/x.csv",
+        ),
+        (
+            &["run", "p.mpf", "--trace", "p.mpf/t.csv"],
+            "cannot write p.mpf/t.csv",
+        ),
+    ];
+    for (args, needle) in cases {
+        assert_failed(&run_in(d, args), &[needle], &[]);
+    }
+    assert_eq!(
+        std::fs::read(d.join("p.mpf")).unwrap(),
+        std::fs::read(fixture("omm/handwritten.mpf")).unwrap()
+    );
 }
 
 #[test]

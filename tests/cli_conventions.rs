@@ -241,3 +241,65 @@ fn enumerated_values_are_listed_in_the_help() {
         }
     }
 }
+
+/// `predict --step`, the durations of `--schedule`, `run --pause` and `fit --lags` took bare minutes only
+/// (`--step 30s`: "invalid float literal") while every other time flag took `24h`, `90min`, `57600s`.
+#[test]
+fn every_time_on_the_command_line_takes_its_unit() {
+    let same = |a: &[&str], b: &[&str]| {
+        let (x, y) = (common::run(a), common::run(b));
+        assert_eq!(code(&x), 0, "{a:?}: {}", common::stderr(&x));
+        assert_eq!(x.stdout, y.stdout, "{a:?} and {b:?} differ");
+    };
+    same(
+        &[
+            "predict",
+            MODEL,
+            "--schedule",
+            "5000:1h,0:1800s",
+            "--step",
+            "0.5h",
+        ],
+        &[
+            "predict",
+            MODEL,
+            "--schedule",
+            "5000:60,0:30",
+            "--step",
+            "30",
+        ],
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let part = transformed(dir.path());
+    same(
+        &[
+            "run", &part, "--jobs", "2", "--pause", "1h", "--format", "json",
+        ],
+        &[
+            "run", &part, "--jobs", "2", "--pause", "60", "--format", "json",
+        ],
+    );
+    let o = common::run(&["predict", MODEL, "--schedule", "5000:1 hour"]);
+    assert_eq!(code(&o), 2);
+    assert!(
+        common::stderr(&o).contains("unknown time unit `hour`"),
+        "{}",
+        common::stderr(&o)
+    );
+    // No flag asks for bare minutes any more: a time is `<TIME>`.
+    for command in [
+        "fit",
+        "predict",
+        "run",
+        "forward",
+        "diagnose",
+        "sensors",
+        "simulate-data",
+    ] {
+        let help = common::stdout(&common::run(&[command, "--help"]));
+        assert!(
+            !help.contains("<MIN>") && !help.contains("<MIN,"),
+            "{command} --help:\n{help}"
+        );
+    }
+}

@@ -53,7 +53,11 @@ fn here_document(line: &str) -> Option<String> {
 /// The commands of a page's ```sh blocks, continuation lines joined, here-documents kept with their
 /// command.
 fn commands(page: &Path) -> Vec<Shown> {
-    let text = std::fs::read_to_string(page).unwrap();
+    commands_in(&std::fs::read_to_string(page).unwrap(), page)
+}
+
+/// [`commands`] of a page's text.
+fn commands_in(text: &str, page: &Path) -> Vec<Shown> {
     let mut out = Vec::new();
     let mut in_sh = false;
     let mut pending: Option<(usize, String)> = None;
@@ -150,15 +154,31 @@ fn workspace(shared: Option<&Path>) -> (tempfile::TempDir, PathBuf) {
     (tmp, work)
 }
 
-/// Runs the pages' commands; `slow` runs the slow ones and the commands as written instead of their fast
-/// variants. Returns the failures.
-fn run_pages(slow: bool) -> Vec<String> {
+/// `PATH` with the built binary's folder first, so the pages' `driftloop` is the one under test.
+fn path_with_the_binary() -> String {
     let bin_dir = Path::new(env!("CARGO_BIN_EXE_driftloop")).parent().unwrap();
-    let path = format!(
+    format!(
         "{}:{}",
         bin_dir.display(),
         std::env::var("PATH").unwrap_or_default()
-    );
+    )
+}
+
+/// The `--help` of a command (`log merge`: of the subcommand).
+fn help_of(command: &str) -> String {
+    let mut args: Vec<&str> = command.split(' ').collect();
+    args.push("--help");
+    let out = Command::new(env!("CARGO_BIN_EXE_driftloop"))
+        .args(&args)
+        .output()
+        .unwrap();
+    String::from_utf8(out.stdout).unwrap()
+}
+
+/// Runs the pages' commands; `slow` runs the slow ones and the commands as written instead of their fast
+/// variants. Returns the failures.
+fn run_pages(slow: bool) -> Vec<String> {
+    let path = path_with_the_binary();
     let shared = shared_data::path("");
     let mut failures = Vec::new();
     let mut ran = 0;
@@ -278,13 +298,7 @@ fn every_flag_is_in_its_reference_page() {
             .join(format!("{}.md", command.split(' ').next().unwrap()));
         let text =
             std::fs::read_to_string(&page).unwrap_or_else(|e| panic!("{}: {e}", page.display()));
-        let mut args: Vec<&str> = command.split(' ').collect();
-        args.push("--help");
-        let out = Command::new(env!("CARGO_BIN_EXE_driftloop"))
-            .args(&args)
-            .output()
-            .unwrap();
-        let help = String::from_utf8(out.stdout).unwrap();
+        let help = help_of(command);
         for line in help.lines() {
             let option = line.trim_start();
             if !option.starts_with('-') {
@@ -391,4 +405,128 @@ fn the_readme_picture_is_what_the_demo_draws() {
         "docs/demo.svg is not what the demo draws now: run `driftloop demo --plot docs/demo.svg` and commit it"
     );
     assert!(drawn.starts_with("<svg") && drawn.contains("machined error"));
+}
+
+/// A new user reads `--help` first: every flag says what it does (`--format` of nine commands showed only
+/// its possible values), and every command ends with examples that use its own flags.
+#[test]
+fn every_help_describes_each_flag_and_ends_with_examples() {
+    let mut problems = Vec::new();
+    for command in COMMANDS {
+        let help = help_of(command);
+        let lines: Vec<&str> = help.lines().collect();
+        for (i, line) in lines.iter().enumerate() {
+            let option = line.trim_start();
+            // Options only: not the `- value: …` lines of a list of possible values.
+            if !option.starts_with('-') || option.starts_with("- ") {
+                continue;
+            }
+            let next = lines.get(i + 1).map_or("", |l| l.trim());
+            if next.is_empty()
+                || next.starts_with("Possible values")
+                || next.starts_with("[default")
+            {
+                problems.push(format!("{command}: `{option}` has no description"));
+            }
+        }
+        let Some(examples) = help.split("\nExamples:\n").nth(1) else {
+            problems.push(format!("{command}: no Examples section"));
+            continue;
+        };
+        for example in examples.lines().filter(|l| !l.trim().is_empty()) {
+            if !example.trim().starts_with(&format!("driftloop {command}")) {
+                problems.push(format!(
+                    "{command}: example `{example}` runs another command"
+                ));
+            }
+            for flag in example.split_whitespace().filter(|w| w.starts_with('-')) {
+                let long = flag.split('=').next().unwrap();
+                let declared = lines.iter().any(|l| {
+                    let option = l.trim_start();
+                    option.starts_with('-')
+                        && option
+                            .split([' ', ','])
+                            .any(|w| w.split(['=', '<']).next() == Some(long))
+                });
+                if long != "-" && !declared {
+                    problems.push(format!("{command}: example flag {long} is not in --help"));
+                }
+            }
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+/// The tutorial shows what its commands print: every line of a ```text block after a ```sh block (but `…`)
+/// is a line its commands write, on stdout or stderr. Its numbers had gone stale (609 inserted blocks where
+/// the transform inserts 601, a warning about a law the fit no longer chooses) while the commands still ran.
+#[test]
+fn the_tutorial_shows_what_its_commands_print() {
+    let page = root().join("docs/tutorial.md");
+    let text = std::fs::read_to_string(&page).unwrap();
+    // Each ```sh block with the ```text block that follows it, if one does.
+    let mut blocks: Vec<(String, Option<String>)> = Vec::new();
+    let mut fence: Option<(&str, String)> = None;
+    for line in text.lines() {
+        match (&mut fence, line.trim_end()) {
+            (None, "```sh") => fence = Some(("sh", String::new())),
+            (None, "```text") => fence = Some(("text", String::new())),
+            (Some((kind, body)), "```") => {
+                let body = std::mem::take(body);
+                match (*kind, blocks.last_mut()) {
+                    ("sh", _) => blocks.push((body, None)),
+                    ("text", Some((_, shown @ None))) => *shown = Some(body),
+                    _ => {}
+                }
+                fence = None;
+            }
+            (Some((_, body)), _) => {
+                body.push_str(line);
+                body.push('\n');
+            }
+            (None, _) => {
+                if !line.trim().is_empty() && !line.starts_with("```") {
+                    // Prose between an sh block and a text block: the text shows something else.
+                    if let Some((_, shown @ None)) = blocks.last_mut() {
+                        *shown = Some(String::new());
+                    }
+                }
+            }
+        }
+    }
+    let path = path_with_the_binary();
+    let (_tmp, work) = workspace(None);
+    let mut stale = Vec::new();
+    let mut compared = 0;
+    for (sh, shown) in &blocks {
+        let mut printed = String::new();
+        for s in commands_in(&format!("```sh\n{sh}```\n"), &page) {
+            let out = Command::new("sh")
+                .arg("-c")
+                .arg(&s.command)
+                .current_dir(&work)
+                .env("PATH", &path)
+                .env("NO_COLOR", "1")
+                .output()
+                .unwrap();
+            printed.push_str(&String::from_utf8_lossy(&out.stdout));
+            printed.push_str(&String::from_utf8_lossy(&out.stderr));
+        }
+        let Some(shown) = shown.as_deref().filter(|t| !t.is_empty()) else {
+            continue;
+        };
+        compared += 1;
+        let lines: Vec<&str> = printed.lines().map(str::trim_end).collect();
+        for expected in shown.lines().map(str::trim_end) {
+            if !expected.is_empty() && expected != "…" && !lines.contains(&expected) {
+                stale.push(format!("{}\n  shows: {expected}", sh.trim()));
+            }
+        }
+    }
+    assert!(compared >= 10, "only {compared} output blocks found");
+    assert!(
+        stale.is_empty(),
+        "docs/tutorial.md shows lines its commands no longer print:\n{}",
+        stale.join("\n")
+    );
 }

@@ -95,7 +95,7 @@ fn refuses_bad_cells_naming_line_and_column() {
     );
     assert_eq!(
         error("time_s,spindle_rpm,z_um\n0,0,0\n15,0\n"),
-        "log.csv:3: 2 fields, but the header has 3"
+        "log.csv:3: 2 fields, but the header has 3: every row needs one value per column (an empty cell where there is none)"
     );
 }
 

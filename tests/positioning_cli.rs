@@ -304,7 +304,7 @@ fn bad_grid_and_missing_file_exit_2() {
     assert_eq!(out.status.code(), Some(2));
     assert!(
         String::from_utf8_lossy(&out.stderr)
-            .contains("cannot open fixtures/positioning/no_such_file.csv")
+            .contains("cannot read fixtures/positioning/no_such_file.csv")
     );
 }
 

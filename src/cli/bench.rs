@@ -20,6 +20,7 @@ mod process;
 mod transform;
 
 #[derive(Debug, clap::Args)]
+#[command(after_help = "Examples:\n  driftloop bench --size-mb 10 --runs 1")]
 pub struct Args {
     /// Size of the generated program in megabytes (10^6 bytes).
     #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..))]
@@ -37,6 +38,7 @@ pub struct Args {
     /// same alternation, and report it against parse + print (the transform's target is 1.5x).
     #[arg(long)]
     transform: bool,
+    /// `human`: text; `json`: the figures as JSON.
     #[arg(long, value_enum, default_value_t = Format::Human)]
     format: Format,
 }

@@ -18,6 +18,9 @@ use crate::diagnostic::Severity;
 use crate::walk::{self, Input};
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop check fixtures/omm/handwritten.mpf\n  driftloop check programs/ --format json"
+)]
 pub struct Args {
     /// Programs or directories (walked recursively for .mpf .spf .arc .nc .def); `-` reads stdin.
     #[arg(required = true, value_name = "PATH")]
@@ -126,14 +129,12 @@ fn check_file(input: &Input, format: Format, color: bool) -> FileReport {
         notes: 0,
         read_error: None,
     };
-    let source =
-        input
-            .read()
-            .map_err(|e| e.to_string())
-            .and_then(|bytes| match walk::not_text(&bytes) {
-                Some(why) => Err(format!("{path}: {why}")),
-                None => Ok(bytes),
-            });
+    let source = input.read().map_err(|e| e.to_string()).and_then(|bytes| {
+        match crate::text::not_text(&bytes, crate::text::NC_PROGRAM) {
+            Some(why) => Err(format!("{path}: {why}")),
+            None => Ok(bytes),
+        }
+    });
     let source = match source {
         Ok(source) => source,
         Err(message) => {

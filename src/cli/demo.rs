@@ -11,6 +11,9 @@ use crate::demo::{Outcome, Settings, TARGET_UM, run_demo};
 use crate::report::{Chart, Mark, Series};
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop demo\n  driftloop demo --out demo-files --plot demo.svg"
+)]
 pub struct Args {
     /// Write every artefact (models, transformed programs, run reports, probe log, diagnose report) here;
     /// without it they go to a temporary directory that is removed.

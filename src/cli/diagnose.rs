@@ -32,6 +32,9 @@ impl std::str::FromStr for HoldoutArg {
 }
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop diagnose model.toml merged.csv -o refined.toml --report diagnose.html\n  driftloop diagnose model.toml characterisation.csv job1/DRIFTLOG --holdout-from none"
+)]
 pub struct Args {
     /// Model file from `driftloop fit` (or a refined one from an earlier diagnosis).
     pub model: PathBuf,
@@ -56,6 +59,7 @@ pub struct Args {
     /// Map a column of a data file to the merged name, e.g. drift_z_um=ch3_um (repeatable).
     #[arg(long, value_name = "OLD=NEW", value_parser = parse_rename)]
     pub rename: Vec<(String, String)>,
+    /// `human`: text; `json`: one JSON object with every number of the report.
     #[arg(long, value_enum, default_value_t = Format::Human)]
     pub format: Format,
     /// Write a self-contained HTML report (inline SVG charts) here.
@@ -95,7 +99,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     };
     opts.max_effects = args.max_effects;
     opts.probe_every_min = Some(args.probe_every.0);
-    let d = diagnose(&model, &ds, &opts)?;
+    let d = diagnose(&model, &ds, &opts).map_err(|e| super::log::of_data(&ds, e))?;
     match args.format {
         Format::Human => super::output::print(&d.human())?,
         Format::Json => {

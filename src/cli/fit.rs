@@ -39,6 +39,9 @@ impl Design {
 }
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop fit fixtures/data/characterisation.csv --channel drift_z_um -o model.toml\n  driftloop fit data.csv --kind dlag --until 16h -o model.toml"
+)]
 pub struct Args {
     /// Measurement CSV (time_s|time_min|time_h, spindle_rpm, *_um channels, …); `-` reads stdin.
     pub data: PathBuf,
@@ -63,13 +66,14 @@ pub struct Args {
     /// `--kind dlag`: the sensor columns (comma separated; default every `*_c` column that varies).
     #[arg(long, value_delimiter = ',')]
     pub signals: Option<Vec<String>>,
-    /// `--kind dlag`: one lag set for the sensors, minutes, 0 = unlagged (default: forward validation
-    /// chooses among 0,15,60,240 / 0,60,240 / 0,15,60,240,960).
-    #[arg(long, value_delimiter = ',', value_name = "MIN,…")]
-    pub lags: Option<Vec<f64>>,
-    /// `--kind dlag`: lags of the spindle terms, minutes, each above 0 (default 15,60,240).
-    #[arg(long, value_delimiter = ',', value_name = "MIN,…")]
-    pub spindle_lags: Option<Vec<f64>>,
+    /// `--kind dlag`: one lag set for the sensors, times (`15min`, `4h`; a bare number is minutes), 0 =
+    /// unlagged (default: forward validation chooses among 0,15,60,240 / 0,60,240 / 0,15,60,240,960).
+    #[arg(long, value_delimiter = ',', value_name = "TIME,…")]
+    pub lags: Option<Vec<Minutes>>,
+    /// `--kind dlag`: lags of the spindle terms, times each above 0 (`15min`, `4h`; a bare number is
+    /// minutes; default 15,60,240).
+    #[arg(long, value_delimiter = ',', value_name = "TIME,…")]
+    pub spindle_lags: Option<Vec<Minutes>>,
     /// `--kind dlag`: the exponents p of gain ∝ (n/n_top)^p forward validation chooses among (each
     /// spindle term its own; default 0.5 to 3).
     #[arg(long, value_delimiter = ',', value_name = "P,…")]
@@ -85,6 +89,7 @@ pub struct Args {
     /// Write the model file here (`-` = stdout, the report then goes to stderr).
     #[arg(short, long)]
     pub output: Option<PathBuf>,
+    /// `human`: the report as text; `json`: the model as JSON.
     #[arg(long, value_enum, default_value_t = Format::Human)]
     pub format: Format,
 }
@@ -103,15 +108,17 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 modes: args.modes,
                 until_min,
             },
-        )?,
+        )
+        .map_err(|e| super::log::of_data(&ds, e))?,
         Kind::Dlag => {
             let mut opts = DlagOptions::new(channel);
             if let Some(lags) = &args.spindle_lags {
+                let lags: Vec<f64> = lags.iter().map(|l| l.0).collect();
                 anyhow::ensure!(
-                    lags.iter().all(|l| l.is_finite() && *l > 0.0),
-                    "--spindle-lags must be positive minutes (a spindle term is a mode with a time constant)"
+                    lags.iter().all(|l| *l > 0.0),
+                    "--spindle-lags must be positive times (a spindle term is a mode with a time constant)"
                 );
-                opts.spindle_lags = vec![lags.clone()];
+                opts.spindle_lags = vec![lags];
             }
             anyhow::ensure!(
                 args.probe_every.0 > 0.0,
@@ -129,13 +136,14 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 opts.exponents = p.clone();
             }
             if let Some(lags) = &args.lags {
+                let lags: Vec<f64> = lags.iter().map(|l| l.0).collect();
                 anyhow::ensure!(
-                    lags.iter().all(|l| l.is_finite() && *l >= 0.0),
-                    "--lags must be minutes, 0 or more"
+                    lags.iter().all(|l| *l >= 0.0),
+                    "--lags must be times, 0 or more"
                 );
-                opts.sensor_lags = vec![lags.clone()];
+                opts.sensor_lags = vec![lags];
             }
-            fit_dlag(&ds, &opts)?
+            fit_dlag(&ds, &opts).map_err(|e| super::log::of_data(&ds, e))?
         }
     };
     let report = match args.format {

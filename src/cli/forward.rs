@@ -18,6 +18,9 @@ use crate::model::probing::Probing;
 use crate::model::{FitOptions, fit};
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop forward data.csv --until 16h\n  driftloop forward data.csv --until 8h --to 16h --probe-every 30min"
+)]
 pub struct Args {
     /// Measurement CSV with the channels, the spindle speed and the sensors; `-` reads stdin.
     pub data: PathBuf,
@@ -46,6 +49,7 @@ pub struct Args {
     /// gain the dlag fit chose by forward validation (default: re-zero only).
     #[arg(long)]
     pub probe_trend: bool,
+    /// `human`: a table; `json`: one JSON array with every number.
     #[arg(long, value_enum, default_value_t = Format::Human)]
     pub format: Format,
 }
@@ -84,12 +88,12 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                 o.until_min = Some(until);
                 o.probe_every_min = Some(args.probe_every.0);
                 o.averaging = args.design.averaging();
-                fit_dlag(&ds, &o)?
+                fit_dlag(&ds, &o).map_err(|e| super::log::of_data(&ds, format!("{ch}: {e}")))?
             }
             Kind::Modes => {
                 let mut o = FitOptions::new(ch.clone());
                 o.until_min = Some(until);
-                fit(&ds, &o)?
+                fit(&ds, &o).map_err(|e| super::log::of_data(&ds, format!("{ch}: {e}")))?
             }
         };
         let predicted = model.predict(&ds)?;

@@ -25,6 +25,9 @@ pub enum LogCommand {
 }
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop log merge fixtures/data/characterisation.csv job1/DRIFTLOG job2/DRIFTLOG -o merged.csv"
+)]
 pub struct MergeArgs {
     /// Measurement files in the order they were recorded (CSV or DRIFTLOG; `-` reads stdin once).
     #[arg(required = true)]
@@ -44,6 +47,17 @@ pub(crate) fn read_data(path: &Path, require: Require) -> anyhow::Result<crate::
         anstream::eprintln!("{} {n}", style::label(Severity::Note));
     }
     Ok(data)
+}
+
+/// An error of the work on `ds` (a fit, a diagnosis) with the file it came from, unless it names it already:
+/// the message of a fit that cannot start speaks of rows and samples, which the user finds in that file.
+pub(crate) fn of_data(ds: &crate::data::Dataset, e: impl std::fmt::Display) -> anyhow::Error {
+    let message = e.to_string();
+    if message.starts_with(&ds.source) {
+        anyhow::anyhow!(message)
+    } else {
+        anyhow::anyhow!("{}: {message}", ds.source)
+    }
 }
 
 /// Reads and merges `files`; the notes go to stderr.
@@ -68,6 +82,8 @@ pub(crate) fn read_merged(
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     match args.command {
         LogCommand::Merge(m) => {
+            let inputs: Vec<&Path> = m.files.iter().map(PathBuf::as_path).collect();
+            super::output::refuse_overwriting(&[("-o", m.output.as_deref())], &inputs)?;
             let data = read_merged(&m.files, &m.rename)?;
             let mut bytes = Vec::new();
             data.write_csv(&mut bytes)?;

@@ -89,9 +89,15 @@ pub enum Format {
     version,
     about,
     long_about = None,
-    after_help = "Exit codes: 0 clean, 1 findings or would change (--check, --diff), 2 usage, I/O or internal error.\n\
-                  `-` reads stdin / writes stdout. Colour: --color auto|always|never; NO_COLOR turns it off under auto.\n\
-                  Documentation: docs/ in the source tree (docs/README.md lists the pages)."
+    after_help = "Examples:\n\
+                  \x20 driftloop demo                                                   the whole loop on the bundled example\n\
+                  \x20 driftloop fit DATA.csv -o model.toml                             fit the drift model to a characterisation\n\
+                  \x20 driftloop transform PART.MPF --model model.toml -o PART_DL.MPF   insert the measuring gates\n\
+                  \x20 driftloop COMMAND --help                                         every flag of a command, with examples\n\n\
+                  Exit codes: 0 clean, 1 findings or would change (--check, --diff), 2 usage, I/O or internal error.\n\
+                  `-` reads stdin / writes stdout. Times take a unit: 90s, 30min, 24h (a bare number is minutes).\n\
+                  Colour: --color auto|always|never; NO_COLOR turns it off under auto.\n\
+                  Documentation: docs/ in the source tree (docs/README.md lists the pages; docs/tutorial.md first)."
 )]
 struct Cli {
     #[command(flatten)]

@@ -17,10 +17,14 @@ pub enum Format {
 }
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop parse fixtures/omm/handwritten.mpf > tree.json\n  driftloop parse --format source PART.MPF | cmp - PART.MPF"
+)]
 pub struct Args {
     /// The program to parse; `-` reads stdin.
     #[arg(value_name = "FILE")]
     file: PathBuf,
+    /// `json`: the syntax tree and diagnostics; `source`: the program printed back from the tree.
     #[arg(long, value_enum, default_value_t = Format::Json)]
     format: Format,
 }

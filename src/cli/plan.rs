@@ -15,12 +15,16 @@ use crate::omm::{self, Plan};
 use crate::walk::Input;
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop plan fixtures/omm/handwritten.mpf --model fixtures/omm/model.toml --profile blum-tc50"
+)]
 pub struct Args {
     /// The program (`-` reads stdin).
     #[arg(value_name = "PROGRAM")]
     program: PathBuf,
     #[command(flatten)]
     setup: Setup,
+    /// `human`: tables; `json`: the plan as JSON.
     #[arg(long, value_enum, default_value_t = Format::Human)]
     format: Format,
     /// Plan programs with syntax errors too.
@@ -50,7 +54,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         Input::File(args.program.clone())
     };
     let bytes = input.read()?;
-    if let Some(why) = crate::walk::not_text(&bytes) {
+    if let Some(why) = crate::text::not_text(&bytes, crate::text::NC_PROGRAM) {
         anyhow::bail!("{input}: {why}");
     }
     let (program, moves) = omm::parse_timed(bytes);

@@ -22,12 +22,16 @@ pub enum TableFormat {
 }
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop positioning fixtures/positioning/paper_row.csv --standard iso230-2 --table comp.csv"
+)]
 pub struct Args {
     /// Measurements CSV (axis,target_mm,direction,run,deviation_um); `-` reads stdin.
     pub data: PathBuf,
     /// Whose definitions and coverage factor to use (k = 3 for DSTU and VDI, 2 for ISO).
     #[arg(long, value_enum, default_value_t = Standard::Dstu27843)]
     pub standard: Standard,
+    /// `human`: tables; `json`: one JSON object with the same numbers.
     #[arg(long, value_enum, default_value_t = Format::Human)]
     pub format: Format,
     /// Write a self-contained HTML report here.
@@ -64,17 +68,19 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     } else {
         args.data.display().to_string()
     };
-    let samples = if from_stdin {
+    let bytes = if from_stdin {
         let mut text = Vec::new();
         std::io::stdin()
             .read_to_end(&mut text)
             .context("reading stdin")?;
-        read_samples(text.as_slice(), &source, MIN_APPROACHES)?
+        text
     } else {
-        let file =
-            std::fs::File::open(&args.data).with_context(|| format!("cannot open {source}"))?;
-        read_samples(std::io::BufReader::new(file), &source, MIN_APPROACHES)?
+        std::fs::read(&args.data).with_context(|| format!("cannot read {source}"))?
     };
+    if let Some(why) = crate::text::not_text(&bytes, crate::text::CSV) {
+        bail!("{source}: {why}");
+    }
+    let samples = read_samples(bytes.as_slice(), &source, MIN_APPROACHES)?;
     for choice in &grids {
         if let Some(axis) = &choice.axis
             && !samples.iter().any(|s| &s.axis == axis)

@@ -8,24 +8,29 @@ use anyhow::Context;
 
 use super::Global;
 use super::style;
-use crate::data::{Dataset, Require, SPINDLE};
+use crate::data::{Dataset, Minutes, Require, SPINDLE};
 use crate::diagnostic::Severity;
 use crate::model::{DriftModel, Schedule, extrapolation_warning};
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop predict model.toml --schedule 5000:1h,0:30min --step 5min\n  driftloop predict model.toml --data log.csv -o predicted.csv"
+)]
 #[command(group(clap::ArgGroup::new("input").required(true).args(["schedule", "data"])))]
 pub struct Args {
     /// Model file from `driftloop fit`.
     pub model: PathBuf,
-    /// Spindle schedule from rest, RPM:MINUTES segments, e.g. "3000:60,0:30,5000:120".
-    #[arg(long)]
+    /// Spindle schedule from rest, RPM:DURATION segments, e.g. "3000:60,0:30,5000:2h" (a bare duration is
+    /// minutes).
+    #[arg(long, value_name = "RPM:TIME,…")]
     pub schedule: Option<Schedule>,
     /// Predict for the times and inputs of a measurement CSV (`-` reads stdin); output in its time unit.
     #[arg(long)]
     pub data: Option<PathBuf>,
-    /// Output step for --schedule, in minutes (segment boundaries are always included).
-    #[arg(long, default_value_t = 1.0)]
-    pub step: f64,
+    /// Output step for --schedule (`30s`, `5min`; a bare number is minutes); segment boundaries are always
+    /// included.
+    #[arg(long, value_name = "TIME", default_value = "1min")]
+    pub step: Minutes,
     /// Write the CSV here instead of stdout.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
@@ -37,22 +42,20 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         .collect();
     super::output::refuse_overwriting(&[("-o", args.output.as_deref())], &inputs)?;
     let model = DriftModel::read(&args.model)?;
+    let step = args.step.0;
     let input = match (&args.schedule, &args.data) {
         (Some(schedule), _) => {
-            anyhow::ensure!(
-                args.step.is_finite() && args.step > 0.0,
-                "--step must be a positive number of minutes"
-            );
+            anyhow::ensure!(step > 0.0, "--step must be a positive time");
             crate::data::check_rows(
-                schedule.rows(args.step),
+                schedule.rows(step),
                 &format!(
                     "--schedule of {:?} min at --step {:?} min",
                     schedule.minutes(),
-                    args.step
+                    step
                 ),
             )
             .map_err(|e| anyhow::anyhow!("{e}: use a larger --step"))?;
-            schedule.to_dataset(args.step)
+            schedule.to_dataset(step)
         }
         (None, Some(path)) => super::log::read_data(path, Require::InputsOnly)?,
         (None, None) => anyhow::bail!("give --schedule or --data"),

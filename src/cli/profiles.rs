@@ -7,6 +7,9 @@ use super::Global;
 use crate::omm::profile::BUILTIN;
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop profiles\n  driftloop profiles tool-setter > my-machine.toml"
+)]
 pub struct Args {
     /// Print this profile's TOML (`driftloop profiles tool-setter > my-machine.toml`).
     #[arg(value_name = "NAME", value_parser = clap::builder::PossibleValuesParser::new(BUILTIN.iter().map(|(name, _, _)| *name)))]

@@ -8,12 +8,16 @@ use std::process::ExitCode;
 use anyhow::Context;
 
 use super::{Format, Global};
+use crate::data::Minutes;
 use crate::model::DriftModel;
 use crate::omm::Profile;
 use crate::vm::audit::AuditSettings;
 use crate::vm::{self, Config, End, MachineSpec};
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop run PART_DL.MPF --machine vm.toml\n  driftloop run --audit PART_DL.MPF --model model.toml --profile machine.toml\n  driftloop run PART_DL.MPF --machine vm.toml --jobs 3 --pause 30min"
+)]
 pub struct Args {
     /// The main program (`-` reads stdin; subprograms are then looked up in the current folder).
     pub program: PathBuf,
@@ -33,6 +37,7 @@ pub struct Args {
     /// Executed blocks beyond the program's own block count after which the run is stopped as an endless loop.
     #[arg(long, default_value_t = 1_000_000)]
     pub max_blocks: u64,
+    /// `human`: the report as text; `json`: the run as one JSON object (passes, measurements, corrections, alarms, files).
     #[arg(long, value_enum, default_value_t = Format::Human)]
     pub format: Format,
     /// Write the per-block trace (positions, time, spindle speed) as CSV to this file (`-`: stdout).
@@ -63,9 +68,10 @@ pub struct Args {
     /// control) and the machine's warmth carry from one job to the next, the clock runs on.
     #[arg(long, default_value_t = 1, value_name = "N", conflicts_with = "audit")]
     pub jobs: u32,
-    /// Minutes between the end of one job and the start of the next (spindle stopped), with `--jobs`.
-    #[arg(long, default_value_t = 0.0, value_name = "MIN", requires = "jobs")]
-    pub pause: f64,
+    /// Time between the end of one job and the start of the next (spindle stopped), with `--jobs`: `90s`,
+    /// `30min`, `1h`; a bare number is minutes.
+    #[arg(long, default_value = "0min", value_name = "TIME", requires = "jobs")]
+    pub pause: Minutes,
     /// A cutting move of the original this close to the probe point (mm, across the measured axis) touches it.
     #[arg(long, value_name = "MM", default_value_t = vm::audit::DEFAULT_PROBE_MARGIN_MM, requires = "audit")]
     pub probe_margin: f64,
@@ -74,6 +80,12 @@ pub struct Args {
 /// Exit 0 when the program ran to its end, 1 when an alarm stopped it, 2 for errors (unsupported construct,
 /// endless loop, unreadable files). With `--audit`: 0 clean, 1 findings, 2 errors.
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
+    let inputs: Vec<&Path> = [Some(&args.program), args.machine.as_ref()]
+        .into_iter()
+        .flatten()
+        .map(PathBuf::as_path)
+        .collect();
+    super::output::refuse_overwriting(&[("--trace", args.trace.as_deref())], &inputs)?;
     let mut cfg = Config {
         max_blocks: args.max_blocks,
         trace: args.trace.is_some(),
@@ -81,7 +93,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     };
     let mut spec = MachineSpec::default();
     if let Some(path) = &args.machine {
-        let text = std::fs::read_to_string(path)
+        let text = crate::text::read_utf8(path, crate::text::TOML)
             .with_context(|| format!("cannot read {}", path.display()))?;
         let dir = path.parent().unwrap_or(Path::new("."));
         (cfg, spec) = vm::parse_machine_file(&text, dir, cfg)
@@ -147,10 +159,8 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
 /// R-parameters the last left, on a machine still as warm as the history makes it. Each job's report in
 /// turn (JSON: an array); the exit code of the last.
 fn jobs(args: &Args, mut cfg: Config, machine: &mut vm::SimpleMachine) -> anyhow::Result<ExitCode> {
-    anyhow::ensure!(
-        args.pause >= 0.0 && args.pause.is_finite(),
-        "--pause must be minutes ≥ 0"
-    );
+    let pause = args.pause.0;
+    anyhow::ensure!(pause >= 0.0, "--pause must be a time ≥ 0");
     anyhow::ensure!(
         args.program != Path::new("-"),
         "--jobs needs a program file"
@@ -173,8 +183,8 @@ fn jobs(args: &Args, mut cfg: Config, machine: &mut vm::SimpleMachine) -> anyhow
         before.set(start + run.time_min, 0.0);
         let clock = cfg.clock_start_min;
         cfg.r_initial = run.r_final.clone();
-        cfg.clock_start_min = clock + run.time_min + args.pause;
-        start += run.time_min + args.pause;
+        cfg.clock_start_min = clock + run.time_min + pause;
+        start += run.time_min + pause;
         runs.push(run);
     }
     match args.format {

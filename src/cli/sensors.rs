@@ -12,6 +12,9 @@ use crate::sensors::position::analyse_position;
 use crate::sensors::{Options, analyse};
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop sensors data.csv --channel ch3_um --holdout-from 16h -o sensors.toml --report sensors.html"
+)]
 pub struct Args {
     /// Measurement CSV with a displacement channel and `*_c` temperature columns; `-` reads stdin.
     pub data: PathBuf,
@@ -32,6 +35,7 @@ pub struct Args {
     /// number is minutes; default: the last third of the time span).
     #[arg(long, value_name = "TIME")]
     pub holdout_from: Option<Minutes>,
+    /// `human`: text; `json`: the analysis as JSON.
     #[arg(long, value_enum, default_value_t = Format::Human)]
     pub format: Format,
     /// Write the regression as a model file that `predict`, `diagnose` and `transform` read (`-` = stdout,
@@ -46,7 +50,13 @@ pub struct Args {
 }
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
-    super::output::refuse_overwriting(&[("-o", args.output.as_deref())], &[&args.data])?;
+    super::output::refuse_overwriting(
+        &[
+            ("-o", args.output.as_deref()),
+            ("--report", args.report.as_deref()),
+        ],
+        &[&args.data],
+    )?;
     let ds = super::log::read_data(&args.data, Require::Displacement)?;
     let channel = super::fit::only_channel(&ds, args.channel.as_deref())?;
     let mut opts = Options::new(&channel);
@@ -55,7 +65,8 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     opts.holdout_from_min = args.holdout_from.map(|m| m.0);
     let (report, model, html) = match &args.position_column {
         Some(p) => {
-            let analysis = analyse_position(&ds, &p.to_ascii_lowercase(), &opts)?;
+            let analysis = analyse_position(&ds, &p.to_ascii_lowercase(), &opts)
+                .map_err(|e| super::log::of_data(&ds, e))?;
             let report = match args.format {
                 Format::Human => analysis.human(),
                 Format::Json => analysis.json(),
@@ -64,7 +75,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             (report, analysis.to_model(), html)
         }
         None => {
-            let analysis = analyse(&ds, &opts)?;
+            let analysis = analyse(&ds, &opts).map_err(|e| super::log::of_data(&ds, e))?;
             let report = match args.format {
                 Format::Human => analysis.human(),
                 Format::Json => analysis.json(),

@@ -12,6 +12,7 @@ use crate::diagnose::scenario::{Scenario, simulate};
 use crate::model::effects::Kind;
 
 #[derive(Debug, clap::Args)]
+#[command(after_help = "Examples:\n  driftloop simulate-data sim --effect input_lag --seed 1")]
 pub struct Args {
     /// Directory to write characterisation.csv, production.csv, truth.toml and scenario.json into.
     pub dir: PathBuf,

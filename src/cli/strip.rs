@@ -13,6 +13,9 @@ use crate::strip::strip;
 use crate::walk::{self, Input};
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop strip PART_DL.MPF -o PART.MPF\n  driftloop strip --check programs/"
+)]
 pub struct Args {
     /// Transformed programs or directories (walked recursively for .mpf .spf .arc .nc .def); `-` reads stdin.
     #[arg(required = true, value_name = "PATH")]
@@ -44,6 +47,8 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     if args.in_place && inputs.contains(&Input::Stdin) {
         bail!("--in-place cannot replace stdin");
     }
+    let paths: Vec<&std::path::Path> = args.paths.iter().map(PathBuf::as_path).collect();
+    super::output::refuse_overwriting(&[("-o", args.output.as_deref())], &paths)?;
     let mut stderr = io::stderr().lock();
     let mut transformed = 0;
     let mut unreadable = 0;

@@ -21,6 +21,9 @@ use crate::omm::{self, ModelRef, Profile, Summary};
 use crate::walk::{self, Input};
 
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Examples:\n  driftloop transform PART.MPF --model model.toml --profile tool-setter -o PART_DL.MPF\n  driftloop transform PART.MPF --model model.toml --diff\n  driftloop transform programs/ --model model.toml -o out/ --keep-going"
+)]
 pub struct Args {
     /// Programs or directories (walked recursively for .mpf .spf .arc .nc .def); `-` reads stdin.
     #[arg(required = true, value_name = "PATH")]
@@ -85,12 +88,10 @@ impl Setup {
     pub fn load(&self) -> anyhow::Result<(Vec<(DriftModel, String)>, Profile)> {
         let mut models = Vec::new();
         for path in &self.model {
-            let bytes =
-                std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
-            let text = String::from_utf8(bytes.clone())
-                .with_context(|| format!("{}: not UTF-8 text", path.display()))?;
+            let text = crate::text::read_utf8(path, crate::text::TOML)
+                .with_context(|| format!("{}: cannot read", path.display()))?;
             let model = DriftModel::from_toml(&text, &path.display().to_string())?;
-            let sha: String = Sha256::digest(&bytes)
+            let sha: String = Sha256::digest(text.as_bytes())
                 .iter()
                 .map(|b| format!("{b:02x}"))
                 .collect();
@@ -518,7 +519,7 @@ fn transform_one(
     args: &Args,
 ) -> Result<Done, Refusal> {
     let bytes = input.read().map_err(|e| Refusal::new("unreadable", e))?;
-    if let Some(why) = walk::not_text(&bytes) {
+    if let Some(why) = crate::text::not_text(&bytes, crate::text::NC_PROGRAM) {
         return Err(Refusal::new("not a text program", why));
     }
     if (args.check || args.diff)
@@ -853,7 +854,13 @@ pub(super) fn write_atomic(
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    std::fs::create_dir_all(&dir).with_context(|| {
+        format!(
+            "cannot write {}: cannot create its folder {}",
+            path.display(),
+            dir.display()
+        )
+    })?;
     let name = path.file_name().context("output without a file name")?;
     let written = (|| -> io::Result<()> {
         let (mut tmp, _registered) = super::signals::create_registered(

@@ -18,6 +18,8 @@ pub enum DataError {
     },
     #[error("{file}: empty file: a header line naming the columns is required")]
     Empty { file: String },
+    #[error("{file}: {why}")]
+    NotText { file: String, why: String },
     #[error("{file}:1: no time column: exactly one of time_s, time_min, time_h is required")]
     NoTime { file: String },
     #[error(
@@ -41,7 +43,9 @@ pub enum DataError {
     NoChannel { file: String },
     #[error("{file}: no data rows after the header")]
     NoRows { file: String },
-    #[error("{file}:{line}: {found} fields, but the header has {expected}")]
+    #[error(
+        "{file}:{line}: {found} fields, but the header has {expected}: every row needs one value per column (an empty cell where there is none)"
+    )]
     FieldCount {
         file: String,
         line: u64,
@@ -145,6 +149,9 @@ pub fn read_bytes(file: &str, bytes: &[u8], require: Require) -> Result<Dataset,
     if body.iter().all(u8::is_ascii_whitespace) {
         return Err(DataError::Empty { file: file_s });
     }
+    if let Some(why) = crate::text::not_text(body, crate::text::CSV) {
+        return Err(DataError::NotText { file: file_s, why });
+    }
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(true)
         .flexible(true)
@@ -153,7 +160,7 @@ pub fn read_bytes(file: &str, bytes: &[u8], require: Require) -> Result<Dataset,
     let csv_err = |e: csv::Error| DataError::Csv {
         file: file_s.clone(),
         line: e.position().map_or(0, |p| p.line()),
-        message: e.to_string(),
+        message: crate::text::csv_problem(&e),
     };
     let header: Vec<String> = reader
         .headers()

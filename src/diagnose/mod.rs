@@ -122,7 +122,9 @@ pub enum DiagnoseError {
     WrongChannel { model: String, asked: String },
     #[error("{0}")]
     Predict(#[from] crate::model::PredictError),
-    #[error("only {0} rows before the holdout; too few to fit the model")]
+    #[error(
+        "only {0} rows before the holdout; too few to fit the model: give more data, or a later --holdout-from (`none`: no holdout)"
+    )]
     TooFewRows(usize),
     #[error("the recalibration failed numerically (singular least-squares problem)")]
     Numerical,

@@ -15,7 +15,7 @@ pub use crate::data::{FASTEST_RPM, LARGEST_UM};
 /// Why a model file could not be read or written.
 #[derive(Debug, thiserror::Error)]
 pub enum ModelFileError {
-    #[error("{file}: {source}")]
+    #[error("{file}: cannot read: {source}")]
     Io {
         file: String,
         source: std::io::Error,
@@ -74,9 +74,11 @@ impl DriftModel {
     /// Reads a model file.
     pub fn read(path: &Path) -> Result<DriftModel, ModelFileError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ModelFileError::Io {
-            file: file.clone(),
-            source,
+        let text = crate::text::read_utf8(path, crate::text::TOML).map_err(|source| {
+            ModelFileError::Io {
+                file: file.clone(),
+                source,
+            }
         })?;
         DriftModel::from_toml(&text, &file)
     }

@@ -101,8 +101,14 @@ pub enum FitError {
         "{source_name}: spindle_rpm is never above 0 in the fitted rows: there is no heating to fit spindle modes to"
     )]
     NoSpeed { source_name: String },
-    #[error("{samples} samples in the fitted rows; the model needs at least {needed}")]
+    #[error(
+        "{samples} samples in the fitted rows; the model needs at least {needed}: measure longer or more often, or fit on more of the file (a later --until)"
+    )]
     TooFewSamples { samples: usize, needed: usize },
+    #[error(
+        "the fitted rows span no time: every run's rows share one time stamp, so no time constant can be seen; check the time column (and the `run` column, which starts each run's clock again)"
+    )]
+    NoTimeSpan,
     #[error("the fit failed numerically (singular least-squares problem) for every model order")]
     Numerical,
 }
@@ -319,10 +325,7 @@ impl Prepared {
         let longest = ds.longest_run_min();
         let lo = ds.min_step_min().unwrap_or(0.0);
         if longest <= 0.0 || lo <= 0.0 {
-            return Err(FitError::TooFewSamples {
-                samples: obs.len(),
-                needed: 3,
-            });
+            return Err(FitError::NoTimeSpan);
         }
         let hi = (3.0 * longest).max(2.0 * lo);
         Ok(Prepared {

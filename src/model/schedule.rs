@@ -1,5 +1,6 @@
-//! Spindle schedules for prediction: `"3000:60,0:30,5000:120"` = 3000 rpm for 60 min, stop 30 min,
-//! 5000 rpm for 120 min, starting from rest.
+//! Spindle schedules for prediction: `"3000:60,0:30,5000:2h"` = 3000 rpm for 60 min, stop 30 min,
+//! 5000 rpm for 2 h, starting from rest; a duration is a time as every flag takes it (a bare number is
+//! minutes).
 
 use std::str::FromStr;
 
@@ -29,15 +30,15 @@ impl FromStr for Schedule {
                 let bad = |why: &str| format!("schedule item {} `{item}`: {why}", i + 1);
                 let (rpm, min) = item
                     .split_once(':')
-                    .ok_or_else(|| bad("expected RPM:MINUTES, e.g. 3000:60"))?;
+                    .ok_or_else(|| bad("expected RPM:DURATION, e.g. 3000:60 or 3000:1h"))?;
                 let rpm: f64 = rpm
                     .trim()
                     .parse()
                     .map_err(|_| bad("speed is not a number"))?;
-                let minutes: f64 = min
-                    .trim()
-                    .parse()
-                    .map_err(|_| bad("duration is not a number"))?;
+                let minutes = min
+                    .parse::<crate::data::Minutes>()
+                    .map_err(|why| bad(&format!("duration {why}")))?
+                    .0;
                 if !rpm.is_finite() {
                     return Err(bad("speed is not finite"));
                 }
@@ -117,6 +118,14 @@ mod tests {
             ds.values(SPINDLE).unwrap(),
             &[3000.0, 3000.0, 3000.0, 0.0, 0.0, 5000.0, 0.0]
         );
+    }
+
+    #[test]
+    fn durations_take_a_unit_as_every_time_flag_does() {
+        let s: Schedule = "5000:1h,0:30min,3000:90s".parse().unwrap();
+        assert_eq!(s.minutes(), 91.5);
+        let err = "5000:1 hour".parse::<Schedule>().unwrap_err();
+        assert!(err.contains("unknown time unit `hour`"), "{err}");
     }
 
     #[test]

@@ -40,8 +40,15 @@ pub struct ModelRef<'a> {
 /// Why a program is refused. Nothing is written for a refused program.
 #[derive(Debug, thiserror::Error)]
 pub enum TransformError {
-    #[error("the program has {0} syntax error(s); fix them or pass --force")]
-    ParseErrors(usize),
+    #[error(
+        "the program has {count} syntax error(s), the first at line {line}, column {column}: {first}; fix them (`driftloop check` shows each with a hint) or pass --force"
+    )]
+    ParseErrors {
+        count: usize,
+        line: usize,
+        column: usize,
+        first: String,
+    },
     #[error(
         "the program already carries driftloop's blocks (line {0}: `{SIGNATURE}` header); transform the original program instead"
     )]
@@ -103,7 +110,7 @@ impl TransformError {
     /// The kind of refusal, in a few words: what a batch report counts.
     pub fn reason(&self) -> &'static str {
         match self {
-            TransformError::ParseErrors(_) => "syntax errors",
+            TransformError::ParseErrors { .. } => "syntax errors",
             TransformError::AlreadyTransformed(_) => "already transformed",
             TransformError::PcArchive => "PC-format archive",
             TransformError::ComputedR(_) => "R-parameters indexed by expressions",
@@ -212,13 +219,20 @@ fn check_with(program: &Program, moves: Option<&Moves>, force: bool) -> Result<(
     if let Some((line, word)) = iso::iso_word(src) {
         return Err(TransformError::IsoDialect { line, word });
     }
-    let errors = program
+    let mut errors = program
         .diagnostics()
         .iter()
-        .filter(|d| d.severity == crate::Severity::Error)
-        .count();
-    if errors > 0 && !force {
-        return Err(TransformError::ParseErrors(errors));
+        .filter(|d| d.severity == crate::Severity::Error);
+    if let Some(first) = errors.next()
+        && !force
+    {
+        let (line, column) = crate::source::LineIndex::new(src).line_col(first.span.start);
+        return Err(TransformError::ParseErrors {
+            count: 1 + errors.count(),
+            line,
+            column,
+            first: first.message.clone(),
+        });
     }
     Ok(())
 }

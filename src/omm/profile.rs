@@ -468,10 +468,11 @@ impl Profile {
 
     pub fn read(path: &Path) -> Result<Profile, ProfileError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ProfileError::Io {
-            file: file.clone(),
-            source,
-        })?;
+        let text =
+            crate::text::read_utf8(path, crate::text::TOML).map_err(|source| ProfileError::Io {
+                file: file.clone(),
+                source,
+            })?;
         let mut profile = Profile::from_toml(&text, &file)?;
         let base = path.parent().unwrap_or(Path::new(""));
         for dir in &mut profile.timeline.subprograms {

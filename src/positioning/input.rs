@@ -81,7 +81,10 @@ pub fn read_samples<R: Read>(
     };
     let headers = csv
         .headers()
-        .map_err(|e| error(1, None, format!("cannot read the header: {e}")))?
+        .map_err(|e| {
+            let why = crate::text::csv_problem(&e);
+            error(1, None, format!("cannot read the header: {why}"))
+        })?
         .clone();
     if headers.is_empty() || headers.iter().all(str::is_empty) {
         return Err(error(
@@ -131,7 +134,7 @@ pub fn read_samples<R: Read>(
     for record in csv.records() {
         let record = record.map_err(|e| {
             let line = e.position().map_or(0, |p| p.line());
-            error(line, None, format!("malformed CSV row: {e}"))
+            error(line, None, crate::text::csv_problem(&e))
         })?;
         let line = record.position().map_or(0, |p| p.line());
         if record.iter().all(str::is_empty) {
@@ -422,7 +425,10 @@ mod tests {
     fn a_row_with_a_missing_field_names_its_line() {
         let text = two_targets().replacen("X,0,+,4,12\n", "X,0,+,4\n", 1);
         let err = read(&text).unwrap_err().to_string();
-        assert!(err.starts_with("t.csv:5: malformed CSV row"), "{err}");
+        assert!(
+            err.starts_with("t.csv:5: 4 fields, but the rows before have 5"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -325,7 +325,16 @@ impl Cx {
                     .position(|&b| b == b' ' || b == b';')
                     .unwrap_or(at.len())
                     .clamp(1, 16);
-                format!("`{}`", at[..n].escape_ascii())
+                // Quotes stay as typed (`escape_ascii` writes `\"`); only bytes a terminal cannot show
+                // are escaped.
+                let shown: String = at[..n]
+                    .iter()
+                    .map(|&b| match b {
+                        b' '..=b'~' => char::from(b).to_string(),
+                        _ => b.escape_ascii().to_string(),
+                    })
+                    .collect();
+                format!("`{shown}`")
             }
         };
         let span = Span::new(start, start + utf8_len(at));
