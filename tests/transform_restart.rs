@@ -116,3 +116,38 @@ fn a_probe_left_in_the_spindle_stops_a_program_that_cuts_with_the_tool_in_force(
         );
     }
 }
+
+#[test]
+fn a_control_without_p_sim_gets_the_condition_its_profile_gives() {
+    let original = program("omm/handwritten.mpf");
+    let without_sim = driftloop::omm::DEFAULT_PROFILE.replace(
+        "# not_machining = \"$P_SEARCH OR $P_ISTEST OR $P_SIM\"",
+        "not_machining = \"$P_SEARCH OR $P_ISTEST\"",
+    );
+    assert_ne!(without_sim, driftloop::omm::DEFAULT_PROFILE);
+    let out = transformed_in(
+        &[("p.mpf", &original), ("old.toml", &without_sim)],
+        "p.mpf",
+        "old.toml",
+    );
+    assert!(!out.contains("$P_SIM"), "{out}");
+    assert!(
+        out.contains("IF $P_SEARCH OR $P_ISTEST GOTOF DLSKIP"),
+        "{out}"
+    );
+    let empty = driftloop::omm::DEFAULT_PROFILE.replace(
+        "# not_machining = \"$P_SEARCH OR $P_ISTEST OR $P_SIM\"",
+        "not_machining = \" \"",
+    );
+    let (o, _dir) = common::transform_in(
+        &[("p.mpf", &original), ("e.toml", &empty)],
+        "p.mpf",
+        "e.toml",
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        common::stderr(&o).contains("registers.not_machining"),
+        "{}",
+        common::stderr(&o)
+    );
+}

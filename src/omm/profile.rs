@@ -369,11 +369,20 @@ pub struct Registers {
     pub timer: String,
     pub timer_unit: TimerUnit,
     pub log_file: String,
+    /// The condition under which the control interprets the program without machining it (block search,
+    /// program test, the panel's simulation): a gate measures nothing then. A control that lacks one of
+    /// the variables (an older one without `$P_SIM`) stops at the first gate with an alarm: leave it out.
+    #[serde(default = "Registers::interpreting_only")]
+    pub not_machining: String,
 }
 
 impl Registers {
     fn tool_alarm() -> u32 {
         65002
+    }
+
+    fn interpreting_only() -> String {
+        "$P_SEARCH OR $P_ISTEST OR $P_SIM".into()
     }
 }
 
@@ -579,6 +588,12 @@ impl Profile {
                 r.timer
             ));
         }
+        if r.not_machining.trim().is_empty() {
+            return Err(
+                "registers.not_machining must be a condition such as \"$P_SEARCH OR $P_ISTEST\" (leave the key out for the default)"
+                    .into(),
+            );
+        }
         if r.log_file.is_empty() || r.log_file.contains('"') {
             return Err("registers.log_file must be a file name without quotes".into());
         }
@@ -736,6 +751,11 @@ impl Profile {
             ("offset.select", &self.offset.select, " \";"),
             ("registers.timer", &self.registers.timer, "\";"),
             ("registers.log_file", &self.registers.log_file, "\";"),
+            (
+                "registers.not_machining",
+                &self.registers.not_machining,
+                "\";",
+            ),
             ("passes.marker", &self.passes.marker, ""),
         ];
         let dressing = self

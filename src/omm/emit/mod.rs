@@ -916,10 +916,10 @@ impl Emitter<'_> {
     /// probe does not touch anything there, so the gate's agreement loop would stop with an alarm, and a
     /// reading taken from a stale result would correct the part wrongly: a comment and the condition that
     /// leaves the measurement out.
-    fn not_machining() -> [String; 2] {
+    fn not_machining(&self) -> [String; 2] {
         [
             "; driftloop: no measurement in a block search, program test or simulation".into(),
-            "$P_SEARCH OR $P_ISTEST OR $P_SIM".into(),
+            self.profile.registers.not_machining.clone(),
         ]
     }
 
@@ -1399,7 +1399,7 @@ impl Emitter<'_> {
         // With no tool active there is no zero: the gates after see the measurement counter at 0 and do not
         // measure either.
         let skip = format!("{}SKIP{}", self.label_prefix, gate.number);
-        let [why, searching] = Emitter::not_machining();
+        let [why, searching] = self.not_machining();
         v.push(why);
         let mut no_zero = vec![searching];
         if let Some(read) = self.reads_tool_at(gate) {
@@ -1467,7 +1467,7 @@ impl Emitter<'_> {
                     .collect();
                 no_measurement.push(all_of(&calm));
             }
-            let [why, searching] = Emitter::not_machining();
+            let [why, searching] = self.not_machining();
             v.push(why);
             no_measurement.push(searching);
             if let Some(read) = self.reads_tool_at(gate) {
