@@ -211,7 +211,27 @@ pub fn transform_in(
 pub fn transformed_in(files: &[(&str, &str)], program: &str, profile: &str) -> String {
     let (o, dir) = transform_in(files, program, profile);
     assert!(o.status.success(), "{}", stderr(&o));
-    std::fs::read_to_string(dir.path().join("out.mpf")).unwrap()
+    let out = std::fs::read_to_string(dir.path().join("out.mpf")).unwrap();
+    // The inserted blocks are well formed: no syntax error the original does not have (an ENDIF without
+    // its IF stops the control before the first block; the dry run does not see it).
+    let original = files.iter().find(|(name, _)| *name == program).map(|f| f.1);
+    let errors = |text: &str| syntax_errors(text.as_bytes());
+    assert_eq!(
+        errors(&out),
+        original.map_or_else(Vec::new, errors),
+        "the output has syntax errors the original does not:\n{out}"
+    );
+    out
+}
+
+/// The messages of the syntax errors in `src`.
+pub fn syntax_errors(src: &[u8]) -> Vec<String> {
+    driftloop::parse(src)
+        .diagnostics()
+        .iter()
+        .filter(|d| d.severity == driftloop::Severity::Error)
+        .map(|d| d.message.clone())
+        .collect()
 }
 
 /// The builtin profiles whose gates move the machine (all but the gauge's).

@@ -992,7 +992,7 @@ impl Emitter<'_> {
             ),
             self.profile.registers.alarm_tool,
         ));
-        v.extend(["ENDIF".into(), "ENDIF".into()]);
+        v.push("ENDIF".into());
         v
     }
 
