@@ -101,6 +101,14 @@ pub enum TransformError {
     #[error("internal error: an inserted block does not parse: {0}")]
     Emit(#[from] EditError),
     #[error(
+        "internal error: the output would have a syntax error the program does not, at line {line}, column {column}: {message}; nothing written (please report it with the program and the profile)"
+    )]
+    OutputSyntax {
+        line: usize,
+        column: usize,
+        message: String,
+    },
+    #[error(
         "an inserted block would carry the number {0}, which no NC program should (finite, at most ±999999999): check the model, the profile and the program's own values (speeds, feeds, times)"
     )]
     Unwritable(String),
@@ -125,7 +133,7 @@ impl TransformError {
             TransformError::Channels { .. } => "coordinates several channels",
             TransformError::Other(_) => "profile or registers",
             TransformError::LongBlock(_) => "block too long",
-            TransformError::Emit(_) => "internal error",
+            TransformError::Emit(_) | TransformError::OutputSyntax { .. } => "internal error",
             TransformError::Unwritable(_) => "number out of range",
         }
     }
@@ -576,6 +584,7 @@ fn prepare_with<'p>(
             editor.insert_after(b, &text)?;
         }
     }
+    output_parses_as_the_input(program, &editor)?;
     Ok(Prepared {
         editor,
         summary: Summary {
@@ -604,6 +613,41 @@ fn prepare_with<'p>(
     })
 }
 
+/// Each inserted text parses on its own when it is inserted, but a slip in how they nest (an ENDIF without
+/// its IF, a label twice) shows only in the whole output, and the control would refuse that program at
+/// its start: the output may have no syntax error the program lacks.
+fn output_parses_as_the_input(
+    program: &Program,
+    editor: &Editor<'_>,
+) -> Result<(), TransformError> {
+    let errors = |p: &Program| -> Vec<(String, usize)> {
+        p.diagnostics()
+            .iter()
+            .filter(|d| d.severity == crate::Severity::Error)
+            .map(|d| (d.message.clone(), d.span.start))
+            .collect()
+    };
+    let mut known: Vec<String> = errors(program).into_iter().map(|(m, _)| m).collect();
+    let bytes = editor.to_bytes();
+    let output = crate::parse(&bytes);
+    for (message, at) in errors(&output) {
+        match known.iter().position(|m| *m == message) {
+            Some(i) => {
+                known.swap_remove(i);
+            }
+            None => {
+                let (line, column) = crate::source::LineIndex::new(&bytes).line_col(at);
+                return Err(TransformError::OutputSyntax {
+                    line,
+                    column,
+                    message,
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
 /// The machine M-codes the program uses that a gate which moves leaves as they are: a coolant through the
 /// spindle among them would go through the probe, and stay off for the tool after a probe swap, unless the
 /// profile's `[coolant]` lists it.
@@ -626,4 +670,37 @@ fn machine_m_note(timeline: &Timeline, profile: &Profile) -> Option<String> {
             "they are"
         }
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_output_with_a_nesting_slip_is_refused() {
+        let program = crate::parse(b"G0 X1\nG1 X2 F100\nM30\n");
+        let mut editor = Editor::new(&program);
+        editor.insert_before(1, "IF R1==0\nG0 Z5\nENDIF\n").unwrap();
+        assert!(output_parses_as_the_input(&program, &editor).is_ok());
+        // Each line parses as a block on its own; the ENDIF has no IF in the output.
+        editor.insert_before(2, "ENDIF\n").unwrap();
+        match output_parses_as_the_input(&program, &editor) {
+            Err(TransformError::OutputSyntax { line, .. }) => assert_eq!(line, 6),
+            other => panic!("expected the output's syntax error, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn the_programs_own_syntax_errors_are_not_the_outputs() {
+        let program = crate::parse(b"G0 X1\nENDIF\nM30\n");
+        assert!(
+            program
+                .diagnostics()
+                .iter()
+                .any(|d| d.severity == crate::Severity::Error)
+        );
+        let mut editor = Editor::new(&program);
+        editor.insert_before(2, "G0 Z5\n").unwrap();
+        assert!(output_parses_as_the_input(&program, &editor).is_ok());
+    }
 }

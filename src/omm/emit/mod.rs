@@ -923,6 +923,38 @@ impl Emitter<'_> {
         ]
     }
 
+    /// The run-time checks that leave a gate's measurement out, in this order: the gate's own `first`, not
+    /// machining, no tool to swap the probe back for, the operator's spindle turning, then `last`. Where
+    /// one holds the gate still logs its row, without a reading, and jumps to `skip`.
+    fn skip_measurement(
+        &self,
+        gate: &Gate,
+        first: Option<String>,
+        last: Option<String>,
+        rpm: f64,
+        skip: &str,
+    ) -> Vec<String> {
+        let [why, searching] = self.not_machining();
+        let mut v = vec![why];
+        let mut skips: Vec<String> = first.into_iter().chain([searching]).collect();
+        if let Some(read) = self.reads_tool_at(gate) {
+            v.extend(Emitter::read_tool(read));
+            v.extend(self.probe_left_in(gate, read));
+            skips.extend(Emitter::no_tool(read));
+        }
+        if let Some([why, turns]) = Emitter::hand_spindle_turns(gate) {
+            v.push(why);
+            skips.push(turns);
+        }
+        skips.extend(last);
+        let skip_if = format!("IF {}", any_of(&skips));
+        v.push(skip_if.clone());
+        v.extend(self.log_checked(rpm, gate.pass, false));
+        v.push("ENDIF".into());
+        v.push(format!("{skip_if} GOTOF {skip}"));
+        v
+    }
+
     /// Where the tool read at run time is the probe itself, a gate stopped before had left it in the
     /// spindle (its alarm ends the program with the probe loaded): the program would cut with it, so the
     /// gate stops before any move until the operator loads the program's tool. The name is read only for
@@ -1399,24 +1431,7 @@ impl Emitter<'_> {
         // With no tool active there is no zero: the gates after see the measurement counter at 0 and do not
         // measure either.
         let skip = format!("{}SKIP{}", self.label_prefix, gate.number);
-        let [why, searching] = self.not_machining();
-        v.push(why);
-        let mut no_zero = vec![searching];
-        if let Some(read) = self.reads_tool_at(gate) {
-            v.extend(Emitter::read_tool(read));
-            v.extend(self.probe_left_in(gate, read));
-            no_zero.extend(Emitter::no_tool(read));
-        }
-        if let Some([why, turns]) = Emitter::hand_spindle_turns(gate) {
-            v.push(why);
-            no_zero.push(turns);
-        }
-        // Without its zero the run still logs the row, without a reading, as a gate that does not measure.
-        let no_zero = format!("IF {}", any_of(&no_zero));
-        v.push(no_zero.clone());
-        v.extend(self.log_checked(cut_rpm, gate.pass, false));
-        v.push("ENDIF".into());
-        v.push(format!("{no_zero} GOTOF {skip}"));
+        v.extend(self.skip_measurement(gate, None, None, cut_rpm, &skip));
         v.extend(self.save_position(gate));
         v.extend(self.probe_in(gate));
         v.push("; driftloop stage 4: reference measurement, the zero".into());
@@ -1451,9 +1466,8 @@ impl Emitter<'_> {
         v.extend(self.warm_store());
         if gate.can_measure {
             let skip = format!("{}SKIP{}", self.label_prefix, gate.number);
-            let mut no_measurement = Vec::new();
-            if !self.profile.log.measure_every_gate {
-                // Cycle_in: no axis's prediction changed by δ' since its last measurement.
+            // Cycle_in: no axis's prediction changed by δ' since its last measurement.
+            let calm = (!self.profile.log.measure_every_gate).then(|| {
                 let calm: Vec<String> = (0..self.axes.len())
                     .map(|k| {
                         let a = self.reg(k);
@@ -1465,29 +1479,12 @@ impl Emitter<'_> {
                         )
                     })
                     .collect();
-                no_measurement.push(all_of(&calm));
-            }
-            let [why, searching] = self.not_machining();
-            v.push(why);
-            no_measurement.push(searching);
-            if let Some(read) = self.reads_tool_at(gate) {
-                v.extend(Emitter::read_tool(read));
-                v.extend(self.probe_left_in(gate, read));
-                no_measurement.extend(Emitter::no_tool(read));
-            }
-            if let Some([why, turns]) = Emitter::hand_spindle_turns(gate) {
-                v.push(why);
-                no_measurement.push(turns);
-            }
+                all_of(&calm)
+            });
             // The zero was not measured (a block search started after it, no tool active or the
             // operator's spindle turning at the reference): nothing to measure against.
-            no_measurement.push(format!("{}==0", r(self.regs.nbl)));
-            let cycle_in = format!("IF {}", any_of(&no_measurement));
-            // Cycle_in machines on without measuring but still logs its row, without a reading.
-            v.push(cycle_in.clone());
-            v.extend(self.log_checked(gate.rpm, gate.pass, false));
-            v.push("ENDIF".into());
-            v.push(format!("{cycle_in} GOTOF {skip}"));
+            let no_zero = format!("{}==0", r(self.regs.nbl));
+            v.extend(self.skip_measurement(gate, calm, Some(no_zero), gate.rpm, &skip));
             v.extend(self.save_position(gate));
             v.extend(self.probe_in(gate));
             v.extend(self.measure_axes(&what, |k| self.expected(k), |k| self.measured_drift(k)));
