@@ -83,6 +83,10 @@ fn noted(found: &Audit, text: &str) -> bool {
 /// `driftloop transform PROGRAM --profile tool-setter -o out.mpf` in `dir`: its stderr. It must have
 /// written the output with the audit run to the end.
 fn transformed_and_audited(dir: &Path, program: &str) -> String {
+    transformed_and_audited_with(dir, program, "tool-setter")
+}
+
+fn transformed_and_audited_with(dir: &Path, program: &str, profile: &str) -> String {
     let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/omm/model.toml");
     let args = [
         "transform",
@@ -90,7 +94,7 @@ fn transformed_and_audited(dir: &Path, program: &str) -> String {
         "--model",
         &model.display().to_string(),
         "--profile",
-        "tool-setter",
+        profile,
         "-o",
         "out.mpf",
     ];
@@ -531,6 +535,19 @@ fn a_settable_frame_built_with_ctrans_is_run() {
     let program = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("fixtures/shop5/20_g500_puifr_frames_before_first_cut.mpf");
     transformed_and_audited(dir.path(), &program.display().to_string());
+}
+
+/// The same program probed in work coordinates: the part lies where the offset the program built puts it,
+/// not where the offsets at the start would. The dry run placed the surface by the start's offsets, so the
+/// zero read hundreds of millimetres off, ended in its alarm and left the rest of the output unaudited.
+#[test]
+fn a_part_probed_under_an_offset_the_program_built_is_audited_to_its_end() {
+    let program = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures/shop5/20_g500_puifr_frames_before_first_cut.mpf");
+    for profile in ["blum-tc50", "grinder-gauge"] {
+        let dir = tempfile::tempdir().unwrap();
+        transformed_and_audited_with(dir.path(), &program.display().to_string(), profile);
+    }
 }
 
 /// The machine position of every axis after the last block of `src` (X Y Z A B C).

@@ -83,6 +83,10 @@ pub struct Config {
     pub probe_surfaces: std::collections::BTreeMap<String, f64>,
     /// The cycle reports machine coordinates (a reference fixed on the table), not work coordinates.
     pub probe_machine_frame: bool,
+    /// The surfaces are given in work coordinates, and the part lies where the work offset in force at the
+    /// first probing of each axis puts them (the zero defines where the part is): a program may build its
+    /// own offsets before the zero, which no offsets known at the start would follow.
+    pub probe_surface_at_first_probing: bool,
     /// The cycle reports a diameter: the surface is a diameter and the drift counts twice.
     pub probe_diameter: bool,
     /// Time one probe cycle takes.
@@ -231,6 +235,7 @@ impl Default for Config {
             skip_missing_calls: false,
             probe_surfaces: std::collections::BTreeMap::new(),
             probe_machine_frame: false,
+            probe_surface_at_first_probing: false,
             probe_diameter: false,
             probe_min: 0.05,
             offsets: Vec::new(),

@@ -254,27 +254,14 @@ impl AuditSettings {
             cfg.reset_frame = self.frame;
         }
         // The probed surface where the profile says it is: the nominal, in machine coordinates or in those of
-        // the corrected work offset as it stands at the start.
+        // the work offset in force at the zero (which the program may have built itself before it).
         cfg.probe_machine_frame = self.probe_point_in_machine;
+        cfg.probe_surface_at_first_probing = !self.probe_point_in_machine;
         cfg.probe_diameter = self.diameter;
-        let surface = |axis: &str, nominal: f64| {
-            let start: f64 = cfg
-                .offsets
-                .iter()
-                .filter(|(frame, a, _)| *frame == self.frame && a == axis)
-                .map(|o| o.2)
-                .sum();
-            if self.probe_point_in_machine {
-                nominal
-            } else {
-                nominal + start
-            }
-        };
-        cfg.probe_surface_mm = surface(axis, self.nominal);
+        cfg.probe_surface_mm = self.nominal;
         for &(a, nominal) in &self.also {
-            let name = ["X", "Y", "Z"][a];
-            let mm = surface(name, nominal);
-            cfg.probe_surfaces.insert(name.to_string(), mm);
+            cfg.probe_surfaces
+                .insert(["X", "Y", "Z"][a].to_string(), nominal);
         }
         if !self.also.is_empty() {
             cfg.probe_axis_arg = self.probe_axis_arg;

@@ -672,6 +672,17 @@ impl Interp<'_> {
             .get(&axis)
             .copied()
             .unwrap_or(self.cfg.probe_surface_mm);
+        let offset = self
+            .axis_index(&axis)
+            .map_or(0.0, |a| self.motion.frames.offset(a));
+        let surface = if self.cfg.probe_surface_at_first_probing && !self.cfg.probe_machine_frame {
+            *self
+                .surfaces_at_first_probing
+                .entry(axis.clone())
+                .or_insert(surface + offset)
+        } else {
+            surface
+        };
         let t = self.time_min;
         let true_drift = self.machine.drift_um(&axis, t, &self.spindle);
         let result = self.machine.probe(&ProbeCall {
@@ -681,9 +692,6 @@ impl Interp<'_> {
             t_min: t,
             spindle: &self.spindle,
         });
-        let offset = self
-            .axis_index(&axis)
-            .map_or(0.0, |a| self.motion.frames.offset(a));
         let compensated = self
             .axis_index(&axis)
             .map_or(0.0, |a| self.temp_comp_shift(a));

@@ -158,6 +158,9 @@ pub(super) struct Interp<'m> {
     pub(super) time_min: f64,
     spindle: SpindleHistory,
     passes: PassTracker,
+    /// Machine coordinate of each probed axis's surface, fixed at its first probing
+    /// ([`Config::probe_surface_at_first_probing`]).
+    surfaces_at_first_probing: std::collections::BTreeMap<String, f64>,
     run: Run,
     listings: HashMap<PathBuf, HashMap<String, PathBuf>>,
     loaded: HashMap<PathBuf, Rc<Unit>>,
@@ -261,6 +264,7 @@ impl<'m> Interp<'m> {
             time_min: 0.0,
             spindle: SpindleHistory::default(),
             passes: PassTracker::default(),
+            surfaces_at_first_probing: std::collections::BTreeMap::new(),
             run: Run::empty(cfg.axes.clone()),
             listings: HashMap::new(),
             loaded: HashMap::new(),
@@ -434,6 +438,7 @@ impl<'m> Interp<'m> {
             time_min: self.time_min,
             spindle,
             passes: PassTracker::default(),
+            surfaces_at_first_probing: self.surfaces_at_first_probing.clone(),
             run: Run {
                 program: self.run.program.clone(),
                 blocks_executed: self.run.blocks_executed,
