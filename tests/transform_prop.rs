@@ -75,21 +75,108 @@ proptest! {
                 prop_assert!(e.to_string().contains("syntax error") || moves || traverse, "{e}");
                 prop_assert!(parsed.has_errors() || moves || traverse);
             }
-            Ok(t) => {
-                let again = driftloop::parse(&t.bytes);
-                prop_assert!(!again.has_errors(), "{:?}", again.diagnostics().first());
-                let mut kept = Vec::new();
-                for line in t.bytes.split_inclusive(|&b| b == b'\n') {
-                    let content = line.strip_suffix(b"\n").unwrap_or(line);
-                    let content = content.strip_suffix(b"\r").unwrap_or(content);
-                    if !content.ends_with(MARK.as_bytes()) {
-                        kept.extend_from_slice(line);
-                    }
-                }
-                prop_assert_eq!(kept, input);
-                let own = driftloop::views::used_r_parameters(&parsed);
-                prop_assert!(t.summary.r_parameters.iter().all(|r| !own.contains(r)));
-            }
+            Ok(t) => inserts_only(&parsed, &input, &t)?,
         }
     }
+
+    /// Every builtin profile, measuring at every gate or as planned, on programs that name no tool, never
+    /// start the spindle, or neither: the gates that read the tool at run time and those that measure only
+    /// where the operator's spindle stands. A refusal may have any reason but an internal error (an output
+    /// that does not parse, which the last stop's doubled ENDIF was).
+    #[test]
+    fn every_profile_inserts_only(
+        picks in prop::collection::vec(0..ATOMS.len(), 0..40),
+        start in 0..STARTS.len(),
+        profile in 0..PROFILES.len(),
+        every_gate: bool,
+    ) {
+        let mut input = STARTS[start].to_string();
+        for &p in &picks {
+            input.push_str(ATOMS[p]);
+            input.push('\n');
+        }
+        input.push_str("M30\n");
+        let input = input.into_bytes();
+        let parsed = driftloop::parse(&input);
+        let model = model();
+        let mut profile = Profile::builtin(PROFILES[profile]).unwrap();
+        profile.log.measure_every_gate = every_gate;
+        let reference = ModelRef { model: &model, sha256: "prop" };
+        match transform(&parsed, reference, &profile, false) {
+            Err(e) => prop_assert_ne!(e.reason(), "internal error", "{}", e),
+            Ok(t) => inserts_only(&parsed, &input, &t)?,
+        }
+    }
+}
+
+/// Pieces that parse on their own in any order (loops closed, labels jumped to from inside the piece).
+const ATOMS: &[&str] = &[
+    "T=\"MILL\" M6",
+    "T2 M6 ; PASS roughing",
+    "T3",
+    "M6",
+    "S3000 M3",
+    "S5000 M4",
+    "M5",
+    "M8",
+    "M9",
+    "G0 Z50",
+    "G0 X10 Y10",
+    "G1 X200 Y40 F150",
+    "G1 Z-3 F100",
+    "G2 X0 Y50 I-10 J25",
+    "G3 X40 Y40 CR=-20",
+    "G4 F5",
+    "G91 G1 X10 F200",
+    "G90",
+    "G55",
+    "M0",
+    "M1",
+    "R1=R1+1",
+    "WHILE R2<2\nR2=R2+1\nG1 X20 F300\nENDWHILE",
+    "FOR R3 = 1 TO 4\nG1 Z=-R3 F100\nENDFOR",
+    "IF R1>3\nG0 Z80\nELSE\nG1 X5 F100\nENDIF",
+    "; plain comment",
+    "",
+    "N10 G1 X=R1 Y=IC(5) F100",
+    "MSG(\"Schlichten\")",
+    "L100",
+];
+
+const STARTS: &[&str] = &[
+    "G54\nT1 M6\nS2000 M3\n",
+    "G54\nS2000 M3\n",
+    "G54\nT1 M6\n",
+    "G54\n",
+];
+
+const PROFILES: &[&str] = &[
+    "blum-tc50",
+    "siemens-cycle978",
+    "tool-setter",
+    "grinder-gauge",
+    "lathe-setter",
+];
+
+/// The output parses without errors, gives the input back once the inserted blocks are taken out, and
+/// uses no R-parameter of the program's.
+fn inserts_only(
+    parsed: &driftloop::Program,
+    input: &[u8],
+    t: &driftloop::omm::Transformed,
+) -> Result<(), TestCaseError> {
+    let again = driftloop::parse(&t.bytes);
+    prop_assert!(!again.has_errors(), "{:?}", again.diagnostics().first());
+    let mut kept = Vec::new();
+    for line in t.bytes.split_inclusive(|&b| b == b'\n') {
+        let content = line.strip_suffix(b"\n").unwrap_or(line);
+        let content = content.strip_suffix(b"\r").unwrap_or(content);
+        if !content.ends_with(MARK.as_bytes()) {
+            kept.extend_from_slice(line);
+        }
+    }
+    prop_assert_eq!(kept, input);
+    let own = driftloop::views::used_r_parameters(parsed);
+    prop_assert!(t.summary.r_parameters.iter().all(|r| !own.contains(r)));
+    Ok(())
 }
