@@ -85,14 +85,14 @@ proptest! {
     /// that does not parse, which the last stop's doubled ENDIF was).
     #[test]
     fn every_profile_inserts_only(
-        picks in prop::collection::vec(0..ATOMS.len(), 0..40),
+        picks in prop::collection::vec(prop::sample::select(atoms()), 0..40),
         start in 0..STARTS.len(),
         profile in 0..PROFILES.len(),
         every_gate: bool,
     ) {
         let mut input = STARTS[start].to_string();
-        for &p in &picks {
-            input.push_str(ATOMS[p]);
+        for p in &picks {
+            input.push_str(p);
             input.push('\n');
         }
         input.push_str("M30\n");
@@ -109,39 +109,34 @@ proptest! {
     }
 }
 
-/// Pieces that parse on their own in any order (loops closed, labels jumped to from inside the piece).
-const ATOMS: &[&str] = &[
-    "T=\"MILL\" M6",
-    "T2 M6 ; PASS roughing",
-    "T3",
-    "M6",
-    "S3000 M3",
-    "S5000 M4",
-    "M5",
-    "M8",
-    "M9",
-    "G0 Z50",
-    "G0 X10 Y10",
-    "G1 X200 Y40 F150",
-    "G1 Z-3 F100",
-    "G2 X0 Y50 I-10 J25",
-    "G3 X40 Y40 CR=-20",
-    "G4 F5",
-    "G91 G1 X10 F200",
-    "G90",
-    "G55",
-    "M0",
-    "M1",
-    "R1=R1+1",
-    "WHILE R2<2\nR2=R2+1\nG1 X20 F300\nENDWHILE",
-    "FOR R3 = 1 TO 4\nG1 Z=-R3 F100\nENDFOR",
-    "IF R1>3\nG0 Z80\nELSE\nG1 X5 F100\nENDIF",
-    "; plain comment",
-    "",
-    "N10 G1 X=R1 Y=IC(5) F100",
-    "MSG(\"Schlichten\")",
-    "L100",
-];
+/// Pieces that parse on their own in any order: the lines above that open or close nothing (no loop, label
+/// or jump), and closed structures.
+fn atoms() -> Vec<&'static str> {
+    let opens_or_closes = |l: &&str| {
+        ["WHILE", "ENDWHILE", "FOR", "ENDFOR", "LBL", "IF", "REPEAT"]
+            .iter()
+            .any(|w| l.starts_with(w))
+    };
+    let mut v: Vec<&str> = LINES
+        .iter()
+        .copied()
+        .filter(|l| !opens_or_closes(l))
+        .collect();
+    v.extend([
+        "T3",
+        "M6",
+        "M8",
+        "M9",
+        "G55",
+        "M0",
+        "M1",
+        "L100",
+        "WHILE R2<2\nR2=R2+1\nG1 X20 F300\nENDWHILE",
+        "FOR R3 = 1 TO 4\nG1 Z=-R3 F100\nENDFOR",
+        "IF R1>3\nG0 Z80\nELSE\nG1 X5 F100\nENDIF",
+    ]);
+    v
+}
 
 const STARTS: &[&str] = &[
     "G54\nT1 M6\nS2000 M3\n",

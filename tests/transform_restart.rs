@@ -1,6 +1,7 @@
 //! How the gates behave when the operator does not simply press cycle start: a block search into the
 //! program, a program test or the panel's simulation (`$P_SEARCH`, `$P_ISTEST`, `$P_SIM`) interpret the
-//! program without machining it, so no gate may measure there; and after a gate stopped with an alarm the
+//! program without machining it, and a dry run (`$P_DRYRUN`) would drive the probe at the dry-run feed, so
+//! no gate may measure there; and after a gate stopped with an alarm the
 //! probe is still in the spindle, so a program that cuts with the tool in force must not start again with it.
 
 mod common;
@@ -39,7 +40,9 @@ fn every_gate_that_can_measure_leaves_it_out_in_a_block_search_program_test_or_s
     for (profile, _, out) in outputs() {
         let guards = out
             .lines()
-            .filter(|l| l.contains("$P_SEARCH OR $P_ISTEST OR $P_SIM") && l.contains("GOTOF"))
+            .filter(|l| {
+                l.contains("$P_SEARCH OR $P_ISTEST OR $P_SIM OR $P_DRYRUN") && l.contains("GOTOF")
+            })
             .count();
         let skips = out
             .lines()
@@ -67,6 +70,7 @@ fn interpreted_without_machining_the_output_measures_nothing_and_cuts_as_the_ori
             "$P_SEARCH = 5",
             "$P_ISTEST = 1",
             "$P_SIM = 1",
+            "$P_DRYRUN = 1",
         ] {
             let machine = format!("{TOOL}[variables]\n\"{}\n", mode.replacen(' ', "\" ", 1));
             let run = run_on_machine(&machine, &[], &out);
@@ -121,7 +125,7 @@ fn a_probe_left_in_the_spindle_stops_a_program_that_cuts_with_the_tool_in_force(
 fn a_control_without_p_sim_gets_the_condition_its_profile_gives() {
     let original = program("omm/handwritten.mpf");
     let without_sim = driftloop::omm::DEFAULT_PROFILE.replace(
-        "# not_machining = \"$P_SEARCH OR $P_ISTEST OR $P_SIM\"",
+        "# not_machining = \"$P_SEARCH OR $P_ISTEST OR $P_SIM OR $P_DRYRUN\"",
         "not_machining = \"$P_SEARCH OR $P_ISTEST\"",
     );
     assert_ne!(without_sim, driftloop::omm::DEFAULT_PROFILE);
@@ -136,7 +140,7 @@ fn a_control_without_p_sim_gets_the_condition_its_profile_gives() {
         "{out}"
     );
     let empty = driftloop::omm::DEFAULT_PROFILE.replace(
-        "# not_machining = \"$P_SEARCH OR $P_ISTEST OR $P_SIM\"",
+        "# not_machining = \"$P_SEARCH OR $P_ISTEST OR $P_SIM OR $P_DRYRUN\"",
         "not_machining = \" \"",
     );
     let (o, _dir) = common::transform_in(

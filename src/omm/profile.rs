@@ -369,9 +369,10 @@ pub struct Registers {
     pub timer: String,
     pub timer_unit: TimerUnit,
     pub log_file: String,
-    /// The condition under which the control interprets the program without machining it (block search,
-    /// program test, the panel's simulation): a gate measures nothing then. A control that lacks one of
-    /// the variables (an older one without `$P_SIM`) stops at the first gate with an alarm: leave it out.
+    /// The condition under which no gate measures: the control interprets the program without machining it
+    /// (block search, program test, the panel's simulation), or runs it at the dry-run feed (`DRY`), which
+    /// would drive the probe at that feed instead of its measuring feed. A control that lacks one of the
+    /// variables (an older one without `$P_SIM`) stops at the first gate with an alarm: leave it out.
     #[serde(default = "Registers::interpreting_only")]
     pub not_machining: String,
 }
@@ -382,7 +383,7 @@ impl Registers {
     }
 
     fn interpreting_only() -> String {
-        "$P_SEARCH OR $P_ISTEST OR $P_SIM".into()
+        "$P_SEARCH OR $P_ISTEST OR $P_SIM OR $P_DRYRUN".into()
     }
 }
 

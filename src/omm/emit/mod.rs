@@ -914,23 +914,26 @@ impl Emitter<'_> {
     /// Where the control interprets the program without machining it: a block search (`$P_SEARCH`, 1…5,
     /// also during SERUPRO), program test (`$P_ISTEST`) or the operator panel's simulation (`$P_SIM`). The
     /// probe does not touch anything there, so the gate's agreement loop would stop with an alarm, and a
-    /// reading taken from a stale result would correct the part wrongly: a comment and the condition that
-    /// leaves the measurement out.
+    /// reading taken from a stale result would correct the part wrongly. In a dry run (`$P_DRYRUN`) the
+    /// probing move would run at the dry-run feed. A comment and the profile's condition that leaves the
+    /// measurement out.
     fn not_machining(&self) -> [String; 2] {
         [
-            "; driftloop: no measurement in a block search, program test or simulation".into(),
+            "; driftloop: no measurement in a block search, program test, simulation or dry run"
+                .into(),
             self.profile.registers.not_machining.clone(),
         ]
     }
 
     /// The run-time checks that leave a gate's measurement out, in this order: the gate's own `first`, not
     /// machining, no tool to swap the probe back for, the operator's spindle turning, then `last`. Where
-    /// one holds the gate still logs its row, without a reading, and jumps to `skip`.
+    /// one holds the gate still logs its row, without a reading, shows `message` (if any) and jumps to
+    /// `skip`.
     fn skip_measurement(
         &self,
         gate: &Gate,
-        first: Option<String>,
-        last: Option<String>,
+        [first, last]: [Option<String>; 2],
+        message: Option<&str>,
         rpm: f64,
         skip: &str,
     ) -> Vec<String> {
@@ -950,6 +953,7 @@ impl Emitter<'_> {
         let skip_if = format!("IF {}", any_of(&skips));
         v.push(skip_if.clone());
         v.extend(self.log_checked(rpm, gate.pass, false));
+        v.extend(message.map(|m| format!("MSG(\"{m}\")")));
         v.push("ENDIF".into());
         v.push(format!("{skip_if} GOTOF {skip}"));
         v
@@ -1431,7 +1435,9 @@ impl Emitter<'_> {
         // With no tool active there is no zero: the gates after see the measurement counter at 0 and do not
         // measure either.
         let skip = format!("{}SKIP{}", self.label_prefix, gate.number);
-        v.extend(self.skip_measurement(gate, None, None, cut_rpm, &skip));
+        // Without the zero no gate of this run measures: the operator is told at once, not by the log.
+        let message = "driftloop: no zero measured (block search, test, dry run, no tool or the spindle turning): this run corrects by the model only";
+        v.extend(self.skip_measurement(gate, [None, None], Some(message), cut_rpm, &skip));
         v.extend(self.save_position(gate));
         v.extend(self.probe_in(gate));
         v.push("; driftloop stage 4: reference measurement, the zero".into());
@@ -1484,7 +1490,7 @@ impl Emitter<'_> {
             // The zero was not measured (a block search started after it, no tool active or the
             // operator's spindle turning at the reference): nothing to measure against.
             let no_zero = format!("{}==0", r(self.regs.nbl));
-            v.extend(self.skip_measurement(gate, calm, Some(no_zero), gate.rpm, &skip));
+            v.extend(self.skip_measurement(gate, [calm, Some(no_zero)], None, gate.rpm, &skip));
             v.extend(self.save_position(gate));
             v.extend(self.probe_in(gate));
             v.extend(self.measure_axes(&what, |k| self.expected(k), |k| self.measured_drift(k)));
