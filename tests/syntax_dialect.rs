@@ -299,3 +299,36 @@ proptest! {
         prop_assert_eq!(spaced_words, heard(&packed));
     }
 }
+
+#[test]
+fn operators_and_names_the_control_refuses_are_errors_with_a_hint() {
+    // `=<` is no relational operator (== <> < > <= >=), in a condition or in a synchronized action.
+    let p = parse(b"IF R1=<2 GOTOF DONE\nID=1 WHEN $R1=<$AA_IM[X] DO M8\nDONE: M30\n");
+    let found: Vec<(usize, String, Option<String>)> = p
+        .diagnostics()
+        .iter()
+        .filter(|d| d.message.contains("found `=<"))
+        .map(|d| {
+            let line = LineIndex::new(p.source()).line_col(d.span.start).0;
+            (line, d.message.clone(), d.help.clone())
+        })
+        .collect();
+    assert_eq!(
+        found.iter().map(|f| f.0).collect::<Vec<_>>(),
+        [1, 2],
+        "{found:?}"
+    );
+    for (_, _, help) in &found {
+        assert!(help.as_deref().unwrap_or("").contains("write `<=`"));
+    }
+    let p = parse(b"WHILE R1=>0\nR1=R1-1\nENDWHILE\n");
+    let help = p.diagnostics()[0].help.clone().unwrap();
+    assert!(help.contains("write `>=`"), "{help}");
+    // `$$` doubles the `$` once: three are no name, and DEF does not declare a system variable.
+    assert_eq!(errors(&parse(b"ID=1 WHEN $$$AA_IM[X]>1 DO M8\n")).len(), 1);
+    assert_eq!(errors(&parse(b"$$=1\n")).len(), 1);
+    let p = parse(b"DEF INT $P_COUNT\n");
+    assert_eq!(errors(&p).len(), 1);
+    let help = p.diagnostics()[0].help.clone().unwrap();
+    assert!(help.contains("system variables"), "{help}");
+}

@@ -385,6 +385,54 @@ fn synchronized_actions() {
         vec![K::Assign, K::SyncCondition, K::Word, K::Word]
     );
     assert_eq!(statement_kinds(&p, 4), vec![K::SyncCondition, K::Assign]);
+    // `$$`: machine and setting data read or written in the main run.
+    let main_run: Vec<String> = [5, 6]
+        .iter()
+        .flat_map(|&i| {
+            let mut v = Vec::new();
+            p.block(i).root.walk(&mut |n| {
+                if n.kind == K::SysVar {
+                    v.push(text(&p, n))
+                }
+            });
+            v
+        })
+        .collect();
+    assert_eq!(
+        main_run,
+        vec![
+            "$AA_IM[Z]",
+            "$$SA_OSCILL_REVERSE_POS1[Z]",
+            "$AC_MARKER[3]",
+            "$AA_IM[X]",
+            "$$SN_SW_CAM_MINUS_POS_TAB_1[1]"
+        ]
+    );
+    assert_eq!(
+        statement_kinds(&p, 6),
+        vec![K::Assign, K::SyncCondition, K::Assign]
+    );
+}
+
+#[test]
+fn oscillation_control_takes_a_list_of_set_and_reset_options() {
+    let p = clean("oscillation.mpf");
+    assert_eq!(statement_kinds(&p, 2), vec![K::Assign, K::Assign]);
+    let control = p.block(2).root.significant().next().unwrap().clone();
+    let value = control.children.last().unwrap();
+    assert_eq!(value.kind, K::Args, "OSCTRL[Z]=(set, reset) is a list");
+    assert_eq!(text(&p, value), "(2+16, 1)");
+    assert_eq!(
+        value
+            .children
+            .iter()
+            .filter(|c| c.kind != K::Punct && c.kind != K::Trivia)
+            .count(),
+        2
+    );
+    // Elsewhere a parenthesis after `=` is still an expression.
+    let osp = find_in(&p, 1, K::Assign).unwrap();
+    assert_eq!(osp.children.last().unwrap().kind, K::Number);
 }
 
 #[test]

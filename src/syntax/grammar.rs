@@ -342,6 +342,12 @@ impl Cx {
             "`( … )` is not a comment in Sinumerik programs; start comments with `;`"
         } else if at.first() == Some(&b'"') {
             "strings are closed by `\"` on the same line"
+        } else if at.starts_with(b"=<") {
+            "the relational operators are == <> < > <= >=: write `<=`"
+        } else if at.starts_with(b"=>") {
+            "the relational operators are == <> < > <= >=: write `>=`"
+        } else if at.first() == Some(&b'$') && e.expected == "a variable name" {
+            "`$` names are the control's system variables; DEF declares a user variable, whose name starts with a letter or `_`"
         } else {
             "the accepted forms are listed in grammar/sinumerik.ebnf"
         };
@@ -420,14 +426,18 @@ impl Cx {
         }
     }
 
-    /// `target = expr`, or a polynomial's coefficients `PO[X]=(xe, a2, a3 …)` (POLY).
+    /// `target = expr`, or `target = (a, b …)` for the targets whose value is a list.
     fn assignment<'a>(&self, i: &'a [u8]) -> R<'a, Node> {
-        let poly = ident(i).is_ok_and(|(_, name)| name.eq_ignore_ascii_case(b"PO"));
+        let list = ident(i).is_ok_and(|(_, name)| {
+            LIST_TARGETS
+                .iter()
+                .any(|target| name.eq_ignore_ascii_case(target))
+        });
         let (i, target) = self.var_ref(i)?;
         let mut parts = vec![target];
         let (i, ()) = self.punct(i, "=", "`=`", &mut parts)?;
         let i = self.ws(i, &mut parts);
-        let (rest, value) = if poly && i.first() == Some(&b'(') {
+        let (rest, value) = if list && i.first() == Some(&b'(') {
             self.args(i)?
         } else {
             self.expr(i)?
@@ -1124,6 +1134,11 @@ fn path_len(i: &[u8]) -> usize {
         .take_while(|&&b| b == b'/' || is_ident_char(b))
         .count()
 }
+
+/// Targets assigned a parenthesised list rather than an expression: a polynomial's coefficients
+/// `PO[X]=(xe, a2, a3 …)` (POLY), the oscillation control options `OSCTRL[Z]=(set, reset)` and the infeed axes
+/// of an oscillating axis `OSCILL[Z]=(X, Y)` (Job Planning, oscillation).
+const LIST_TARGETS: [&[u8]; 3] = [b"PO", b"OSCTRL", b"OSCILL"];
 
 fn is_rparam(name: &[u8]) -> bool {
     name.len() > 1

@@ -3,7 +3,7 @@
 
 use nom::branch::alt;
 use nom::bytes::complete::{tag, tag_no_case, take_till, take_while, take_while_m_n, take_while1};
-use nom::combinator::recognize;
+use nom::combinator::{opt, recognize};
 use nom::error::{ErrorKind, ParseError};
 use nom::{IResult, Parser};
 
@@ -295,9 +295,10 @@ pub(crate) fn bit_literal(i: &[u8]) -> R<'_, &[u8]> {
     recognize((tag("'"), alt((recognize(hex), recognize(bin))), tag("'"))).parse(i)
 }
 
-/// `$` followed by a name: `$P_UIFR`, `$AA_IM`, `$A_DBB`.
+/// `$` followed by a name: `$P_UIFR`, `$AA_IM`, `$A_DBB`; `$$SA_…` (doubled) reads or writes machine and
+/// setting data in the main run, in synchronized actions.
 pub(crate) fn sysvar_name(i: &[u8]) -> R<'_, &[u8]> {
-    recognize((tag("$"), take_while1(is_ident_char))).parse(i)
+    recognize((tag("$"), opt(tag("$")), take_while1(is_ident_char))).parse(i)
 }
 
 #[cfg(test)]
