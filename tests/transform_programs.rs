@@ -79,3 +79,24 @@ fn a_cam_program_with_a_title_above_its_header_cycles_and_a_modal_call() {
     let lines: Vec<&[u8]> = out.split(|&b| b == b'\n').collect();
     assert!(lines[1].starts_with(b"%_N_PART1_MPF") && lines[3].starts_with(b"; driftloop-omm"));
 }
+
+/// What the operator panel writes around a program block (`GROUP_BEGIN`/`GROUP_END`) and a wait for a
+/// positioned spindle (`WAITS`) move nothing: they were read as unknown calls, so a program that opens
+/// with a block marker had no place for its zero (found on real programs). Now it transforms, with an audit
+/// that runs to the end, and its gates are where the plain program's are.
+#[test]
+fn program_block_markers_and_waits_move_nothing() {
+    let plain = "G54\nT1 M6\nS2000 M3\nG0 X30 Y30 Z5\nG1 Z-1 F100\nG1 X80 F500\nG0 Z50\nSPOS=0\nG1 X90 F300\nM30\n";
+    let marked = "GROUP_BEGIN(0,\"ROUGH\",0,0)\nG54\nT1 M6\nS2000 M3\nG0 X30 Y30 Z5\nG1 Z-1 F100\nG1 X80 F500\nG0 Z50\nGROUP_END(0,0)\nSPOS=0\nWAITS(1)\nG1 X90 F300\nM30\n";
+    for profile in ["blum-tc50", "tool-setter"] {
+        let gates = |src: &str| {
+            let out = common::transformed_in(&[("p.mpf", src)], "p.mpf", profile);
+            out.lines()
+                .filter(|l| l.starts_with("; driftloop gate"))
+                .count()
+        };
+        let plain_gates = gates(plain);
+        assert!(plain_gates > 0, "{profile}");
+        assert_eq!(gates(marked), plain_gates, "{profile}");
+    }
+}

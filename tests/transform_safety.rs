@@ -521,3 +521,29 @@ M30
     assert_eq!(gates_between(&o, "TRANS X10", "G91 G0 X5"), 0, "{o}");
     assert!(gates_between(&o, "G90", "M30") > 0, "{o}");
 }
+
+/// A main program may end with M17 (or RET) instead of M30: the work offset must be put back before it,
+/// not after it, where nothing runs — the stored offset (`method = "frame"`) would stay corrected for the
+/// next program. Found on real grinder programs that end with M17.
+#[test]
+fn the_offset_is_put_back_before_an_m17_or_ret_that_ends_the_program() {
+    let model = model();
+    let body = "G54\nT1 M6\nS2000 M3\nG0 X0 Y0 Z5\nG1 Z-1 F100\nG1 X50 F500\nG0 Z50\n";
+    for (end, after) in [("M17", ""), ("M17", "G0 X100\n"), ("RET", "")] {
+        let src = format!("{body}{end}\n{after}");
+        for profile in [Profile::default_profile(), common::frame_profile()] {
+            let out = transformed(&src, &profile, &model).unwrap();
+            let lines: Vec<&str> = out.lines().collect();
+            let at_end = lines.iter().position(|l| *l == end).unwrap();
+            let restore = lines
+                .iter()
+                .position(|l| l.contains("work offset back to its value before the program"))
+                .unwrap_or_else(|| panic!("no restore:\n{out}"));
+            assert!(restore < at_end, "{end}: the restore after the end:\n{out}");
+            assert!(
+                lines[at_end..].iter().all(|l| !l.ends_with(MARK)),
+                "{end}: blocks inserted after the end:\n{out}"
+            );
+        }
+    }
+}

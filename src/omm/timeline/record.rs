@@ -79,7 +79,7 @@ pub struct Timeline {
     pub sites: Vec<Site>,
     /// Spindle speed from each time on: (min, rpm), starting at (0, 0).
     pub speeds: Vec<(f64, f64)>,
-    /// Blocks that end the program (M2, M30).
+    /// Blocks that end the program or return from it (M2, M17, M30, RET, GOTOS).
     pub ends: Vec<usize>,
     /// First block after the transfer header (`%…`, `;$PATH=…`).
     pub header_end: usize,

@@ -68,6 +68,9 @@ impl Interp<'_> {
                 content.push('\n');
                 self.store(u, status, Value::Num(0.0), w)?;
             }
+            // The dry run positions a spindle at once: nothing to wait for. The blank description and the
+            // editor's program-block markers act only on the panel.
+            "WAITS" | "WORKPIECE" | "GROUP_BEGIN" | "GROUP_END" => {}
             // Master spindle 1 is the only spindle.
             "SETMS"
                 if values
@@ -254,6 +257,10 @@ impl Interp<'_> {
                 | "SETAL"
                 | "WRITE"
                 | "SETMS"
+                | "WAITS"
+                | "WORKPIECE"
+                | "GROUP_BEGIN"
+                | "GROUP_END"
                 | "CYCLE800"
                 | "TRAORI"
                 | "TRANSMIT"

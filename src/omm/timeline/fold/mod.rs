@@ -655,7 +655,8 @@ impl<'p> Builder<'p> {
             match m {
                 3..=5 | POSITIONED => direction = Some(m),
                 6 => self.m6_seen = true,
-                2 | 30 => self.t.ends.push(i),
+                // M17 ends a main program as M30 does, and returns from a subprogram.
+                2 | 17 | 30 => self.t.ends.push(i),
                 7..=9 => self.state.coolant = coolant_after(self.state.coolant, m),
                 _ if !self.profile.coolant.follows(m) && !is_control_m(m) => {
                     self.t.machine_m.insert(m);
@@ -674,7 +675,7 @@ impl<'p> Builder<'p> {
             self.state.direction = d;
             self.spindle_set_at(i);
         }
-        if s.restart {
+        if s.leaves {
             self.t.ends.push(i);
         }
         if speed.is_some() || direction.is_some() {

@@ -55,8 +55,9 @@ pub(super) struct Scan {
     pub(super) diameter: Option<Diameter>,
     /// `LIMS=`: the speed limit under constant cutting speed (rpm).
     pub(super) lims: Option<f64>,
-    /// `GOTOS`: back to the program's start.
-    pub(super) restart: bool,
+    /// `GOTOS` (back to the program's start) or `RET` (back to the caller): for what driftloop restores,
+    /// an end.
+    pub(super) leaves: bool,
     /// A write to `$P_IFRAME`, the frame in force, which the gates correct or select anew.
     pub(super) writes_frame_in_force: bool,
     /// Rotary axes A, B, C (bits 1, 2, 4) the block positions away from 0, or to 0.

@@ -184,6 +184,7 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                 let name = String::from_utf8_lossy(block.text(node)).to_ascii_uppercase();
                 s.frame_ops |= transformation_op(&name) | frame_command_op(&name, &f, &block);
                 match name.as_str() {
+                    "RET" => s.leaves = true,
                     "DIAMON" => s.diameter = Some(Diameter::On),
                     "DIAM90" => s.diameter = Some(Diameter::Absolute),
                     "DIAMOF" => s.diameter = Some(Diameter::Off),
@@ -195,7 +196,7 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
             }
             // GOTOS starts the program again: for what driftloop restores, an end.
             NodeKind::Goto => {
-                s.restart |= block
+                s.leaves |= block
                     .text(node)
                     .get(..5)
                     .is_some_and(|t| t.eq_ignore_ascii_case(b"GOTOS"));
@@ -293,8 +294,19 @@ fn corrects_work_offset(block: &Block<'_>, call: &Node, name: &str) -> bool {
 }
 
 /// Built-in procedures called like cycles that take no machine time: no note that they are not timed.
+/// `WAITS` waits for a positioning spindle to reach its position: it moves nothing itself. The operator
+/// panel's editor marks program blocks with `GROUP_BEGIN`/`GROUP_END`, cycles that do nothing.
 const TIMELESS_PROCEDURES: &[&str] = &[
-    "MSG", "SETAL", "WRITE", "SETMS", "GETT", "GETSELT", "STOPRE",
+    "MSG",
+    "SETAL",
+    "WRITE",
+    "SETMS",
+    "GETT",
+    "GETSELT",
+    "STOPRE",
+    "WAITS",
+    "GROUP_BEGIN",
+    "GROUP_END",
 ];
 
 /// What a `CALL`, `PCALL`, `EXTCALL`, `ISOCALL` or `MCALL` statement does.
