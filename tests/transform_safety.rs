@@ -547,3 +547,37 @@ fn the_offset_is_put_back_before_an_m17_or_ret_that_ends_the_program() {
         }
     }
 }
+
+/// After the program's own tool change the new tool has the control's default cutting edge (MD20270,
+/// usually D1) unless the block selects one; the timeline kept the last tool's D, so a gate that loaded
+/// the new tool again after the probe wrote that D (`D2` where the original cut with D1: the wrong length
+/// and radius). The audit refused such outputs; found by random programs. Now a gate writes no D there,
+/// and its own M6 gives the same default.
+#[test]
+fn a_gate_after_a_tool_change_gives_back_the_default_edge_not_the_last_tools() {
+    let cut = "G0 Z5\nG1 X0 F500\nG0 Z50\nM1\nG0 Z5\nG1 X10 F500\nG0 Z50\n";
+    let src = format!("G54\nT1 M6\nD2\nS2000 M3\n{cut}T2 M6\nS3000 M3\n{cut}M30\n");
+    let out = out(&src);
+    let lines: Vec<&str> = out.lines().collect();
+    let second = lines.iter().position(|l| *l == "T2 M6").unwrap();
+    let reload = |tool: &str| format!("T={tool} M6 {MARK}");
+    assert!(
+        lines[..second].contains(&reload("1").as_str())
+            && lines[..second].contains(&format!("D2 {MARK}").as_str()),
+        "a gate of the first tool loads it again with its D2:\n{out}"
+    );
+    assert!(
+        lines[second..].contains(&reload("2").as_str()),
+        "a gate of the second tool loads it again:\n{out}"
+    );
+    let after_reload = lines[second..]
+        .windows(2)
+        .filter(|w| w[0] == reload("2"))
+        .map(|w| w[1]);
+    for next in after_reload {
+        assert!(
+            !next.starts_with('D'),
+            "a gate after T2 M6 writes the last tool's D ({next}):\n{out}"
+        );
+    }
+}

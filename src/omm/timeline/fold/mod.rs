@@ -699,6 +699,12 @@ impl<'p> Builder<'p> {
             }
             // M6 loads the selected tool (T alone only selects it, in a program that uses M6).
             self.state.tool = self.state.selected.clone();
+            // Without a D in the block the new tool has the control's default edge (MD20270, usually D1),
+            // not the last tool's D: a gate that loads it again gets the same default and writes no D.
+            if s.d.is_none() {
+                self.state.d = None;
+                self.state.unknown &= !unknown::D;
+            }
             self.new_cutting_edge(s);
             // The change cycle stops the spindle (a positioned one too); the program starts it again for
             // the new tool (a gate that gave back the last tool's speed would spin the new one at it).
