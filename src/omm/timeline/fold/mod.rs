@@ -494,9 +494,9 @@ impl<'p> Builder<'p> {
         }
         // The state before the block is kept only where a site or pass mark can arise: a copy per block
         // would cost more than the rest of the scan.
-        // A call may change tools (a subprogram that holds the M6, a declared change): a pass starts there.
+        // A declared tool change starts a pass there, whose gate gives back the preselection from this state.
         let may_mark = !s.m.is_empty()
-            || s.call.is_some()
+            || matches!(call_loads, Some(ToolChangeCall::Declared(_)))
             || s.s.is_some()
             || s.tool.is_some()
             || s.marker
