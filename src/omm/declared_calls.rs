@@ -149,7 +149,12 @@ pub fn validate(calls: &BTreeMap<String, DeclaredCall>, probe_cycle: &str) -> Re
                 "calls.{name}: {upper} is a command or cycle driftloop reads itself (or the probe's cycle); declare only a builder's or shop's own calls"
             ));
         }
-        if calls.keys().filter(|k| k.eq_ignore_ascii_case(name)).count() > 1 {
+        if calls
+            .keys()
+            .filter(|k| k.eq_ignore_ascii_case(name))
+            .count()
+            > 1
+        {
             return Err(format!(
                 "calls.{name} is declared twice (names are case-insensitive)"
             ));
@@ -159,7 +164,12 @@ pub fn validate(calls: &BTreeMap<String, DeclaredCall>, probe_cycle: &str) -> Re
                 "calls.{name} says nothing: give loads = \"preselected\" / \"arg N\" (a tool change) or leaves = [ … ] (what it may change; [] for nothing)"
             ));
         }
-        if call.coolant_off && call.leaves.as_ref().is_some_and(|l| l.contains(&Leaves::Coolant)) {
+        if call.coolant_off
+            && call
+                .leaves
+                .as_ref()
+                .is_some_and(|l| l.contains(&Leaves::Coolant))
+        {
             return Err(format!(
                 "calls.{name}.coolant_off: the coolant is either switched off by the call (coolant_off) or unknown after it (\"coolant\" in leaves), not both"
             ));
@@ -167,9 +177,7 @@ pub fn validate(calls: &BTreeMap<String, DeclaredCall>, probe_cycle: &str) -> Re
         if let Some(l) = &call.leaves
             && let Some(twice) = l.iter().find(|a| l.iter().filter(|b| b == a).count() > 1)
         {
-            return Err(format!(
-                "calls.{name}.leaves lists {twice:?} twice"
-            ));
+            return Err(format!("calls.{name}.leaves lists {twice:?} twice"));
         }
     }
     Ok(())
@@ -195,10 +203,7 @@ fn reads_itself(name: &str) -> bool {
 }
 
 /// The declaration of `name` (as called, any case).
-pub fn find<'a>(
-    calls: &'a BTreeMap<String, DeclaredCall>,
-    name: &str,
-) -> Option<&'a DeclaredCall> {
+pub fn find<'a>(calls: &'a BTreeMap<String, DeclaredCall>, name: &str) -> Option<&'a DeclaredCall> {
     calls
         .iter()
         .find(|(k, _)| k.eq_ignore_ascii_case(name))

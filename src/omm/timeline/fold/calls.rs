@@ -131,7 +131,12 @@ impl Builder<'_> {
     /// next `Z-2` went down in rapid). What a subprogram the timeline reads sets (`touched`), else every
     /// field but the position; a Siemens cycle (declared `SAVE`: its G codes and programmable frame come
     /// back) or one that leaves the state known, none.
-    pub(super) fn unsure_after(&mut self, i: usize, name: &str, touched: Option<[bool; field::COUNT]>) {
+    pub(super) fn unsure_after(
+        &mut self,
+        i: usize,
+        name: &str,
+        touched: Option<[bool; field::COUNT]>,
+    ) {
         if leaves_state_known(name) || is_siemens_cycle(name) {
             return;
         }

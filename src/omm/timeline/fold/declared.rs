@@ -95,6 +95,7 @@ impl Builder<'_> {
         for (mine, its) in self.touched.iter_mut().zip(unsure) {
             *mine |= its;
         }
+        self.leave_to_call(i, &mut unsure);
         self.unsure_after(i, name, Some(unsure));
         if decl.coolant_off {
             let before = self.state.clone();
@@ -126,6 +127,26 @@ impl Builder<'_> {
                 DeclaredTool::Unknown
             }
         })
+    }
+
+    /// The G codes a gate writes back only where the program set them (plane, feed type, path mode): after
+    /// a call that may change them they are the call's, which a gate then leaves as they are (as after
+    /// CYCLE832), so they are not unsure.
+    fn leave_to_call(&mut self, i: usize, unsure: &mut [bool; field::COUNT]) {
+        let st = &mut self.state;
+        for (f, value) in [
+            (field::PLANE, &mut st.plane),
+            (field::FEED_MODE, &mut st.feed_mode),
+            (field::PATH_MODE, &mut st.path_mode),
+        ] {
+            if unsure[f] {
+                unsure[f] = false;
+                if value.take().is_some() {
+                    self.changed[f] = i + 1;
+                }
+                self.written[f] = i + 1;
+            }
+        }
     }
 
     /// The block after a declared tool change at block `i`: the tool (and with `Named` its selection) set
