@@ -1,6 +1,6 @@
 //! Builder calls declared in the machine profile (`[calls.NAME]`, `[probe] change`): what the transform
 //! then does with the programs of fixtures/shop8 and two small programs in the same dialects
-//! (fixtures/shop8/profiles: DMG's `T="NAME"` then `TC(1)`, Burkhardt+Weber's `L706(, 5, , "1")`), each
+//! (fixtures/declared_calls, with the test profiles of fixtures/shop8/profiles: DMG's `T="NAME"` then `TC(1)`, Burkhardt+Weber's `L706(, 5, , "1")`), each
 //! through the binary. docs/profiles.md, "Builder calls"; docs/safety.md, "Declared calls".
 
 mod common;
@@ -63,7 +63,7 @@ fn a_declared_tool_change_and_change_point_let_a_dmg_program_transform() {
 
 #[test]
 fn a_gate_swaps_the_probe_with_the_declared_tc1_and_the_audit_passes() {
-    let prog = shop8("profiles/dmu_tc1.mpf");
+    let prog = std::fs::read_to_string(common::fixture("declared_calls/dmu_tc1.mpf")).unwrap();
     let (o, _) = common::transform_in(&[("p.mpf", &prog)], "p.mpf", "blum-tc50");
     assert_eq!(
         o.status.code(),
@@ -108,7 +108,7 @@ fn a_gate_swaps_the_probe_with_the_declared_tc1_and_the_audit_passes() {
 
 #[test]
 fn a_gate_swaps_the_probe_with_a_call_that_takes_the_tool_as_an_argument() {
-    let prog = shop8("profiles/mcx_l706.mpf");
+    let prog = std::fs::read_to_string(common::fixture("declared_calls/mcx_l706.mpf")).unwrap();
     let (o, _) = common::transform_in(&[("p.mpf", &prog)], "p.mpf", "blum-tc50");
     assert_eq!(
         o.status.code(),
@@ -135,7 +135,9 @@ fn a_gate_swaps_the_probe_with_a_call_that_takes_the_tool_as_an_argument() {
 
 #[test]
 fn a_tool_change_declared_with_an_argument_a_call_does_not_give_is_refused_naming_the_line() {
-    let prog = shop8("profiles/mcx_l706.mpf").replace("L706(, 2, , \"1\")", "L706(, , , \"1\")");
+    let prog = std::fs::read_to_string(common::fixture("declared_calls/mcx_l706.mpf"))
+        .unwrap()
+        .replace("L706(, 2, , \"1\")", "L706(, , , \"1\")");
     let profile = shop8("profiles/bw.toml");
     let (o, dir) = common::transform_in(
         &[("p.mpf", &prog), ("bw.toml", &profile)],
@@ -171,7 +173,9 @@ fn a_datum_cycle_declared_to_write_frames_keeps_the_zero_after_it_and_refuses_on
     // A datum cycle declared so before the first cut lets the zero go after it; one after the zero is
     // refused as a frame write of the program's would be (the gates' correction and the cycle's datum
     // would overwrite each other).
-    let dmu = shop8("profiles/dmu_tc1.mpf").replace("G54\n", "NPL(1)\nG54\n");
+    let dmu = std::fs::read_to_string(common::fixture("declared_calls/dmu_tc1.mpf"))
+        .unwrap()
+        .replace("G54\n", "NPL(1)\nG54\n");
     let with_npl = format!(
         "{}\n[calls.NPL]\nleaves = [\"frames\", \"offset\"]\n",
         shop8("profiles/dmg.toml")
@@ -244,7 +248,7 @@ fn declarations_that_do_not_fit_are_refused_pointing_into_the_profile() {
     ] {
         let bad = dmg.replacen(from, to, 1);
         assert_ne!(bad, dmg, "{what}");
-        let prog = shop8("profiles/dmu_tc1.mpf");
+        let prog = std::fs::read_to_string(common::fixture("declared_calls/dmu_tc1.mpf")).unwrap();
         let (o, _) =
             common::transform_in(&[("p.mpf", &prog), ("dmg.toml", &bad)], "p.mpf", "dmg.toml");
         assert_eq!(o.status.code(), Some(2), "{what}");
