@@ -120,10 +120,6 @@ impl DeclaredCall {
             (None, None) => Vec::new(),
         }
     }
-
-    pub fn may_leave(&self, what: Leaves) -> bool {
-        self.leaves().contains(&what)
-    }
 }
 
 /// `[calls]` checked: names a call can have and driftloop does not read itself, each saying what it does.
