@@ -4,6 +4,7 @@
 //! new blocks are inserted, each parsed again before it is accepted.
 
 pub mod continuous;
+pub mod declared_calls;
 pub mod emit;
 mod iso;
 pub mod loops;
@@ -77,7 +78,7 @@ pub enum TransformError {
     #[error(transparent)]
     Plan(#[from] PlanError),
     #[error(
-        "the program writes a frame itself at line {0}, after the zero: the corrections driftloop writes into the work offset and its restore at the end would overwrite it (or be overwritten); move the write before the first cut"
+        "the program writes a frame itself at line {0} (a frame variable, or a call the profile declares with leaves = [\"frames\"]), after the zero: the corrections driftloop writes into the work offset and its restore at the end would overwrite it (or be overwritten); move the write before the first cut"
     )]
     FrameWrite(usize),
     #[error(
@@ -127,6 +128,7 @@ impl TransformError {
             TransformError::Plan(PlanError::NothingToCompensate) => "moves no axis",
             TransformError::Plan(PlanError::NoReference(_)) => "no place for the reference",
             TransformError::Plan(PlanError::Model(_)) => "model not predictable in NC",
+            TransformError::Plan(PlanError::Declaration(_)) => "a declared call does not fit",
             TransformError::FrameWrite(_) => "writes a work offset itself",
             TransformError::FrameInForceWrite(_) => "writes the frame in force itself",
             TransformError::IsoDialect { .. } => "ISO dialect",

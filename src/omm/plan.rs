@@ -354,6 +354,9 @@ pub enum PlanError {
     NothingToCompensate,
     #[error("{0}")]
     NoReference(String),
+    /// The profile's `[calls]` declaration does not fit a call of the program.
+    #[error("{0}")]
+    Declaration(String),
     /// The model cannot be predicted in NC with this profile.
     #[error("{0}")]
     Model(String),
@@ -820,6 +823,9 @@ pub fn plan(
     models: &[&DriftModel],
     profile: &Profile,
 ) -> Result<Plan, PlanError> {
+    if let Some((line, why)) = &timeline.bad_declaration {
+        return Err(PlanError::Declaration(format!("line {line}: {why}")));
+    }
     let measured = profile.measured();
     if models.len() != measured.len() {
         return Err(PlanError::Model(format!(

@@ -2,6 +2,7 @@
 //! the method and what the timeline assumes. TOML; every key is required except where a default is given,
 //! and unknown keys are refused so a misspelt setting cannot silently fall back to a default.
 
+use std::collections::BTreeMap;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
@@ -9,6 +10,7 @@ use serde::{Deserialize, Serialize};
 use crate::data::LARGEST_UM;
 
 use super::continuous::Continuous;
+use super::declared_calls::{self, DeclaredCall, Loads};
 use super::machine_coolant::MachineCoolant;
 use super::warm::WarmStart;
 
@@ -67,6 +69,9 @@ pub struct Profile {
     /// Optional: the machine's own coolant M-codes, which gates switch off and give back like M7/M8.
     #[serde(default, skip_serializing_if = "MachineCoolant::is_default")]
     pub coolant: MachineCoolant,
+    /// Optional: what a builder's or shop's calls do that driftloop cannot read (`[calls.TC]`).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub calls: BTreeMap<String, DeclaredCall>,
 }
 
 /// How dense DRIFTLOG is and which analog inputs it carries, for `diagnose` to work with.
@@ -96,6 +101,11 @@ pub struct Probe {
     /// How the machine changes tools.
     #[serde(default)]
     pub tool_change: ToolChange,
+    /// The machine's own tool change a gate swaps the probe with, instead of `M6`: a call declared in
+    /// `[calls]` with `loads`. `{tool}` stands for the tool where the call takes it as an argument;
+    /// without it the gate selects the tool with `T=` first.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub change: Option<String>,
     /// What a gate does where the program's text does not say which tool is in the spindle (no tool change
     /// before it): refuse the place, or read the tool at run time and check it is back before cutting.
     #[serde(default)]
@@ -124,6 +134,17 @@ impl Probe {
     /// `T=` of the tool whose T number the R-parameter `reg` holds ([`Probe::tool_by_number`]).
     pub fn reselect(&self, reg: &str) -> String {
         self.tool_by_number.replace("{t}", reg)
+    }
+
+    /// The blocks that load `tool` (as the program writes it: `"NAME"` or a number) with the machine's
+    /// declared change ([`Probe::change`]): the call with the tool as its argument, or `T=` and the call.
+    pub fn swap(&self, tool: &str) -> Option<Vec<String>> {
+        let change = self.change.as_ref()?;
+        Some(if change.contains("{tool}") {
+            vec![change.replace("{tool}", tool)]
+        } else {
+            vec![format!("T={tool}"), change.clone()]
+        })
     }
 }
 
@@ -675,6 +696,7 @@ impl Profile {
                 ));
             }
         }
+        self.validate_calls()?;
         self.continuous
             .validate(self.position.diameter || self.offset.diameter)?;
         if let Some(w) = &self.warm_start {
@@ -734,6 +756,65 @@ impl Profile {
     }
 }
 
+impl Profile {
+    /// `[calls]` and `probe.change`: a spindle probe on a machine whose tool change is a declared call
+    /// swaps the probe with that call, in the form the declaration reads (`{tool}` where it takes the tool).
+    fn validate_calls(&self) -> Result<(), String> {
+        let cycle = self.cycle_call();
+        let cycle_name = cycle.split('(').next().unwrap_or_default().trim();
+        declared_calls::validate(&self.calls, cycle_name)?;
+        let probe = &self.probe;
+        let Some(change) = &probe.change else {
+            if let (ProbeKind::SpindleProbe, Some((name, _))) = (
+                probe.kind,
+                self.calls.iter().find(|(_, c)| c.loads.is_some()),
+            ) {
+                return Err(format!(
+                    "calls.{name} declares a tool change: a spindle probe's gates must swap the probe the same way; set [probe] change (e.g. \"{name}(1)\", or with {{tool}} where the call takes the tool)"
+                ));
+            }
+            return Ok(());
+        };
+        if probe.kind != ProbeKind::SpindleProbe || probe.tool_change != ToolChange::M6 {
+            return Err(
+                "probe.change replaces the M6 of a spindle probe's swap: it needs kind = \"spindle-probe\" and tool_change = \"m6\""
+                    .into(),
+            );
+        }
+        let (name, args) = change.split_once('(').unwrap_or((change, ""));
+        let name = name.trim();
+        let Some(loads) = declared_calls::find(&self.calls, name).and_then(|c| c.loads) else {
+            return Err(format!(
+                "probe.change `{change}` must call a tool change declared in [calls] with loads (no [calls.{name}] loads = …)"
+            ));
+        };
+        let args: Vec<&str> = args.trim_end().trim_end_matches(')').split(',').collect();
+        let at = args.iter().position(|a| a.trim() == "{tool}");
+        let ok = match loads {
+            Loads::Preselected => !change.contains("{tool}"),
+            Loads::Arg(n) => at == Some(n - 1) && change.matches("{tool}").count() == 1,
+        };
+        if !ok {
+            return Err(format!(
+                "probe.change `{change}` does not fit calls.{name}.loads = \"{loads}\": {}",
+                match loads {
+                    Loads::Preselected =>
+                        "a call that loads the preselected tool takes no {tool} (the gate writes T= before it)".to_string(),
+                    Loads::Arg(n) => format!("argument {n} (and only it) must be {{tool}}"),
+                }
+            ));
+        }
+        let text = change.replace("{tool}", &format!("\"{}\"", probe.tool));
+        if let Some(d) = crate::syntax::line_syntax_errors(text.as_bytes()).first() {
+            return Err(format!(
+                "probe.change: `{text}` is not a valid NC block: {}",
+                d.message
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// Highest R-parameter number a profile may give driftloop (the control's MD28050 decides how many exist).
 const LAST_R: u32 = 9999;
 /// Longest time in a profile (s): a day.
@@ -744,6 +825,7 @@ impl Profile {
     /// one (printable ASCII only: no line break, no quote inside a quoted name), numbers in the range a
     /// machine works in, and an offset frame that is the selected offset's. Messages start with the key.
     pub fn validate_nc_values(&self) -> Result<(), String> {
+        let no_change = String::new();
         let texts = [
             ("name", &self.name, ""),
             ("probe.tool", &self.probe.tool, "\""),
@@ -758,6 +840,11 @@ impl Profile {
                 "\";",
             ),
             ("passes.marker", &self.passes.marker, ""),
+            (
+                "probe.change",
+                self.probe.change.as_ref().unwrap_or(&no_change),
+                ";",
+            ),
         ];
         let dressing = self
             .passes

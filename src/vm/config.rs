@@ -112,6 +112,10 @@ pub struct Config {
     pub passes: bool,
     /// `T` loads the tool at once (turrets; TOOL_CHANGE_MODE 0) instead of preselecting it for `M6`.
     pub tool_change_on_t: bool,
+    /// Calls a machine profile declares to change tools (`[calls.NAME] loads`), by upper-cased name: `None`
+    /// loads the preselected tool, `Some(k)` the tool in argument k (0-based). A subprogram of that name the
+    /// run finds runs instead, as the transform reads it.
+    pub tool_change_calls: BTreeMap<String, Option<usize>>,
     /// MD32750 `$MA_TEMP_COMP_TYPE` per upper-cased axis; an axis not listed has 1 (position-independent
     /// temperature compensation on), so SD43900 acts.
     pub temp_comp_type: BTreeMap<String, u32>,
@@ -246,6 +250,7 @@ impl Default for Config {
             trace: true,
             passes: true,
             tool_change_on_t: false,
+            tool_change_calls: BTreeMap::new(),
             machine_coolant: Default::default(),
             temp_comp_type: BTreeMap::new(),
             temp_comp_start: BTreeMap::new(),

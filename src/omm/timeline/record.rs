@@ -158,6 +158,9 @@ pub struct Timeline {
     /// fields otherwise than the timeline has them, not set again by the program since): site block →
     /// (the call's line, 1-based; the name called; the fields, as G codes and words).
     pub unsure_after_call: BTreeMap<usize, (usize, String, String)>,
+    /// The first call where the profile's `[calls]` declaration does not fit the program (a tool taken
+    /// from an argument the call does not give): (line, 1-based; why). The transform refuses the program.
+    pub bad_declaration: Option<(usize, String)>,
 }
 
 /// What a unit run as a subprogram does to its caller's modal state.

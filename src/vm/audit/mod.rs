@@ -38,6 +38,7 @@ use super::config::{Config, MachineSpec, ProbeTarget};
 use super::truth::ModelDrift;
 use crate::model::DriftModel;
 use crate::omm::Profile;
+use crate::omm::declared_calls::Loads;
 use crate::omm::machine_coolant::MachineCoolant;
 use crate::omm::profile::{Axis, MeasureFrame, OffsetMethod, ProbeKind, ToolChange};
 
@@ -79,6 +80,8 @@ pub struct AuditSettings {
     pub probe_result: Option<ProbeTarget>,
     /// `probe.tool_change = "t"`: T loads the tool at once (no M6).
     pub tool_change_on_t: bool,
+    /// `[calls]` declared to change tools ([`Config::tool_change_calls`]): both runs load a tool there.
+    pub tool_change_calls: BTreeMap<String, Option<usize>>,
     /// `registers.alarm_tool` where gates read the tool at run time: the alarm of their check that the tool
     /// is back, which inserted blocks must never reach in a clean run.
     pub tool_alarm: Option<u32>,
@@ -172,6 +175,17 @@ impl AuditSettings {
             probe_cycle: cycle.to_ascii_uppercase(),
             probe_result: ProbeTarget::parse(&probe.result),
             tool_change_on_t: probe.tool_change == ToolChange::T,
+            tool_change_calls: profile
+                .calls
+                .iter()
+                .filter_map(|(name, c)| {
+                    let arg = match c.loads? {
+                        Loads::Preselected => None,
+                        Loads::Arg(n) => Some(n - 1),
+                    };
+                    Some((name.to_ascii_uppercase(), arg))
+                })
+                .collect(),
             tool_alarm: crate::omm::plan::reads_tool(profile)
                 .then_some(profile.registers.alarm_tool),
             machine_coolant: profile.coolant.clone(),
@@ -249,6 +263,8 @@ impl AuditSettings {
         let axis = ["X", "Y", "Z"][self.axis];
         cfg.probe_axis = axis.to_string();
         cfg.tool_change_on_t = self.tool_change_on_t;
+        cfg.tool_change_calls
+            .extend(self.tool_change_calls.iter().map(|(k, v)| (k.clone(), *v)));
         cfg.machine_coolant = self.machine_coolant.clone();
         if self.reset_selects {
             cfg.reset_frame = self.frame;

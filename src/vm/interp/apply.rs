@@ -3,8 +3,21 @@
 
 use super::*;
 
+/// What a tool change takes from its block: the edge and sum offset it selects, and whether it starts
+/// the spindle again (M3/M4).
+struct ToolChangeWords {
+    d: Option<f64>,
+    dl: Option<f64>,
+    starts_spindle: bool,
+}
+
 impl Interp<'_> {
     pub(super) fn apply(&mut self, u: &Rc<Unit>, i: usize, w: Words) -> Result<Flow, String> {
+        let w_tool_change = ToolChangeWords {
+            d: w.d,
+            dl: w.dl,
+            starts_spindle: w.m.iter().any(|m| matches!(m, 3 | 4)),
+        };
         let mut dwell = false;
         // G25 / G26 (0, 1): S is the spindle's lower / upper speed limit, axis values the working area's.
         let mut limit = None;
@@ -148,24 +161,7 @@ impl Interp<'_> {
                 }
                 // M19 positions the spindle at the angle of SD43240, which the dry run does not know.
                 19 => self.position_spindle(1, f64::NAN),
-                6 => {
-                    self.passes.end_segment();
-                    if let Some(t) = &self.motion.preselected {
-                        self.motion.tool = Some(t.clone());
-                    }
-                    // The new tool's first cutting edge unless the block selects one (MD20270
-                    // CUTTING_EDGE_DEFAULT = 1).
-                    self.select_edge(w.d.unwrap_or(1.0), w.dl);
-                    // The change macro turns the spindle to its own change angle.
-                    self.motion.spindle_position = None;
-                    // The change cycle stops the spindle to swap the tool; the program starts it again.
-                    if self.motion.rotation != 0 && !w.m.iter().any(|m| matches!(m, 3 | 4)) {
-                        self.motion.rotation = 0;
-                        self.spindle.set(self.time_min, 0.0);
-                    }
-                    self.done.tool_change = true;
-                    self.time_min += self.cfg.tool_change_min;
-                }
+                6 => self.change_tool(&w_tool_change),
                 5 | 0 | 1 | 2 | 30 | 17 => {}
                 7..=9 => {
                     let st = &mut self.motion;
@@ -271,6 +267,23 @@ impl Interp<'_> {
                         repeats: w.repeat.unwrap_or(1).max(1),
                     });
                 }
+                // A call the profile declares to change tools: as M6, with the tool its argument gives.
+                Err(_) if let Some(&arg) = self.cfg.tool_change_calls.get(&name) => {
+                    if let Some(k) = arg {
+                        let tool = match args.get(k) {
+                            Some(Some(Value::Num(n))) => Tool::Number(*n),
+                            Some(Some(Value::Str(s))) => Tool::Name(s.as_str().into()),
+                            _ => {
+                                return Err(format!(
+                                    "{name} is declared to load the tool in its argument {}, which this call does not give",
+                                    k + 1
+                                ));
+                            }
+                        };
+                        self.motion.preselected = Some(self.cfg.known_tool(tool));
+                    }
+                    self.change_tool(&w_tool_change);
+                }
                 Err(why) if self.cfg.skip_missing_calls => {
                     skipped = true;
                     let at = self.at(u, i);
@@ -300,6 +313,26 @@ impl Interp<'_> {
     }
 
     /// Selects cutting edge `d` with sum offset `dl`, or the one MD20272 gives a new edge (D0: none).
+    /// M6, or a call declared to change tools: the preselected tool loaded, the spindle stopped.
+    fn change_tool(&mut self, w: &ToolChangeWords) {
+        self.passes.end_segment();
+        if let Some(t) = &self.motion.preselected {
+            self.motion.tool = Some(t.clone());
+        }
+        // The new tool's first cutting edge unless the block selects one (MD20270
+        // CUTTING_EDGE_DEFAULT = 1).
+        self.select_edge(w.d.unwrap_or(1.0), w.dl);
+        // The change macro turns the spindle to its own change angle.
+        self.motion.spindle_position = None;
+        // The change cycle stops the spindle to swap the tool; the program starts it again.
+        if self.motion.rotation != 0 && !w.starts_spindle {
+            self.motion.rotation = 0;
+            self.spindle.set(self.time_min, 0.0);
+        }
+        self.done.tool_change = true;
+        self.time_min += self.cfg.tool_change_min;
+    }
+
     fn select_edge(&mut self, d: f64, dl: Option<f64>) {
         self.motion.d = d;
         self.motion.dl = if d == 0.0 {

@@ -3,24 +3,28 @@
 //! every block that moves.
 
 use std::collections::BTreeMap;
-use std::rc::Rc;
 
 use super::Builder;
+use super::declared::ToolChangeCall;
+use crate::omm::declared_calls;
 use crate::omm::timeline::modal::{POSITIONED, coolant_after, field, is_thread};
-use crate::omm::timeline::read::{Move, Scan};
+use crate::omm::timeline::read::{CallArg, Move, Scan};
 use crate::omm::timeline::record::{CalleeEffect, Timeline};
 
 impl Builder<'_> {
-    /// A subprogram or cycle runs at block `i`, `repeats` times: an archive subprogram adds its time, any
-    /// other call is listed as not timed (`shown` is how the list names it). A tool-change subprogram
-    /// (see [`CalleeEffect::is_tool_change`]) is returned: the caller treats the block as a tool change.
+    /// A subprogram or cycle runs at block `i`, `repeats` times, with the arguments `args`: an archive
+    /// subprogram adds its time, any other call is listed as not timed (`shown` is how the list names it).
+    /// A tool-change subprogram (see [`CalleeEffect::is_tool_change`]) or a call the profile declares to
+    /// load a tool is returned: the caller treats the block as a tool change. A subprogram driftloop finds
+    /// is read even where the profile declares its name: what it reads is what runs.
     pub(super) fn call(
         &mut self,
         i: usize,
         name: &str,
         shown: &str,
         repeats: Option<f64>,
-    ) -> Option<Rc<Timeline>> {
+        args: &[CallArg],
+    ) -> Option<ToolChangeCall> {
         // The high-speed settings cycle sets the path mode (G64x, compressor, tolerances): the path mode is
         // then the cycle's, which a gate leaves as it is.
         if name == "CYCLE832" {
@@ -84,8 +88,11 @@ impl Builder<'_> {
                         self.t.found_in_call.insert(i + 1, name.to_string());
                     }
                 }
-                loads.then_some(sub)
+                loads.then_some(ToolChangeCall::Read(sub))
             }
+            None if let Some(decl) = declared_calls::find(&self.profile.calls, name) => self
+                .declared(i, shown, decl, args)
+                .map(ToolChangeCall::Declared),
             None => {
                 self.state_unknown_after(name);
                 self.unsure_after(i, name, None);
@@ -124,7 +131,12 @@ impl Builder<'_> {
     /// next `Z-2` went down in rapid). What a subprogram the timeline reads sets (`touched`), else every
     /// field but the position; a Siemens cycle (declared `SAVE`: its G codes and programmable frame come
     /// back) or one that leaves the state known, none.
-    fn unsure_after(&mut self, i: usize, name: &str, touched: Option<[bool; field::COUNT]>) {
+    pub(super) fn unsure_after(
+        &mut self,
+        i: usize,
+        name: &str,
+        touched: Option<[bool; field::COUNT]>,
+    ) {
         if leaves_state_known(name) || is_siemens_cycle(name) {
             return;
         }
@@ -412,7 +424,12 @@ impl Builder<'_> {
         if mv.axes.iter().any(Option::is_some)
             && let Some((name, shown)) = self.modal_call.take()
         {
-            self.call(i, &name, &shown, None);
+            if self.call(i, &name, &shown, None, &[]).is_some() {
+                self.bad_declaration(
+                    i,
+                    format!("{shown}: a tool change made modal runs after every move; driftloop does not follow it"),
+                );
+            }
             self.modal_call = Some((name, shown));
         }
     }

@@ -17,9 +17,11 @@ use super::record::{Site, SiteKind, Timeline};
 use super::timing::{TICKS_PER_MIN, move_length, ticks};
 
 mod calls;
+mod declared;
 mod loops;
 mod sites;
 
+use declared::{DeclaredTool, ToolChangeCall};
 use loops::{Label, OpenLoop};
 use sites::PassMark;
 
@@ -451,7 +453,7 @@ impl<'p> Builder<'p> {
         self.safe_site_after(i);
         let mut call_loads = None;
         if let Some(name) = &s.call {
-            call_loads = self.call(i, name, name, s.repeats);
+            call_loads = self.call(i, name, name, s.repeats, &s.call_args);
             if self
                 .profile
                 .passes
@@ -492,7 +494,9 @@ impl<'p> Builder<'p> {
         }
         // The state before the block is kept only where a site or pass mark can arise: a copy per block
         // would cost more than the rest of the scan.
+        // A declared tool change starts a pass there, whose gate gives back the preselection from this state.
         let may_mark = !s.m.is_empty()
+            || matches!(call_loads, Some(ToolChangeCall::Declared(_)))
             || s.s.is_some()
             || s.tool.is_some()
             || s.marker
@@ -684,13 +688,27 @@ impl<'p> Builder<'p> {
         let own_m6 = s.m.contains(6);
         // A tool-change subprogram loads the selected tool as M6 does.
         let tool_change = own_m6 || call_loads.is_some();
-        if let (Some(_), Some(name), None) = (&call_loads, &s.call, &self.t.tool_change_call) {
+        if let (Some(ToolChangeCall::Read(_)), Some(name), None) =
+            (&call_loads, &s.call, &self.t.tool_change_call)
+        {
             self.t.tool_change_call = Some(name.clone());
         }
         self.m6_seen |= call_loads.is_some();
         if let Some(tool) = &s.tool {
             self.state.selected = Some(tool.clone());
             self.state.unknown &= !unknown::TOOL;
+        }
+        // A declared call that takes its tool as an argument selects it as it loads it.
+        match &call_loads {
+            Some(ToolChangeCall::Declared(DeclaredTool::Named(tool))) => {
+                self.state.selected = Some(tool.clone());
+                self.state.unknown &= !unknown::TOOL;
+            }
+            Some(ToolChangeCall::Declared(DeclaredTool::Unknown)) => {
+                self.state.selected = None;
+                self.state.unknown |= unknown::TOOL;
+            }
+            _ => {}
         }
         if tool_change {
             self.spindle_set_at(i);
@@ -752,8 +770,12 @@ impl<'p> Builder<'p> {
                 self.label_seen(l, i, start, prev);
             }
         }
-        if let Some(sub) = call_loads {
-            self.after_tool_change_call(i, &sub.as_callee);
+        match call_loads {
+            Some(ToolChangeCall::Read(sub)) => self.after_tool_change_call(i, &sub.as_callee),
+            Some(ToolChangeCall::Declared(tool)) => {
+                self.after_declared_change(i, !matches!(tool, DeclaredTool::Preselected))
+            }
+            None => {}
         }
         if let (true, Some(g)) = (self.state.inch(), self.state.units)
             && (self.t.ends.last() == Some(&i) || self.t.offset_selections.last() == Some(&i))

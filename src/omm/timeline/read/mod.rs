@@ -38,6 +38,9 @@ pub(super) struct Scan {
     pub(super) count: Option<Count>,
     /// A subprogram or cycle the block calls.
     pub(super) call: Option<String>,
+    /// The arguments of the call written with parentheses, for a call declared to load the tool one of
+    /// them gives (`L706(, 5, , "1")`).
+    pub(super) call_args: Vec<CallArg>,
     /// `MCALL NAME`: NAME runs after each later block that moves; `MCALL` alone (`Some(None)`) ends that.
     pub(super) modal_call: Option<Option<String>>,
     /// `P`: how often the call runs.
@@ -72,6 +75,17 @@ pub(super) struct Scan {
     pub(super) tool_carrier: Option<bool>,
     /// Plain variables the block assigns, with the value when it is a literal.
     pub(super) var_set: Vec<(String, Option<f64>)>,
+}
+
+/// An argument of a call as written.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) enum CallArg {
+    /// Left out (`L706(, 5)`'s first).
+    Empty,
+    /// A name in quotes or a number: what a gate can write back as a tool.
+    Literal(Arc<str>),
+    /// Anything else (an R-parameter, an expression).
+    Other,
 }
 
 /// Bits of [`Scan::frame_ops`].

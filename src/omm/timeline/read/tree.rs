@@ -6,7 +6,7 @@ use std::sync::Arc;
 use crate::syntax::{Block, BlockKind, Node, NodeKind, Program};
 use crate::views::{AxisMode, Value, VarName, WorkOffset, facts, is_predefined_command};
 
-use super::{Bound, Count, Scan, comment, frame_op};
+use super::{Bound, CallArg, Count, Scan, comment, frame_op};
 use crate::omm::timeline::modal::{Diameter, POSITIONED, unknown};
 
 pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
@@ -178,6 +178,11 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                 }
                 if !TIMELESS_PROCEDURES.contains(&name.as_str()) {
                     s.call = Some(name);
+                    s.call_args = node
+                        .call_arguments()
+                        .iter()
+                        .map(|a| call_arg(&block, *a))
+                        .collect();
                 }
             }
             NodeKind::Command => {
@@ -221,6 +226,17 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
         s.inexact = false;
     }
     s
+}
+
+/// A call's argument as a tool: a literal a gate can write back, left out, or anything else.
+fn call_arg(block: &Block<'_>, arg: Option<&Node>) -> CallArg {
+    match arg.map(|a| block.text(a).trim_ascii()) {
+        None | Some([]) => CallArg::Empty,
+        Some(text) if is_tool_literal(text) => {
+            CallArg::Literal(Arc::from(String::from_utf8_lossy(text).as_ref()))
+        }
+        Some(_) => CallArg::Other,
+    }
 }
 
 /// A tool written as a name in quotes or a number: what a gate can write back as it is.
