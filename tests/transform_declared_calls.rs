@@ -61,9 +61,12 @@ fn a_declared_tool_change_and_change_point_let_a_dmg_program_transform() {
     assert_eq!(o.status.code(), Some(2), "{}", common::stderr(&o));
 }
 
-#[test]
-fn a_gate_swaps_the_probe_with_the_declared_tc1_and_the_audit_passes() {
-    let prog = std::fs::read_to_string(common::fixture("declared_calls/dmu_tc1.mpf")).unwrap();
+/// `fixtures/declared_calls/<program>`: refused with the builtin profile, and transformed with the
+/// declarations of `profile` measuring at every gate, its audit run to the end (the declared change a tool
+/// change in both runs). The program, the profile's text and the output.
+fn declared(program: &str, profile: &str) -> (String, String, String) {
+    let prog =
+        std::fs::read_to_string(common::fixture(&format!("declared_calls/{program}"))).unwrap();
     let (o, _) = common::transform_in(&[("p.mpf", &prog)], "p.mpf", "blum-tc50");
     assert_eq!(
         o.status.code(),
@@ -71,17 +74,18 @@ fn a_gate_swaps_the_probe_with_the_declared_tc1_and_the_audit_passes() {
         "undeclared: {}",
         common::stderr(&o)
     );
-    let profile = every_gate("dmg.toml");
-    let (o, dir) = common::transform_in(
-        &[("p.mpf", &prog), ("dmg.toml", &profile)],
-        "p.mpf",
-        "dmg.toml",
-    );
+    let text = every_gate(profile);
+    let (o, dir) = common::transform_in(&[("p.mpf", &prog), (profile, &text)], "p.mpf", profile);
     let err = common::stderr(&o);
     assert!(o.status.success(), "{err}");
-    // The command's audit ran the whole output, TC(1) a tool change in both runs.
     assert!(!err.contains("audit incomplete"), "{err}");
     let out = std::fs::read_to_string(dir.path().join("out.mpf")).unwrap();
+    (prog, text, out)
+}
+
+#[test]
+fn a_gate_swaps_the_probe_with_the_declared_tc1_and_the_audit_passes() {
+    let (prog, profile, out) = declared("dmu_tc1.mpf", "dmg.toml");
     let lines = inserted(&out);
     assert!(!lines.iter().any(|l| l.contains("M6")), "{out}");
     // Every probe load is T= and TC(1); a gate inside the first pass gives the face mill back alike.
@@ -108,24 +112,7 @@ fn a_gate_swaps_the_probe_with_the_declared_tc1_and_the_audit_passes() {
 
 #[test]
 fn a_gate_swaps_the_probe_with_a_call_that_takes_the_tool_as_an_argument() {
-    let prog = std::fs::read_to_string(common::fixture("declared_calls/mcx_l706.mpf")).unwrap();
-    let (o, _) = common::transform_in(&[("p.mpf", &prog)], "p.mpf", "blum-tc50");
-    assert_eq!(
-        o.status.code(),
-        Some(2),
-        "undeclared: {}",
-        common::stderr(&o)
-    );
-    let profile = every_gate("bw.toml");
-    let (o, dir) = common::transform_in(
-        &[("p.mpf", &prog), ("bw.toml", &profile)],
-        "p.mpf",
-        "bw.toml",
-    );
-    let err = common::stderr(&o);
-    assert!(o.status.success(), "{err}");
-    assert!(!err.contains("audit incomplete"), "{err}");
-    let out = std::fs::read_to_string(dir.path().join("out.mpf")).unwrap();
+    let (_, _, out) = declared("mcx_l706.mpf", "bw.toml");
     let lines = inserted(&out);
     assert!(lines.contains(&"L706(, \"BLUM_TC50\", , \"1\")"), "{out}");
     // The tool the program's L706 loaded, given back by its argument.
