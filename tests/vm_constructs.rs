@@ -770,3 +770,14 @@ fn the_fixture_programs_with_these_constructs_are_audited_to_the_end() {
         }
     }
 }
+
+/// `TOWSTD`/`TOWWCS` (which frame the tool length acts in) are Siemens commands, not calls: the dry run
+/// stopped at them as unknown, so the Pittler lathe program (fixtures/shop8/10) was written without an
+/// audit from there on.
+#[test]
+fn the_tool_length_frame_commands_are_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures/shop8/10_pittler_pv_vertical_lathe_wzw.mpf");
+    transformed_and_audited_with(dir.path(), &program.display().to_string(), "grinder-gauge");
+}

@@ -149,6 +149,9 @@ impl Interp<'_> {
                 kinematics.orientation = Default::default();
             }
             "SUPA" => w.suppress_frames = true,
+            // Which frame the tool length acts in (TOWSTD … TOWKCS) matters under a tilted tool, which
+            // the dry run's lengths do not follow; a gate never writes them, so both runs keep the program's.
+            "TOWSTD" | "TOWMCS" | "TOWWCS" | "TOWBCS" | "TOWTCS" | "TOWKCS" => {}
             // The last programmed X is kept in the unit it is programmed in: switching converts it, as the
             // control shows the same position as a diameter or a radius.
             "DIAMON" | "DIAM90" => {
