@@ -230,6 +230,7 @@ const PREDEFINED_COMMANDS: &[&str] = &[
     "PAROTOF",
     "TCOABS",
     "TCOFR",
+    "SETMS",
     "TOWSTD",
     "TOWMCS",
     "TOWWCS",

@@ -781,3 +781,30 @@ fn the_tool_length_frame_commands_are_run() {
         .join("fixtures/shop8/10_pittler_pv_vertical_lathe_wzw.mpf");
     transformed_and_audited_with(dir.path(), &program.display().to_string(), "grinder-gauge");
 }
+
+/// SETMS makes another spindle the master: a feed per revolution then runs by its speed (a lathe's main
+/// spindle 4 with `S4=… M4=3`), and SETMS alone gives the master back to spindle 1. The dry run took every
+/// G95 feed by spindle 1, so DMG lathe programs stopped at their first cut ("spindle stopped").
+#[test]
+fn a_feed_per_revolution_runs_by_the_master_spindle_setms_selects() {
+    let src = "G18 G90 G95\nSETMS(4)\nS4=1000 M4=3\nG1 Z-10 F0.1\nM30\n";
+    let run = dry_run(src.as_bytes(), &Config::default());
+    // 10 mm at 0.1 mm per revolution of 1000 rpm: 0.1 min.
+    assert!((run.time_min - 0.1).abs() < 1e-6, "{}", run.time_min);
+    let back = "G18 G90 G95\nSETMS(4)\nS4=1000 M4=3\nSETMS\nG1 Z-10 F0.1\nM30\n";
+    assert!(
+        dry_run_error(back.as_bytes(), &Config::default()).contains("spindle stopped"),
+        "spindle 1 is the master again, and it stands"
+    );
+    // A chamfer or rounding at the corner leaves the points where they are.
+    let chamfer = "G18 G90 G95\nSETMS(4)\nS4=1000 M4=3\nG1 Z-10 F0.1 CHR=0.5\nX20 RND=1\nM30\n";
+    dry_run(chamfer.as_bytes(), &Config::default());
+    for program in [
+        "fixtures/shop8/01_dmg_ctx_main_spindle_tc1.mpf",
+        "fixtures/shop8/15_dmg_ctx_counter_spindle_setms3.mpf",
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(program);
+        transformed_and_audited_with(dir.path(), &path.display().to_string(), "grinder-gauge");
+    }
+}

@@ -396,6 +396,8 @@ pub struct State {
     pub speed_limits: [Option<f64>; 2],
     /// Spindles 2 … [`SPINDLES`]: neither timed nor part of the drift, kept to be compared.
     pub others: [Spindle; SPINDLES - 1],
+    /// The master spindle (SETMS): 1, or one of `others`.
+    pub master: usize,
     /// Modal and static synchronized actions (`ID=n`, `IDS=n` … `DO`) recorded, not run: (id, static, line).
     pub sync_actions: Vec<(u32, bool, usize)>,
 }
@@ -452,6 +454,7 @@ impl State {
             spindle_position: None,
             speed_limits: [None; 2],
             others: [Spindle::default(); SPINDLES - 1],
+            master: 1,
             sync_actions: Vec::new(),
         }
     }
@@ -481,17 +484,39 @@ impl State {
     }
 
     fn programmed_rpm(&self) -> f64 {
+        self.rpm_for(self.s)
+    }
+
+    /// The speed a programmed `s` gives: itself, or under constant cutting speed (G96, `s` in m/min) the
+    /// speed at the diameter the tool stands at, capped by LIMS.
+    fn rpm_for(&self, s: f64) -> f64 {
         if self.modal.css {
             // The diameter the tool stands at: twice its distance from the turning axis.
             let d = self.frames.geo[0].map_or(0.0, |x| 2.0 * self.machine[x].abs());
             let n = if d > 1.0 {
-                1000.0 * self.s.abs() / (std::f64::consts::PI * d)
+                1000.0 * s.abs() / (std::f64::consts::PI * d)
             } else {
-                self.modal.lims.unwrap_or(self.s)
+                self.modal.lims.unwrap_or(s)
             };
             self.modal.lims.map_or(n, |l| n.min(l))
         } else {
-            self.s
+            s
+        }
+    }
+
+    /// The master spindle's speed (SETMS): what a feed per revolution, a dwell in revolutions and a
+    /// thread run by. Spindle 1's within its G25 / G26 limits; another's as programmed.
+    pub fn master_rpm(&self) -> f64 {
+        match self.master {
+            0 | 1 => self.spindle_rpm(),
+            n => {
+                let s = &self.others[n - 2];
+                if s.rotation == 0 {
+                    0.0
+                } else {
+                    self.rpm_for(s.s)
+                }
+            }
         }
     }
 

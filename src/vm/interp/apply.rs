@@ -202,8 +202,8 @@ impl Interp<'_> {
         if dwell {
             let minutes = match (w.feed, w.s) {
                 (Some(s), None) => s / 60.0,
-                (None, Some(rev)) if self.motion.spindle_rpm() > 0.0 => {
-                    rev / self.motion.spindle_rpm()
+                (None, Some(rev)) if self.motion.master_rpm() > 0.0 => {
+                    rev / self.motion.master_rpm()
                 }
                 (None, Some(_)) => {
                     return Err(
@@ -599,7 +599,7 @@ impl Interp<'_> {
             let rpm = if matches!(motion, 331 | 332) {
                 st.s.abs()
             } else {
-                st.spindle_rpm()
+                st.master_rpm()
             };
             if lead * rpm <= 0.0 {
                 return Err(format!("G{motion} with the spindle stopped or no lead"));
@@ -617,7 +617,7 @@ impl Interp<'_> {
             match st.modal.feed_mode {
                 FeedMode::PerMinute => length / feed,
                 FeedMode::PerRevolution => {
-                    let rpm = st.spindle_rpm();
+                    let rpm = st.master_rpm();
                     if rpm <= 0.0 {
                         return Err("G95 feed per revolution with the spindle stopped".into());
                     }

@@ -71,11 +71,21 @@ impl Interp<'_> {
             // The dry run positions a spindle at once: nothing to wait for. The blank description and the
             // editor's program-block markers act only on the panel.
             "WAITS" | "WORKPIECE" | "GROUP_BEGIN" | "GROUP_END" => {}
-            // Master spindle 1 is the only spindle.
-            "SETMS"
-                if values
-                    .iter()
-                    .all(|v| v.as_ref().is_none_or(|v| *v == Value::Num(1.0))) => {}
+            // The master spindle, whose speed a feed per revolution, a dwell in revolutions and a thread
+            // follow; SETMS alone gives it back to spindle 1.
+            "SETMS" => {
+                let n = match values.first() {
+                    Some(Some(Value::Num(n))) => *n,
+                    None | Some(None) => 1.0,
+                    Some(Some(v)) => return Err(format!("SETMS({v:?}): a spindle number")),
+                };
+                if n.fract() != 0.0 || !(1.0..=SPINDLES as f64).contains(&n) {
+                    return Err(format!(
+                        "SETMS({n}): the dry run follows spindles 1 … {SPINDLES}"
+                    ));
+                }
+                self.motion.master = n as usize;
+            }
             "CYCLE800" => self.motion.kinematics.swivel = swivel_angles(&values)?,
             "TRAORI" | "TRANSMIT" | "TRACYL" | "TRAANG" => self.select_transformation(&name),
             "ORIRESET" => {
@@ -149,6 +159,8 @@ impl Interp<'_> {
                 kinematics.orientation = Default::default();
             }
             "SUPA" => w.suppress_frames = true,
+            // SETMS alone: spindle 1 is the master again.
+            "SETMS" => self.motion.master = 1,
             // Which frame the tool length acts in (TOWSTD … TOWKCS) matters under a tilted tool, which
             // the dry run's lengths do not follow; a gate never writes them, so both runs keep the program's.
             "TOWSTD" | "TOWMCS" | "TOWWCS" | "TOWBCS" | "TOWTCS" | "TOWKCS" => {}

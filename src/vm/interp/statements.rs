@@ -199,8 +199,9 @@ impl Interp<'_> {
                 }
                 w.fixed_point = Some(n as u32);
             }
-            // Rounding of G641 / G642 corners: how the path blends, not where its points are.
-            "ADIS" | "ADISPOS" => {
+            // Rounding of G641 / G642 corners, and a chamfer or rounding at a contour's corner (and the
+            // feeds along them): how the path blends between the same points, not where they are.
+            "ADIS" | "ADISPOS" | "CHR" | "CHF" | "RND" | "RNDM" | "FRC" | "FRCM" => {
                 self.num(u, value)?;
             }
             "ID" | "IDS" => {
