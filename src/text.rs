@@ -69,16 +69,10 @@ fn utf16_without_bom(head: &[u8]) -> bool {
 /// Where the first byte that is not UTF-8 is, and what to do: `line L, column C: …` (1-based, columns in
 /// bytes as everywhere in driftloop).
 pub fn not_utf8(bytes: &[u8], valid_up_to: usize, expected: Expected) -> String {
-    let before = &bytes[..valid_up_to.min(bytes.len())];
-    let line_start = before
-        .iter()
-        .rposition(|&b| b == b'\n')
-        .map_or(0, |i| i + 1);
-    let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
+    let (line, column) = crate::source::LineIndex::new(bytes).line_col(valid_up_to);
     let byte = bytes.get(valid_up_to).copied().unwrap_or(0);
     format!(
-        "line {line}, column {}: byte 0x{byte:02X} is not UTF-8 text; {}",
-        valid_up_to - line_start + 1,
+        "line {line}, column {column}: byte 0x{byte:02X} is not UTF-8 text; {}",
         expected.save_as
     )
 }

@@ -268,6 +268,12 @@ const PREDEFINED_COMMANDS: &[&str] = &[
 ];
 
 /// A bare name in a block is a subprogram call unless the control predefines it (upper-case `name`).
+/// `CYCLE` and digits: the name of a Siemens standard cycle (`CYCLE81` … `CYCLE998`).
+pub fn is_numbered_cycle(name: &str) -> bool {
+    name.strip_prefix("CYCLE")
+        .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
+}
+
 pub fn is_predefined_command(name: &str) -> bool {
     PREDEFINED_COMMANDS.contains(&name)
         || NEUTRAL_COMMANDS.contains(&name)

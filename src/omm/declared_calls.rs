@@ -182,8 +182,7 @@ pub fn validate(calls: &BTreeMap<String, DeclaredCall>, probe_cycle: &str) -> Re
 /// Names whose meaning driftloop follows itself: Siemens' standard cycles (`CYCLE81` …, `CYCLE800`), and
 /// what the timeline reads as a transformation or a blank description.
 fn reads_itself(name: &str) -> bool {
-    name.strip_prefix("CYCLE")
-        .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
+    crate::views::is_numbered_cycle(name)
         || matches!(
             name,
             "WORKPIECE"

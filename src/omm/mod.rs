@@ -229,10 +229,7 @@ fn check_with(program: &Program, moves: Option<&Moves>, force: bool) -> Result<(
     if let Some((line, word)) = iso::iso_word(src) {
         return Err(TransformError::IsoDialect { line, word });
     }
-    let mut errors = program
-        .diagnostics()
-        .iter()
-        .filter(|d| d.severity == crate::Severity::Error);
+    let mut errors = program.errors();
     if let Some(first) = errors.next()
         && !force
     {
@@ -622,27 +619,20 @@ fn output_parses_as_the_input(
     program: &Program,
     editor: &Editor<'_>,
 ) -> Result<(), TransformError> {
-    let errors = |p: &Program| -> Vec<(String, usize)> {
-        p.diagnostics()
-            .iter()
-            .filter(|d| d.severity == crate::Severity::Error)
-            .map(|d| (d.message.clone(), d.span.start))
-            .collect()
-    };
-    let mut known: Vec<String> = errors(program).into_iter().map(|(m, _)| m).collect();
+    let mut known: Vec<&str> = program.errors().map(|d| d.message.as_str()).collect();
     let bytes = editor.to_bytes();
     let output = crate::parse(&bytes);
-    for (message, at) in errors(&output) {
-        match known.iter().position(|m| *m == message) {
+    for d in output.errors() {
+        match known.iter().position(|m| *m == d.message) {
             Some(i) => {
                 known.swap_remove(i);
             }
             None => {
-                let (line, column) = crate::source::LineIndex::new(&bytes).line_col(at);
+                let (line, column) = crate::source::LineIndex::new(&bytes).line_col(d.span.start);
                 return Err(TransformError::OutputSyntax {
                     line,
                     column,
-                    message,
+                    message: d.message.clone(),
                 });
             }
         }
@@ -695,12 +685,7 @@ mod tests {
     #[test]
     fn the_programs_own_syntax_errors_are_not_the_outputs() {
         let program = crate::parse(b"G0 X1\nENDIF\nM30\n");
-        assert!(
-            program
-                .diagnostics()
-                .iter()
-                .any(|d| d.severity == crate::Severity::Error)
-        );
+        assert!(program.has_errors());
         let mut editor = Editor::new(&program);
         editor.insert_before(2, "G0 Z5\n").unwrap();
         assert!(output_parses_as_the_input(&program, &editor).is_ok());

@@ -131,6 +131,11 @@ impl Probe {
         "$TC_TP2[{t}]".into()
     }
 
+    /// The probe cycle's name, as its call template begins (`BL9700`).
+    pub fn cycle_name(&self) -> &str {
+        self.cycle.split('(').next().unwrap_or(&self.cycle).trim()
+    }
+
     /// `T=` of the tool whose T number the R-parameter `reg` holds ([`Probe::tool_by_number`]).
     pub fn reselect(&self, reg: &str) -> String {
         self.tool_by_number.replace("{t}", reg)
@@ -760,9 +765,7 @@ impl Profile {
     /// `[calls]` and `probe.change`: a spindle probe on a machine whose tool change is a declared call
     /// swaps the probe with that call, in the form the declaration reads (`{tool}` where it takes the tool).
     fn validate_calls(&self) -> Result<(), String> {
-        let cycle = self.cycle_call();
-        let cycle_name = cycle.split('(').next().unwrap_or_default().trim();
-        declared_calls::validate(&self.calls, cycle_name)?;
+        declared_calls::validate(&self.calls, self.probe.cycle_name())?;
         let probe = &self.probe;
         let Some(change) = &probe.change else {
             if let (ProbeKind::SpindleProbe, Some((name, _))) = (

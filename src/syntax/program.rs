@@ -92,9 +92,14 @@ impl Program {
     }
 
     pub fn has_errors(&self) -> bool {
+        self.errors().next().is_some()
+    }
+
+    /// The diagnostics that are errors (not warnings), in source order.
+    pub fn errors(&self) -> impl Iterator<Item = &Diagnostic> {
         self.diagnostics
             .iter()
-            .any(|d| d.severity == Severity::Error)
+            .filter(|d| d.severity == Severity::Error)
     }
 
     pub fn has_bom(&self) -> bool {

@@ -321,6 +321,16 @@ impl Tool {
     }
 }
 
+/// `T=` of a value: a number or a name.
+impl From<&super::value::Value> for Tool {
+    fn from(v: &super::value::Value) -> Tool {
+        match v {
+            super::value::Value::Num(n) => Tool::Number(*n),
+            super::value::Value::Str(name) => Tool::Name(name.as_str().into()),
+        }
+    }
+}
+
 impl fmt::Display for Tool {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
@@ -476,15 +486,11 @@ impl State {
         if self.rotation == 0 {
             return 0.0;
         }
-        let n = self.programmed_rpm();
+        let n = self.rpm_for(self.s);
         match self.speed_limits {
             [None, None] => n,
             [low, high] => n.max(low.unwrap_or(0.0)).min(high.unwrap_or(f64::INFINITY)),
         }
-    }
-
-    fn programmed_rpm(&self) -> f64 {
-        self.rpm_for(self.s)
     }
 
     /// The speed a programmed `s` gives: itself, or under constant cutting speed (G96, `s` in m/min) the

@@ -142,8 +142,7 @@ impl AuditSettings {
             .and_then(|(_, args)| args.split(',').position(|a| a.contains("{axis}")));
         let mut point = [p.in_radius(Axis::X, p.x), p.y, p.z];
         point[axis] = p.nominal;
-        let call = profile.cycle_call();
-        let cycle = call.split('(').next().unwrap_or(&call).trim();
+        let cycle = profile.probe.cycle_name();
         let probe = &profile.probe;
         AuditSettings {
             clearance: p.in_radius(p.retract_axis, p.clearance),

@@ -271,8 +271,7 @@ impl Interp<'_> {
                 Err(_) if let Some(&arg) = self.cfg.tool_change_calls.get(&name) => {
                     if let Some(k) = arg {
                         let tool = match args.get(k) {
-                            Some(Some(Value::Num(n))) => Tool::Number(*n),
-                            Some(Some(Value::Str(s))) => Tool::Name(s.as_str().into()),
+                            Some(Some(v)) => Tool::from(v),
                             _ => {
                                 return Err(format!(
                                     "{name} is declared to load the tool in its argument {}, which this call does not give",
@@ -312,7 +311,6 @@ impl Interp<'_> {
         Ok(w.jump.map_or(Flow::Next, Flow::Jump))
     }
 
-    /// Selects cutting edge `d` with sum offset `dl`, or the one MD20272 gives a new edge (D0: none).
     /// M6, or a call declared to change tools: the preselected tool loaded, the spindle stopped.
     fn change_tool(&mut self, w: &ToolChangeWords) {
         self.passes.end_segment();
@@ -333,6 +331,7 @@ impl Interp<'_> {
         self.time_min += self.cfg.tool_change_min;
     }
 
+    /// Selects cutting edge `d` with sum offset `dl`, or the one MD20272 gives a new edge (D0: none).
     fn select_edge(&mut self, d: f64, dl: Option<f64>) {
         self.motion.d = d;
         self.motion.dl = if d == 0.0 {

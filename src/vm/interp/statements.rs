@@ -154,12 +154,7 @@ impl Interp<'_> {
                 w.turn = Some(n);
             }
             "LIMS" => w.lims = Some(self.num(u, value)?),
-            "T" => {
-                w.tool = Some(match self.eval(u, value)? {
-                    Value::Num(n) => Tool::Number(n),
-                    Value::Str(name) => Tool::Name(name.into()),
-                })
-            }
+            "T" => w.tool = Some(Tool::from(&self.eval(u, value)?)),
             "RPL" => w.rpl = Some(self.num(u, value)?),
             "I" | "J" | "K" => w.centre[ijk(name)] = Some(self.centre_value(u, value)?),
             "M" => w.m.push(self.num(u, value)? as u32),

@@ -445,8 +445,7 @@ fn leaves_state_known(name: &str) -> bool {
 /// A Siemens standard cycle (`CYCLE81` … `CYCLE998`, the ShopMill pocket, slot and hole-pattern cycles),
 /// declared with `SAVE`.
 fn is_siemens_cycle(name: &str) -> bool {
-    name.strip_prefix("CYCLE")
-        .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
+    crate::views::is_numbered_cycle(name)
         || matches!(
             name,
             "POCKET1"

@@ -694,21 +694,18 @@ impl<'p> Builder<'p> {
             self.t.tool_change_call = Some(name.clone());
         }
         self.m6_seen |= call_loads.is_some();
-        if let Some(tool) = &s.tool {
+        // A declared call that takes its tool as an argument selects it as it loads it.
+        let selects = match &call_loads {
+            Some(ToolChangeCall::Declared(DeclaredTool::Named(tool))) => Some(tool),
+            _ => s.tool.as_ref(),
+        };
+        if let Some(tool) = selects {
             self.state.selected = Some(tool.clone());
             self.state.unknown &= !unknown::TOOL;
         }
-        // A declared call that takes its tool as an argument selects it as it loads it.
-        match &call_loads {
-            Some(ToolChangeCall::Declared(DeclaredTool::Named(tool))) => {
-                self.state.selected = Some(tool.clone());
-                self.state.unknown &= !unknown::TOOL;
-            }
-            Some(ToolChangeCall::Declared(DeclaredTool::Unknown)) => {
-                self.state.selected = None;
-                self.state.unknown |= unknown::TOOL;
-            }
-            _ => {}
+        if let Some(ToolChangeCall::Declared(DeclaredTool::Unknown)) = &call_loads {
+            self.state.selected = None;
+            self.state.unknown |= unknown::TOOL;
         }
         if tool_change {
             self.spindle_set_at(i);
