@@ -581,3 +581,29 @@ fn a_gate_after_a_tool_change_gives_back_the_default_edge_not_the_last_tools() {
         );
     }
 }
+
+/// A gate's STOPRE between two feed moves of a contour under continuous path stops the path there: the
+/// tool dwells on the contour and marks it. A pass marker or a spindle stop in the middle of a G64 contour
+/// gets no gate (the audit refused such outputs; found by random programs); under G60, or once a rapid
+/// leaves the contour, it does. A rapid in one branch of an IF does not end the contour the other branch's
+/// feed continues.
+#[test]
+fn no_gate_stops_a_continuous_path_contour_between_two_feed_moves() {
+    let head = "G54\nT1 M6\nD1\nS2000 M3\nG0 X0 Y0 Z5\nG1 Z-1 F100\n";
+    for (path, contour_gate) in [("G64", false), ("G642", false), ("G60", true)] {
+        for middle in [
+            "; PASS finish\n",
+            "M5\n",
+            "IF R1>3\nG0 Z80\nELSE\nR2=1\nENDIF\nM5\n",
+        ] {
+            let src = format!("{head}{path}\nG1 X50 F500\n{middle}G1 X60 Y10\nG0 Z50\nM30\n");
+            let out = out(&src);
+            let between = gates_between(&out, "G1 X50 F500", "G1 X60 Y10");
+            assert_eq!(
+                between > 0,
+                contour_gate,
+                "{path}, {middle:?}: {between} inserted blocks in the contour:\n{out}"
+            );
+        }
+    }
+}

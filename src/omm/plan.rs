@@ -422,6 +422,9 @@ fn unfit_for_gate(site: &Site, profile: &Profile, rule: OffsetRule) -> Option<&'
             "a rotary axis (A, B or C) stands away from 0, so the part is turned or tilted under the probe point in work coordinates",
         );
     }
+    if site.in_contour {
+        return Some(IN_CONTOUR);
+    }
     if site.frame_traverse {
         return Some(
             "a frame change (TRANS, ATRANS, G54 …) is not yet traversed: the program's next incremental move carries it, and a gate, which goes back to where the axes are, would take it away",
@@ -444,6 +447,8 @@ fn unfit_for_gate(site: &Site, profile: &Profile, rule: OffsetRule) -> Option<&'
         }
     }
 }
+
+const IN_CONTOUR: &str = "it lies between two feed moves of a contour under continuous path (G64 … G645, or no G60 written): a gate's STOPRE would stop the path there and the tool would dwell on the contour";
 
 const SKIPPED: &str = "it lies in what a jump of the program (GOTOF …) skips, so the jump's path would run the program's gates and its end without the zero and the initial data (with the offset method \"active\" and no continuous compensation or warm start, the zero may go there and the gates after the jump's target are left out)";
 

@@ -64,6 +64,12 @@ pub(super) struct Run {
     /// After its last cut a rapid rose in Z (`Some(true)`), or it ends with a cut (`Some(false)`); `None`
     /// when it neither cuts nor rises: whether the tool is clear of the part after it (see the fold).
     pub(super) clear_after: Option<bool>,
+    /// Its first block that moves is a feed move (`None`: none moves).
+    pub(super) first_feed: Option<bool>,
+    /// Its last block that moves is a feed along a contour, not straight up Z (`None`: none moves).
+    pub(super) contour_after: Option<bool>,
+    /// One of its blocks is such a feed.
+    pub(super) any_contour: bool,
 }
 
 impl Run {
@@ -340,7 +346,13 @@ impl Mover {
         if motion == 1 && axes != 0 && axes & !self.known == 0 && feed_known && feed > 0.0 {
             let (from, to) = (self.pos, [self.vals[0], self.vals[1], self.vals[2]]);
             let minutes = move_length(1, from, to, [None; 3], None) / feed;
-            self.extend(i, Timed::Feed(minutes), from[2] != to[2], false, false);
+            self.extend(
+                i,
+                Timed::Feed(minutes),
+                from[2] != to[2],
+                false,
+                to[2] > from[2],
+            );
             (self.pos, self.motion, self.feed, self.retract) = (to, motion, feed, 0);
             self.feed_known = true;
         } else {
@@ -420,6 +432,9 @@ impl Mover {
                 end_pos: [None; 3],
                 end_retract: false,
                 clear_after: None,
+                first_feed: None,
+                contour_after: None,
+                any_contour: false,
             }),
         };
         run.count += 1;
@@ -439,12 +454,18 @@ impl Mover {
                 if rises {
                     run.clear_after = Some(true);
                 }
+                run.first_feed.get_or_insert(false);
+                run.contour_after = Some(false);
             }
             Timed::Feed(minutes) => {
                 run.feed_ticks = run.feed_ticks.saturating_add(ticks(minutes));
                 run.cuts = true;
                 run.rapids_after_cut = 0;
                 run.clear_after = Some(false);
+                run.first_feed.get_or_insert(true);
+                let contour = !(rises && written & 3 == 0);
+                run.contour_after = Some(contour);
+                run.any_contour |= contour;
             }
         }
     }

@@ -105,7 +105,8 @@ impl At {
 struct Watch {
     /// Line of the probe call the tool is still at (no move since).
     at_probe: Option<usize>,
-    /// The last move was a feed move of the original that did not leave the contour upwards.
+    /// The last move was a feed move of the original under continuous path that did not leave the contour
+    /// upwards.
     in_contour: bool,
     /// An inserted STOPRE executed inside a continuous-path contour, waiting for the next original move.
     stopre: Option<At>,
@@ -425,7 +426,7 @@ impl Runner<'_> {
                     .push((at.clone(), message, kinds));
             }
         }
-        if done.stopre && self.watch.in_contour && is_continuous(o.motion.modal.path) {
+        if done.stopre && self.watch.in_contour {
             self.watch.stopre = Some(at.clone());
         }
         if done.probe {
@@ -670,7 +671,10 @@ impl Runner<'_> {
                     ),
                 ));
             }
-            self.watch.in_contour = feed && !geometry::straight_up(m, self.settings.retract_axis);
+            // The path mode of the move decides how it ends: under G60 it stops anyway.
+            self.watch.in_contour = feed
+                && is_continuous(o.motion.modal.path)
+                && !geometry::straight_up(m, self.settings.retract_axis);
             self.watch.at_probe = None;
         }
         if t_step.tool_change {

@@ -11,7 +11,7 @@ use crate::omm::profile::Profile;
 use crate::syntax::BlockKind;
 
 use super::modal::{Modal, POSITIONED, coolant_after, field, frame, is_thread, unknown};
-use super::moves::RunRef;
+use super::moves::{Run, RunRef};
 use super::read::{Chunk, Move, Scan, frame_op, head};
 use super::record::{Site, SiteKind, Timeline};
 use super::timing::{TICKS_PER_MIN, move_length, ticks};
@@ -120,6 +120,12 @@ pub(super) struct Builder<'p> {
     position_doubt: bool,
     /// Sites noted where the tool was not clear: a gate there could retract through the part.
     in_part: BTreeSet<usize>,
+    /// The last move was a feed along a contour (not straight up the tool axis) under continuous path.
+    contour: bool,
+    /// Sites noted since that move: in the contour when the next move is a feed too.
+    contour_sites: Vec<usize>,
+    /// Sites between two feed moves of a contour under continuous path.
+    in_contour: BTreeSet<usize>,
     /// The lead (I, J or K) the last thread or tapping block wrote.
     lead: Option<f64>,
     /// Rotary axes the program itself sent away from 0 (bits as in [`frame::ROTARY`], unshifted).
@@ -183,6 +189,9 @@ impl<'p> Builder<'p> {
             clear: true,
             position_doubt: false,
             in_part: BTreeSet::new(),
+            contour: false,
+            contour_sites: Vec::new(),
+            in_contour: BTreeSet::new(),
             lead: None,
             rotary_sent: 0,
             swivel_turned: false,
@@ -371,6 +380,7 @@ impl<'p> Builder<'p> {
         if let Some(clear) = run.clear_after {
             self.clear = clear;
         }
+        self.contour_run(run);
         for &length in after {
             self.add_minutes(length / rapid);
         }
@@ -382,6 +392,26 @@ impl<'p> Builder<'p> {
         self.state.z = self.pos[2];
         self.last_was_z_retract = run.end_retract;
         true
+    }
+
+    /// The contour state after a run, as its blocks one by one would leave it (see [`Builder::movement`]).
+    fn contour_run(&mut self, run: &Run) {
+        let conditional = !self.open_ifs.is_empty();
+        let continuous = !matches!(self.state.path_mode, Some(60));
+        let resolves = if conditional {
+            run.cuts.then_some(true)
+        } else {
+            run.first_feed
+        };
+        match resolves {
+            Some(true) => self.in_contour.extend(self.contour_sites.drain(..)),
+            Some(false) => self.contour_sites.clear(),
+            None => {}
+        }
+        if let Some(last) = run.contour_after {
+            let any = conditional && run.any_contour;
+            self.contour = continuous && (last || any) || (conditional && self.contour);
+        }
     }
 
     /// Header lines (`%…`, `;$PATH`) and the declarations after them: no gate may come before their end.
@@ -756,6 +786,8 @@ impl<'p> Builder<'p> {
         }
         let mv = if limits { Move::default() } else { s.mv };
         self.movement(i, start, &before, &mv, dwell, s.s, s.inexact, own_m6);
+        // G9: this block's move ends in an exact stop.
+        self.contour &= !s.g.contains(9);
         self.modal_call_after(i, &s.mv);
         if let Some(prev) = tracked {
             for (f, differs) in field::differ(&prev, &self.state).into_iter().enumerate() {
@@ -827,6 +859,7 @@ impl<'p> Builder<'p> {
                 frame_traverse: false,
                 conditional: false,
                 in_part: false,
+                in_contour: false,
                 idle_min: self.idle_since_cut(start),
             });
         }
@@ -860,7 +893,23 @@ impl<'p> Builder<'p> {
             _ => false,
         };
         let z_retract = z_rapid && rises;
+        if tool_change {
+            self.contour = false;
+            self.contour_sites.clear();
+        }
         if moves_somehow && !g4 {
+            let feed = self.state.motion != 0;
+            // A move in one branch of an IF may not run: the contour stays open through it.
+            let conditional = !self.open_ifs.is_empty();
+            if feed {
+                self.in_contour.extend(self.contour_sites.drain(..));
+            } else if !conditional {
+                self.contour_sites.clear();
+            }
+            let straight_up = rises && mv.axes[0].is_none() && mv.axes[1].is_none();
+            let continuous = !matches!(self.state.path_mode, Some(60));
+            let contour = feed && !straight_up && continuous && !tool_change;
+            self.contour = contour || (conditional && self.contour);
             if self.state.motion != 0 {
                 self.clear = false;
             } else if rises || (z_rapid && self.position_doubt) {

@@ -52,6 +52,7 @@ impl Builder<'_> {
             frame_traverse: false,
             conditional: false,
             in_part: false,
+            in_contour: false,
             idle_min: self.idle_since_cut(time_min),
         });
     }
@@ -81,6 +82,7 @@ impl Builder<'_> {
                 frame_traverse: false,
                 conditional: false,
                 in_part: false,
+                in_contour: false,
             });
         }
     }
@@ -117,6 +119,7 @@ impl Builder<'_> {
             frame_traverse: false,
             conditional: false,
             in_part: false,
+            in_contour: false,
             idle_min: self.idle_since_cut(time_min),
         });
     }
@@ -173,6 +176,9 @@ impl Builder<'_> {
     pub(super) fn note_site(&mut self, i: usize) {
         if !self.clear {
             self.in_part.insert(i);
+        }
+        if self.contour {
+            self.contour_sites.push(i);
         }
         if !self.open_loops.is_empty()
             || !self.label_times.is_empty()
@@ -239,6 +245,7 @@ impl Builder<'_> {
                 frame_traverse: false,
                 conditional: false,
                 in_part: false,
+                in_contour: false,
                 idle_min: m.idle,
             });
         }
@@ -259,6 +266,7 @@ impl Builder<'_> {
             site.frame_traverse = traverses.contains(site.block);
             site.conditional = conditional.contains(site.block);
             site.in_part = self.in_part.contains(&site.block);
+            site.in_contour = self.in_contour.contains(&site.block);
             // Without M6 in the program, T loads the tool at once.
             if t_loads {
                 site.before.tool = site.before.selected.clone();
