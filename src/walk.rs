@@ -174,12 +174,7 @@ fn walk_dir(dir: &Path, out: &mut Vec<Input>) {
 /// first in byte order.
 pub fn programs_by_name(dir: &Path) -> HashMap<String, PathBuf> {
     let mut out = HashMap::new();
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return out;
-    };
-    let mut paths: Vec<PathBuf> = entries.flatten().map(|e| e.path()).collect();
-    paths.sort();
-    for path in paths {
+    for path in sorted_entries(dir) {
         let Some(name) = path.file_name() else {
             continue;
         };
@@ -196,6 +191,30 @@ pub fn programs_by_name(dir: &Path) -> HashMap<String, PathBuf> {
         }
     }
     out
+}
+
+/// The definition files of a folder (`NAME.DEF` in any case, `_N_NAME_DEF`: the GUD and macro files of
+/// the control's `_N_DEF_DIR`), in byte order.
+pub fn definition_files(dir: &Path) -> Vec<PathBuf> {
+    sorted_entries(dir)
+        .into_iter()
+        .filter(|path| {
+            path.file_name().is_some_and(|name| {
+                let file = name.to_string_lossy().to_ascii_uppercase();
+                file.ends_with(".DEF") || (file.starts_with("_N_") && file.ends_with("_DEF"))
+            })
+        })
+        .collect()
+}
+
+/// The paths in a folder, in byte order (none when it cannot be read).
+fn sorted_entries(dir: &Path) -> Vec<PathBuf> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    let mut paths: Vec<PathBuf> = entries.flatten().map(|e| e.path()).collect();
+    paths.sort();
+    paths
 }
 
 #[cfg(test)]

@@ -100,3 +100,65 @@ fn program_block_markers_and_waits_move_nothing() {
         assert_eq!(gates(marked), plain_gates, "{profile}");
     }
 }
+
+/// An archive saved from the control may open with a definition file or a subprogram (sections in
+/// the order of their folders). The gates, the zero and the initial data belong in its main program: they
+/// went into the first section, so a subprogram the main calls mid-cut measured with a tool swap, and the
+/// main program had no zero. Now the first `%_N_…_MPF` section is the main one for the timeline and the
+/// dry run, the other sections stay byte for byte, the GUD section's variables are known to the audit,
+/// and a second main program is named in a warning.
+#[test]
+fn an_archive_that_opens_with_a_definition_file_and_a_subprogram_is_gated_in_its_main_program() {
+    let head = "%_N_UGUD_DEF\n;$PATH=/_N_DEF_DIR\nDEF NCK REAL XSTART=10\nM30\n%_N_SIDE_SPF\n;$PATH=/_N_SPF_DIR\nG1 X20 F100\nM17\n";
+    let main = "%_N_PART_MPF\n;$PATH=/_N_MPF_DIR\nG54\nT1 M6\nD1\nS2000 M3\nG0 X=XSTART Y30 Z5\nG1 Z-1 F100\nSIDE\nG1 X50 F500\nG0 Z50\nM30\n";
+    let second = "%_N_OTHER_MPF\n;$PATH=/_N_MPF_DIR\nG54\nT1 M6\nD1\nS2000 M3\nG0 X0 Y30 Z5\nG1 Z-1 F100\nG0 Z50\nM30\n";
+    for (src, warns) in [
+        (format!("{head}{main}"), false),
+        (format!("{head}{main}{second}"), true),
+    ] {
+        let (o, dir) = common::transform_in(&[("part.arc", &src)], "part.arc", "blum-tc50");
+        let stderr = common::stderr(&o);
+        assert!(o.status.success(), "{stderr}");
+        assert!(!stderr.contains("audit incomplete"), "{stderr}");
+        assert_eq!(
+            stderr.contains("the archive holds 2 main programs: gates go into the first, PART; OTHER left as they are"),
+            warns,
+            "{stderr}"
+        );
+        let out = std::fs::read_to_string(dir.path().join("out.mpf")).unwrap();
+        assert!(out.starts_with(head), "the sections before the main one changed:\n{out}");
+        let main_at = out.find("%_N_PART_MPF").unwrap();
+        assert!(out[main_at..].contains("; driftloop gate"), "{out}");
+        if warns {
+            let other_at = out.find("%_N_OTHER_MPF").unwrap();
+            assert!(out.ends_with(second) && other_at > main_at, "{out}");
+        }
+    }
+}
+
+/// The dry run of such an archive runs its main program, with the GUD variables of the archive's
+/// definition section or of a `.DEF` file beside the program.
+#[test]
+fn the_dry_run_starts_at_the_main_program_and_knows_the_global_user_data() {
+    let main = "G54\nT1 M6\nD1\nS2000 M3\nG0 X=XSTART Y30 Z5\nG1 Z-1 F100\nG1 X50 F500\nG0 Z50\nM30\n";
+    let archive = format!(
+        "%_N_UGUD_DEF\nDEF NCK REAL XSTART=10\nM30\n%_N_SIDE_SPF\nG1 X20 F100\nM17\n%_N_PART_MPF\n{main}"
+    );
+    let with_def: [(&str, &str); 2] = [("part.mpf", main), ("UGUD.DEF", "DEF NCK REAL XSTART=10\nM30\n")];
+    for (files, program) in [
+        (vec![("part.arc", archive.as_str())], "part.arc"),
+        (with_def.to_vec(), "part.mpf"),
+    ] {
+        let (o, _dir) = common::run_in(&files, &["run", program]);
+        let stdout = common::stdout(&o);
+        assert!(o.status.success(), "{program}: {}", common::stderr(&o));
+        assert!(
+            stdout.contains("program end (M30)") && stdout.contains("machined error over 1 passes"),
+            "{program}: {stdout}"
+        );
+    }
+    // Without the definition the control stops with alarm 12550, and so does the dry run.
+    let (o, _dir) = common::run_in(&[("part.mpf", main)], &["run", "part.mpf"]);
+    assert!(!o.status.success());
+    assert!(common::stderr(&o).contains("XSTART is not defined"));
+}

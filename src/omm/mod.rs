@@ -605,10 +605,31 @@ fn prepare_with<'p>(
                     .as_ref()
                     .map_or(0, |w| w.r_first + emitter.store_len()),
             ),
-            warnings: plan.warnings.clone(),
+            warnings: plan
+                .warnings
+                .iter()
+                .cloned()
+                .chain(other_mains(program))
+                .collect(),
             notes: machine_m_note(&timeline, profile).into_iter().collect(),
         },
         plan,
+    })
+}
+
+/// An archive of several main programs: the gates go into the first, the others stay as they are.
+fn other_mains(program: &Program) -> Option<String> {
+    let mains = program.main_sections();
+    let [(_, first), others @ ..] = &mains[..] else {
+        return None;
+    };
+    (!others.is_empty()).then(|| {
+        let names: Vec<&str> = others.iter().map(|(_, n)| n.as_str()).collect();
+        format!(
+            "the archive holds {} main programs: gates go into the first, {first}; {} left as they are (transform each from a file of its own to gate it)",
+            mains.len(),
+            names.join(", ")
+        )
     })
 }
 

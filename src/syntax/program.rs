@@ -184,6 +184,30 @@ impl Program {
         &self.headers
     }
 
+    /// The main programs of an archive: each `%_N_NAME_MPF` header block with `NAME`, in order.
+    pub fn main_sections(&self) -> Vec<(usize, String)> {
+        self.headers
+            .iter()
+            .filter_map(|&h| {
+                let text = String::from_utf8_lossy(self.content_span(h).slice(self.source()));
+                let name = text.trim().to_ascii_uppercase();
+                let name = name.strip_prefix("%_N_")?.strip_suffix("_MPF")?.to_string();
+                Some((h, name))
+            })
+            .collect()
+    }
+
+    /// The header of the main program of an archive whose first section is another file (a subprogram, a
+    /// GUD definition file, a text): its first `%_N_NAME_MPF` section. `None` when the first section is
+    /// the main program or the file has no such section.
+    pub fn later_main_header(&self) -> Option<usize> {
+        let &first = self.headers.first()?;
+        let (h, _) = self.main_sections().into_iter().next()?;
+        let first_text = self.content_span(first).slice(self.source()).trim_ascii();
+        let archive = first_text.len() > 4 && first_text[..4].eq_ignore_ascii_case(b"%_N_");
+        (archive && h != first).then_some(h)
+    }
+
     /// The jumps of every program unit as the structure pass resolved them while parsing (what
     /// [`crate::syntax::structure::analyze`] gives as `jumps`): kept, so that a reader of the program's
     /// flow need not pass over every block again to pair its structures.

@@ -141,10 +141,14 @@ impl Source {
 }
 
 impl Unit {
-    /// The first unit of `program` (the whole file when it has no `%` headers).
+    /// The main program of `program`: its first unit (the whole file when it has no `%` headers), or the
+    /// first `%_N_NAME_MPF` section of an archive that opens with another file.
     pub fn new(name: String, dir: Option<PathBuf>, program: Program) -> Self {
         let name: Rc<str> = name.into();
         let source = Rc::new(Source::new(name.clone(), program));
+        if let Some(h) = source.program.later_main_header() {
+            return Unit::at(name, dir, source, h + 1);
+        }
         // The main program starts after its `%` header, which comment lines may precede (a title).
         let program = &source.program;
         let src = program.source();
@@ -195,6 +199,19 @@ impl Unit {
             self.source.clone(),
             header + 1,
         ))
+    }
+
+    /// The definition sections of the same file (an archive's `%_N_UGUD_DEF`, `%_N_SGUD_DEF`, …).
+    pub fn definition_sections(&self) -> Vec<Unit> {
+        self.source
+            .headers
+            .iter()
+            .filter(|(h, _)| h.starts_with("%_N_") && h.ends_with("_DEF"))
+            .map(|(h, i)| {
+                let display = format!("{}[{}]", self.source.file, &h[4..]);
+                Unit::at(display.into(), self.dir.clone(), self.source.clone(), i + 1)
+            })
+            .collect()
     }
 
     /// The unit's `PROC` statement.

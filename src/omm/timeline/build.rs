@@ -34,7 +34,14 @@ fn build_with(
     profile: &Profile,
     folders: &mut Folders,
 ) -> Timeline {
-    let units = units(program);
+    let mut units = units(program);
+    // The main program first: an archive may open with a subprogram or a definition file.
+    if let Some(h) = program.later_main_header()
+        && let Some(m) = units.iter().position(|u| u.start == h)
+    {
+        let main = units.remove(m);
+        units.insert(0, main);
+    }
     let jumps = program.jumps();
     let names: Vec<Option<String>> = units[1..]
         .iter()

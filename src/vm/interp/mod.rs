@@ -286,6 +286,7 @@ impl<'m> Interp<'m> {
     /// Makes `main` the program to run.
     pub(super) fn start(&mut self, main: Unit) -> Result<(), VmError> {
         self.run.program = main.name.to_string();
+        self.global_user_data(&main)?;
         let main = Rc::new(main);
         let (vars, _) = self
             .bind_params(&main, &[])

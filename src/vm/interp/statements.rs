@@ -527,6 +527,15 @@ impl Interp<'_> {
     }
 
     pub(super) fn def(&mut self, u: &Unit, node: &Node) -> Result<(), String> {
+        for (name, var) in self.definitions(u, node)? {
+            self.top().vars.insert(name, var);
+        }
+        Ok(())
+    }
+
+    /// The variables a DEF statement declares, with their initial values.
+    fn definitions(&self, u: &Unit, node: &Node) -> Result<Vec<(String, Variable)>, String> {
+        let mut out = Vec::new();
         let mut ty = None;
         for c in node.significant() {
             match c.kind {
@@ -540,15 +549,55 @@ impl Interp<'_> {
                 }
                 NodeKind::Declarator => {
                     let ty = ty.ok_or("DEF without a type")?;
-                    self.declare(u, ty, c)?;
+                    out.push(self.declare(u, ty, c)?);
                 }
                 _ => {}
+            }
+        }
+        Ok(out)
+    }
+
+    /// The GUD variables of the definition files beside the program: the archive's definition sections,
+    /// then the `.DEF` files of its folder and of the subprogram folders.
+    pub(super) fn global_user_data(&mut self, main: &Unit) -> Result<(), VmError> {
+        for section in main.definition_sections() {
+            self.define_globals(&section)?;
+        }
+        let dirs: Vec<PathBuf> = main
+            .dir
+            .iter()
+            .chain(&self.cfg.subprogram_dirs)
+            .cloned()
+            .collect();
+        for path in dirs.iter().flat_map(|d| crate::walk::definition_files(d)) {
+            let bytes = std::fs::read(&path).map_err(|e| VmError {
+                file: path.display().to_string(),
+                line: 0,
+                message: e.to_string(),
+            })?;
+            let name = path.display().to_string();
+            let unit = Unit::new(name, path.parent().map(PathBuf::from), crate::parse_owned(bytes));
+            self.define_globals(&unit)?;
+        }
+        Ok(())
+    }
+
+    /// The global user data (GUD) the control holds: the DEF statements of a definition unit (an archive's
+    /// `%_N_UGUD_DEF` section, a `UGUD.DEF` file). The first definition of a name counts; the unit's other
+    /// statements (macros, `M30`) are not run.
+    pub(super) fn define_globals(&mut self, u: &Unit) -> Result<(), VmError> {
+        for i in u.start..u.end {
+            let root = u.root(i);
+            for node in root.children.iter().filter(|c| c.kind == NodeKind::Def) {
+                for (name, var) in self.definitions(u, node).map_err(|e| err_at(u, i, e))? {
+                    self.globals.entry(name).or_insert(var);
+                }
             }
         }
         Ok(())
     }
 
-    pub(super) fn declare(&mut self, u: &Unit, ty: VarType, d: &Node) -> Result<(), String> {
+    fn declare(&self, u: &Unit, ty: VarType, d: &Node) -> Result<(String, Variable), String> {
         let name = u.upper(d.find(NodeKind::Name).ok_or("declarator without name")?);
         let dims: Vec<usize> = match d.find(NodeKind::Index) {
             Some(ix) => index_nodes(ix)
@@ -572,8 +621,7 @@ impl Interp<'_> {
         if let Some(init) = init {
             self.initialise(u, &mut var, init)?;
         }
-        self.top().vars.insert(name, var);
-        Ok(())
+        Ok((name, var))
     }
 
     /// `= value`, `= SET(a, , c)`, `= (a, b)`, `= REP(v [, n])`.
