@@ -126,7 +126,10 @@ fn an_archive_that_opens_with_a_definition_file_and_a_subprogram_is_gated_in_its
             "{stderr}"
         );
         let out = std::fs::read_to_string(dir.path().join("out.mpf")).unwrap();
-        assert!(out.starts_with(head), "the sections before the main one changed:\n{out}");
+        assert!(
+            out.starts_with(head),
+            "the sections before the main one changed:\n{out}"
+        );
         let main_at = out.find("%_N_PART_MPF").unwrap();
         assert!(out[main_at..].contains("; driftloop gate"), "{out}");
         if warns {
@@ -140,11 +143,15 @@ fn an_archive_that_opens_with_a_definition_file_and_a_subprogram_is_gated_in_its
 /// definition section or of a `.DEF` file beside the program.
 #[test]
 fn the_dry_run_starts_at_the_main_program_and_knows_the_global_user_data() {
-    let main = "G54\nT1 M6\nD1\nS2000 M3\nG0 X=XSTART Y30 Z5\nG1 Z-1 F100\nG1 X50 F500\nG0 Z50\nM30\n";
+    let main =
+        "G54\nT1 M6\nD1\nS2000 M3\nG0 X=XSTART Y30 Z5\nG1 Z-1 F100\nG1 X50 F500\nG0 Z50\nM30\n";
     let archive = format!(
         "%_N_UGUD_DEF\nDEF NCK REAL XSTART=10\nM30\n%_N_SIDE_SPF\nG1 X20 F100\nM17\n%_N_PART_MPF\n{main}"
     );
-    let with_def: [(&str, &str); 2] = [("part.mpf", main), ("UGUD.DEF", "DEF NCK REAL XSTART=10\nM30\n")];
+    let with_def: [(&str, &str); 2] = [
+        ("part.mpf", main),
+        ("UGUD.DEF", "DEF NCK REAL XSTART=10\nM30\n"),
+    ];
     for (files, program) in [
         (vec![("part.arc", archive.as_str())], "part.arc"),
         (with_def.to_vec(), "part.mpf"),

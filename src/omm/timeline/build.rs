@@ -163,11 +163,15 @@ fn units(program: &Program) -> Vec<std::ops::Range<usize>> {
     starts.windows(2).map(|w| w[0]..w[1]).collect()
 }
 
-/// `NAME` of a unit headed `%_N_NAME_SPF` (as it is called: `NAME`, `CALL "NAME"`, `L123` for `L123`).
+/// `NAME` of a unit headed `%_N_NAME_SPF` (as it is called: `NAME`, `CALL "NAME"`, `L123` for `L123`), or
+/// `%_N_NAME_MPF`: a main program may be called as a subprogram, as the dry run finds it too.
 fn subprogram_name(program: &Program, block: usize) -> Option<String> {
     let header = program.content_span(block).slice(program.source());
     let name = String::from_utf8_lossy(header).trim().to_ascii_uppercase();
-    let name = name.strip_prefix("%_N_")?.strip_suffix("_SPF")?;
+    let name = name.strip_prefix("%_N_")?;
+    let name = name
+        .strip_suffix("_SPF")
+        .or_else(|| name.strip_suffix("_MPF"))?;
     (!name.is_empty()).then(|| name.to_string())
 }
 

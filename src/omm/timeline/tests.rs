@@ -367,6 +367,33 @@ fn an_archive_times_its_main_program_and_the_subprograms_it_calls() {
 }
 
 #[test]
+fn an_archive_that_opens_with_other_files_times_its_main_program_and_the_main_programs_it_calls() {
+    let main = "%_N_MAIN_MPF\nG90 G0 X0 Y0 Z0\nT1 M6\nG1 X100 F100\nSIDE\nG0 Z50\nM30\n";
+    let before = "%_N_UGUD_DEF\nDEF NCK REAL XW\nM30\n%_N_SUB_SPF\nG1 X500 F100\nM17\n";
+    let side = "%_N_SIDE_MPF\nG91 G1 X10 F100\nG90\nM17\n";
+    let t = timeline_of(&format!("{before}{main}{side}"));
+    // The main program and SIDE's 0.1 min, as when the archive opens with the main program; nothing of
+    // SUB's 5 min.
+    let plain = timeline_of(&format!("{main}{side}"));
+    assert!(t.untimed_calls.is_empty(), "{:?}", t.untimed_calls);
+    assert!(
+        (t.total_min - plain.total_min).abs() < 1e-9,
+        "{} vs {}",
+        t.total_min,
+        plain.total_min
+    );
+    let without_side = timeline_of(&main.replace("SIDE\n", ""));
+    assert!((plain.total_min - without_side.total_min - 0.1).abs() < 1e-9);
+    let main_start = before.lines().count();
+    assert_eq!(t.unit_end, main_start + main.lines().count());
+    assert!(
+        t.sites
+            .iter()
+            .all(|s| s.block > main_start && s.block < t.unit_end)
+    );
+}
+
+#[test]
 fn subprograms_in_the_profiles_folders_add_their_time_and_take_their_r_parameters() {
     let dir = tempfile::tempdir().unwrap();
     let write = |name: &str, text: &str| std::fs::write(dir.path().join(name), text).unwrap();

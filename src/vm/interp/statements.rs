@@ -576,7 +576,11 @@ impl Interp<'_> {
                 message: e.to_string(),
             })?;
             let name = path.display().to_string();
-            let unit = Unit::new(name, path.parent().map(PathBuf::from), crate::parse_owned(bytes));
+            let unit = Unit::new(
+                name,
+                path.parent().map(PathBuf::from),
+                crate::parse_owned(bytes),
+            );
             self.define_globals(&unit)?;
         }
         Ok(())
