@@ -726,6 +726,34 @@ fn a_machine_axis_name_moves_its_axis_in_machine_coordinates() {
     assert!(dry_run_error(b"G0 Z1=-2\nM30\n", &cfg).contains("Z1 is not defined"));
 }
 
+/// G74 takes the axes it names to their reference points (MD34100, machine positions): the machine file's
+/// value, else 0 with a note; the values written with them are placeholders. It stopped the dry run.
+#[test]
+fn g74_goes_to_the_reference_point_in_machine_coordinates() {
+    let src = "G90 G54\nG0 X5 Y5 Z-3\nG74 Z1=0\nM30\n";
+    let cfg = Config {
+        offsets: vec![(1, "Z".into(), -100.0)],
+        ..Config::default()
+    };
+    let run = dry_run(src.as_bytes(), &cfg);
+    let end = &run.trace.last().unwrap().machine;
+    assert_eq!((end[0], end[2]), (5.0, 0.0));
+    assert!(
+        run.assumptions
+            .iter()
+            .any(|a| a.text.contains("$MA_REFP_SET_POS[0,Z] read as 0")),
+        "{:?}",
+        run.assumptions
+    );
+    let (cfg, _) = driftloop::vm::parse_machine_file(
+        "[variables]\n\"$MA_REFP_SET_POS[0,Z]\" = 450\n",
+        Path::new("."),
+        cfg,
+    )
+    .unwrap();
+    assert_eq!(machine_at_end(src, &cfg)[2], 450.0);
+}
+
 /// The shop programs the dry run stopped at (TRAORI orientation words, a machine axis name, GETT, POLY,
 /// G58/G59) transform with every profile that writes them, audited to the end.
 #[test]

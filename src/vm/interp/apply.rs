@@ -49,8 +49,9 @@ impl Interp<'_> {
                 40..=42 => modal.compensation = g,
                 53 | 153 => suppress = true,
                 58 | 59 => axial = Some(g == 59),
-                // G75 FP=n: its axes go to the fixed point, a machine position (below).
-                75 => suppress = true,
+                // G74: its axes go to their reference points; G75 FP=n: to the fixed point (machine
+                // positions, below).
+                74 | 75 => suppress = true,
                 54..=57 => self.motion.frames.select(g as usize - 53),
                 505..=599 => self.motion.frames.select(g as usize - 500),
                 500 => self.motion.frames.select(0),
@@ -190,6 +191,8 @@ impl Interp<'_> {
             }
         } else if w.g.contains(&75) {
             self.fixed_point(u, i, &w)?;
+        } else if w.g.contains(&74) {
+            self.reference_point(u, i, &w)?;
         } else if !w.axes.is_empty() && limit.is_none() {
             self.travel(u, i, &w, suppress)?;
         }
@@ -460,9 +463,29 @@ impl Interp<'_> {
     /// `G75 Z0`).
     fn fixed_point(&mut self, u: &Unit, i: usize, w: &Words) -> Result<(), String> {
         let fp = w.fixed_point.unwrap_or(1);
+        self.rapid_to_machine_positions(u, i, w, |axis| {
+            format!("$MA_FIX_POINT_POS[{},{axis}]", fp - 1)
+        })
+    }
+
+    /// G74: the axes the block names go to their reference points at rapid, machine positions
+    /// (`$MA_REFP_SET_POS[0,axis]`, MD34100, from the machine file's `[variables]`, else 0, noted); the
+    /// values written with them (`G74 X1=0 Z1=0`) are placeholders.
+    fn reference_point(&mut self, u: &Unit, i: usize, w: &Words) -> Result<(), String> {
+        self.rapid_to_machine_positions(u, i, w, |axis| format!("$MA_REFP_SET_POS[0,{axis}]"))
+    }
+
+    /// The axes `w` names to the machine positions the machine data `variable(axis)` holds, at rapid.
+    fn rapid_to_machine_positions(
+        &mut self,
+        u: &Unit,
+        i: usize,
+        w: &Words,
+        variable: impl Fn(&str) -> String,
+    ) -> Result<(), String> {
         let mut axes = Vec::new();
         for &(a, _, _) in &w.axes {
-            let name = format!("$MA_FIX_POINT_POS[{},{}]", fp - 1, self.cfg.axes[a]);
+            let name = variable(&self.cfg.axes[a]);
             let key = crate::vm::config::variable_key(&name)
                 .ok_or_else(|| format!("{name} cannot be a variable's name"))?;
             axes.push((a, Dim::Absolute, self.external(key)));
