@@ -287,20 +287,23 @@ const PREDEFINED_ADDRESSES: &[&str] = &[
     "FAD", "TRUE", "FALSE",
 ];
 
+/// The G groups whose codes the dry run and the timeline follow, each code in the order the control
+/// numbers them (group 8, the settable offsets, in [`indirect_g`]).
+const G_GROUPS: &[(u32, &[u32])] = &[
+    (1, &[0, 1, 2, 3]),
+    (6, &[17, 18, 19]),
+    (7, &[40, 41, 42]),
+    (10, &[60, 64, 641, 642, 643, 644, 645]),
+    (12, &[601, 602, 603]),
+    (13, &[70, 71, 700, 710]),
+    (14, &[90, 91]),
+    (15, &[93, 94, 95, 96, 97]),
+    (18, &[450, 451]),
+];
+
 /// The G code `G[group]=number` selects: its position in its group as the control numbers them (group 8:
 /// 1 = G500, 2 = G54 …). The groups whose codes the dry run and the timeline follow; `None` for others.
 pub fn indirect_g(group: f64, number: f64) -> Option<u32> {
-    const GROUPS: &[(u32, &[u32])] = &[
-        (1, &[0, 1, 2, 3]),
-        (6, &[17, 18, 19]),
-        (7, &[40, 41, 42]),
-        (10, &[60, 64, 641, 642, 643, 644, 645]),
-        (12, &[601, 602, 603]),
-        (13, &[70, 71, 700, 710]),
-        (14, &[90, 91]),
-        (15, &[93, 94, 95, 96, 97]),
-        (18, &[450, 451]),
-    ];
     if group.fract() != 0.0 || number.fract() != 0.0 || number < 1.0 {
         return None;
     }
@@ -314,10 +317,26 @@ pub fn indirect_g(group: f64, number: f64) -> Option<u32> {
             _ => None,
         };
     }
-    GROUPS
+    G_GROUPS
         .iter()
         .find(|(g, _)| f64::from(*g) == group)
         .and_then(|(_, codes)| codes.get(k).copied())
+}
+
+/// The number `$P_GG[group]` reads while G code `g` is active: its position in its group, the inverse of
+/// [`indirect_g`].
+pub fn g_position(group: u32, g: u32) -> Option<u32> {
+    if group == 8 {
+        return match g {
+            500 => Some(1),
+            54..=57 => Some(g - 52),
+            505..=599 => Some(g - 499),
+            _ => None,
+        };
+    }
+    let (_, codes) = G_GROUPS.iter().find(|(n, _)| *n == group)?;
+    let k = codes.iter().position(|&c| c == g)?;
+    Some(k as u32 + 1)
 }
 
 fn upper(bytes: &[u8]) -> String {
@@ -647,4 +666,29 @@ pub fn user_variables(program: &Program) -> BTreeSet<String> {
             _ => None,
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_position_in_a_group_is_what_selects_the_g_code_again() {
+        for group in [1, 6, 7, 8, 10, 12, 13, 14, 15, 18] {
+            for number in 1..=120 {
+                if let Some(g) = indirect_g(f64::from(group), f64::from(number)) {
+                    assert_eq!(
+                        g_position(group, g),
+                        Some(number),
+                        "G[{group}]={number} is G{g}"
+                    );
+                }
+            }
+        }
+        assert_eq!(
+            (g_position(8, 54), g_position(8, 505), g_position(6, 18)),
+            (Some(2), Some(6), Some(2))
+        );
+        assert_eq!((g_position(2, 4), g_position(6, 90)), (None, None));
+    }
 }

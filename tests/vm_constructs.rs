@@ -754,6 +754,32 @@ fn g74_goes_to_the_reference_point_in_machine_coordinates() {
     assert_eq!(machine_at_end(src, &cfg)[2], 450.0);
 }
 
+/// Siemens cycles and shop cycles address axes through AXIS variables (`DEF AXIS _X`, `_X=$P_AXN1`,
+/// `AX[_X]=…`, `$AA_IW[_X]`) and read the active G codes with `$P_GG[group]`: each stopped the dry run.
+#[test]
+fn axis_variables_indirect_axes_and_the_active_g_codes_run() {
+    let src = "DEF AXIS _X,_Z2\nG17 G90 G94 G54\n_X=$P_AXN1\n_Z2=Z\nG0 AX[_X]=10 AX[Z]=5\nG1 AX[_Z2]=-2 F100\n\
+               R1=$AA_IW[_X]\nR2=$P_GG[6]*100+$P_GG[14]*10+$P_GG[8]\nR3=$P_GG[15]+$P_MC\n\
+               G18 G91 G55\nR4=$P_GG[6]*100+$P_GG[14]*10+$P_GG[8]\nG90\n_X=AXNAME(\"y\")\nG0 AX[_X]=7\nM30\n";
+    let run = dry_run(src.as_bytes(), &Config::default());
+    assert_eq!(&run.r_final[1..5], &[10.0, 112.0, 2.0, 223.0]);
+    assert_eq!(
+        &run.trace.last().unwrap().programmed[..3],
+        &[10.0, 7.0, -2.0]
+    );
+    assert!(
+        dry_run_error(b"DEF AXIS _X\n_X=5\nM30\n", &Config::default())
+            .contains("holds an axis name")
+    );
+    assert!(
+        dry_run_error(
+            b"DEF AXIS _X\n_X=\"Q\"\nG0 AX[_X]=1\nM30\n",
+            &Config::default()
+        )
+        .contains("Q is not an axis")
+    );
+}
+
 /// The shop programs the dry run stopped at (TRAORI orientation words, a machine axis name, GETT, POLY,
 /// G58/G59) transform with every profile that writes them, audited to the end.
 #[test]

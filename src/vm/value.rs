@@ -54,6 +54,8 @@ pub enum VarType {
     Bool,
     Char,
     Str,
+    /// An axis name (`DEF AXIS _X`), held as its upper-case text.
+    Axis,
 }
 
 impl VarType {
@@ -64,13 +66,14 @@ impl VarType {
             "BOOL" => VarType::Bool,
             "CHAR" => VarType::Char,
             "STRING" => VarType::Str,
+            "AXIS" => VarType::Axis,
             _ => return None,
         })
     }
 
     fn default_value(self) -> Value {
         match self {
-            VarType::Str => Value::Str(String::new()),
+            VarType::Str | VarType::Axis => Value::Str(String::new()),
             VarType::Char => Value::Str("\0".into()),
             _ => Value::Num(0.0),
         }
@@ -93,6 +96,10 @@ impl VarType {
                 return Err(format!("\"{s}\" is not one character"));
             }
             (VarType::Str, v) => Value::Str(v.text()),
+            (VarType::Axis, Value::Str(s)) => Value::Str(s.to_ascii_uppercase()),
+            (VarType::Axis, Value::Num(x)) => {
+                return Err(format!("an AXIS variable holds an axis name, not {x}"));
+            }
             (_, Value::Str(s)) => {
                 return Err(format!(
                     "cannot assign the string \"{s}\" to a numeric variable"

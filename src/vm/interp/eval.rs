@@ -4,7 +4,7 @@ use crate::syntax::{Node, NodeKind};
 
 use crate::vm::motion::{FRAMES, Tool};
 use crate::vm::unit::Unit;
-use crate::vm::value::{Value, Variable};
+use crate::vm::value::{Value, VarType, Variable};
 
 use super::{Interp, external};
 
@@ -162,13 +162,57 @@ impl Interp<'_> {
         Err(format!("variable {name} is not defined (alarm 12550)"))
     }
 
+    /// The active G code of `group` (the groups [`crate::views::indirect_g`] knows). G710 reads as G71:
+    /// the dry run keeps whether the feed is in inch, not whether a metric G710 was written.
+    fn active_g(&self, group: u32) -> Option<u32> {
+        let m = &self.motion.modal;
+        Some(match group {
+            1 => m.motion,
+            6 => {
+                let planes = [["X", "Y", "Z"], ["Z", "X", "Y"], ["Y", "Z", "X"]];
+                let k = planes
+                    .iter()
+                    .position(|p| p.map(|n| self.axis_index(n)) == m.plane)?;
+                17 + k as u32
+            }
+            7 => m.compensation,
+            8 => match self.motion.frames.selected {
+                0 => 500,
+                s @ 1..=4 => 53 + s as u32,
+                s => 500 + s as u32,
+            },
+            10 => m.path,
+            12 => m.exact_stop,
+            13 => match (m.inch, m.inch_feed) {
+                (true, true) => 700,
+                (true, false) => 70,
+                (false, _) => 71,
+            },
+            14 => {
+                if m.absolute {
+                    90
+                } else {
+                    91
+                }
+            }
+            15 if m.css => 96,
+            15 => m.feed_mode.g(),
+            _ => return None,
+        })
+    }
+
     pub(super) fn axis_index(&self, name: &str) -> Option<usize> {
         self.cfg.axes.iter().position(|a| a == name)
     }
 
-    /// An axis named in a system-variable index: `$AA_IM[Z]`.
+    /// An axis named in an index (`$AA_IM[Z]`, `AX[Z]`), or held by an AXIS variable (`$AA_IM[_X]`).
     pub(super) fn axis_arg(&self, u: &Unit, n: &Node) -> Result<usize, String> {
-        let name = u.upper(n);
+        let mut name = u.upper(n);
+        if self.axis_index(&name).is_none()
+            && let Some(var) = self.variable(&name).filter(|v| v.ty == VarType::Axis)
+        {
+            name = var.get(&[])?.text();
+        }
         self.axis_index(&name)
             .ok_or_else(|| format!("{name} is not an axis of this machine"))
     }
@@ -179,6 +223,16 @@ impl Interp<'_> {
                 .ok_or("system variable without name")?,
         );
         let idx: Vec<&Node> = n.find(NodeKind::Index).map(index_nodes).unwrap_or_default();
+        // The names of the geometry axes 1 to 3 (for an AXIS variable).
+        if let Some(k) = ["$P_AXN1", "$P_AXN2", "$P_AXN3"]
+            .iter()
+            .position(|n| *n == name)
+            .filter(|_| idx.is_empty())
+        {
+            let axis = self.motion.frames.geo[k]
+                .ok_or_else(|| format!("{name}: no geometry axis {}", k + 1))?;
+            return Ok(Value::Str(self.cfg.axes[axis].clone()));
+        }
         if let ("$TC_TP2", [t]) = (name.as_str(), idx.as_slice())
             && let Some(name) = self.cfg.tool_name(self.num(u, t)?)
         {
@@ -198,6 +252,18 @@ impl Interp<'_> {
             ("$AA_IW", [axis]) => m.work_position(self.axis_arg(u, axis)?),
             ("$P_EP", [axis]) => m.local[self.axis_arg(u, axis)?],
             ("$P_UIFRNUM", []) => m.frames.selected as f64,
+            // Whether the running program was called modally (MCALL): the dry run runs no modal call.
+            ("$P_MC", []) => 0.0,
+            ("$P_GG", [group]) => {
+                let group = self.num(u, group)?;
+                let g = (group.fract() == 0.0 && group >= 1.0)
+                    .then(|| self.active_g(group as u32))
+                    .flatten();
+                let position = g.and_then(|g| crate::views::g_position(group as u32, g));
+                f64::from(position.ok_or_else(|| {
+                    format!("$P_GG[{group}]: that G group is not modelled by the dry run")
+                })?)
+            }
             ("$P_IFRAME", [axis, part]) => {
                 let (a, f) = (self.axis_arg(u, axis)?, m.frames.selected);
                 if Interp::fine_part(u, part)? {
@@ -382,6 +448,11 @@ impl Interp<'_> {
                     }))
                 }
                 _ => Err("GETT takes a tool name and a duplo number".into()),
+            },
+            // The axis a string names, for an AXIS variable.
+            "AXNAME" => match &vals[..] {
+                [Value::Str(s)] => Ok(Value::Str(s.trim().to_ascii_uppercase())),
+                _ => Err("AXNAME takes a string".into()),
             },
             "IC" | "AC" | "ACP" | "ACN" | "DC" => {
                 Err(format!("{name}() is only allowed as an axis value"))

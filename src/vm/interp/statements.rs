@@ -103,6 +103,26 @@ impl Interp<'_> {
                 w.axes.push((a, dim, v));
                 return Ok(());
             }
+            // `AX[X]=…`, `AX[_AXVAR]=…`: the axis the index names.
+            if let (Some(index), "AX", None) = (index, name.as_str(), self.variable(&name))
+                && let [axis] = index_nodes(index)[..]
+            {
+                let a = self.axis_arg(u, axis)?;
+                let rotary = !self.motion.frames.geo.contains(&Some(a));
+                let (dim, v) = self.axis_value(u, value, rotary)?;
+                w.axes.push((a, dim, v));
+                return Ok(());
+            }
+            // An AXIS variable takes an axis's name: `_X=X`.
+            if self.variable(&name).is_some_and(|v| v.ty == VarType::Axis)
+                && value.kind == NodeKind::Var
+                && value.find(NodeKind::Index).is_none()
+            {
+                let axis = u.upper(value);
+                if self.axis_index(&axis).is_some() {
+                    return self.store(u, target, Value::Str(axis), w);
+                }
+            }
             if let (None, Some(a), None) =
                 (index, self.cfg.machine_axis(&name), self.variable(&name))
             {
@@ -543,7 +563,7 @@ impl Interp<'_> {
                     let word = u.upper(c);
                     if let Some(t) = VarType::from_keyword(&word) {
                         ty = Some(t);
-                    } else if matches!(word.as_str(), "AXIS" | "FRAME") {
+                    } else if word == "FRAME" {
                         return Err(format!("DEF {word} variables are not supported"));
                     }
                 }
