@@ -24,17 +24,19 @@ fn root() -> &'static Path {
 fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
     // fixtures/shop (26, QA rounds 1–2), fixtures/shop4 (22 with tool changes, QA round 4) and
     // fixtures/shop5 (25, QA round 5), fixtures/shop6 (25, QA round 6), fixtures/shop7 (4, QA round 7:
-    // what the run-time tool read admitted) and fixtures/shop8 (15, QA round 8: builders' dialects).
+    // what the run-time tool read admitted), fixtures/shop8 (15, QA round 8: builders' dialects) and
+    // fixtures/shop9 (15, QA round 9: archives, multi-part, mould, TRAORI, IFs, G18/G19).
     let sets = [
         (
             "shop",
             26,
             [
-                ("blum-tc50", 20),
-                ("siemens-cycle978", 20),
-                ("tool-setter", 24),
+                // 23 (TRAORI) since the zero goes before a transformation (QA round 9).
+                ("blum-tc50", 21),
+                ("siemens-cycle978", 21),
+                ("tool-setter", 25),
                 ("grinder-gauge", 25),
-                ("lathe-setter", 24),
+                ("lathe-setter", 25),
             ],
         ),
         (
@@ -91,6 +93,17 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
                 // 14 since GROUP_BEGIN is known to move nothing.
                 ("grinder-gauge", 8),
                 ("lathe-setter", 3),
+            ],
+        ),
+        (
+            "shop9",
+            15,
+            [
+                ("blum-tc50", 14),
+                ("siemens-cycle978", 14),
+                ("tool-setter", 15),
+                ("grinder-gauge", 15),
+                ("lathe-setter", 15),
             ],
         ),
     ];

@@ -607,3 +607,120 @@ fn no_gate_stops_a_continuous_path_contour_between_two_feed_moves() {
         }
     }
 }
+
+/// The fold runs an IF's body as if it always ran: a gate after ENDIF gave back the speed or feed the body
+/// set (S6000 where a run that skips the body turns 2000 rpm), and the audit agreed whenever the dry run
+/// took the branch. Now a field any branch sets is unsure after ENDIF until the program sets it again:
+/// no gate after it measures (and gives back) with that field, one after it is set again does. QA round 9.
+#[test]
+fn a_gate_after_an_if_does_not_give_back_what_only_one_branch_set() {
+    let cut = "G0 X-60 Y0 Z30\nG0 Z2\nG1 Z0 F800\nG1 X60\nG0 Z30\nM1\nG0 X-60 Y40\nG1 Z0\nG1 X60\nG0 Z30\n";
+    // The plunge after M1 runs at the feed in force: F200, or F2500 when the branch ran.
+    let plunge = "G0 Z30\nM1\nG0 X60\nG1 Z-5\nG0 Z30\n";
+    for (branch, rest) in [
+        ("IF R20==0\nS6000\nENDIF\n", cut),
+        ("IF R20==0\nS6000\nELSE\nS3000\nENDIF\n", cut),
+        (
+            "G0 X0 Y0 Z5\nG1 Z0 F200\nIF R20==0\nG1 X40 F2500\nENDIF\n",
+            plunge,
+        ),
+    ] {
+        let src = format!("G17 G90 G94 G54\nT1 M6\nD1\nS2000 M3 M8\n{branch}{rest}M5\nM30\n");
+        let out = out(&src);
+        let endif = out.find("ENDIF\n").map(|k| k + 6).unwrap();
+        let after: Vec<&str> = out[endif..].lines().filter(|l| inserted(l)).collect();
+        assert!(
+            !after
+                .iter()
+                .any(|l| l.starts_with("S6000") || l.starts_with("S3000") || l.contains("F2500")),
+            "{branch:?}: a gate gives back a branch's value:\n{out}"
+        );
+        assert!(
+            !after.iter().any(|l| l.contains("BL9700")),
+            "{branch:?}: a gate measures after the IF:\n{out}"
+        );
+    }
+    // A nested IF that ends the program does not end the outer body: S6000 may still follow.
+    let nested = format!(
+        "G17 G90 G94 G54\nT1 M6\nD1\nS2000 M3 M8\nIF R20==0\nIF R21==1\nM30\nENDIF\nS6000\nENDIF\n{cut}M5\nM30\n"
+    );
+    let o = out(&nested);
+    let m1 = o.find("\nM1\n").unwrap();
+    assert!(
+        !o[m1..].contains("S6000 M3 ;DL") && !o[m1..].contains("BL9700"),
+        "{o}"
+    );
+    // A body that ends the program (a piece counter) leaves the state before the IF: its D0 is not the
+    // program's after ENDIF, and the gate after M1 measures.
+    let counter = format!(
+        "G17 G90 G94 G54\nT1 M6\nD1\nS2000 M3 M8\nIF R30>=R31\nG0 G53 Z0 D0\nM30\nENDIF\n{cut}M5\nM30\n"
+    );
+    let o = out(&counter);
+    let m1 = o.find("\nM1\n").unwrap();
+    assert!(
+        o[m1..].contains("BL9700") && o[m1..].contains("S2000 M3 ;DL"),
+        "{o}"
+    );
+    // Set again after the ENDIF, the speed is known and the gate after M1 measures.
+    let src = format!(
+        "G17 G90 G94 G54\nT1 M6\nD1\nS2000 M3 M8\nIF R20==0\nS6000\nENDIF\nS2500\n{cut}M5\nM30\n"
+    );
+    let out = out(&src);
+    let m1 = out.find("\nM1\n").unwrap();
+    assert!(
+        out[m1..].contains("S2500 M3 ;DL") && out[m1..].contains("BL9700"),
+        "{out}"
+    );
+}
+
+/// TRAORI with orientation vectors turns the rotary axes the kinematics choose, and TRAFOOF leaves them
+/// there: a gate before the program sends them home measured X0 Y0 with the head or table tilted (the
+/// rule that counted the axes as turned covered only CYCLE800). QA round 9.
+#[test]
+fn no_measurement_while_an_orientation_left_the_rotary_axes_turned() {
+    let head = "G17 G90 G94 G54\nT=\"EM16\" M6\nD1\nS6000 M3\nG0 X-80 Y-60 Z80\nG1 Z60 F2000\nG0 Z80\nTRAORI\n\
+                G0 X-80 Y-60 Z40 A3=0 B3=-0.5 C3=0.86603\nG1 Z-8 F3000\nG0 Z40\nTRAFOOF\nG0 SUPA Z0\n";
+    let tail = "S4000 M3\nG0 X-30 Y20 Z50\nG1 Z-10 F300\nG0 Z50\nM30\n";
+    let before_home = format!("{head}T=\"DR8\"\nM6\nD1\nG0 B0 C0\n{tail}");
+    let o = out(&before_home);
+    let home = o.find("G0 B0 C0\n").unwrap();
+    assert!(
+        !o[..home]
+            .rsplit("TRAFOOF")
+            .next()
+            .unwrap()
+            .contains("BL9700"),
+        "{o}"
+    );
+    // Once both axes are home the next gate measures.
+    let after_home = format!("{head}G0 B0 C0\nT=\"DR8\"\nM6\nD1\n{tail}");
+    let o = out(&after_home);
+    let home = o.find("G0 B0 C0\n").unwrap();
+    assert!(o[home..].contains("BL9700"), "{o}");
+}
+
+/// A post may leave G18 or G19 modal after an edge radius. The gate's probe and cycle ran in it: with
+/// SD42940 = 0 the probe's length acts along Y or X, and the cycle's measuring axis is the plane's. Now the
+/// probing section runs in G17 and the program's plane comes back before the way back. TRAORI is no setup
+/// of the work coordinates: the zero goes before it (a one-operation 5-axis program was refused). QA round 9.
+#[test]
+fn the_probe_works_in_g17_and_the_zero_goes_before_traori() {
+    let src = "G54\nT1 M6\nD1\nS3000 M3\nG0 X-5 Y-10 Z5\nG18\nG1 X-5 Z0 F800\nG3 X0 Z-5 I5 K0\nG0 Z30\nM1\nG0 X50\nG1 Z-5 F300\nG0 Z30\nM30\n";
+    let o = out(src);
+    let m1 = o.find("\nM1\n").unwrap();
+    let gate = &o[m1..];
+    let pos = |what: &str| gate.find(what).unwrap_or_else(|| panic!("{what}:\n{o}"));
+    assert!(
+        pos("G17 ;DL") < pos("T=\"BLUM_TC50\" M6") && pos("T=\"BLUM_TC50\" M6") < pos("BL9700"),
+        "{o}"
+    );
+    let back = pos("T=1 M6 ;DL");
+    assert!(
+        gate[back..].find("G18 ;DL").unwrap() < gate[back..].find("X=R63").unwrap(),
+        "{o}"
+    );
+    let traori = "G17 G90 G40 G94 G71 G60\nT1 M6\nD1\nG54\nS8000 M3\nG0 X0 Y0 Z50\nTRAORI\n\
+                  G0 Z5 A3=0 B3=-0.5 C3=0.86603\nG1 Z-2 F1000\nG1 X20\nG0 Z50\nTRAFOOF\nM30\n";
+    let o = out(traori);
+    assert!(o.find("BL9700").unwrap() < o.find("TRAORI").unwrap(), "{o}");
+}

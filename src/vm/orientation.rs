@@ -5,29 +5,8 @@
 use std::collections::BTreeMap;
 use std::fmt;
 
-/// Words that give the tool's direction: Euler / RPY angles (A2 B2 C2) or the direction vector
-/// (A3 B3 C3). A block that programs a direction replaces the last one whichever way it was written, and
-/// a component it leaves out is 0 (Programming Manual 03/2006, 7.2 "Programming of directional vector").
-const DIRECTION: [[&str; 3]; 2] = [["A2", "B2", "C2"], ["A3", "B3", "C3"]];
-
-/// Further orientation words, each kept on its own: the surface normal at block start (A4 B4 C4) and end
-/// (A5 B5 C5) for LEAD / TILT, the cone's axis (A6 B6 C6) and intermediate orientation (A7 B7 C7) of the
-/// ORICONxx interpolations, the lead and tilt angles, the tool's rotation about itself (THETA), the
-/// cone's opening angle (NUT) and the second point of ORICURVE (XH YH ZH).
-const OTHERS: [&str; 19] = [
-    "A4", "B4", "C4", "A5", "B5", "C5", "A6", "B6", "C6", "A7", "B7", "C7", "LEAD", "TILT",
-    "THETA", "NUT", "XH", "YH", "ZH",
-];
-
-/// The orientation word `name` (upper case) is, if it is one.
-pub fn word(name: &str) -> Option<&'static str> {
-    DIRECTION
-        .iter()
-        .flatten()
-        .chain(OTHERS.iter())
-        .find(|w| **w == name)
-        .copied()
-}
+use crate::views::ORIENTATION_DIRECTION as DIRECTION;
+pub use crate::views::orientation_word as word;
 
 /// The orientation as last programmed.
 #[derive(Debug, Clone, Default, PartialEq)]

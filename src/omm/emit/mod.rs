@@ -1051,6 +1051,12 @@ impl Emitter<'_> {
         }
         // Through-spindle coolant or air must not go through the probe, nor onto the setter.
         v.extend(p.coolant.off_block(gate.before.machine_coolant));
+        // The probe and its cycle work in G17: under G18/G19 the tool length may act along Y or X
+        // (SD42940 = 0) and the cycle's measuring axis is the plane's. `give_back` writes the program's
+        // plane again before any move back.
+        if self.other_plane(&gate.before).is_some() {
+            v.push("G17".into());
+        }
         if p.probe.kind == ProbeKind::SpindleProbe {
             v.extend(self.load(&format!("\"{}\"", p.probe.tool)));
             v.push(format!("D{}", p.probe.tool_offset));
@@ -1300,7 +1306,10 @@ impl Emitter<'_> {
             if let Some(read) = read {
                 v.extend(self.tool_back(gate, read));
             }
+            v.extend(self.other_plane(b));
             v.push(self.clear());
+        } else if p.probe.kind != ProbeKind::Gauge {
+            v.extend(self.other_plane(b));
         }
         if p.probe.kind != ProbeKind::Gauge {
             let across: Vec<String> = self
@@ -1326,6 +1335,16 @@ impl Emitter<'_> {
         // found it): nothing to give back, and nothing written from a state the timeline may not know
         // (after a dressing subprogram, say).
         v
+    }
+
+    /// On a milling machine (gates that move Y), the program's plane when it is G18 or G19, which the
+    /// probing section leaves for G17: the way back runs in the program's plane, its tool length acting as
+    /// it did. A lathe works in G18 and its setter with it.
+    fn other_plane(&self, b: &Modal) -> Option<String> {
+        let milling = self.profile.position.axes.contains(&Axis::Y);
+        b.plane
+            .filter(|p| milling && matches!(p, 18 | 19))
+            .map(|p| format!("G{p}"))
     }
 
     /// The modal G codes and feed the gate's moves and the cycle may have changed, as the program had them.

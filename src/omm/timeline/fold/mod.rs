@@ -7,7 +7,7 @@ use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::rc::Rc;
 
 use crate::omm::machine_coolant::is_control_m;
-use crate::omm::profile::Profile;
+use crate::omm::profile::{OffsetMethod, Profile};
 use crate::syntax::BlockKind;
 
 use super::modal::{Modal, POSITIONED, coolant_after, field, frame, is_thread, unknown};
@@ -30,6 +30,19 @@ pub(super) trait Callees {
     /// The timeline of subprogram `name`, and whether it is in another file (a folder's) rather than in
     /// this one (an archive's unit); `None` for a subprogram or cycle whose time is not known.
     fn timeline(&mut self, name: &str) -> Option<(Rc<Timeline>, bool)>;
+}
+
+/// An IF whose ENDIF has not come yet: its block, the state before its body, and the state at the end
+/// of its THEN body once an ELSE came.
+struct OpenIf {
+    block: usize,
+    before: Modal,
+    then_end: Option<Modal>,
+    /// Loops open at the IF.
+    loop_depth: usize,
+    /// The body so far ends the program on every run of it (M2, M30, M17, RET in it, outside any inner
+    /// IF or loop).
+    ended: bool,
 }
 
 pub(super) struct Builder<'p> {
@@ -102,7 +115,7 @@ pub(super) struct Builder<'p> {
     /// block → target blocks.
     pub(super) jumps: HashMap<usize, Vec<usize>>,
     /// IF blocks whose ENDIF has not come yet.
-    open_ifs: Vec<usize>,
+    open_ifs: Vec<OpenIf>,
     /// Forward jumps not yet reached: target block → the states the jumps leave from.
     merging: HashMap<usize, Vec<Modal>>,
     /// Places after which some fields are not known on every path: sites after block `.0` are unfit while a
@@ -471,6 +484,60 @@ impl<'p> Builder<'p> {
         }
     }
 
+    /// A program end at block `i`: recorded, and an end of the innermost IF's body when no loop opened in it.
+    fn program_end(&mut self, i: usize) {
+        self.t.ends.push(i);
+        let depth = self.loop_depth;
+        if let Some(open) = self.open_ifs.last_mut().filter(|o| o.loop_depth == depth) {
+            open.ended = true;
+        }
+    }
+
+    /// After an ENDIF the state is one of the branches': the body may not have run (or the ELSE body ran
+    /// instead). The fold runs the bodies one after the other, so a field any of them set may differ from
+    /// what the program has there: sites after it are unsure of it until the program sets it again, as
+    /// after a label a jump reaches (a gate would give back a speed or a feed the branch taken never set).
+    fn if_merge(&mut self, i: usize, open: OpenIf) {
+        // A body without ELSE that ends the program (`IF R30>=R31` / `M30` / `ENDIF`, a piece counter)
+        // leaves the state before the IF to what follows.
+        if open.then_end.is_none() && open.ended {
+            self.state = open.before;
+            return;
+        }
+        let states: Vec<&Modal> = [
+            Some(&open.before),
+            open.then_end.as_ref(),
+            Some(&self.state),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        let mut differ = [false; field::COUNT];
+        for (k, a) in states.iter().enumerate() {
+            for b in &states[k + 1..] {
+                for (d, x) in differ.iter_mut().zip(field::differ(a, b)) {
+                    *d |= x;
+                }
+            }
+        }
+        // A tool one branch loads is not known after the IF (`IF $P_TOOLNO<>12` / `T12 M6` / `ENDIF`): a
+        // gate reads it at run time where the profile lets it, as where the program names none.
+        if differ[field::TOOL] || differ[field::SELECTED] {
+            self.state.tool = None;
+            self.state.selected = None;
+            differ[field::TOOL] = false;
+            differ[field::SELECTED] = false;
+        }
+        // A gate that corrects the offset in force selects none: whichever branch selected it, the gate
+        // measures and corrects under it (a tombstone's `IF FIX==2` / `G55` / `ENDIF`).
+        if self.profile.offset.method == OffsetMethod::Active {
+            differ[field::OFFSET] = false;
+        }
+        if differ.contains(&true) {
+            self.merges.push((i, i, differ));
+        }
+    }
+
     /// A settable work offset selected at block `i` (noted at its first selection).
     fn offset(&mut self, g: u32, i: usize) {
         if matches!(g, 54..=57 | 505..=599) && !self.t.offsets.iter().any(|(o, _)| *o == g) {
@@ -514,10 +581,22 @@ impl<'p> Builder<'p> {
             BlockKind::EndWhile | BlockKind::EndFor | BlockKind::EndLoop | BlockKind::Until => {
                 self.loop_depth = self.loop_depth.saturating_sub(1);
             }
-            BlockKind::If => self.open_ifs.push(i),
+            BlockKind::If => self.open_ifs.push(OpenIf {
+                block: i,
+                before: self.state.clone(),
+                then_end: None,
+                loop_depth: self.loop_depth,
+                ended: false,
+            }),
+            BlockKind::Else => {
+                if let Some(open) = self.open_ifs.last_mut() {
+                    open.then_end = Some(self.state.clone());
+                }
+            }
             BlockKind::EndIf => {
-                if let Some(start) = self.open_ifs.pop() {
-                    self.t.conditional.push((start, i));
+                if let Some(open) = self.open_ifs.pop() {
+                    self.t.conditional.push((open.block, i));
+                    self.if_merge(i, open);
                 }
             }
             _ => {}
@@ -580,7 +659,9 @@ impl<'p> Builder<'p> {
         {
             self.t.offset_selections.push(i);
         }
-        let setup = s.frame_ops != 0
+        // A kinematic transformation (TRAORI, TRANSMIT …) is no setup of the work coordinates the zero
+        // measures in: the zero goes before it.
+        let setup = s.frame_ops & !(frame_op::TRANSFORM_ON | frame_op::TRANSFORM_OFF) != 0
             || s.offsets
                 .iter()
                 .any(|g| matches!(g, 500 | 54..=57 | 505..=599));
@@ -690,7 +771,7 @@ impl<'p> Builder<'p> {
                 3..=5 | POSITIONED => direction = Some(m),
                 6 => self.m6_seen = true,
                 // M17 ends a main program as M30 does, and returns from a subprogram.
-                2 | 17 | 30 => self.t.ends.push(i),
+                2 | 17 | 30 => self.program_end(i),
                 7..=9 => self.state.coolant = coolant_after(self.state.coolant, m),
                 _ if !self.profile.coolant.follows(m) && !is_control_m(m) => {
                     self.t.machine_m.insert(m);
@@ -710,7 +791,7 @@ impl<'p> Builder<'p> {
             self.spindle_set_at(i);
         }
         if s.leaves {
-            self.t.ends.push(i);
+            self.program_end(i);
         }
         if speed.is_some() || direction.is_some() {
             self.t.spindle_words.push((start, speed, direction));

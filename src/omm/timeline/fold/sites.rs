@@ -157,6 +157,12 @@ impl Builder<'_> {
         self.rotary_sent = (self.rotary_sent & !home) | away;
         let f = &mut self.state.frames;
         *f = (*f & !(home << frame::ROTARY_SHIFT)) | (away << frame::ROTARY_SHIFT);
+        // An orientation turns the rotary axes the kinematics choose, as a swivel does, and TRAFOOF leaves
+        // them where they stand.
+        if s.orients {
+            *f |= frame::ROTARY;
+            self.swivel_turned = true;
+        }
         // A five-axis post brings a swivel's two axes home in one block (`G0 A0 C0`, `G0 B0 C0`); one
         // axis alone may leave the other turned.
         if self.swivel_turned && home.count_ones() >= 2 {

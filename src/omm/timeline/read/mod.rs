@@ -69,6 +69,9 @@ pub(super) struct Scan {
     /// Rotary axes given a variable (`A=_A_HOME`, `C=R5`): its bit and the name, for the value the fold
     /// knows.
     pub(super) rotary_vars: Vec<(u8, String)>,
+    /// The block programs the tool's orientation (`A3=`, `B2=`, `LEAD=` … under TRAORI): the rotary axes
+    /// the kinematics turn for it stay turned after TRAFOOF.
+    pub(super) orients: bool,
     /// `DL=`: a sum offset selected (`true`) or deselected with `DL=0` (`false`).
     pub(super) sum_offset: Option<bool>,
     /// `TCARR=`: an orientable toolholder selected (`true`) or deselected with `TCARR=0` (`false`).

@@ -60,6 +60,7 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
             "Z" => 2,
             other => {
                 s.other_axes = true;
+                s.orients |= crate::views::orientation_word(other).is_some();
                 if let Some(bit) = ["A", "B", "C"].iter().position(|r| *r == other) {
                     let bit = 1 << bit;
                     match (&a.value, a.mode) {
