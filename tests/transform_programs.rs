@@ -169,3 +169,29 @@ fn the_dry_run_starts_at_the_main_program_and_knows_the_global_user_data() {
     assert!(!o.status.success());
     assert!(common::stderr(&o).contains("XSTART is not defined"));
 }
+
+/// Shops keep the clearance height in a GUD or R-parameter (`G0 Z=_ZSICHER`): that rapid of the tool axis
+/// alone was not taken as leaving the cut, so the gate at the next tool change never measured (QA round 9,
+/// F7). A literal `G0 Z50` and a variable one now count alike; an XY rapid to a variable does not.
+#[test]
+fn a_retract_to_a_height_held_in_a_variable_leaves_the_cut() {
+    let measures_at_second_tool = |retract: &str| {
+        let src = format!(
+            "G54\nT1 M6\nD1\nS3000 M3\nG0 X0 Y0 Z50\nG1 Z-1 F500\nG1 X10\n{retract}\nT2 M6\nD1\nS3000 M3\nG0 X0 Y0 Z5\nG1 Z-1 F500\nG1 X10\nG0 Z50\nM30\n"
+        );
+        let every = format!(
+            "{}\n[log]\nmeasure_every_gate = true\n",
+            driftloop::omm::DEFAULT_PROFILE
+        );
+        let out = common::transformed_in(
+            &[("p.mpf", &src), ("every.toml", &every)],
+            "p.mpf",
+            "every.toml",
+        );
+        let second = out.find("\nT2 M6\n").unwrap();
+        out[..second].matches("BL9700").count() > 1
+    };
+    assert!(measures_at_second_tool("G0 Z50"));
+    assert!(measures_at_second_tool("G0 Z=R20"));
+    assert!(!measures_at_second_tool("G0 X=R20"));
+}

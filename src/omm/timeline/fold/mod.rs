@@ -991,9 +991,15 @@ impl<'p> Builder<'p> {
             let continuous = !matches!(self.state.path_mode, Some(60));
             let contour = feed && !straight_up && continuous && !tool_change;
             self.contour = contour || (conditional && self.contour);
-            if self.state.motion != 0 {
+            // A rapid of the tool axis alone to a height held in a variable (`G0 Z=_ZSICHER`, a shop's
+            // clearance in a GUD or R-parameter) leaves the cut as a literal one does: a rapid down into
+            // what was just cut would crash the program itself.
+            let z_expression_rapid = !feed
+                && mv.expression == [false, false, true]
+                && mv.axes.iter().all(Option::is_none);
+            if feed {
                 self.clear = false;
-            } else if rises || (z_rapid && self.position_doubt) {
+            } else if rises || (z_rapid && self.position_doubt) || z_expression_rapid {
                 self.clear = true;
             }
             if inexact {

@@ -120,6 +120,9 @@ pub(super) struct Move {
     pub(super) centre: [Option<f64>; 3],
     pub(super) radius: Option<f64>,
     pub(super) f: Option<f64>,
+    /// The axis is written by an expression (`Z=R20`, `Z=_ZSICHER`): it moves somewhere the timeline does
+    /// not know.
+    pub(super) expression: [bool; 3],
 }
 
 /// A loop bound or repeat count as written.
@@ -314,6 +317,7 @@ impl Move {
             radius: v[6],
             f: v[7],
             incremental: [false; 3],
+            expression: [false; 3],
         }
     }
 }

@@ -93,7 +93,10 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                 s.mv.axes[k] = Some((*v, false));
                 s.mv.incremental[k] = true;
             }
-            _ => s.inexact = true,
+            _ => {
+                s.inexact = true;
+                s.mv.expression[k] = true;
+            }
         }
     }
     let num = |v: &Value| match v {
