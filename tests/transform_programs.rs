@@ -195,3 +195,37 @@ fn a_retract_to_a_height_held_in_a_variable_leaves_the_cut() {
     assert!(measures_at_second_tool("G0 Z=R20"));
     assert!(!measures_at_second_tool("G0 X=R20"));
 }
+
+/// The audit's dry run reads what it cannot know from a machine file, as `run --machine` does: an
+/// R-parameter the operator set (`R10 = 1` chooses the variant), an input. Without it the variant the dry
+/// run took stopped the audit (QA round 9, `06`).
+#[test]
+fn the_audit_reads_the_machine_file_given_to_transform() {
+    let src = "G54\nT1 M6\nD1\nS3000 M3\nIF R10==0\nR1=UNSET_GUD\nENDIF\nG0 X0 Y0 Z5\nG1 Z-1 F500\nG1 X10\nG0 Z50\nM30\n";
+    let machine = "[variables]\nR10 = 1\n";
+    let model = common::fixture("omm/model.toml");
+    let run = |extra: &[&str]| {
+        let mut args = vec!["transform", "p.mpf", "--model", &model, "-o", "out.mpf"];
+        args.extend(extra);
+        let (o, _dir) = common::run_in(&[("p.mpf", src), ("m.toml", machine)], &args);
+        assert!(o.status.success(), "{}", common::stderr(&o));
+        common::stderr(&o)
+    };
+    assert!(run(&[]).contains("UNSET_GUD is not defined"));
+    assert!(!run(&["--machine", "m.toml"]).contains("audit incomplete"));
+    // R-parameters beyond the control's are refused with the file's name.
+    let (o, _dir) = common::run_in(
+        &[("p.mpf", src), ("m.toml", "[variables]\nR1000 = 1\n")],
+        &[
+            "transform",
+            "p.mpf",
+            "--model",
+            &model,
+            "--machine",
+            "m.toml",
+            "-o",
+            "out.mpf",
+        ],
+    );
+    assert!(!o.status.success() && common::stderr(&o).contains("R1000 is beyond R999"));
+}

@@ -58,6 +58,12 @@ pub struct Args {
     /// with the original on the virtual machine, and refused when an inserted block breaks the state).
     #[arg(long)]
     no_audit: bool,
+    /// Machine file for the safety audit's dry run (`driftloop run --machine`, docs/commands/run.md): the
+    /// values it cannot know (`[variables]`: R-parameters, inputs `$A_IN[n]`, machine data, GUD), machine
+    /// axis names, the timing. The audit's own start states (work offsets, a tool in force, the spindle
+    /// turning) still apply to its runs that test them.
+    #[arg(long, value_name = "MACHINE.toml", conflicts_with = "no_audit")]
+    machine: Option<PathBuf>,
 }
 
 /// Model and profile, shared by `transform` and `plan`.
@@ -222,6 +228,17 @@ struct AuditNote {
 
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     let (models, profile) = args.setup.load()?;
+    let machine = match &args.machine {
+        Some(path) => {
+            let text = crate::text::read_utf8(path, crate::text::TOML)
+                .with_context(|| format!("cannot read {}", path.display()))?;
+            let dir = path.parent().unwrap_or(Path::new("."));
+            crate::vm::parse_machine_file(&text, dir, crate::vm::Config::default())
+                .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
+                .0
+        }
+        None => crate::vm::Config::default(),
+    };
     let jobs = jobs(&args)?;
     if !args.in_place && !args.check {
         let mut inputs: Vec<&Path> = jobs
@@ -245,7 +262,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     let results: Vec<Result<Done, Refusal>> = jobs
         .par_iter()
         .map(|job| {
-            let r = transform_one(&job.input, &models, &profile, &args);
+            let r = transform_one(&job.input, &models, &profile, &machine, &args);
             progress.tick();
             r
         })
@@ -516,6 +533,7 @@ fn transform_one(
     input: &Input,
     models: &[(DriftModel, String)],
     profile: &Profile,
+    machine: &crate::vm::Config,
     args: &Args,
 ) -> Result<Done, Refusal> {
     let bytes = input.read().map_err(|e| Refusal::new("unreadable", e))?;
@@ -553,7 +571,13 @@ fn transform_one(
     let audit = if args.no_audit {
         None
     } else {
-        let note = audit_output(input, &program, &edits, &refs, profile, Start::Bare, "")?;
+        let subject = Audited {
+            input,
+            program: &program,
+            models: &refs,
+            machine,
+        };
+        let note = audit_output(&subject, &edits, profile, Start::Bare, "")?;
         // The same program with every gate measuring has the same gates, each taking its measuring branch,
         // audited on work offsets that are not 0 and with a tool in force.
         let audit_measuring = |start: Start, variant: &str| {
@@ -562,16 +586,14 @@ fn transform_one(
             let (every, _) = omm::prepare_timed(&program, &moves, &refs, &measuring, args.force)
                 .map_err(|e| Refusal::new(e.reason(), e))?
                 .into_edits();
-            audit_output(input, &program, &every, &refs, &measuring, start, variant)
+            audit_output(&subject, &every, &measuring, start, variant)
         };
         if profile.log.measure_every_gate && omm::plan::reads_tool(profile) {
             // The first run had no tool in force, so gates that read the tool took their way around the
             // probe; this one has a tool in force, and their swap and its check run.
             audit_output(
-                input,
-                &program,
+                &subject,
                 &edits,
-                &refs,
                 profile,
                 Start::Shifted,
                 " with a tool in force at the start",
@@ -606,6 +628,15 @@ fn transform_one(
     })))
 }
 
+/// The program an audit runs, and what every run of it shares: the models the machine drifts by and the
+/// machine file's configuration.
+struct Audited<'a> {
+    input: &'a Input,
+    program: &'a crate::Program,
+    models: &'a [ModelRef<'a>],
+    machine: &'a crate::vm::Config,
+}
+
 /// How the machine stands when an audit's dry run starts.
 #[derive(Clone, Copy, PartialEq)]
 enum Start {
@@ -625,15 +656,19 @@ enum Start {
 /// hand: a gate that reads the tool at run time swaps the probe for it (without one it goes around the
 /// probe).
 fn audit_output(
-    input: &Input,
-    program: &crate::Program,
+    subject: &Audited<'_>,
     edits: &Edits,
-    models: &[ModelRef<'_>],
     profile: &Profile,
     start: Start,
     variant: &str,
 ) -> Result<AuditNote, Refusal> {
     use crate::vm::audit::{AuditSettings, Kind, audit_owned};
+    let Audited {
+        input,
+        program,
+        models,
+        machine,
+    } = *subject;
     let shifted = start != Start::Bare;
     // The virtual machine drifts as each axis's model predicts from the spindle; the terms it reads from
     // sensors have no signal there and are left out.
@@ -658,18 +693,17 @@ fn audit_output(
         settings.dir = path.parent().map(|d| d.to_path_buf());
         settings.original_name = path.display().to_string();
     }
-    let cfg = crate::vm::Config {
+    let mut cfg = crate::vm::Config {
         subprogram_dirs: profile.timeline.subprograms.clone(),
-        offsets: if shifted {
-            settings.shifted_offsets()
-        } else {
-            Vec::new()
-        },
-        start_tool: shifted.then(crate::vm::audit::hand_loaded_tool),
-        start_spindle: (start == Start::ShiftedTurning)
-            .then(crate::vm::audit::hand_started_spindle),
-        ..crate::vm::Config::default()
+        ..machine.clone()
     };
+    if shifted {
+        cfg.offsets = settings.shifted_offsets();
+        cfg.start_tool = Some(crate::vm::audit::hand_loaded_tool());
+    }
+    if start == Start::ShiftedTurning {
+        cfg.start_spindle = Some(crate::vm::audit::hand_started_spindle());
+    }
     let transformed = edits.to_bytes(program);
     let found = match audit_owned(program.source().to_vec(), transformed, &settings, &cfg) {
         Ok(found) => found,

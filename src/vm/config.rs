@@ -48,6 +48,9 @@ use super::machine::{ProbeFault, SimpleMachine, piecewise_linear};
 use super::motion::Tool;
 use super::truth::ModelDrift;
 
+/// How many R-parameters the control has (R0 … R999).
+pub const R_COUNT: usize = 1000;
+
 /// What the interpreter needs to know about the machine and the run.
 #[derive(Debug, Clone)]
 pub struct Config {
@@ -494,6 +497,22 @@ pub fn parse_machine_file(
         cfg.sumcorr_default = dl;
     }
     for (name, v) in file.variables {
+        // `R10 = 1`: an R-parameter the program starts with (retentive on the control: what the operator
+        // or an earlier program left).
+        let upper = name.trim().to_ascii_uppercase();
+        if let Some(n) = upper
+            .strip_prefix('R')
+            .and_then(|n| n.parse::<usize>().ok())
+        {
+            if n >= R_COUNT {
+                return Err(format!("variables: {upper} is beyond R{}", R_COUNT - 1));
+            }
+            if cfg.r_initial.len() <= n {
+                cfg.r_initial.resize(n + 1, 0.0);
+            }
+            cfg.r_initial[n] = v;
+            continue;
+        }
         let key = variable_key(&name)
             .ok_or_else(|| format!("variables: `{name}` is not NAME or NAME[i, …]"))?;
         cfg.variables.insert(key, v);

@@ -8,8 +8,7 @@ use crate::vm::value::{Value, VarType, Variable};
 
 use super::{Interp, external};
 
-/// Highest R parameter number (R0 … R999).
-pub const R_COUNT: usize = 1000;
+pub use crate::vm::config::R_COUNT;
 
 /// The expressions of an index `[a, b]`.
 pub fn index_nodes(index: &Node) -> Vec<&Node> {
@@ -254,6 +253,8 @@ impl Interp<'_> {
             ("$P_UIFRNUM", []) => m.frames.selected as f64,
             // Whether the running program was called modally (MCALL): the dry run runs no modal call.
             ("$P_MC", []) => 0.0,
+            // The master spindle (SETMS).
+            ("$AC_MSNUM", []) => m.master as f64,
             ("$P_GG", [group]) => {
                 let group = self.num(u, group)?;
                 let g = (group.fract() == 0.0 && group >= 1.0)
