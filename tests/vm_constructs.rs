@@ -850,6 +850,18 @@ fn a_feed_per_revolution_runs_by_the_master_spindle_setms_selects() {
         dry_run_error(back.as_bytes(), &Config::default()).contains("spindle stopped"),
         "spindle 1 is the master again, and it stands"
     );
+    // Under SETMS(2) S and M3 without an extension turn spindle 2, the master; spindle 1 stands. They
+    // went to spindle 1, and the feed per revolution then found the master standing (QA round 9, `07`).
+    let unextended = "G18 G90 G95\nSETMS(2)\nS1000 M3\nG1 Z-10 F0.1\nSETMS\nG1 Z-20 F0.1\nM30\n";
+    assert!(
+        dry_run_error(unextended.as_bytes(), &Config::default()).contains("spindle stopped"),
+        "spindle 1 never started"
+    );
+    let first = dry_run(
+        b"G18 G90 G95\nSETMS(2)\nS1000 M3\nG1 Z-10 F0.1\nM30\n",
+        &Config::default(),
+    );
+    assert!((first.time_min - 0.1).abs() < 1e-6, "{}", first.time_min);
     // A chamfer or rounding at the corner leaves the points where they are.
     let chamfer = "G18 G90 G95\nSETMS(4)\nS4=1000 M4=3\nG1 Z-10 F0.1 CHR=0.5\nX20 RND=1\nM30\n";
     dry_run(chamfer.as_bytes(), &Config::default());

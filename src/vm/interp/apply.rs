@@ -78,6 +78,18 @@ impl Interp<'_> {
             self.motion.modal.motion = POLY;
         }
         let mut w = w;
+        // Under SETMS(n) a speed and M3 / M4 / M5 / M19 without an address extension act on the master
+        // spindle n (a dwell's revolutions and a speed limit stay as they are).
+        let master = self.motion.master;
+        if master >= 2 {
+            if let Some(s) = w.s.take_if(|_| !dwell && limit.is_none()) {
+                w.other_s.push((master, s));
+            }
+            let (own, spindle): (Vec<u32>, Vec<u32>) =
+                w.m.iter().partition(|m| !matches!(m, 3 | 4 | 5 | 19));
+            w.m = own;
+            w.other_m.extend(spindle.into_iter().map(|m| (master, m)));
+        }
         if self.motion.modal.inch {
             for (_, _, v) in &mut w.axes {
                 *v *= MM_PER_INCH;
