@@ -267,13 +267,13 @@ const PREDEFINED_COMMANDS: &[&str] = &[
     "FENDNORM",
 ];
 
-/// A bare name in a block is a subprogram call unless the control predefines it (upper-case `name`).
 /// `CYCLE` and digits: the name of a Siemens standard cycle (`CYCLE81` … `CYCLE998`).
 pub fn is_numbered_cycle(name: &str) -> bool {
     name.strip_prefix("CYCLE")
         .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
 }
 
+/// A bare name in a block is a subprogram call unless the control predefines it (upper-case `name`).
 pub fn is_predefined_command(name: &str) -> bool {
     PREDEFINED_COMMANDS.contains(&name)
         || NEUTRAL_COMMANDS.contains(&name)

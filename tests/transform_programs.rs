@@ -179,10 +179,7 @@ fn a_retract_to_a_height_held_in_a_variable_leaves_the_cut() {
         let src = format!(
             "G54\nT1 M6\nD1\nS3000 M3\nG0 X0 Y0 Z50\nG1 Z-1 F500\nG1 X10\n{retract}\nT2 M6\nD1\nS3000 M3\nG0 X0 Y0 Z5\nG1 Z-1 F500\nG1 X10\nG0 Z50\nM30\n"
         );
-        let every = format!(
-            "{}\n[log]\nmeasure_every_gate = true\n",
-            driftloop::omm::DEFAULT_PROFILE
-        );
+        let every = common::measuring_default_profile();
         let out = common::transformed_in(
             &[("p.mpf", &src), ("every.toml", &every)],
             "p.mpf",

@@ -640,37 +640,24 @@ fn a_gate_after_an_if_does_not_give_back_what_only_one_branch_set() {
             "{branch:?}: a gate measures after the IF:\n{out}"
         );
     }
+    // The output from the gate at M1 on, of the program with `body` between its start and the cut.
+    let from_m1 = |body: &str| {
+        let o = out(&format!(
+            "G17 G90 G94 G54\nT1 M6\nD1\nS2000 M3 M8\n{body}{cut}M5\nM30\n"
+        ));
+        let m1 = o.find("\nM1\n").unwrap();
+        o[m1..].to_string()
+    };
     // A nested IF that ends the program does not end the outer body: S6000 may still follow.
-    let nested = format!(
-        "G17 G90 G94 G54\nT1 M6\nD1\nS2000 M3 M8\nIF R20==0\nIF R21==1\nM30\nENDIF\nS6000\nENDIF\n{cut}M5\nM30\n"
-    );
-    let o = out(&nested);
-    let m1 = o.find("\nM1\n").unwrap();
-    assert!(
-        !o[m1..].contains("S6000 M3 ;DL") && !o[m1..].contains("BL9700"),
-        "{o}"
-    );
+    let o = from_m1("IF R20==0\nIF R21==1\nM30\nENDIF\nS6000\nENDIF\n");
+    assert!(!o.contains("S6000 M3 ;DL") && !o.contains("BL9700"), "{o}");
     // A body that ends the program (a piece counter) leaves the state before the IF: its D0 is not the
     // program's after ENDIF, and the gate after M1 measures.
-    let counter = format!(
-        "G17 G90 G94 G54\nT1 M6\nD1\nS2000 M3 M8\nIF R30>=R31\nG0 G53 Z0 D0\nM30\nENDIF\n{cut}M5\nM30\n"
-    );
-    let o = out(&counter);
-    let m1 = o.find("\nM1\n").unwrap();
-    assert!(
-        o[m1..].contains("BL9700") && o[m1..].contains("S2000 M3 ;DL"),
-        "{o}"
-    );
+    let o = from_m1("IF R30>=R31\nG0 G53 Z0 D0\nM30\nENDIF\n");
+    assert!(o.contains("BL9700") && o.contains("S2000 M3 ;DL"), "{o}");
     // Set again after the ENDIF, the speed is known and the gate after M1 measures.
-    let src = format!(
-        "G17 G90 G94 G54\nT1 M6\nD1\nS2000 M3 M8\nIF R20==0\nS6000\nENDIF\nS2500\n{cut}M5\nM30\n"
-    );
-    let out = out(&src);
-    let m1 = out.find("\nM1\n").unwrap();
-    assert!(
-        out[m1..].contains("S2500 M3 ;DL") && out[m1..].contains("BL9700"),
-        "{out}"
-    );
+    let o = from_m1("IF R20==0\nS6000\nENDIF\nS2500\n");
+    assert!(o.contains("S2500 M3 ;DL") && o.contains("BL9700"), "{o}");
 }
 
 /// TRAORI with orientation vectors turns the rotary axes the kinematics choose, and TRAFOOF leaves them

@@ -204,10 +204,7 @@ fn every_gate_before_the_programs_spindle_checks_it_not_only_the_zero() {
     // With a measurement at every gate the face gets two gates before any spindle word of its own (the
     // zero and the one at M1): both check the operator's spindle, and measure only where it stands.
     let prog = std::fs::read_to_string(common::fixture("shop7/01_mda_spindle_face.mpf")).unwrap();
-    let every = format!(
-        "{}\n[log]\nmeasure_every_gate = true\n",
-        driftloop::omm::DEFAULT_PROFILE
-    );
+    let every = common::measuring_default_profile();
     let out = common::transformed_in(
         &[("p.mpf", &prog), ("every.toml", &every)],
         "p.mpf",

@@ -9,10 +9,7 @@ mod common;
 /// written.
 fn transform_fixture(name: &str, profile: &str) -> (std::process::Output, Option<String>) {
     let prog = std::fs::read_to_string(common::fixture(&format!("shop8/{name}"))).unwrap();
-    let every = format!(
-        "{}\n[log]\nmeasure_every_gate = true\n",
-        driftloop::omm::DEFAULT_PROFILE
-    );
+    let every = common::measuring_default_profile();
     let (o, dir) = common::transform_in(
         &[("p.mpf", &prog), ("every.toml", &every)],
         "p.mpf",
@@ -88,10 +85,7 @@ fn no_gate_measures_on_the_table_a_swivel_left_turned() {
     assert!(!turned.contains("BL9700"), "{turned}");
     // Where the program turns the axes back itself, gates measure again.
     let back = "G17 G90 G94 G54\nT=\"EM\" M6\nD1\nS3000 M3\nG0 X-50 Y-50 Z50\nG1 Z-1 F300\nG1 X50 F900\nG0 Z50\nCYCLE800(0,\"TC\",0,57,0,0,0,0,30,0,0,0,0,1,)\nG0 X-10 Y-10 Z30\nG1 Z-1 F300\nG1 X10\nG0 Z50\nCYCLE800()\nG0 A0 B0 C0\nT=\"DR\" M6\nD1\nS3000 M3\nG0 X40 Y-40 Z50\nG1 Z-5 F200\nG0 Z50\nM30\n";
-    let every = format!(
-        "{}\n[log]\nmeasure_every_gate = true\n",
-        driftloop::omm::DEFAULT_PROFILE
-    );
+    let every = common::measuring_default_profile();
     let out = common::transformed_in(
         &[("p.mpf", back), ("every.toml", &every)],
         "p.mpf",
@@ -139,10 +133,7 @@ N190 D1\nN200 S3500 M3\nN210 G0 X0 Y80 Z20\nN220 G1 Z-1 F300\nN230 X100 F1000\nN
 fn no_gate_that_moves_measures_once_the_program_drives_another_spindle() {
     // A gate stops the master spindle with M5 and gives back its S and M3 only: with `S2=2000 M2=3` (or
     // `SETMS(2)`, `SPOS[2]`) the spindle that turns may be another, which the timeline does not follow.
-    let every = format!(
-        "{}\n[log]\nmeasure_every_gate = true\n",
-        driftloop::omm::DEFAULT_PROFILE
-    );
+    let every = common::measuring_default_profile();
     let model = common::fixture("omm/model.toml");
     for (program, after) in [
         (SECOND_SPINDLE.to_string(), "N170 "),

@@ -77,6 +77,17 @@ pub struct Args {
     pub probe_margin: f64,
 }
 
+/// The machine file at `path` (docs/commands/run.md) over `base`: the configuration and the machine.
+pub(super) fn read_machine_file(
+    path: &Path,
+    base: Config,
+) -> anyhow::Result<(Config, MachineSpec)> {
+    let text = crate::text::read_utf8(path, crate::text::TOML)
+        .with_context(|| format!("cannot read {}", path.display()))?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    vm::parse_machine_file(&text, dir, base).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+}
+
 /// Exit 0 when the program ran to its end, 1 when an alarm stopped it, 2 for errors (unsupported construct,
 /// endless loop, unreadable files). With `--audit`: 0 clean, 1 findings, 2 errors.
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
@@ -93,11 +104,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     };
     let mut spec = MachineSpec::default();
     if let Some(path) = &args.machine {
-        let text = crate::text::read_utf8(path, crate::text::TOML)
-            .with_context(|| format!("cannot read {}", path.display()))?;
-        let dir = path.parent().unwrap_or(Path::new("."));
-        (cfg, spec) = vm::parse_machine_file(&text, dir, cfg)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        (cfg, spec) = read_machine_file(path, cfg)?;
     }
     if let Some(missing) = args.subprogram_dirs.iter().find(|d| !d.is_dir()) {
         anyhow::bail!("--subprograms {}: not a folder", missing.display());

@@ -229,14 +229,7 @@ struct AuditNote {
 pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     let (models, profile) = args.setup.load()?;
     let machine = match &args.machine {
-        Some(path) => {
-            let text = crate::text::read_utf8(path, crate::text::TOML)
-                .with_context(|| format!("cannot read {}", path.display()))?;
-            let dir = path.parent().unwrap_or(Path::new("."));
-            crate::vm::parse_machine_file(&text, dir, crate::vm::Config::default())
-                .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
-                .0
-        }
+        Some(path) => super::run::read_machine_file(path, crate::vm::Config::default())?.0,
         None => crate::vm::Config::default(),
     };
     let jobs = jobs(&args)?;

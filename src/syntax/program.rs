@@ -184,15 +184,22 @@ impl Program {
         &self.headers
     }
 
+    /// The file an archive's header block `%_N_NAME_KIND` heads: `NAME` and `KIND` (`MPF`, `SPF`,
+    /// `DEF`, …), upper case; `None` for any other block.
+    pub fn section(&self, header: usize) -> Option<(String, String)> {
+        let text = String::from_utf8_lossy(self.content_span(header).slice(self.source()));
+        let file = text.trim().to_ascii_uppercase();
+        let (name, kind) = file.strip_prefix("%_N_")?.rsplit_once('_')?;
+        (!name.is_empty()).then(|| (name.to_string(), kind.to_string()))
+    }
+
     /// The main programs of an archive: each `%_N_NAME_MPF` header block with `NAME`, in order.
     pub fn main_sections(&self) -> Vec<(usize, String)> {
         self.headers
             .iter()
             .filter_map(|&h| {
-                let text = String::from_utf8_lossy(self.content_span(h).slice(self.source()));
-                let name = text.trim().to_ascii_uppercase();
-                let name = name.strip_prefix("%_N_")?.strip_suffix("_MPF")?.to_string();
-                Some((h, name))
+                let (name, kind) = self.section(h)?;
+                (kind == "MPF").then_some((h, name))
             })
             .collect()
     }
@@ -203,9 +210,7 @@ impl Program {
     pub fn later_main_header(&self) -> Option<usize> {
         let &first = self.headers.first()?;
         let (h, _) = self.main_sections().into_iter().next()?;
-        let first_text = self.content_span(first).slice(self.source()).trim_ascii();
-        let archive = first_text.len() > 4 && first_text[..4].eq_ignore_ascii_case(b"%_N_");
-        (archive && h != first).then_some(h)
+        (self.section(first).is_some() && h != first).then_some(h)
     }
 
     /// The jumps of every program unit as the structure pass resolved them while parsing (what

@@ -203,13 +203,15 @@ impl Unit {
 
     /// The definition sections of the same file (an archive's `%_N_UGUD_DEF`, `%_N_SGUD_DEF`, …).
     pub fn definition_sections(&self) -> Vec<Unit> {
-        self.source
-            .headers
+        let program = &self.source.program;
+        program
+            .header_blocks()
             .iter()
-            .filter(|(h, _)| h.starts_with("%_N_") && h.ends_with("_DEF"))
-            .map(|(h, i)| {
-                let display = format!("{}[{}]", self.source.file, &h[4..]);
-                Unit::at(display.into(), self.dir.clone(), self.source.clone(), i + 1)
+            .filter_map(|&h| {
+                let (name, kind) = program.section(h)?;
+                let display = format!("{}[{name}_{kind}]", self.source.file);
+                (kind == "DEF")
+                    .then(|| Unit::at(display.into(), self.dir.clone(), self.source.clone(), h + 1))
             })
             .collect()
     }

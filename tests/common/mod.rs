@@ -234,6 +234,14 @@ pub fn syntax_errors(src: &[u8]) -> Vec<String> {
         .collect()
 }
 
+/// The default profile's text with every gate measuring (`[log] measure_every_gate = true`).
+pub fn measuring_default_profile() -> String {
+    format!(
+        "{}\n[log]\nmeasure_every_gate = true\n",
+        driftloop::omm::DEFAULT_PROFILE
+    )
+}
+
 /// The builtin profiles whose gates move the machine (all but the gauge's).
 pub const MOVING_PROFILES: [&str; 4] = [
     "blum-tc50",

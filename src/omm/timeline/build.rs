@@ -166,13 +166,8 @@ fn units(program: &Program) -> Vec<std::ops::Range<usize>> {
 /// `NAME` of a unit headed `%_N_NAME_SPF` (as it is called: `NAME`, `CALL "NAME"`, `L123` for `L123`), or
 /// `%_N_NAME_MPF`: a main program may be called as a subprogram, as the dry run finds it too.
 fn subprogram_name(program: &Program, block: usize) -> Option<String> {
-    let header = program.content_span(block).slice(program.source());
-    let name = String::from_utf8_lossy(header).trim().to_ascii_uppercase();
-    let name = name.strip_prefix("%_N_")?;
-    let name = name
-        .strip_suffix("_SPF")
-        .or_else(|| name.strip_suffix("_MPF"))?;
-    (!name.is_empty()).then(|| name.to_string())
+    let (name, kind) = program.section(block)?;
+    matches!(kind.as_str(), "SPF" | "MPF").then_some(name)
 }
 
 /// The subprograms a unit's calls may run: the archive's units timed so far, and the profile's folders.

@@ -137,6 +137,12 @@ impl Modal {
         matches!(self.units, Some(70 | 700))
     }
 
+    /// Moves blend into each other at their ends: G64 … G645, or no G60 written (MD20150 may make G64
+    /// the default), so a STOPRE between two feed moves stops the path on the contour.
+    pub fn continuous_path(&self) -> bool {
+        self.path_mode != Some(60)
+    }
+
     /// Speed the spindle turns at (rpm, 0 when stopped).
     pub fn rpm(&self) -> f64 {
         if matches!(self.direction, 3 | 4) {

@@ -24,11 +24,7 @@ impl Interp<'_> {
         let mut suppress = w.suppress_frames;
         // G58 / G59: the block's axis values replace a part of the programmable translation.
         let mut axial = None;
-        let planes = [
-            self.plane(["X", "Y", "Z"]),
-            self.plane(["Z", "X", "Y"]),
-            self.plane(["Y", "Z", "X"]),
-        ];
+        let planes = PLANES.map(|p| self.plane(p));
         for &g in &w.g {
             let modal = &mut self.motion.modal;
             match g {

@@ -298,12 +298,7 @@ impl Interp<'_> {
                 .or_insert_with(|| Rc::new(unit));
             return Ok(unit.clone());
         }
-        let dirs: Vec<PathBuf> = from
-            .dir
-            .iter()
-            .chain(&self.cfg.subprogram_dirs)
-            .cloned()
-            .collect();
+        let dirs = self.search_dirs(from);
         let found = dirs.iter().find_map(|dir| {
             let listing = self
                 .listings
@@ -333,6 +328,16 @@ impl Interp<'_> {
         let unit = Rc::new(Unit::new(display, Some(dir), crate::parse_owned(bytes)));
         self.loaded.insert(path, unit.clone());
         Ok(unit)
+    }
+
+    /// The folders the files a program uses are looked up in: its own, then the configured subprogram
+    /// folders (the control's SPF directory).
+    pub(super) fn search_dirs(&self, unit: &Unit) -> Vec<PathBuf> {
+        unit.dir
+            .iter()
+            .chain(&self.cfg.subprogram_dirs)
+            .cloned()
+            .collect()
     }
 
     /// Local variables of a program from its PROC parameters and the call's arguments.

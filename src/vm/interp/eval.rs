@@ -6,7 +6,7 @@ use crate::vm::motion::{FRAMES, Tool};
 use crate::vm::unit::Unit;
 use crate::vm::value::{Value, VarType, Variable};
 
-use super::{Interp, external};
+use super::{Interp, PLANES, external};
 
 pub use crate::vm::config::R_COUNT;
 
@@ -167,13 +167,7 @@ impl Interp<'_> {
         let m = &self.motion.modal;
         Some(match group {
             1 => m.motion,
-            6 => {
-                let planes = [["X", "Y", "Z"], ["Z", "X", "Y"], ["Y", "Z", "X"]];
-                let k = planes
-                    .iter()
-                    .position(|p| p.map(|n| self.axis_index(n)) == m.plane)?;
-                17 + k as u32
-            }
+            6 => 17 + PLANES.iter().position(|p| self.plane(*p) == m.plane)? as u32,
             7 => m.compensation,
             8 => match self.motion.frames.selected {
                 0 => 500,

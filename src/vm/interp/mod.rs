@@ -209,6 +209,9 @@ pub(in crate::vm) struct Movement {
     pub plane: [Option<usize>; 3],
 }
 
+/// The axes of G17, G18 and G19 in their order: abscissa, ordinate, applicate (the tool axis).
+const PLANES: [[&str; 3]; 3] = [["X", "Y", "Z"], ["Z", "X", "Y"], ["Y", "Z", "X"]];
+
 fn err_at(u: &Unit, i: usize, message: impl Into<String>) -> VmError {
     VmError {
         file: u.name.to_string(),

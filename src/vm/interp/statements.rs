@@ -94,22 +94,25 @@ impl Interp<'_> {
                 Some(_) => u.upper(target.find(NodeKind::Name).ok_or("variable without name")?),
                 None => u.upper(target),
             };
-            if let (None, Some(a)) = (index, self.axis_index(&name)) {
-                if value.kind == NodeKind::FnCall && u.upper(&value.children[0]) == "PO" {
+            // `X=…`, or `AX[X]=…` / `AX[_AXVAR]=…`: the axis the index names.
+            let axis = match index {
+                None => self.axis_index(&name),
+                Some(index) if name == "AX" && self.variable(&name).is_none() => {
+                    match index_nodes(index)[..] {
+                        [axis] => Some(self.axis_arg(u, axis)?),
+                        _ => None,
+                    }
+                }
+                Some(_) => None,
+            };
+            if let Some(a) = axis {
+                if index.is_none()
+                    && value.kind == NodeKind::FnCall
+                    && u.upper(&value.children[0]) == "PO"
+                {
                     return self.polynomial_axis(u, a, &value.call_arguments(), w);
                 }
-                let rotary = !self.motion.frames.geo.contains(&Some(a));
-                let (dim, v) = self.axis_value(u, value, rotary)?;
-                w.axes.push((a, dim, v));
-                return Ok(());
-            }
-            // `AX[X]=…`, `AX[_AXVAR]=…`: the axis the index names.
-            if let (Some(index), "AX", None) = (index, name.as_str(), self.variable(&name))
-                && let [axis] = index_nodes(index)[..]
-            {
-                let a = self.axis_arg(u, axis)?;
-                let rotary = !self.motion.frames.geo.contains(&Some(a));
-                let (dim, v) = self.axis_value(u, value, rotary)?;
+                let (dim, v) = self.axis_target(u, a, value)?;
                 w.axes.push((a, dim, v));
                 return Ok(());
             }
@@ -126,8 +129,7 @@ impl Interp<'_> {
             if let (None, Some(a), None) =
                 (index, self.cfg.machine_axis(&name), self.variable(&name))
             {
-                let rotary = !self.motion.frames.geo.contains(&Some(a));
-                let (dim, v) = self.axis_value(u, value, rotary)?;
+                let (dim, v) = self.axis_target(u, a, value)?;
                 if dim == Dim::Incremental {
                     return Err(format!(
                         "{name}=IC(…): a machine axis goes to a machine position"
@@ -251,6 +253,12 @@ impl Interp<'_> {
     pub(super) fn centre_value(&self, u: &Unit, value: &Node) -> Result<(f64, bool), String> {
         let (dim, v) = self.axis_value(u, value, false)?;
         Ok((v, dim == Dim::Absolute))
+    }
+
+    /// The value written to axis `a`, a rotary one unless it is a geometry axis ([`Interp::axis_value`]).
+    fn axis_target(&self, u: &Unit, a: usize, value: &Node) -> Result<(Dim, f64), String> {
+        let rotary = !self.motion.frames.geo.contains(&Some(a));
+        self.axis_value(u, value, rotary)
     }
 
     /// `AC(v)`, `IC(v)` or a plain value; on a rotary axis also `DC(v)`, `ACP(v)`, `ACN(v)`, which go to the
@@ -583,13 +591,11 @@ impl Interp<'_> {
         for section in main.definition_sections() {
             self.define_globals(&section)?;
         }
-        let dirs: Vec<PathBuf> = main
-            .dir
+        for path in self
+            .search_dirs(main)
             .iter()
-            .chain(&self.cfg.subprogram_dirs)
-            .cloned()
-            .collect();
-        for path in dirs.iter().flat_map(|d| crate::walk::definition_files(d)) {
+            .flat_map(|d| crate::walk::definition_files(d))
+        {
             let bytes = std::fs::read(&path).map_err(|e| VmError {
                 file: path.display().to_string(),
                 line: 0,

@@ -410,7 +410,7 @@ impl<'p> Builder<'p> {
     /// The contour state after a run, as its blocks one by one would leave it (see [`Builder::movement`]).
     fn contour_run(&mut self, run: &Run) {
         let conditional = !self.open_ifs.is_empty();
-        let continuous = !matches!(self.state.path_mode, Some(60));
+        let continuous = self.state.continuous_path();
         let resolves = if conditional {
             run.cuts.then_some(true)
         } else {
@@ -988,7 +988,7 @@ impl<'p> Builder<'p> {
                 self.contour_sites.clear();
             }
             let straight_up = rises && mv.axes[0].is_none() && mv.axes[1].is_none();
-            let continuous = !matches!(self.state.path_mode, Some(60));
+            let continuous = self.state.continuous_path();
             let contour = feed && !straight_up && continuous && !tool_change;
             self.contour = contour || (conditional && self.contour);
             // A rapid of the tool axis alone to a height held in a variable (`G0 Z=_ZSICHER`, a shop's
