@@ -152,11 +152,18 @@ fn a_datum_cycle_declared_to_write_frames_keeps_the_zero_after_it_and_refuses_on
         ("L6.SPF", &subs),
         ("stama.toml", &profile),
     ];
-    let (o, _) = common::transform_in(&files, "p.mpf", "stama.toml");
+    let (o, dir) = common::transform_in(&files, "p.mpf", "stama.toml");
     let err = common::stderr(&o);
     assert!(!err.contains("the call NPL"), "{err}");
-    // Still refused, for the program's own TRANS before its first cut, which declarations do not touch.
-    assert!(err.contains("a programmable translation"), "{err}");
+    // The zero goes after NPL and G55, at the first tool's change (its L6), before the program's own TRANS
+    // that the first cut runs under.
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains("audit incomplete"), "{err}");
+    let out = std::fs::read_to_string(dir.path().join("out.mpf")).unwrap();
+    let at = |text: &str| out.find(text).unwrap_or_else(|| panic!("{text}: {out}"));
+    assert!(at("N50 G55") < at("stage 4: reference"), "{out}");
+    assert!(at("stage 4: reference") < at("N90 L6"), "{out}");
+    assert!(at("N90 L6") < at("N140 TRANS"), "{out}");
     // A datum cycle declared so before the first cut lets the zero go after it; one after the zero is
     // refused as a frame write of the program's would be (the gates' correction and the cycle's datum
     // would overwrite each other).

@@ -294,8 +294,8 @@ fn no_gate_after_a_subprogram_gives_back_the_motion_and_feed_from_before_it() {
     // call may leave otherwise now stay unsure until the program's own words set them again: no gate
     // writes between the call and `Z-2` may leave another motion or feed than the subprogram's.
     let cases = [
-        ("G0", "POCKET_A", ("POCKET_A.SPF", LEAVES_G1), (1, "F100")),
-        ("G1", "POCKET_B", ("POCKET_B.SPF", LEAVES_G0), (0, "F600")),
+        ("G0", "POCKET_A", ("POCKET_A.SPF", LEAVES_G1), (1, "100")),
+        ("G1", "POCKET_B", ("POCKET_B.SPF", LEAVES_G0), (0, "600")),
     ];
     for (first, call, sub, (motion, feed)) in cases {
         let prog = after_call(first, call);
@@ -321,10 +321,11 @@ fn no_gate_after_a_subprogram_gives_back_the_motion_and_feed_from_before_it() {
 #[test]
 fn a_site_made_unsure_by_a_call_names_the_call() {
     // Where no place for the zero is left, the refusal says which call made the state unsure there: a
-    // subprogram that only sets `G1 F100` before the tool change, on which the program's `Z-2` relies.
+    // subprogram that may set `G1 F100` (in an IF) before the tool change, on which the program's `Z-2`
+    // relies. (Set outside any IF, its end state is the caller's: no longer unsure.)
     let prog =
         "G17 G90 G94 G71 G40\nG54\nSET_FEED\nT=\"EM_D10\" M6\nD1\nS5000 M3\nZ-2\nG0 Z50\nM30\n";
-    let sub = "PROC SET_FEED\nG1 F100\nM17\n";
+    let sub = "PROC SET_FEED\nIF R1==0\nG1 F100\nENDIF\nM17\n";
     let model = common::fixture("omm/model.toml");
     let (o, _dir) = common::run_in(
         &[("p.mpf", prog), ("SET_FEED.SPF", sub)],

@@ -874,3 +874,116 @@ fn a_feed_per_revolution_runs_by_the_master_spindle_setms_selects() {
         transformed_and_audited_with(dir.path(), &path.display().to_string(), "grinder-gauge");
     }
 }
+
+/// A dry run of `src` as `p.mpf` beside `files` in a new folder.
+fn dry_run_beside(src: &str, files: &[(&str, &str)]) -> Run {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text) in files {
+        std::fs::write(dir.path().join(name), text).unwrap();
+    }
+    run_source(
+        "p.mpf",
+        src.as_bytes(),
+        Some(dir.path()),
+        &Config::default(),
+        &mut SimpleMachine::cold(),
+    )
+    .unwrap_or_else(|e| panic!("the dry run stopped: {e}"))
+}
+
+#[test]
+fn mcall_runs_its_subprogram_after_each_move_of_the_program_that_set_it() {
+    // `MCALL DRILL` runs DRILL after every later block of this program that moves (not after the moves of
+    // DRILL itself), with `$P_MC` = 1 inside it, until `MCALL` alone. Before, the dry run skipped modal
+    // calls: a subprogram's state after them was not the machine's (its feed, say) and the audit compared
+    // gates against a run that never drilled.
+    let drill = "IF $P_MC<>1\nSETAL(65010)\nENDIF\nG1 Z-3 F100\nG0 Z5\nM17\n";
+    let program = |construct: &str| {
+        format!(
+            "G17 G90 G94 G54\nT=\"DR\" M6\nD1\nS3000 M3\nG0 X0 Y0 Z5\n{construct}G0 X30 Y30\nG0 Z50\nM30\n"
+        )
+    };
+    let plain = dry_run_beside(&program(""), &[("DRILL.SPF", drill)]);
+    let modal = dry_run_beside(
+        &program("MCALL DRILL\nX10\nX20 Y10\nMCALL\n"),
+        &[("DRILL.SPF", drill)],
+    );
+    assert!(modal.alarms.is_empty(), "{:?}", modal.alarms);
+    // Four blocks of the program's own, and DRILL's four (IF, G1, G0, M17: the IF jumps past SETAL and
+    // ENDIF) after each of its two moves.
+    assert_eq!(modal.blocks_executed, plain.blocks_executed + 4 + 2 * 4);
+    // Outside a modal call `$P_MC` is 0.
+    let direct = dry_run_beside(&program("DRILL\n"), &[("DRILL.SPF", drill)]);
+    assert_eq!(
+        direct.alarms.iter().map(|a| a.number).collect::<Vec<_>>(),
+        [65010]
+    );
+}
+
+#[test]
+fn tc_tp2_names_a_tool_the_program_selected_by_name() {
+    // A gate that finds no tool named where it stands reads `$P_TOOLNO` and loads `$TC_TP2[that]` again
+    // after the probe: the dry run stopped there ("expected a number, found the string …") unless the
+    // machine file named the start tool.
+    let src = "G17 G90 G54\nT=\"EM10\" M6\nD1\nR1=$P_TOOLNO\nT=\"PROBE\" M6\n\
+               IF $TC_TP2[R1]<>\"EM10\"\nSETAL(65010)\nENDIF\nT=$TC_TP2[R1] M6\nM30\n";
+    let run = dry_run(src.as_bytes(), &Config::default());
+    assert!(run.alarms.is_empty(), "{:?}", run.alarms);
+}
+
+#[test]
+fn a_tool_change_subprogram_after_a_gate_is_judged_at_its_return() {
+    // A gate before the program's own tool change (here its `L6`) leaves the probe in the spindle with the
+    // program's next tool preselected; the change inside `L6` loads that tool from wherever the gate left
+    // the machine. The audit compared the states at the call and found the probe "in the spindle where the
+    // original resumes". A call that changes no tool is still judged at its first block that acts: a gate
+    // that left G91 before a part subprogram moving without G90 is found.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("L6.SPF"),
+        "G0 G153 Z0 D0\nM5\nM9\nM6\nM17\n",
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("PART.SPF"), "X10 Y10\nG90 G0 Z50\nM17\n").unwrap();
+    let original = "G17 G90 G94 G54\nT=\"MILL\"\nL6\nD1\nS3000 M3 M8\nG0 X0 Y0 Z5\nG1 Z-1 F200\n\
+                    G1 X50\nG0 Z50\nT=\"DRILL\"\nL6\nD1\nS2000 M3\nG0 X10 Y10 Z5\nG1 Z-5 F100\n\
+                    G0 Z50\nM30\n";
+    let gate = [
+        "M5",
+        "M9",
+        "T=\"PROBE\"",
+        "L6",
+        "D1",
+        "G0 Z100",
+        "G0 X0 Y0",
+        "T=\"DRILL\"",
+    ];
+    let after_line = |text: &str, line: usize, plant: &[&str]| {
+        let mut lines: Vec<String> = vec!["; driftloop-omm ;DL".into()];
+        for (k, l) in text.lines().enumerate() {
+            lines.push(l.to_string());
+            if k + 1 == line {
+                lines.extend(plant.iter().map(|p| format!("{p} ;DL")));
+            }
+        }
+        lines.join("\n") + "\n"
+    };
+    let found = audited(original, &after_line(original, 10, &gate), Some(dir.path()));
+    assert_eq!(found.stopped, None);
+    let hazards: Vec<_> = found
+        .findings
+        .iter()
+        .filter(|f| f.kind != Kind::ProbeInMachinedVolume)
+        .collect();
+    assert!(hazards.is_empty(), "{hazards:#?}");
+    let part = original.replace("T=\"DRILL\"\nL6\n", "PART\nT=\"DRILL\"\nL6\n");
+    let found = audited(&part, &after_line(&part, 9, &["G91"]), Some(dir.path()));
+    assert!(
+        found
+            .findings
+            .iter()
+            .any(|f| f.kind == Kind::ModalNotRestored && f.message.contains("G91")),
+        "{:#?}",
+        found.findings
+    );
+}

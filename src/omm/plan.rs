@@ -697,6 +697,17 @@ fn reference_site(
         "no place for the reference measurement between the program's setup (line {}) and its first cut ({cut})",
         from + 1
     );
+    let setup_call = timeline
+        .setup_call
+        .as_ref()
+        .filter(|(line, _)| *line == from && timeline.first_cut == Some(from - 1));
+    if let Some((line, name)) = setup_call {
+        // What is unfit after the call says nothing more: the call is the setup and the cut.
+        unfit = None;
+        message.push_str(&format!(
+            ": the subprogram {name} (line {line}) selects the work offset (or writes a frame) and cuts too, so no place before it measures in the coordinates it cuts in (select the work offset before the call, or measure in machine coordinates: [position] frame = \"machine\")"
+        ));
+    }
     let tool_unknown = unfit.is_some_and(|(_, why)| why == TOOL_UNKNOWN);
     if let Some((block, why)) = unfit {
         message.push_str(&format!(": at line {}, {why}", block + 1));

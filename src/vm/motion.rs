@@ -237,7 +237,11 @@ pub struct Modal {
 
 /// Modal groups the dry run keeps as state without modelling what they do to the path: the group, then
 /// its commands, the control's default first.
-pub const SETTING_GROUPS: [(&str, &[&str]); 8] = [
+pub const SETTING_GROUPS: [(&str, &[&str]); 9] = [
+    (
+        "approach and retraction under radius compensation (G group 17)",
+        &["NORM", "KONT", "KONTT", "KONTC"],
+    ),
     ("corner behaviour (G group 18)", &["G450", "G451"]),
     (
         "tool compensation type (G group 22)",

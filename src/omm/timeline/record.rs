@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use serde::Serialize;
 
-use super::modal::Modal;
+use super::modal::{Modal, field};
 
 /// Why a gate site exists.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -133,6 +133,9 @@ pub struct Timeline {
     /// The first cut when it is a call of a shop's or builder's subprogram driftloop cannot read (not a
     /// Siemens cycle): (line, name as written).
     pub first_cut_call: Option<(usize, String)>,
+    /// The last subprogram called before the first cut that selects a work offset or writes frames (line,
+    /// 1-based; name): the program's setup ends after it.
+    pub setup_call: Option<(usize, String)>,
     /// Where the program first sets the spindle itself (M3/M4/M5, SPOS, a tool change), when it cuts before
     /// that (`usize::MAX`: never): up to there it cuts with the spindle as the operator left it (started in
     /// MDA), which a gate's M5 would stop and could not start again.
@@ -172,25 +175,95 @@ pub struct Timeline {
 pub struct CalleeEffect {
     /// The fields its blocks set (by [`super::modal::field`] number; not the position, which a gate reads
     /// from the control): the caller's values of the others hold after the call.
-    pub touched: [bool; super::modal::field::COUNT],
+    pub touched: [bool; field::COUNT],
     /// It loads a tool (M6): a tool-change subprogram, the `L6` of machines whose M6 calls a cycle.
     pub loads_tool: bool,
     /// A call inside it leaves a state the timeline does not know.
     pub leaves_unknown: bool,
-    /// The state it ends in, from the default start: the values of the fields it sets.
+    /// The state it ends in, from the default start: the values of the fields it sets (at its first
+    /// return outside any IF or loop, where it has one).
     pub end: Modal,
+    /// The fields it sets whose value at its end the timeline does not know for sure (set in an IF, a
+    /// loop that may not run, or by a call; or the unit jumps or returns from inside an IF or loop): a
+    /// caller takes the end's value of the others.
+    pub end_unsure: [bool; field::COUNT],
+    /// `PROC … SAVE`: its G codes come back at its end (Siemens, K2 "Subprograms with SAVE attribute").
+    pub saves: bool,
 }
 
 impl CalleeEffect {
     /// A tool-change subprogram the caller may treat as its own M6: it loads the tool the caller
     /// selected, cuts nothing and leaves a known state.
     pub fn is_tool_change(&self, cuts: bool) -> bool {
-        self.loads_tool
-            && !cuts
-            && !self.leaves_unknown
-            && !self.touched[super::modal::field::SELECTED]
+        self.loads_tool && !cuts && !self.leaves_unknown && !self.touched[field::SELECTED]
+    }
+
+    /// The fields a caller's state may hold otherwise after the call than before it: those it sets, less
+    /// the G codes `SAVE` brings back (motion, G90/G91, feed type, plane, path mode, radius compensation,
+    /// work offset, DIAMON, unit).
+    pub fn left(&self) -> [bool; field::COUNT] {
+        let mut left = self.touched;
+        if self.saves {
+            for f in SAVED {
+                left[f] = false;
+            }
+        }
+        left
+    }
+
+    /// Of [`CalleeEffect::left`], those a gate gives back whose value after the call is its end's for
+    /// sure. Not the feed under `SAVE`: that it stays as the subprogram left it (the G codes come back,
+    /// F is none) was not verified on a control, and the dry run brings it back.
+    pub fn sure_at_end(&self) -> [bool; field::COUNT] {
+        let mut sure = [false; field::COUNT];
+        for (f, s) in sure.iter_mut().enumerate() {
+            *s = GIVEN_BACK.contains(&f) && !self.end_unsure[f];
+        }
+        sure[field::FEED] &= !self.saves;
+        let left = self.left();
+        for (s, l) in sure.iter_mut().zip(left) {
+            *s &= l;
+        }
+        sure
+    }
+
+    /// The fields the call leaves unsure: [`CalleeEffect::left`] less [`CalleeEffect::sure_at_end`].
+    pub fn unsure_after(&self) -> [bool; field::COUNT] {
+        let mut unsure = self.left();
+        for (u, s) in unsure.iter_mut().zip(self.sure_at_end()) {
+            *u &= !s;
+        }
+        unsure
     }
 }
+
+/// The fields `PROC … SAVE` brings back at the subprogram's end (its modal G codes).
+const SAVED: [usize; 9] = [
+    field::MOTION,
+    field::ABSOLUTE,
+    field::FEED_MODE,
+    field::PLANE,
+    field::PATH_MODE,
+    field::COMP,
+    field::OFFSET,
+    field::DIAMETER,
+    field::UNITS,
+];
+
+/// The modal fields a gate gives back that a subprogram's end may leave for sure.
+const GIVEN_BACK: [usize; 11] = [
+    field::D,
+    field::FEED,
+    field::MOTION,
+    field::ABSOLUTE,
+    field::FEED_MODE,
+    field::PLANE,
+    field::PATH_MODE,
+    field::COMP,
+    field::OFFSET,
+    field::DIAMETER,
+    field::UNITS,
+];
 
 /// The statement that makes a loop.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

@@ -163,6 +163,7 @@ pub(super) fn run(
         watch: Watch::default(),
         last: None,
         pending: None,
+        over_call: None,
         abort_paths_followed: std::collections::HashMap::new(),
     };
     runner.lockstep(&mut t, &mut o)?;
@@ -226,6 +227,22 @@ fn changed_line(
     })
 }
 
+/// A resume point whose first acting original block calls a subprogram. Where both runs change tools in
+/// it (a tool-change subprogram such as `L6`, which the program calls right after a gate that left the
+/// probe in the spindle and the program's tool preselected), the states are compared when it returns, as
+/// at the program's own M6: its change puts the preselected tool in and goes to the change position from
+/// wherever the gate left the machine. Otherwise its first block that acts is judged as for any resume
+/// point.
+struct OverCall {
+    resume: At,
+    before: [Vec<Difference>; 3],
+    /// The stack depth of the calling block.
+    depth: usize,
+    tool_changed: bool,
+    /// The findings at the subprogram's first block that acts.
+    first_inner: Option<Vec<Finding>>,
+}
+
 /// How often the abort paths of one probe call are followed.
 const ABORT_PATH_RUNS: u32 = 3;
 
@@ -239,6 +256,8 @@ pub(super) struct Runner<'a> {
     last: Option<(At, bool)>,
     /// A resume point whose comparison waits for the first original block that acts.
     pending: Option<At>,
+    /// A resume point whose first acting block called a subprogram: judged when it returns.
+    over_call: Option<OverCall>,
     /// How often the abort paths of each probe call (file, line) were followed.
     abort_paths_followed: std::collections::HashMap<(Option<String>, usize), u32>,
 }
@@ -302,7 +321,12 @@ impl Runner<'_> {
                 self.audit.resume_points += 1;
                 self.pending = Some(at.clone());
             }
-            let before = self.pending.is_some().then(|| self.differences(t, o));
+            let first_inner = self
+                .over_call
+                .as_ref()
+                .is_some_and(|c| c.first_inner.is_none());
+            let before = (self.pending.is_some() || first_inner).then(|| self.differences(t, o));
+            let depth = t.depth();
             let t_step = t.step()?.expect("peeked");
             let o_step = o.step()?.expect("peeked");
             // A tool change takes both machines to the change position, wherever each stood before: from
@@ -311,12 +335,24 @@ impl Runner<'_> {
                 t.motion.local.clone_from(&o.motion.local);
                 t.motion.machine.clone_from(&o.motion.machine);
             }
-            if let Some(before) = before
-                && (acts(&t_step) || acts(&o_step))
-            {
-                let after = self.differences(t, o);
-                let resume = self.pending.take().expect("pending");
-                self.report_resume(&resume, before, &after, Some(&t_step));
+            let acting = acts(&t_step) || acts(&o_step);
+            if let Some(resume) = self.pending.take_if(|_| acting) {
+                let before = before.expect("compared before the step");
+                let enters = t_step.call && o_step.call && t.depth() > depth;
+                if enters && t_step.movement.is_none() && !t_step.tool_change {
+                    self.over_call = Some(OverCall {
+                        resume,
+                        before,
+                        depth,
+                        tool_changed: false,
+                        first_inner: None,
+                    });
+                } else {
+                    let after = self.differences(t, o);
+                    self.report_resume(&resume, before, &after, Some(&t_step));
+                }
+            } else if self.over_call.is_some() {
+                self.within_call(t, o, (&t_step, &o_step), before.filter(|_| acting));
             }
             self.original_step(&at, (&t_step, &o_step), t, o);
             self.last = Some((at, false));
@@ -590,11 +626,63 @@ impl Runner<'_> {
     }
 
     /// A resume point whose original blocks did nothing before the next inserted ones or the end: its
-    /// differences are reported as they are.
+    /// differences are reported as they are (a call still running: as at its return).
     fn close_pending(&mut self, t: &Interp<'_>, o: &Interp<'_>) {
         if let Some(resume) = self.pending.take() {
             let now = self.differences(t, o);
             self.report_resume(&resume, now.clone(), &now, None);
+        }
+        if let Some(call) = self.over_call.take() {
+            self.returned(call, t, o);
+        }
+    }
+
+    /// A step inside the call of an [`OverCall`]: a tool change in both runs, the findings at its first
+    /// block that acts (`before` it, given when the step acts and none were taken yet), its return.
+    fn within_call(
+        &mut self,
+        t: &Interp<'_>,
+        o: &Interp<'_>,
+        (t_step, o_step): (&Done, &Done),
+        before: Option<[Vec<Difference>; 3]>,
+    ) {
+        let after = before.as_ref().map(|_| self.differences(t, o));
+        let Some(call) = self.over_call.as_mut() else {
+            return;
+        };
+        call.tool_changed |= t_step.tool_change && o_step.tool_change;
+        if let (Some(before), Some(after)) = (before, after) {
+            let resume = call.resume.clone();
+            let found = self.resume_findings(&resume, before, &after, Some(t_step));
+            if let Some(call) = self.over_call.as_mut() {
+                call.first_inner = Some(found);
+            }
+        }
+        if self
+            .over_call
+            .as_ref()
+            .is_some_and(|c| t.depth() <= c.depth)
+        {
+            let call = self.over_call.take().expect("checked");
+            self.returned(call, t, o);
+        }
+    }
+
+    /// The judgement of an [`OverCall`] once its call has returned (or the run ended inside it).
+    fn returned(&mut self, call: OverCall, t: &Interp<'_>, o: &Interp<'_>) {
+        let found = match (call.tool_changed, call.first_inner) {
+            (false, Some(found)) => found,
+            (changed, _) => {
+                let now = self.differences(t, o);
+                let change = Done {
+                    tool_change: changed,
+                    ..Done::default()
+                };
+                self.resume_findings(&call.resume, call.before, &now, Some(&change))
+            }
+        };
+        for f in found {
+            self.add(f);
         }
     }
 
@@ -611,6 +699,20 @@ impl Runner<'_> {
         after: &[Vec<Difference>; 3],
         t_step: Option<&Done>,
     ) {
+        for f in self.resume_findings(at, before, after, t_step) {
+            self.add(f);
+        }
+    }
+
+    /// The findings [`Runner::report_resume`] reports.
+    fn resume_findings(
+        &self,
+        at: &At,
+        before: [Vec<Difference>; 3],
+        after: &[Vec<Difference>; 3],
+        t_step: Option<&Done>,
+    ) -> Vec<Finding> {
+        let mut found = Vec::new();
         let [tools, modal, positions] = before;
         for (kind, before, after) in [
             (Kind::ToolState, tools, &after[0]),
@@ -622,7 +724,7 @@ impl Runner<'_> {
                 .map(|d| d.text)
                 .collect();
             if !lasting.is_empty() {
-                self.add(at.finding(
+                found.push(at.finding(
                     kind,
                     format!("where the original resumes: {}", lasting.join("; ")),
                 ));
@@ -639,11 +741,12 @@ impl Runner<'_> {
         let way_back = rapid_back || t_step.is_some_and(|d| d.tool_change);
         if !positions.is_empty() && !way_back {
             let texts: Vec<String> = positions.into_iter().map(|d| d.text).collect();
-            self.add(at.finding(
+            found.push(at.finding(
                 Kind::PositionNotRestored,
                 format!("where the original resumes: {}", texts.join("; ")),
             ));
         }
+        found
     }
 
     /// Checks on a block both runs executed: the probe point against the original's cutting moves, and a

@@ -127,6 +127,7 @@ impl Interp<'_> {
         }
         if let Some(t) = w.tool.take() {
             let t = self.cfg.known_tool(t);
+            self.name_tool(&t);
             if self.cfg.tool_change_on_t {
                 self.passes.end_segment();
                 self.motion.tool = Some(t.clone());
@@ -276,6 +277,7 @@ impl Interp<'_> {
                         args,
                         refs,
                         repeats: w.repeat.unwrap_or(1).max(1),
+                        modally: false,
                     });
                 }
                 // A call the profile declares to change tools: as M6, with the tool its argument gives.
@@ -290,7 +292,9 @@ impl Interp<'_> {
                                 ));
                             }
                         };
-                        self.motion.preselected = Some(self.cfg.known_tool(tool));
+                        let tool = self.cfg.known_tool(tool);
+                        self.name_tool(&tool);
+                        self.motion.preselected = Some(tool);
                     }
                     self.change_tool(&w_tool_change);
                 }
@@ -319,7 +323,53 @@ impl Interp<'_> {
         if w.repeat.is_some() && !skipped {
             return Err("P (repetitions) without a subprogram call or REPEAT".into());
         }
+        if let Some(call) = w.modal_call {
+            self.top().modal_call = call;
+        } else if w.jump.is_none()
+            && self.done.movement.is_some()
+            && let Some((name, args)) = self.top().modal_call.clone()
+        {
+            return self.modal_call(u, i, &name, args);
+        }
         Ok(w.jump.map_or(Flow::Next, Flow::Jump))
+    }
+
+    /// The call `MCALL NAME` asks for after block `i` moved: NAME with its arguments, as a modal call; a
+    /// subprogram or cycle the dry run cannot find is skipped (noted once) where missing calls are.
+    fn modal_call(
+        &mut self,
+        u: &Unit,
+        i: usize,
+        name: &str,
+        args: CallArgs,
+    ) -> Result<Flow, String> {
+        match self.load(u, name) {
+            Ok(unit) => Ok(Flow::Call {
+                unit,
+                args,
+                refs: Vec::new(),
+                repeats: 1,
+                modally: true,
+            }),
+            Err(why) if self.cfg.skip_missing_calls => {
+                self.note(
+                    u,
+                    i,
+                    format!("MCALL {name}: not run after the moves ({why})"),
+                );
+                Ok(Flow::Next)
+            }
+            Err(why) => Err(format!("MCALL {name}: {why}")),
+        }
+    }
+
+    /// Notes the name of a tool selected by name, for `$TC_TP2`.
+    fn name_tool(&mut self, t: &Tool) {
+        if let Tool::Name(name) = t
+            && !self.named_tools.contains(name)
+        {
+            self.named_tools.push(name.clone());
+        }
     }
 
     /// M6, or a call declared to change tools: the preselected tool loaded, the spindle stopped.

@@ -23,19 +23,7 @@ impl Interp<'_> {
                 None => Ok(()),
             };
         }
-        let mut values = Vec::with_capacity(args.len());
-        for a in &args {
-            values.push(match a {
-                Some(a) => match self.eval(u, a) {
-                    Ok(v) => Some(v),
-                    // A cycle's symbolic arguments (`_ORI_FINISH`) come from definitions the dry run
-                    // does not have: when missing calls are skipped, such a call is skipped too.
-                    Err(_) if self.cfg.skip_missing_calls && !self.is_builtin(&name) => None,
-                    Err(e) => return Err(e),
-                },
-                None => None,
-            });
-        }
+        let values = self.argument_values(u, &name, &args)?;
         let refs = args
             .iter()
             .map(|a| a.and_then(|a| self.reference(u, a)))
@@ -246,8 +234,23 @@ impl Interp<'_> {
                 w.call = Some((program_name(&name), args, Vec::new()));
                 Ok(())
             }
-            // A modal cycle call runs a machining cycle after every move: skipped like a missing cycle.
-            ("MCALL", _) if self.cfg.skip_missing_calls => Ok(()),
+            // A modal call runs its subprogram or cycle after every later block of this program that moves,
+            // until `MCALL` alone.
+            ("MCALL", None) => {
+                w.modal_call = Some(None);
+                Ok(())
+            }
+            ("MCALL", Some(target)) => {
+                let call = if target.kind == NodeKind::FnCall {
+                    let name = u.upper(&target.children[0]);
+                    let args = self.argument_values(u, &name, &target.call_arguments())?;
+                    (name, args)
+                } else {
+                    (u.upper(target), Vec::new())
+                };
+                w.modal_call = Some(Some(call));
+                Ok(())
+            }
             // An ISO-dialect subprogram, which the dry run does not run: skipped like a missing one.
             ("ISOCALL", Some(target)) if self.cfg.skip_missing_calls => {
                 let text = u.upper(target);
@@ -262,6 +265,29 @@ impl Interp<'_> {
             }
             _ => Err(format!("{keyword} is not supported by the dry run")),
         }
+    }
+
+    /// The values of a call's arguments (`None` where one is left out).
+    fn argument_values(
+        &self,
+        u: &Unit,
+        name: &str,
+        args: &[Option<&Node>],
+    ) -> Result<CallArgs, String> {
+        let mut values = Vec::with_capacity(args.len());
+        for a in args {
+            values.push(match a {
+                Some(a) => match self.eval(u, a) {
+                    Ok(v) => Some(v),
+                    // A cycle's symbolic arguments (`_ORI_FINISH`) come from definitions the dry run
+                    // does not have: when missing calls are skipped, such a call is skipped too.
+                    Err(_) if self.cfg.skip_missing_calls && !self.is_builtin(name) => None,
+                    Err(e) => return Err(e),
+                },
+                None => None,
+            });
+        }
+        Ok(values)
     }
 
     /// The procedures and cycles the dry run carries out itself.

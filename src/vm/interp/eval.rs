@@ -226,10 +226,15 @@ impl Interp<'_> {
                 .ok_or_else(|| format!("{name}: no geometry axis {}", k + 1))?;
             return Ok(Value::Str(self.cfg.axes[axis].clone()));
         }
-        if let ("$TC_TP2", [t]) = (name.as_str(), idx.as_slice())
-            && let Some(name) = self.cfg.tool_name(self.num(u, t)?)
-        {
-            return Ok(Value::Str(name.to_string()));
+        if let ("$TC_TP2", [t]) = (name.as_str(), idx.as_slice()) {
+            let number = self.num(u, t)?;
+            let named = || {
+                let mut names = self.named_tools.iter();
+                names.find(|n| Tool::Name((*n).clone()).number() == number)
+            };
+            if let Some(name) = self.cfg.tool_name(number).or_else(|| named().map(|n| &**n)) {
+                return Ok(Value::Str(name.to_string()));
+            }
         }
         let m = &self.motion;
         let v = match (name.as_str(), idx.as_slice()) {
@@ -245,8 +250,10 @@ impl Interp<'_> {
             ("$AA_IW", [axis]) => m.work_position(self.axis_arg(u, axis)?),
             ("$P_EP", [axis]) => m.local[self.axis_arg(u, axis)?],
             ("$P_UIFRNUM", []) => m.frames.selected as f64,
-            // Whether the running program was called modally (MCALL): the dry run runs no modal call.
-            ("$P_MC", []) => 0.0,
+            // Whether the running program was called modally (MCALL).
+            ("$P_MC", []) => f64::from(u8::from(
+                self.stack.last().is_some_and(|f| f.called_modally),
+            )),
             // The master spindle (SETMS).
             ("$AC_MSNUM", []) => m.master as f64,
             ("$P_GG", [group]) => {

@@ -49,6 +49,11 @@ pub(super) struct Frame {
     saved: Option<Saved>,
     /// `VAR` parameters: written back into the caller's variable on return.
     write_back: Vec<(String, Ref)>,
+    /// `MCALL NAME`: the subprogram this program calls after each of its blocks that moves, until `MCALL`
+    /// alone.
+    modal_call: Option<(String, CallArgs)>,
+    /// This program runs as such a modal call (`$P_MC`).
+    called_modally: bool,
 }
 
 type CallArgs = Vec<Option<Value>>;
@@ -80,6 +85,8 @@ enum Flow {
         args: Vec<Option<Value>>,
         refs: Vec<Option<Ref>>,
         repeats: u32,
+        /// Called by `MCALL` after a move.
+        modally: bool,
     },
     Return,
     End(End),
@@ -108,6 +115,8 @@ struct Words {
     frame_command: Option<String>,
     suppress_frames: bool,
     call: Option<(String, CallArgs, Vec<Option<Ref>>)>,
+    /// `MCALL NAME(…)` (`Some(Some(…))`) or `MCALL` alone, which ends the modal call (`Some(None)`).
+    modal_call: Option<Option<(String, CallArgs)>>,
     repeat: Option<u32>,
     jump: Option<usize>,
     probe: Option<(String, Vec<Option<f64>>)>,
@@ -176,6 +185,9 @@ pub(super) struct Interp<'m> {
     assumed: RefCell<Vec<String>>,
     /// What the run has noted as assumed already.
     noted: BTreeSet<String>,
+    /// The tools the program selected by name, for `$TC_TP2[number]` (a gate reads the name of the tool
+    /// in force to load it again after the probe).
+    pub(super) named_tools: Vec<Rc<str>>,
 }
 
 /// What one executed block did, as far as a caller watching the run block by block needs to know.
@@ -277,6 +289,7 @@ impl<'m> Interp<'m> {
             written: HashMap::new(),
             assumed: RefCell::default(),
             noted: BTreeSet::new(),
+            named_tools: Vec::new(),
         }
     }
 
@@ -304,6 +317,8 @@ impl<'m> Interp<'m> {
             args: Vec::new(),
             saved: None,
             write_back: Vec::new(),
+            modal_call: None,
+            called_modally: false,
         });
         Ok(())
     }
@@ -314,6 +329,11 @@ impl<'m> Interp<'m> {
         self.stack[..below_top]
             .iter()
             .map(|f| (f.unit.as_ref(), f.pc.saturating_sub(1)))
+    }
+
+    /// How many programs are running: 1 in the main program, one more in each subprogram called.
+    pub(in crate::vm) fn depth(&self) -> usize {
+        self.stack.len()
     }
 
     /// The block that runs next, after returning from subprograms that have run off their end; `None` once
@@ -367,6 +387,7 @@ impl<'m> Interp<'m> {
                 args,
                 refs,
                 repeats,
+                modally,
             } => {
                 self.done.call = true;
                 self.top().pc = pc + 1;
@@ -395,6 +416,8 @@ impl<'m> Interp<'m> {
                     args,
                     saved,
                     write_back,
+                    modal_call: None,
+                    called_modally: modally,
                 });
             }
             Flow::Return => {
@@ -456,6 +479,7 @@ impl<'m> Interp<'m> {
             written: self.written.clone(),
             assumed: RefCell::default(),
             noted: self.noted.clone(),
+            named_tools: self.named_tools.clone(),
         }
     }
 

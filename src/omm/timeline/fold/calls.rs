@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use super::Builder;
 use super::declared::ToolChangeCall;
 use crate::omm::declared_calls;
-use crate::omm::timeline::modal::{POSITIONED, coolant_after, field, is_thread};
+use crate::omm::timeline::modal::{Modal, POSITIONED, coolant_after, field, is_thread, unknown};
 use crate::omm::timeline::read::{CallArg, Move, Scan};
 use crate::omm::timeline::record::{CalleeEffect, Timeline};
 
@@ -43,13 +43,32 @@ impl Builder<'_> {
             Some((sub, elsewhere)) => {
                 let loads = sub.as_callee.is_tool_change(sub.first_cut.is_some());
                 if loads {
-                    for (mine, its) in self.touched.iter_mut().zip(sub.as_callee.touched) {
+                    let callee = &sub.as_callee;
+                    for (mine, its) in self.touched.iter_mut().zip(callee.left()) {
                         *mine |= its;
+                    }
+                    if callee.saves && callee.touched[field::FEED] {
+                        let mut feed = [false; field::COUNT];
+                        feed[field::FEED] = true;
+                        self.unsure_after(i, name, Some(feed));
                     }
                 } else {
                     self.state_unknown_after(name);
                     let callee = &sub.as_callee;
-                    self.unsure_after(i, name, (!callee.leaves_unknown).then_some(callee.touched));
+                    let unsure = (!callee.leaves_unknown).then(|| callee.unsure_after());
+                    self.unsure_after(i, name, unsure);
+                    if !callee.leaves_unknown {
+                        self.end_to_take = Some(sub.clone());
+                    }
+                }
+                // A subprogram that selects a work offset or changes frames before the program has cut sets up
+                // the coordinates the zero measures in: the zero goes after it, and where it cuts too there is
+                // no place for one (before it the probe would go to its point in a frame the program has not
+                // set yet).
+                let setup = sub.as_callee.touched[field::OFFSET] || !sub.frame_writes.is_empty();
+                if setup && self.t.first_cut.is_none() {
+                    self.t.setup_end = i + 1;
+                    self.t.setup_call = Some((i + 1, shown.to_string()));
                 }
                 // A subprogram that cuts: the reference measurement goes before it.
                 if sub.first_cut.is_some() {
@@ -103,8 +122,7 @@ impl Builder<'_> {
                     // Siemens' machining cycles cut at the spindle they find; a shop's subprogram driftloop
                     // cannot read may start its own or cut with the operator's, so the gates before it
                     // check the spindle at run time as before a cycle.
-                    if !name.to_ascii_uppercase().starts_with("CYCLE") && self.t.first_cut.is_none()
-                    {
+                    if !is_siemens_cycle(&name.to_ascii_uppercase()) && self.t.first_cut.is_none() {
                         self.t.first_cut_call = Some((i + 1, shown.to_string()));
                     }
                     self.cuts(i, true);
@@ -273,31 +291,20 @@ impl Builder<'_> {
     /// position a gate reads from the control, as after an M6. The frames it changes combine with the
     /// caller's, so sites after the call are unfit until the program sets them again.
     pub(super) fn after_tool_change_call(&mut self, i: usize, sub: &CalleeEffect) {
-        let (t, end, s) = (&sub.touched, &sub.end, &mut self.state);
-        let before = s.clone();
-        // Each field the subprogram set takes the value it left.
-        macro_rules! take {
-            ($($f:ident => $name:ident),*) => {
-                $(if t[field::$f] {
-                    s.$name = end.$name;
-                })*
-            };
-        }
-        take!(D => d, FEED => feed, MOTION => motion, ABSOLUTE => absolute, FEED_MODE => feed_mode,
-            PLANE => plane, PATH_MODE => path_mode, COMP => comp, OFFSET => offset,
-            DIAMETER => diameter, UNITS => units, MACHINE_COOLANT => machine_coolant);
-        if t[field::FEED_MODE] {
-            self.per_rev = end.feed_mode == Some(95);
+        // The feed under SAVE was made unsure at the call.
+        let mut t = sub.left();
+        t[field::FEED] &= !sub.saves;
+        let (t, end) = (&t, &sub.end);
+        let before = self.state.clone();
+        self.take_end(end, t);
+        if t[field::MACHINE_COOLANT] {
+            self.state.machine_coolant = end.machine_coolant;
         }
         if let (true, Some(c)) = (t[field::COOLANT], end.coolant) {
-            s.coolant = coolant_after(s.coolant, c);
+            self.state.coolant = coolant_after(self.state.coolant, c);
         }
-        s.unknown |= end.unknown;
-        for (f, differs) in field::differ(&before, s).into_iter().enumerate() {
-            if differs {
-                self.changed[f] = i + 1;
-            }
-        }
+        self.state.unknown |= end.unknown;
+        self.note_changes(i, &before);
         // What it set it set by its own words, whatever a call before it left; the tool is the one it
         // loaded, and its change stopped the spindle (as the timeline has it after M6).
         let mut whole = *t;
@@ -317,6 +324,50 @@ impl Builder<'_> {
             let mut frames = [false; field::COUNT];
             frames[field::FRAMES] = true;
             self.merges.push((i, i + 1, frames));
+        }
+    }
+
+    /// After a subprogram at block `i` that is no tool change: the fields it sets whose value at its end
+    /// is sure (see [`CalleeEffect::sure_at_end`]) hold that value, set by its own words whatever the
+    /// caller's state; the others it sets were made unsure at the call.
+    pub(super) fn after_call_end(&mut self, i: usize, sub: &CalleeEffect) {
+        let sure = sub.sure_at_end();
+        let before = self.state.clone();
+        self.take_end(&sub.end, &sure);
+        self.note_changes(i, &before);
+        self.mark_written(i + 1, sure);
+    }
+
+    /// The modal fields `fields` (of those a gate gives back) take the values `end` left, with whether an
+    /// expression set the feed or the cutting edge.
+    fn take_end(&mut self, end: &Modal, fields: &[bool; field::COUNT]) {
+        let s = &mut self.state;
+        macro_rules! take {
+            ($($f:ident => $name:ident),*) => {
+                $(if fields[field::$f] {
+                    s.$name = end.$name;
+                })*
+            };
+        }
+        take!(D => d, FEED => feed, MOTION => motion, ABSOLUTE => absolute, FEED_MODE => feed_mode,
+            PLANE => plane, PATH_MODE => path_mode, COMP => comp, OFFSET => offset,
+            DIAMETER => diameter, UNITS => units);
+        for (f, bit) in [(field::FEED, unknown::FEED), (field::D, unknown::D)] {
+            if fields[f] {
+                s.unknown = (s.unknown & !bit) | (end.unknown & bit);
+            }
+        }
+        if fields[field::FEED_MODE] {
+            self.per_rev = end.feed_mode == Some(95);
+        }
+    }
+
+    /// Block `i` changed the fields in which the state differs from `before`.
+    fn note_changes(&mut self, i: usize, before: &Modal) {
+        for (f, differs) in field::differ(before, &self.state).into_iter().enumerate() {
+            if differs {
+                self.changed[f] = i + 1;
+            }
         }
     }
 
@@ -354,9 +405,14 @@ impl Builder<'_> {
             };
             t[f] = true;
         }
-        t[field::FEED] |= s.mv.f.is_some() && !dwell;
-        t[field::S] |= (s.s.is_some() && !no_speed) || s.lims.is_some();
-        t[field::D] |= s.d.is_some();
+        // A value an expression sets is set all the same (`F=R1`): a caller's value no longer holds.
+        let by_expression = |bit| s.unknown & bit != 0;
+        t[field::FEED] |= (s.mv.f.is_some() || by_expression(unknown::FEED)) && !dwell;
+        t[field::S] |=
+            ((s.s.is_some() || by_expression(unknown::S)) && !no_speed) || s.lims.is_some();
+        t[field::D] |= s.d.is_some() || by_expression(unknown::D);
+        // A tool an expression selects (`T=_TNR` in a tool-change cycle) is what the cycle's caller asked
+        // for: the caller learns it from the unknown bit its end state carries.
         t[field::SELECTED] |= s.tool.is_some();
         t[field::FRAMES] |=
             s.frame_ops != 0 || s.rotary_away | s.rotary_home != 0 || s.tool_carrier.is_some();

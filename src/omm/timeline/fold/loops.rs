@@ -70,6 +70,16 @@ impl Builder<'_> {
         );
         if closes && let Some(open) = self.open_loops.pop() {
             self.mark_varying(&open.entry, (open.block + 1, i));
+            // A WHILE, or a FOR not known to run, may skip its body: the program goes on in the state
+            // before the loop or in the one its body left.
+            let may_skip = match open.kind {
+                LoopKind::While => true,
+                LoopKind::For => !matches!(open.runs, Ok(n) if n >= 1),
+                _ => false,
+            };
+            if may_skip {
+                self.merge(i, std::slice::from_ref(&open.entry));
+            }
             let (runs, unknown) = match open.runs {
                 Ok(n) => (Some(n), None),
                 Err(why) => (None, Some(why)),

@@ -143,6 +143,15 @@ pub(super) struct Builder<'p> {
     lead: Option<f64>,
     /// Rotary axes the program itself sent away from 0 (bits as in [`frame::ROTARY`], unshifted).
     rotary_sent: u8,
+    /// A subprogram called at this block that is no tool change, whose end state the block takes after
+    /// its own words (which run before the call).
+    end_to_take: Option<Rc<Timeline>>,
+    /// The block of the unit's first return outside any IF or loop (M17, M2, M30, RET).
+    exit_block: Option<usize>,
+    /// The state at that return, and the fields not sure there: what the unit leaves a caller.
+    exit: Option<(Modal, [bool; field::COUNT])>,
+    /// A return inside an IF or loop: the unit may leave a caller any state its blocks reach.
+    exits_early: bool,
     /// A swivel (CYCLE800 with an angle) turned its rotary axes, and no block has sent them home since.
     swivel_turned: bool,
 }
@@ -207,6 +216,10 @@ impl<'p> Builder<'p> {
             in_contour: BTreeSet::new(),
             lead: None,
             rotary_sent: 0,
+            end_to_take: None,
+            exit_block: None,
+            exit: None,
+            exits_early: false,
             swivel_turned: false,
         }
     }
@@ -487,6 +500,11 @@ impl<'p> Builder<'p> {
     /// A program end at block `i`: recorded, and an end of the innermost IF's body when no loop opened in it.
     fn program_end(&mut self, i: usize) {
         self.t.ends.push(i);
+        if self.open_ifs.is_empty() && self.loop_depth == 0 {
+            self.exit_block.get_or_insert(i);
+        } else {
+            self.exits_early = true;
+        }
         let depth = self.loop_depth;
         if let Some(open) = self.open_ifs.last_mut().filter(|o| o.loop_depth == depth) {
             open.ended = true;
@@ -504,14 +522,17 @@ impl<'p> Builder<'p> {
             self.state = open.before;
             return;
         }
-        let states: Vec<&Modal> = [
-            Some(&open.before),
-            open.then_end.as_ref(),
-            Some(&self.state),
-        ]
-        .into_iter()
-        .flatten()
-        .collect();
+        let states: Vec<Modal> = [Some(open.before), open.then_end]
+            .into_iter()
+            .flatten()
+            .collect();
+        self.merge(i, &states);
+    }
+
+    /// After block `i` the state is the fold's or one of `others` (the ways here differ): a field in
+    /// which they differ is unsure at the sites after it until the program sets it again.
+    pub(super) fn merge(&mut self, i: usize, others: &[Modal]) {
+        let states: Vec<&Modal> = others.iter().chain([&self.state]).collect();
         let mut differ = [false; field::COUNT];
         for (k, a) in states.iter().enumerate() {
             for b in &states[k + 1..] {
@@ -602,15 +623,21 @@ impl<'p> Builder<'p> {
             _ => {}
         }
         // The state before the block is kept only where a site or pass mark can arise: a copy per block
-        // would cost more than the rest of the scan.
-        // A declared tool change starts a pass there, whose gate gives back the preselection from this state.
+        // would cost more than the rest of the scan. A gate there gives back this state, so every way a
+        // block can mark must be here: a tool-change call (its pass), and every way the speed can change
+        // without S or M (G94/G95/G97 ending constant cutting speed, a move under it, LIMS, an expression);
+        // a default state there gave back G91 and no spindle.
         let may_mark = !s.m.is_empty()
-            || matches!(call_loads, Some(ToolChangeCall::Declared(_)))
+            || call_loads.is_some()
             || s.s.is_some()
             || s.tool.is_some()
             || s.marker
             || self.last_was_z_retract
-            || !self.profile.passes.lines.is_empty();
+            || !self.profile.passes.lines.is_empty()
+            || self.state.css_rpm.is_some()
+            || s.lims.is_some()
+            || s.unknown != 0
+            || s.g.iter().any(|g| matches!(g, 93..=97 | 331 | 332));
         let before = if may_mark {
             self.state.clone()
         } else {
@@ -887,6 +914,15 @@ impl<'p> Builder<'p> {
             }
             None => {}
         }
+        if let Some(sub) = self.end_to_take.take() {
+            self.after_call_end(i, &sub.as_callee);
+        }
+        if s.saves {
+            self.t.as_callee.saves = true;
+        }
+        if self.exit_block == Some(i) && self.exit.is_none() {
+            self.exit = Some((self.state.clone(), self.unsure_here()));
+        }
         if let (true, Some(g)) = (self.state.inch(), self.state.units)
             && (self.t.ends.last() == Some(&i) || self.t.offset_selections.last() == Some(&i))
         {
@@ -1100,17 +1136,44 @@ impl<'p> Builder<'p> {
         self.ticks = self.ticks.saturating_add(ticks(minutes));
     }
 
+    /// The fields whose value here the fold does not know for sure: set differently on the ways here (an
+    /// IF's branches, a jump, a loop that may not run) or left by a call, and not set again since. All of
+    /// them where the unit jumps or returns from inside an IF or loop (its end state is then one of
+    /// several).
+    fn unsure_here(&self) -> [bool; field::COUNT] {
+        if self.exits_early || !self.jumps.is_empty() {
+            return [true; field::COUNT];
+        }
+        let mut open = [false; field::COUNT];
+        for (_, set_from, differ) in &self.merges {
+            for f in 0..field::COUNT {
+                open[f] |= differ[f] && self.changed[f] <= *set_from;
+            }
+        }
+        for (call, _, unsure) in &self.call_unsure {
+            for f in 0..field::COUNT {
+                open[f] |= unsure[f] && self.written[f] <= call + 1;
+            }
+        }
+        open
+    }
+
     /// The timeline, with the names the unit calls.
     pub(super) fn finish(mut self) -> (Timeline, BTreeSet<String>) {
         let total = self.time();
         self.t.total_min = total;
         self.t.last_cut_min = self.last_cut as f64 / TICKS_PER_MIN;
+        let (end, end_unsure) = self
+            .exit
+            .take()
+            .unwrap_or_else(|| (self.state.clone(), self.unsure_here()));
         self.mark_merges();
         self.mark_unsure_after_calls();
         self.t.as_callee.touched = self.touched;
         self.t.as_callee.loads_tool |= self.m6_seen;
         self.t.as_callee.leaves_unknown |= self.after_call;
-        self.t.as_callee.end = self.state.clone();
+        self.t.as_callee.end = end;
+        self.t.as_callee.end_unsure = end_unsure;
         self.place_passes_and_sites(total);
         (self.t, self.called)
     }

@@ -27,6 +27,8 @@ pub(super) struct Scan {
     pub(super) d: Option<u32>,
     pub(super) marker: bool,
     pub(super) declaration: bool,
+    /// `PROC … SAVE`: the unit's G codes come back at its end.
+    pub(super) saves: bool,
     pub(super) path_comment: bool,
     pub(super) kind_header: bool,
     pub(super) r: Vec<Option<u32>>,

@@ -163,7 +163,11 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
             NodeKind::Assign => assign(&block, node, &mut s),
             NodeKind::Comment => comment(block.text(node), marker, &mut s),
             NodeKind::Def | NodeKind::Proc | NodeKind::Extern | NodeKind::Define => {
-                s.declaration = true
+                s.declaration = true;
+                s.saves |= node.kind == NodeKind::Proc
+                    && node.significant().any(|c| {
+                        c.kind == NodeKind::Name && block.text(c).eq_ignore_ascii_case(b"SAVE")
+                    });
             }
             NodeKind::For => s.count = for_bounds(&block, node),
             NodeKind::Repeat => s.count = section_repeat(&block, node),
