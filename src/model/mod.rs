@@ -30,6 +30,7 @@
 //! # }
 //! ```
 
+pub mod adapt;
 pub mod dlag;
 pub mod effects;
 pub mod file;
