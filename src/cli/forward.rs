@@ -13,9 +13,7 @@ use super::progress::Progress;
 use super::{Format, Global};
 use crate::data::{Minutes, Require};
 use crate::diagnose::holdout::{HoldoutScore, rate};
-use crate::diagnose::stats::ErrorStats;
-use crate::model::adapt;
-use crate::model::dlag::{AdaptiveChoice, DlagOptions, fit_dlag};
+use crate::model::dlag::{DlagOptions, fit_dlag};
 use crate::model::probing::Probing;
 use crate::model::{FitOptions, fit};
 
@@ -49,12 +47,8 @@ pub struct Args {
     pub probe_every: Minutes,
     /// With probing, also continue the error's rate between the last two probings, scaled by the trend
     /// gain the dlag fit chose by forward validation (default: re-zero only).
-    #[arg(long, conflicts_with = "probe_trend")]
-    pub probe_trend: bool,
-    /// With probing, re-zero adaptively: each probing also re-estimates the scale of the model's spindle
-    /// and sensor parts by the filter the dlag fit chose by forward validation (default: re-zero only).
     #[arg(long)]
-    pub probe_adapt: bool,
+    pub probe_trend: bool,
     /// `human`: a table; `json`: one JSON array with every number.
     #[arg(long, value_enum, default_value_t = Format::Human)]
     pub format: Format,
@@ -111,42 +105,18 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             .and_then(|f| f.probe.as_ref())
             .filter(|_| args.probe_trend)
             .map_or(Probing::every(args.probe_every.0), |p| p.probing());
-        let mut score = HoldoutScore::of(&ds, measured, &predicted, &later, Some(probing))
-            .ok_or_else(|| {
+        let score = HoldoutScore::of(&ds, measured, &predicted, &later, Some(probing)).ok_or_else(
+            || {
                 anyhow::anyhow!(
                     "{}: no reading of {ch} from {until} min{}",
                     ds.source,
                     span(to)
                 )
-            })?;
-        // With --probe-adapt the model's filter replaces the plain re-zeroing (when the fit chose one).
-        let adaptive = forward.and_then(|f| f.adaptive.as_ref());
-        if let Some(filter) = adaptive.and_then(|a| a.chosen).filter(|_| args.probe_adapt) {
-            let err: Vec<f64> = measured
-                .iter()
-                .zip(&predicted)
-                .map(|(m, p)| m - p)
-                .collect();
-            let [spindle, sensors] = adapt::parts(&model, &ds)?;
-            let runs: Vec<_> = ds.runs().collect();
-            let corrected = adapt::adapted(
-                &ds.time_min,
-                &runs,
-                &err,
-                (&spindle, &sensors),
-                &later,
-                args.probe_every.0,
-                filter,
-            );
-            let rows: Vec<f64> = (0..ds.len())
-                .filter(|&i| later[i] && !measured[i].is_nan())
-                .map(|i| corrected[i])
-                .collect();
-            score.model_probed = ErrorStats::of(&rows);
-        }
+            },
+        )?;
         let design = match forward {
             Some(f) => format!(
-                "{}lags {:?} min, spindle lags {:?} min with p {:?}, penalty {:.0e}, forward CV {:.2} µm{}{}",
+                "{}lags {:?} min, spindle lags {:?} min with p {:?}, penalty {:.0e}, forward CV {:.2} µm{}",
                 match f.trials.iter().filter(|t| t.weight.is_some()).count() {
                     0 | 1 => String::new(),
                     n => format!("average of {n} designs, the best: "),
@@ -163,15 +133,6 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
                         " (used)"
                     } else {
                         " (--probe-trend uses it)"
-                    }
-                )),
-                adaptive.map_or(String::new(), |a| format!(
-                    "; {}{}",
-                    adaptive_words(a),
-                    if args.probe_adapt {
-                        " (used)"
-                    } else {
-                        " (--probe-adapt uses it)"
                     }
                 ))
             ),
@@ -208,25 +169,6 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         Format::Human => super::output::print(&table(&lines, until, to, args.probe_every.0))?,
     }
     Ok(ExitCode::SUCCESS)
-}
-
-/// The adaptive re-zeroing the fit chose, in words.
-fn adaptive_words(a: &AdaptiveChoice) -> String {
-    match a.chosen {
-        Some(f) => format!(
-            "adaptive re-zeroing by forward CV: spindle scale sd {}, sensor scale sd {}, offset walk {} µm/√h, scale walk {}/√h ({:.2} µm after probing against {:.2} µm re-zeroing)",
-            f.spindle_scale_sd,
-            f.sensor_scale_sd,
-            f.offset_walk_um,
-            f.scale_walk,
-            a.best_rms_um,
-            a.rezero_rms_um
-        ),
-        None => format!(
-            "adaptive re-zeroing: no filter beat plain re-zeroing by forward CV ({:.2} µm against {:.2} µm)",
-            a.best_rms_um, a.rezero_rms_um
-        ),
-    }
 }
 
 /// ` on` (to the end of the data) or ` to T min`.

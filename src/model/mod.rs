@@ -30,7 +30,6 @@
 //! # }
 //! ```
 
-pub mod adapt;
 pub mod dlag;
 pub mod effects;
 pub mod file;

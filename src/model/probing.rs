@@ -46,49 +46,25 @@ pub fn rezeroed(
 ) -> Vec<f64> {
     let mut out = err.to_vec();
     for run in runs {
-        let at = probings(t, run.clone(), err, window, probing.every_min);
-        let Some(&first) = at.first() else {
+        let Some(first) = run.clone().find(|&i| window[i] && !err[i].is_nan()) else {
             continue;
         };
-        let mut next = at.iter().peekable();
+        let mut next = t[first];
         // The last probing: its time, the error there and the rate continued from it.
         let mut last: Option<(f64, f64, f64)> = None;
         for i in first..run.end {
-            if next.peek() == Some(&&i) {
-                next.next();
+            if t[i] >= next && !err[i].is_nan() {
                 let rate = last.map_or(0.0, |(t0, e0, _)| {
                     probing.trend_gain * (err[i] - e0) / (t[i] - t0)
                 });
                 last = Some((t[i], err[i], rate));
+                // The schedule keeps its own clock; a reading missing at a probing time delays only it.
+                while next <= t[i] {
+                    next += probing.every_min;
+                }
             }
             if let Some((t0, e0, rate)) = last {
                 out[i] = err[i] - e0 - rate * (t[i] - t0);
-            }
-        }
-    }
-    out
-}
-
-/// The rows of `run` where a probe reads, in order: the run's first reading in `window`, then the first
-/// reading at or after that time plus `every_min`, and so on. The schedule keeps its own clock: a reading
-/// missing at a probing time (`err` NaN) delays only that probing.
-pub fn probings(
-    t: &[f64],
-    run: Range<usize>,
-    err: &[f64],
-    window: &[bool],
-    every_min: f64,
-) -> Vec<usize> {
-    let mut out = Vec::new();
-    let Some(first) = run.clone().find(|&i| window[i] && !err[i].is_nan()) else {
-        return out;
-    };
-    let mut next = t[first];
-    for i in first..run.end {
-        if t[i] >= next && !err[i].is_nan() {
-            out.push(i);
-            while next <= t[i] {
-                next += every_min;
             }
         }
     }

@@ -19,7 +19,6 @@ pub mod text;
 
 use serde::{Deserialize, Serialize};
 
-use super::adapt::{Adaptive, adapted};
 use super::probing::{Probing, rezeroed};
 use crate::data::{ColumnKind, Dataset, SPINDLE};
 
@@ -56,8 +55,6 @@ pub struct DlagOptions {
     pub probe_every_min: Option<f64>,
     /// Candidate trend gains of the re-zeroing ([`super::probing`]).
     pub trend_gains: Vec<f64>,
-    /// Candidate hyper-parameters of the adaptive re-zeroing ([`super::adapt`]); empty: not chosen.
-    pub adaptive: Vec<Adaptive>,
 }
 
 impl DlagOptions {
@@ -85,7 +82,6 @@ impl DlagOptions {
             origins: Origins::default(),
             probe_every_min: Some(60.0),
             trend_gains: vec![0.0, 0.25, 0.5, 0.75, 1.0],
-            adaptive: Adaptive::candidates(),
         }
     }
 }
@@ -112,9 +108,6 @@ pub struct ForwardSelection {
     /// The re-zeroing by a probe, chosen on the same folds (absent in files from older builds).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub probe: Option<ProbeChoice>,
-    /// The adaptive re-zeroing by a probe, chosen on the same folds (absent in files from older builds).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub adaptive: Option<AdaptiveChoice>,
 }
 
 /// The trend gain of a probe's re-zeroing chosen by forward validation: each fold's model predicts its
@@ -134,30 +127,6 @@ impl ProbeChoice {
             trend_gain: self.trend_gain,
         }
     }
-}
-
-/// The adaptive re-zeroing ([`super::adapt`]) chosen by forward validation: each fold's model predicts its
-/// test rows, a probe corrects them every `every_min` from the fold's origin, for plain re-zeroing and for
-/// each candidate filter.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct AdaptiveChoice {
-    pub every_min: f64,
-    /// The filter with the lowest pooled forward RMS after probing; `None` when plain re-zeroing was lower
-    /// than every candidate.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub chosen: Option<Adaptive>,
-    /// Pooled forward RMS after probing with plain re-zeroing and with the chosen (or best) filter.
-    pub rezero_rms_um: f64,
-    pub best_rms_um: f64,
-    /// Every candidate with its pooled forward RMS after probing.
-    pub trials: Vec<AdaptiveTrial>,
-}
-
-/// One candidate filter scored on the forward folds.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct AdaptiveTrial {
-    pub filter: Adaptive,
-    pub rms_um: f64,
 }
 
 /// One design scored by forward validation.
@@ -223,9 +192,6 @@ pub fn fit_dlag(all: &Dataset, opts: &DlagOptions) -> Result<DriftModel, FitErro
     let probe = opts
         .probe_every_min
         .and_then(|every| ensemble.choose_trend_gain(&prep, every, &opts.trend_gains));
-    let adaptive = opts
-        .probe_every_min
-        .and_then(|every| ensemble.choose_adaptive(&prep, every, &opts.adaptive));
     let selection = ForwardSelection {
         origins_min: prep.origins_min.clone(),
         signals: prep.signals.clone(),
@@ -241,7 +207,6 @@ pub fn fit_dlag(all: &Dataset, opts: &DlagOptions) -> Result<DriftModel, FitErro
             .map(|(i, d)| d.trial(members.iter().find(|m| m.0 == i).map(|m| m.1)))
             .collect(),
         probe,
-        adaptive,
     };
     Ok(prep.model(
         all.len(),
@@ -397,95 +362,21 @@ impl Ensemble {
                 .sum::<f64>()
     }
 
-    /// The spindle part and the sensor part of the prediction at row `i` (without the intercept).
-    fn split(&self, c: &Coefficients, i: usize) -> [f64; 2] {
-        let mut out = [0.0; 2];
-        for ((t, col), b) in self.terms.iter().zip(&self.cols).zip(c.beta.iter()) {
-            out[usize::from(!matches!(t, Term::Spindle { .. }))] += b * col[i];
-        }
-        out
-    }
-
     /// Each forward fold's test rows and the model's error on them (NaN elsewhere), fitted on the rows
     /// before the fold's origin.
     fn fold_errors(&self, prep: &Prepared) -> Vec<(Vec<usize>, Vec<f64>)> {
-        self.fold_predictions(prep)
-            .into_iter()
-            .map(|f| (f.test, f.err))
-            .collect()
-    }
-
-    /// Each forward fold's test rows, the error of the fold's model and its two parts there.
-    fn fold_predictions(&self, prep: &Prepared) -> Vec<FoldPrediction> {
         let s = &prep.stretches;
         (0..s.len().saturating_sub(1))
             .filter_map(|k| {
                 let test: Vec<usize> = s[k + 1..].concat();
                 let fit = self.fit_on(&sum(&self.parts[..=k]))?;
-                let n = prep.ds.len();
-                let mut f = FoldPrediction {
-                    err: vec![f64::NAN; n],
-                    spindle: vec![0.0; n],
-                    sensors: vec![0.0; n],
-                    test,
-                };
-                for &i in &f.test {
-                    f.err[i] = prep.y[i] - self.predict(&fit, i);
-                    [f.spindle[i], f.sensors[i]] = self.split(&fit, i);
+                let mut err = vec![f64::NAN; prep.ds.len()];
+                for &i in &test {
+                    err[i] = prep.y[i] - self.predict(&fit, i);
                 }
-                (!f.test.is_empty()).then_some(f)
+                (!test.is_empty()).then_some((test, err))
             })
             .collect()
-    }
-
-    /// Among plain re-zeroing and the candidate filters, the one with the lowest pooled RMS after probing
-    /// every `every` minutes on the forward folds (as [`Ensemble::choose_trend_gain`]). `None` without a
-    /// fold or a candidate.
-    fn choose_adaptive(
-        &self,
-        prep: &Prepared,
-        every: f64,
-        candidates: &[Adaptive],
-    ) -> Option<AdaptiveChoice> {
-        if candidates.is_empty() {
-            return None;
-        }
-        let runs: Vec<std::ops::Range<usize>> = prep.ds.runs().collect();
-        let t = &prep.ds.time_min;
-        let mut rezero = 0.0;
-        let mut sse = vec![0.0; candidates.len()];
-        let mut scored = 0usize;
-        for f in self.fold_predictions(prep) {
-            let mut window = vec![false; prep.ds.len()];
-            f.test.iter().for_each(|&i| window[i] = true);
-            let sq = |out: &[f64]| f.test.iter().map(|&i| out[i] * out[i]).sum::<f64>();
-            rezero += sq(&rezeroed(t, &runs, &f.err, &window, Probing::every(every)));
-            for (acc, &c) in sse.iter_mut().zip(candidates) {
-                let parts = (f.spindle.as_slice(), f.sensors.as_slice());
-                *acc += sq(&adapted(t, &runs, &f.err, parts, &window, every, c));
-            }
-            scored += f.test.len();
-        }
-        if scored == 0 {
-            return None;
-        }
-        let rms = |e: f64| (e / scored as f64).sqrt();
-        let trials: Vec<AdaptiveTrial> = candidates
-            .iter()
-            .zip(&sse)
-            .map(|(&filter, &e)| AdaptiveTrial {
-                filter,
-                rms_um: rms(e),
-            })
-            .collect();
-        let best = trials.iter().min_by(|a, b| a.rms_um.total_cmp(&b.rms_um))?;
-        Some(AdaptiveChoice {
-            every_min: every,
-            chosen: (best.rms_um < rms(rezero)).then_some(best.filter),
-            rezero_rms_um: rms(rezero),
-            best_rms_um: best.rms_um,
-            trials,
-        })
     }
 
     /// The pooled forward RMS of the weighted model.
@@ -534,15 +425,6 @@ impl Ensemble {
             trials: trials.clone(),
         })
     }
-}
-
-/// One forward fold's test rows, the fold model's error (NaN off the test rows) and its spindle and sensor
-/// parts.
-struct FoldPrediction {
-    test: Vec<usize>,
-    err: Vec<f64>,
-    spindle: Vec<f64>,
-    sensors: Vec<f64>,
 }
 
 /// A design: the sensors' lag set and the spindle terms' (lag, exponent).
