@@ -109,6 +109,19 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
             ],
         ),
     ];
+    // fixtures/cov10 (4, QA round 10's reproductions from public programs; 03 is refused rightly: its
+    // subprogram selects the work offset and cuts).
+    let sets = sets.into_iter().chain([(
+        "cov10",
+        4,
+        [
+            ("blum-tc50", 3),
+            ("siemens-cycle978", 3),
+            ("tool-setter", 3),
+            ("grinder-gauge", 3),
+            ("lathe-setter", 3),
+        ],
+    )]);
     for (set, total, expected) in sets {
         for (profile, count) in expected {
             transforms_and_strips_back(set, total, profile, count);

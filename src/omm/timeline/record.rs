@@ -216,8 +216,10 @@ impl CalleeEffect {
     /// F is none) was not verified on a control, and the dry run brings it back.
     pub fn sure_at_end(&self) -> [bool; field::COUNT] {
         let mut sure = [false; field::COUNT];
+        // The modal fields a gate gives back: the G codes SAVE brings back, the cutting edge and the feed.
         for (f, s) in sure.iter_mut().enumerate() {
-            *s = GIVEN_BACK.contains(&f) && !self.end_unsure[f];
+            let given_back = SAVED.contains(&f) || f == field::D || f == field::FEED;
+            *s = given_back && !self.end_unsure[f];
         }
         sure[field::FEED] &= !self.saves;
         let left = self.left();
@@ -239,21 +241,6 @@ impl CalleeEffect {
 
 /// The fields `PROC … SAVE` brings back at the subprogram's end (its modal G codes).
 const SAVED: [usize; 9] = [
-    field::MOTION,
-    field::ABSOLUTE,
-    field::FEED_MODE,
-    field::PLANE,
-    field::PATH_MODE,
-    field::COMP,
-    field::OFFSET,
-    field::DIAMETER,
-    field::UNITS,
-];
-
-/// The modal fields a gate gives back that a subprogram's end may leave for sure.
-const GIVEN_BACK: [usize; 11] = [
-    field::D,
-    field::FEED,
     field::MOTION,
     field::ABSOLUTE,
     field::FEED_MODE,
