@@ -125,7 +125,7 @@ fn a_subprogram_declared_with_save_gives_its_callers_g_codes_back() {
     // `PROC PART SAVE`: the control brings the caller's G codes back at its end (Siemens, K2). The
     // program's `X0 Y0` after the tool change runs in the G0 it had before the call, so the gate there
     // gives back G0, not the subprogram's G1.
-    let part = "PROC PART SAVE\nG0 X-30 Y-25 Z5\nG1 Z-3 F800\nG1 X30\nG1 Z5\nM17\n";
+    let part = "PROC PART SAVE\nG0 X-30 Y-25 Z5\nG1 Z-3 F800\nG1 X30\nG0 Z5\nM17\n";
     let out = every_gate("blum-tc50", &[("p.mpf", STATIONS), ("PART.SPF", part)]);
     let gate = gate_before(&out, "T=\"DR_D10\"");
     assert!(measures(&gate), "{}", gate.join("\n"));
@@ -241,4 +241,42 @@ M30
         let zero = out.find("stage 4: reference").expect("a zero");
         assert!(zero < out.find("MCALL CYCLE81").unwrap(), "{out}");
     }
+}
+
+#[test]
+fn a_feed_only_one_way_sets_is_given_back_by_no_gate() {
+    // After a WHILE whose body sets F1800 where the program had set no feed before it, the feed differs
+    // between the ways only by being unset on one: a gate writes no F back (each way keeps its own), so
+    // it may measure — and must not write F1800.
+    let prog = "\
+G17 G90 G40 G94 G71 G60
+G54
+T=\"FM_D80\" M6
+D1
+S1600 M3 M8
+G0 X-50 Y0 Z5
+R22=0
+WHILE R22>-2
+R22=R22-1
+G1 Z=R22 F400
+G1 X250 F1800
+G0 Z5
+G0 X-50
+ENDWHILE
+G0 Z100
+M9
+M5
+T=\"EM_D12\" M6
+D1
+S6000 M3 M8
+G0 X-7 Y-7 Z5
+G1 Z-7 F300
+G1 X207 F1500
+G0 Z100 M9
+M30
+";
+    let out = every_gate("blum-tc50", &[("p.mpf", prog)]);
+    let gate = gate_before(&out, "T=\"EM_D12\" M6");
+    assert!(measures(&gate), "{}", gate.join("\n"));
+    assert!(!gate.iter().any(|l| l.contains("F1800")), "{gate:#?}");
 }

@@ -488,6 +488,10 @@ const STATE_VARIES: &str = "its modal state is not known for sure (later runs of
 
 const TOOL_UNKNOWN: &str = "the tool in the spindle is not known there (no tool change before it), so the probe could not be swapped for it again";
 
+const TOOL_LOADED_BY_CALL: &str = "a subprogram called later, before the first cut, loads the tool that cuts: a tool setter's zero here would measure another tool";
+
+const SWAP_BY_ARGUMENT: &str = "the program changes tools with a subprogram that takes the tool as its argument, which a gate cannot call for the probe (called without it, it selects T0: the spindle emptied); declare the probe's own change in the profile ([probe] change = \"TC({tool})\", docs/profiles.md)";
+
 const OUTSIDE_PRESELECTION: &str = "the program's tool change later loads a tool preselected outside the program (an M6 with no T before it), and the probe's swap would replace that preselection";
 
 /// Whether a gate that moves (and stops the spindle on the way) at `site` stands where the program cuts
@@ -512,15 +516,25 @@ fn turning_reads_tool(site: &Site, profile: &Profile) -> Option<&'static str> {
 }
 
 /// Why a spindle probe may not be swapped in at `site`: a later M6 of the program loads the tool the
-/// operator preselected, which the swap's `T` would replace (the control cannot tell the gate which it was).
+/// operator preselected, which the swap's `T` would replace (the control cannot tell the gate which it
+/// was); or the program changes tools with a subprogram that takes the tool as its argument, which a gate
+/// would call without it (T0: the spindle emptied, the probe cycle run with none), and the profile
+/// declares no change of its own.
 fn swap_loses_preselection(
     timeline: &Timeline,
     site: &Site,
     profile: &Profile,
 ) -> Option<&'static str> {
-    (profile.probe.kind == ProbeKind::SpindleProbe
-        && timeline.outside_load.is_some_and(|load| site.block <= load))
-    .then_some(OUTSIDE_PRESELECTION)
+    if profile.probe.kind != ProbeKind::SpindleProbe {
+        return None;
+    }
+    if timeline.tool_change_by_argument.is_some() && profile.probe.change.is_none() {
+        return Some(SWAP_BY_ARGUMENT);
+    }
+    timeline
+        .outside_load
+        .is_some_and(|load| site.block <= load)
+        .then_some(OUTSIDE_PRESELECTION)
 }
 
 /// A spindle probe whose gates read the tool in force at run time where the program does not name it.
@@ -538,8 +552,21 @@ fn names_tool(site: &Site, profile: &Profile) -> bool {
 }
 
 /// Why a site cannot carry the reference measurement with this profile's probe; `None` when it can.
-fn unfit_for_reference(site: &Site, profile: &Profile, rule: OffsetRule) -> Option<&'static str> {
+fn unfit_for_reference(
+    timeline: &Timeline,
+    site: &Site,
+    profile: &Profile,
+    rule: OffsetRule,
+) -> Option<&'static str> {
     let tool_change_follows = matches!(site.kind, SiteKind::PassStart { tool_change: true });
+    if profile.probe.kind == ProbeKind::ToolSetter
+        && timeline
+            .tool_load_call
+            .as_ref()
+            .is_some_and(|(line, _)| site.block < *line)
+    {
+        return Some(TOOL_LOADED_BY_CALL);
+    }
     if let Some(why) = unfit_for_gate(site, profile, rule).or_else(|| frame_blocks(site, profile)) {
         return Some(why);
     }
@@ -574,6 +601,29 @@ fn unfit_for_reference(site: &Site, profile: &Profile, rule: OffsetRule) -> Opti
         ProbeKind::Gauge => None,
         _ => site.before.not_restorable(),
     }
+}
+
+/// For a reference fixed on the machine (or a gauge), which reads nothing through the program's frames:
+/// the last fit place before the setup (`from`) and after the last tool load.
+fn zero_before_setup(
+    timeline: &Timeline,
+    profile: &Profile,
+    rule: OffsetRule,
+    (last_load, from): (usize, usize),
+    steps_load_tools: bool,
+) -> Option<usize> {
+    if !(profile.position.frame == MeasureFrame::Machine || profile.probe.kind == ProbeKind::Gauge)
+    {
+        return None;
+    }
+    let before_setup = |s: &Site| {
+        !(before_setup_call(timeline, s, profile) || steps_load_tools && s.before.tool.is_none())
+            && s.block >= last_load.max(timeline.preamble_end)
+            && s.block < from
+            && skip_around(timeline, s.block).is_none()
+            && unfit_for_reference(timeline, s, profile, rule).is_none()
+    };
+    timeline.sites.iter().rposition(before_setup)
 }
 
 /// The site of the reference measurement: the first fit one after the program's own setup (declarations,
@@ -625,7 +675,7 @@ fn reference_site(
             if before_setup_call(timeline, site, profile) {
                 return Some(SETUP_CALL);
             }
-            unfit_for_reference(site, profile, rule)
+            unfit_for_reference(timeline, site, profile, rule)
                 .or_else(|| swap_loses_preselection(timeline, site, profile))
                 .or_else(|| turning_reads_tool(site, profile))
         };
@@ -649,6 +699,15 @@ fn reference_site(
         if let Some(k) = unnamed {
             return Ok(k);
         }
+        // A reference fixed on the machine (or a gauge) reads nothing through the program's frames: where the
+        // setup runs straight into the first cut (`TRANS X40 Y30` then a subprogram that cuts), the last fit
+        // place before the setup and after the last tool load holds the zero as well — before the cut,
+        // which a place after it does not.
+        if let Some(k) =
+            zero_before_setup(timeline, profile, rule, (last_load, from), steps_load_tools)
+        {
+            return Ok(k);
+        }
         // After the first cut: the first fit pass start, else the first fit place after the setup (a post
         // that retracts with D0 before every tool change leaves no pass start fit for a spindle probe).
         let pass_start = |s: &Site| matches!(s.kind, SiteKind::PassStart { .. });
@@ -670,22 +729,6 @@ fn reference_site(
                 .iter()
                 .filter(|s| after_setup(s))
                 .find_map(|s| fit(s).map(|why| (s.block, why)));
-        }
-    }
-    // A reference fixed on the machine (or a gauge) reads nothing through the program's frames: where the
-    // setup runs straight into the first cut (`TRANS X40 Y30` then a subprogram that cuts), the last fit
-    // place before the setup and after the last tool load holds the zero as well.
-    if profile.position.frame == MeasureFrame::Machine || profile.probe.kind == ProbeKind::Gauge {
-        let before_setup = |s: &Site| {
-            !(before_setup_call(timeline, s, profile)
-                || steps_load_tools && s.before.tool.is_none())
-                && s.block >= last_load.max(timeline.preamble_end)
-                && s.block < from
-                && skip_around(timeline, s.block).is_none()
-                && unfit_for_reference(s, profile, rule).is_none()
-        };
-        if let Some(k) = timeline.sites.iter().rposition(before_setup) {
-            return Ok(k);
         }
     }
     let cut = timeline

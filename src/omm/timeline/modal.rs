@@ -47,6 +47,8 @@ pub struct Modal {
     /// Fields the program set by an expression the timeline cannot evaluate ([`unknown`] bits): a gate
     /// cannot write them back.
     pub unknown: u8,
+    /// A modal call (`MCALL NAME`) is active: it runs after every block that moves, a gate's too.
+    pub modal_call: bool,
 }
 
 /// How X values are read on a lathe (the commands of G group 29).
@@ -194,6 +196,10 @@ impl Modal {
             Some("the spindle speed is set by an expression")
         } else if self.unknown & unknown::FEED != 0 {
             Some("the feed is set by an expression")
+        } else if self.modal_call {
+            Some(
+                "a modal call (MCALL) is active: every move of a gate would run its cycle or subprogram (a drilling cycle at the probe point)",
+            )
         } else if self.unknown & unknown::OTHER_SPINDLE != 0 {
             Some(
                 "the program addresses a spindle other than spindle 1 (S4=, M4=3, SETMS(4), SPOS[2]): a gate's M5 and the speed it gives back act on the master spindle only",
@@ -431,6 +437,7 @@ mod tests {
             css_rpm: None,
             frames: 1,
             unknown: 1,
+            modal_call: true,
         };
         assert_eq!(only(all).len(), field::COUNT);
     }

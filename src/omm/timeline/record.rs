@@ -103,6 +103,9 @@ pub struct Timeline {
     /// The subprogram the program changes tools with (the first one, as called): an `L6` whose M6 the
     /// machine's shop macro wraps. Gates change tools the same way.
     pub tool_change_call: Option<String>,
+    /// The first tool-change subprogram that takes its tool as an argument (`TC(4)` of a `PROC TC(INT
+    /// _TNR)` that selects `T=_TNR`): (line, 1-based; name). A gate cannot change tools with it.
+    pub tool_change_by_argument: Option<(usize, String)>,
     /// Blocks of `ends` and `offset_selections` where inch dimensions are in force, with their G code (70,
     /// 700): what driftloop inserts there switches to metric and back.
     pub inch_at: BTreeMap<usize, u32>,
@@ -136,6 +139,8 @@ pub struct Timeline {
     /// The last subprogram called before the first cut that selects a work offset or writes frames (line,
     /// 1-based; name): the program's setup ends after it.
     pub setup_call: Option<(usize, String)>,
+    /// The last subprogram called before the first cut (or as it) that loads a tool (line, 1-based; name).
+    pub tool_load_call: Option<(usize, String)>,
     /// Where the program first sets the spindle itself (M3/M4/M5, SPOS, a tool change), when it cuts before
     /// that (`usize::MAX`: never): up to there it cuts with the spindle as the operator left it (started in
     /// MDA), which a gate's M5 would stop and could not start again.
@@ -189,6 +194,17 @@ pub struct CalleeEffect {
     pub end_unsure: [bool; field::COUNT],
     /// `PROC … SAVE`: its G codes come back at its end (Siemens, K2 "Subprograms with SAVE attribute").
     pub saves: bool,
+    /// Where it leaves the tool, for what its caller's next places are: the tool clear of the part (a
+    /// rapid rose in Z since its last cut), its last move a rapid up the tool axis, its last move a feed
+    /// along a contour. Taken by the caller where the subprogram moves (`moves`).
+    pub end_clear: bool,
+    pub end_retracted: bool,
+    pub end_contour: bool,
+    /// It moves an axis.
+    pub moves: bool,
+    /// It selects a tool by an expression (`T=_TNR`, the tool its caller passes): called without that
+    /// argument it selects none (T0).
+    pub selects_by_expression: bool,
 }
 
 impl CalleeEffect {

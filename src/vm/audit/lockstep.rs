@@ -372,6 +372,9 @@ impl Runner<'_> {
             }
             ran = true;
             let at = At::of(&self.lines, &unit, block);
+            if t.calls_probe(&unit, block) {
+                self.probe_in_spindle(&at, t);
+            }
             if !forked && t.calls_probe(&unit, block) {
                 forked = true;
                 // A gate in a loop runs its abort paths from the same code each time: following them the
@@ -395,6 +398,29 @@ impl Runner<'_> {
             self.last = Some((at, true));
         }
         Ok(ran)
+    }
+
+    /// A spindle probe's cycle runs with the probe in the spindle: a gate whose swap loaded another tool
+    /// (or none: a tool-change subprogram called without the argument that names the tool) would drive
+    /// that tool, or the bare spindle, onto the part.
+    fn probe_in_spindle(&mut self, at: &At, t: &Interp<'_>) {
+        let Some(probe) = &self.settings.probe_tool else {
+            return;
+        };
+        let loaded = match &t.motion.tool {
+            Some(Tool::Name(name)) => name.eq_ignore_ascii_case(probe.trim_matches('"')),
+            Some(Tool::Number(n)) => probe.parse::<f64>() == Ok(*n),
+            None => false,
+        };
+        if !loaded {
+            self.add(at.finding(
+                Kind::ToolState,
+                format!(
+                    "the probe cycle runs with {} in the spindle, not the probe {probe}",
+                    state::tool_text(&t.motion.tool)
+                ),
+            ));
+        }
     }
 
     /// Checks one executed inserted block.
@@ -429,9 +455,17 @@ impl Runner<'_> {
             // A gate moves under no rotation, scale or mirror: a machine coordinate is the work
             // coordinate plus the settable offset in force.
             let frames = &t.motion.frames;
-            let to_machine =
-                frames.geo[self.settings.retract_axis].map_or(0.0, |a| frames.active[a]);
-            self.inserted_move(at, m, to_machine);
+            let retract = frames.geo[self.settings.retract_axis];
+            let to_machine = retract.map_or(0.0, |a| frames.active[a]);
+            // `G0 SUPA Z0` / `G153 Z0`: the tool axis at its machine zero, the reference point at the top
+            // of travel on a Siemens mill, where a tool-change macro travels (a side changer's `SUPA
+            // X-450`); the dry run's machine coordinates equal its work coordinates at offset 0.
+            let at_machine_top =
+                retract.is_some_and(|a| {
+                    t.motion.suppressed & (1 << a) != 0 && t.motion.machine[a] >= -geometry::EPS
+                }) && (m.to[self.settings.retract_axis] - m.from[self.settings.retract_axis]).abs()
+                    <= geometry::EPS;
+            self.inserted_move(at, m, to_machine, at_machine_top);
             self.watch.in_contour = false;
             self.watch.stopre = None;
             self.moves_under_sync_actions(at, t);
@@ -516,7 +550,7 @@ impl Runner<'_> {
     /// of a reference in machine coordinates (the work coordinate plus `to_machine`), and the move out of
     /// the probe point: straight up the tool axis, or — where the probe left the tool at the travel height
     /// (a reference's start point the gate came to at that height) — across at it.
-    fn inserted_move(&mut self, at: &At, m: &Movement, to_machine: f64) {
+    fn inserted_move(&mut self, at: &At, m: &Movement, to_machine: f64, at_machine_top: bool) {
         let s = self.settings;
         let r = s.retract_axis;
         let low = m.from[r].min(m.to[r]);
@@ -529,7 +563,7 @@ impl Runner<'_> {
                 .join(" ")
         };
         let travels = geometry::moves_across(m, r);
-        let below_clearance = low < s.clearance - geometry::EPS;
+        let below_clearance = low < s.clearance - geometry::EPS && !at_machine_top;
         if travels && below_clearance {
             self.add(at.finding(
                 Kind::XyBelowClearance,

@@ -294,6 +294,11 @@ impl Interp<'_> {
                 self.cfg.variables.get(&name).copied().unwrap_or(0.0)
             }
             ("$P_TOOLNO", []) => m.tool.as_ref().map_or(0.0, |t| self.cfg.tool_number(t)),
+            // The tool programmed last (T, the preselection), which the next M6 loads.
+            ("$P_TOOLP", []) => m
+                .preselected
+                .as_ref()
+                .map_or(0.0, |t| self.cfg.tool_number(t)),
             ("$A_INA", [n]) => {
                 let n = self.num(u, n)?;
                 self.machine_input(n as usize).ok_or_else(|| {

@@ -52,14 +52,19 @@ impl Builder<'_> {
                         feed[field::FEED] = true;
                         self.unsure_after(i, name, Some(feed));
                     }
-                } else {
+                } else if sub.as_callee.leaves_unknown {
                     self.state_unknown_after(name);
+                    self.unsure_after(i, name, None);
+                } else {
+                    // Read to its end with no call it cannot read: each field it sets is followed, sure
+                    // (its end's value, taken after the block) or unsure until the program sets it again,
+                    // for this unit's callers too.
                     let callee = &sub.as_callee;
-                    let unsure = (!callee.leaves_unknown).then(|| callee.unsure_after());
-                    self.unsure_after(i, name, unsure);
-                    if !callee.leaves_unknown {
-                        self.end_to_take = Some(sub.clone());
+                    for (mine, its) in self.touched.iter_mut().zip(callee.left()) {
+                        *mine |= its;
                     }
+                    self.unsure_after(i, name, Some(callee.unsure_after()));
+                    self.end_to_take = Some(sub.clone());
                 }
                 // A subprogram that selects a work offset or changes frames before the program has cut sets up
                 // the coordinates the zero measures in: the zero goes after it, and where it cuts too there is
@@ -69,6 +74,11 @@ impl Builder<'_> {
                 if setup && self.t.first_cut.is_none() {
                     self.t.setup_end = i + 1;
                     self.t.setup_call = Some((i + 1, shown.to_string()));
+                }
+                // A subprogram that loads a tool before the program has cut: a tool setter's zero before
+                // it would measure another tool than the one that cuts.
+                if sub.as_callee.loads_tool && self.t.first_cut.is_none() {
+                    self.t.tool_load_call = Some((i + 1, shown.to_string()));
                 }
                 // A subprogram that cuts: the reference measurement goes before it.
                 if sub.first_cut.is_some() {
@@ -330,12 +340,21 @@ impl Builder<'_> {
     /// After a subprogram at block `i` that is no tool change: the fields it sets whose value at its end
     /// is sure (see [`CalleeEffect::sure_at_end`]) hold that value, set by its own words whatever the
     /// caller's state; the others it sets were made unsure at the call.
-    pub(super) fn after_call_end(&mut self, i: usize, sub: &CalleeEffect) {
+    pub(super) fn after_call_end(&mut self, i: usize, sub: &CalleeEffect, cuts: bool) {
         let sure = sub.sure_at_end();
         let before = self.state.clone();
         self.take_end(&sub.end, &sure);
         self.note_changes(i, &before);
         self.mark_written(i + 1, sure);
+        // Where it moved, the tool stands where it left it: clear of the part only where a rapid rose in Z
+        // after its last cut (or it cut nothing and the tool was clear before), the height the fold holds
+        // no longer the tool's.
+        if sub.moves {
+            self.clear = sub.end_clear && (cuts || self.clear);
+            self.last_was_z_retract = sub.end_retracted;
+            self.contour = sub.end_contour;
+            self.position_doubt = true;
+        }
     }
 
     /// The modal fields `fields` (of those a gate gives back) take the values `end` left, with whether an
@@ -407,6 +426,7 @@ impl Builder<'_> {
         }
         // A value an expression sets is set all the same (`F=R1`): a caller's value no longer holds.
         let by_expression = |bit| s.unknown & bit != 0;
+        self.t.as_callee.selects_by_expression |= by_expression(unknown::TOOL);
         t[field::FEED] |= (s.mv.f.is_some() || by_expression(unknown::FEED)) && !dwell;
         t[field::S] |=
             ((s.s.is_some() || by_expression(unknown::S)) && !no_speed) || s.lims.is_some();

@@ -45,6 +45,14 @@ struct OpenIf {
     ended: bool,
 }
 
+/// What a unit leaves its caller (see [`Builder::exit_here`]).
+struct Exit {
+    state: Modal,
+    unsure: [bool; field::COUNT],
+    /// Clear of the part, just retracted, on a contour.
+    tool: (bool, bool, bool),
+}
+
 pub(super) struct Builder<'p> {
     profile: &'p Profile,
     /// The timelines of the subprograms calls may run.
@@ -148,8 +156,8 @@ pub(super) struct Builder<'p> {
     end_to_take: Option<Rc<Timeline>>,
     /// The block of the unit's first return outside any IF or loop (M17, M2, M30, RET).
     exit_block: Option<usize>,
-    /// The state at that return, and the fields not sure there: what the unit leaves a caller.
-    exit: Option<(Modal, [bool; field::COUNT])>,
+    /// What the unit leaves a caller, taken at that return (see [`Builder::exit_here`]).
+    exit: Option<Exit>,
     /// A return inside an IF or loop: the unit may leave a caller any state its blocks reach.
     exits_early: bool,
     /// A swivel (CYCLE800 with an angle) turned its rotary axes, and no block has sent them home since.
@@ -541,6 +549,35 @@ impl<'p> Builder<'p> {
                 }
             }
         }
+        // A feed, plane, feed type or path mode one way leaves unset (the program had set none there) is
+        // given back by no gate: each way keeps its own value through the gate, so it is no doubt (a WHILE
+        // that may not run, after `G1 … F1800` in its body and no F before it).
+        let unset = |f: usize| {
+            differ[f]
+                && states.iter().any(|m| match f {
+                    field::FEED => m.feed.is_none(),
+                    field::PLANE => m.plane.is_none(),
+                    field::FEED_MODE => m.feed_mode.is_none(),
+                    _ => m.path_mode.is_none(),
+                })
+        };
+        let unset = [
+            field::FEED,
+            field::PLANE,
+            field::FEED_MODE,
+            field::PATH_MODE,
+        ]
+        .map(|f| (f, unset(f)));
+        let s = &mut self.state;
+        for (f, unset) in unset.into_iter().filter(|(_, u)| *u) {
+            differ[f] = !unset;
+            match f {
+                field::FEED => s.feed = None,
+                field::PLANE => s.plane = None,
+                field::FEED_MODE => s.feed_mode = None,
+                _ => s.path_mode = None,
+            }
+        }
         // A tool one branch loads is not known after the IF (`IF $P_TOOLNO<>12` / `T12 M6` / `ENDIF`): a
         // gate reads it at run time where the profile lets it, as where the program names none.
         if differ[field::TOOL] || differ[field::SELECTED] {
@@ -826,10 +863,14 @@ impl<'p> Builder<'p> {
         let own_m6 = s.m.contains(6);
         // A tool-change subprogram loads the selected tool as M6 does.
         let tool_change = own_m6 || call_loads.is_some();
-        if let (Some(ToolChangeCall::Read(_)), Some(name), None) =
-            (&call_loads, &s.call, &self.t.tool_change_call)
-        {
-            self.t.tool_change_call = Some(name.clone());
+        if let (Some(ToolChangeCall::Read(sub)), Some(name)) = (&call_loads, &s.call) {
+            if sub.as_callee.selects_by_expression {
+                self.t
+                    .tool_change_by_argument
+                    .get_or_insert_with(|| (i + 1, name.clone()));
+            } else {
+                self.t.tool_change_call.get_or_insert_with(|| name.clone());
+            }
         }
         self.m6_seen |= call_loads.is_some();
         // A declared call that takes its tool as an argument selects it as it loads it.
@@ -879,6 +920,12 @@ impl<'p> Builder<'p> {
                 self.varies.insert(i);
             }
         }
+        // The stop or speed site a call before this block asked for is this tool change's place too: what
+        // the call may have left is judged by the fields it left unsure (see `unsure_after`), as at any
+        // tool change, not by the call alone.
+        if tool_change && self.after_call {
+            self.varies.remove(&i);
+        }
         self.after_call &= !tool_change;
         self.zero_after_tool_setup(s, tool_change);
         if s.tool.is_some() || (p.tool_change && tool_change) || marked || rpm != self.rpm {
@@ -891,6 +938,7 @@ impl<'p> Builder<'p> {
         }
         if let Some(modal) = &s.modal_call {
             self.modal_call = modal.as_ref().map(|n| (n.clone(), format!("MCALL {n}")));
+            self.state.modal_call = self.modal_call.is_some();
         }
         let mv = if limits { Move::default() } else { s.mv };
         self.movement(i, start, &before, &mv, dwell, s.s, s.inexact, own_m6);
@@ -915,13 +963,13 @@ impl<'p> Builder<'p> {
             None => {}
         }
         if let Some(sub) = self.end_to_take.take() {
-            self.after_call_end(i, &sub.as_callee);
+            self.after_call_end(i, &sub.as_callee, sub.first_cut.is_some());
         }
         if s.saves {
             self.t.as_callee.saves = true;
         }
         if self.exit_block == Some(i) && self.exit.is_none() {
-            self.exit = Some((self.state.clone(), self.unsure_here()));
+            self.exit = Some(self.exit_here());
         }
         if let (true, Some(g)) = (self.state.inch(), self.state.units)
             && (self.t.ends.last() == Some(&i) || self.t.offset_selections.last() == Some(&i))
@@ -1136,6 +1184,22 @@ impl<'p> Builder<'p> {
         self.ticks = self.ticks.saturating_add(ticks(minutes));
     }
 
+    /// What the unit leaves a caller if it returns here: the state, the fields not sure in it and where
+    /// the tool stands (clear, just retracted, on a contour), as unsure as the state where the unit may
+    /// return from elsewhere too.
+    fn exit_here(&self) -> Exit {
+        let several = self.exits_early || !self.jumps.is_empty();
+        Exit {
+            state: self.state.clone(),
+            unsure: self.unsure_here(),
+            tool: if several {
+                (false, false, true)
+            } else {
+                (self.clear, self.last_was_z_retract, self.contour)
+            },
+        }
+    }
+
     /// The fields whose value here the fold does not know for sure: set differently on the ways here (an
     /// IF's branches, a jump, a loop that may not run) or left by a call, and not set again since. All of
     /// them where the unit jumps or returns from inside an IF or loop (its end state is then one of
@@ -1163,17 +1227,17 @@ impl<'p> Builder<'p> {
         let total = self.time();
         self.t.total_min = total;
         self.t.last_cut_min = self.last_cut as f64 / TICKS_PER_MIN;
-        let (end, end_unsure) = self
-            .exit
-            .take()
-            .unwrap_or_else(|| (self.state.clone(), self.unsure_here()));
+        let exit = self.exit.take().unwrap_or_else(|| self.exit_here());
         self.mark_merges();
         self.mark_unsure_after_calls();
         self.t.as_callee.touched = self.touched;
         self.t.as_callee.loads_tool |= self.m6_seen;
         self.t.as_callee.leaves_unknown |= self.after_call;
-        self.t.as_callee.end = end;
-        self.t.as_callee.end_unsure = end_unsure;
+        let callee = &mut self.t.as_callee;
+        callee.end = exit.state;
+        callee.end_unsure = exit.unsure;
+        (callee.end_clear, callee.end_retracted, callee.end_contour) = exit.tool;
+        callee.moves = self.t.moves;
         self.place_passes_and_sites(total);
         (self.t, self.called)
     }

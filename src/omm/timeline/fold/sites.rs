@@ -91,7 +91,11 @@ impl Builder<'_> {
     /// block (work offset, frame) makes the block after it the candidate instead. Not inside an IF: the
     /// zero must be measured on every run.
     pub(super) fn start_site(&mut self, i: usize, time_min: f64, inside_if: bool) {
-        if self.t.first_cut.is_some() || !(self.header_done && self.preamble_done) || inside_if {
+        // A call that cuts is this block's first cut only once the gate before it has run.
+        if self.t.first_cut.is_some_and(|cut| cut < i)
+            || !(self.header_done && self.preamble_done)
+            || inside_if
+        {
             return;
         }
         if self
