@@ -19,28 +19,6 @@ fn every_gate(profile: &str, files: &[(&str, &str)]) -> String {
     common::transformed_in(&all, "p.mpf", "e.toml")
 }
 
-/// The inserted lines of `out` from the gate before the first line starting with `at` back to the
-/// original line before it.
-fn gate_before<'a>(out: &'a str, at: &str) -> Vec<&'a str> {
-    let lines: Vec<&str> = out.lines().collect();
-    let end = lines
-        .iter()
-        .position(|l| l.starts_with(at))
-        .unwrap_or_else(|| panic!("no `{at}` in\n{out}"));
-    let start = lines[..end]
-        .iter()
-        .rposition(|l| !l.ends_with(";DL"))
-        .map_or(0, |k| k + 1);
-    lines[start..end].to_vec()
-}
-
-/// Whether the gate `lines` measures (calls the probe cycle or the setter's).
-fn measures(lines: &[&str]) -> bool {
-    lines
-        .iter()
-        .any(|l| l.contains("stage 4") || l.contains("planned: measure"))
-}
-
 /// A part subprogram per station, then the second tool: the program writes neither motion nor feed
 /// between the call and the tool change.
 const STATIONS: &str = "\
@@ -84,8 +62,12 @@ fn the_gate_after_a_part_subprogram_gives_back_what_it_left_and_measures() {
     // sets them by literals leaves its own values: the gate gives those back.
     for profile in ["blum-tc50", "tool-setter"] {
         let out = every_gate(profile, &[("p.mpf", STATIONS), ("PART.SPF", PART)]);
-        let gate = gate_before(&out, "T=\"DR_D10\"");
-        assert!(measures(&gate), "{profile}:\n{}", gate.join("\n"));
+        let gate = common::gate_before(&out, "T=\"DR_D10\"");
+        assert!(
+            common::gate_measures(&gate),
+            "{profile}:\n{}",
+            gate.join("\n")
+        );
         let back = gate.iter().rev().find(|l| l.contains(" G90")).unwrap();
         assert!(
             back.contains("G0 ") && back.contains("F1200"),
@@ -110,8 +92,8 @@ fn a_feed_a_subprogram_sets_in_an_if_stays_unsure_after_it() {
             "S3500 M3 M8\nG0 X0 Y0\nZ5\nG1 Z-2.5",
         );
     let out = every_gate("blum-tc50", &[("p.mpf", &prog), ("PART.SPF", &part)]);
-    let gate = gate_before(&out, "T=\"DR_D10\"");
-    assert!(!measures(&gate), "{}", gate.join("\n"));
+    let gate = common::gate_before(&out, "T=\"DR_D10\"");
+    assert!(!common::gate_measures(&gate), "{}", gate.join("\n"));
     assert!(
         !gate
             .iter()
@@ -127,8 +109,8 @@ fn a_subprogram_declared_with_save_gives_its_callers_g_codes_back() {
     // gives back G0, not the subprogram's G1.
     let part = "PROC PART SAVE\nG0 X-30 Y-25 Z5\nG1 Z-3 F800\nG1 X30\nG0 Z5\nM17\n";
     let out = every_gate("blum-tc50", &[("p.mpf", STATIONS), ("PART.SPF", part)]);
-    let gate = gate_before(&out, "T=\"DR_D10\"");
-    assert!(measures(&gate), "{}", gate.join("\n"));
+    let gate = common::gate_before(&out, "T=\"DR_D10\"");
+    assert!(common::gate_measures(&gate), "{}", gate.join("\n"));
     let back = gate.iter().rev().find(|l| l.contains(" G90")).unwrap();
     assert!(back.contains("G0 ") && !back.contains("G1 "), "{back}");
 }
@@ -276,7 +258,7 @@ G0 Z100 M9
 M30
 ";
     let out = every_gate("blum-tc50", &[("p.mpf", prog)]);
-    let gate = gate_before(&out, "T=\"EM_D12\" M6");
-    assert!(measures(&gate), "{}", gate.join("\n"));
+    let gate = common::gate_before(&out, "T=\"EM_D12\" M6");
+    assert!(common::gate_measures(&gate), "{}", gate.join("\n"));
     assert!(!gate.iter().any(|l| l.contains("F1800")), "{gate:#?}");
 }

@@ -109,8 +109,20 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
         ),
     ];
     // fixtures/cov10 (4, QA round 10's reproductions from public programs; 03 is refused rightly: its
-    // subprogram selects the work offset and cuts).
-    let sets = sets.into_iter().chain([(
+    // subprogram selects the work offset and cuts) and fixtures/shop11 (20, QA round 11: subprograms,
+    // MCALL, loops, tool-change subprograms).
+    let shop11 = (
+        "shop11",
+        20,
+        [
+            ("blum-tc50", 15),
+            ("siemens-cycle978", 15),
+            ("tool-setter", 17),
+            ("grinder-gauge", 20),
+            ("lathe-setter", 15),
+        ],
+    );
+    let sets = sets.into_iter().chain([shop11]).chain([(
         "cov10",
         4,
         [

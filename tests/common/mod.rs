@@ -249,3 +249,24 @@ pub const MOVING_PROFILES: [&str; 4] = [
     "tool-setter",
     "lathe-setter",
 ];
+
+/// The lines driftloop inserted right before the first line of `out` that starts with `at`: the gate there.
+pub fn gate_before<'a>(out: &'a str, at: &str) -> Vec<&'a str> {
+    let lines: Vec<&str> = out.lines().collect();
+    let end = lines
+        .iter()
+        .position(|l| l.starts_with(at))
+        .unwrap_or_else(|| panic!("no `{at}` in\n{out}"));
+    let start = lines[..end]
+        .iter()
+        .rposition(|l| !l.ends_with(";DL"))
+        .map_or(0, |k| k + 1);
+    lines[start..end].to_vec()
+}
+
+/// Whether the gate `lines` (see [`gate_before`]) measures: the zero, or a gate planned to measure.
+pub fn gate_measures(lines: &[&str]) -> bool {
+    lines
+        .iter()
+        .any(|l| l.contains("stage 4") || l.contains("planned: measure"))
+}
