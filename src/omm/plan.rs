@@ -620,10 +620,17 @@ fn zero_before_setup(
         !(before_setup_call(timeline, s, profile) || steps_load_tools && s.before.tool.is_none())
             && s.block >= last_load.max(timeline.preamble_end)
             && s.block < from
+            && !writes_frame_after(timeline, s.block)
             && skip_around(timeline, s.block).is_none()
             && unfit_for_reference(timeline, s, profile, rule).is_none()
     };
     timeline.sites.iter().rposition(before_setup)
+}
+
+/// Whether the program writes a frame itself (`$P_UIFR[…]=`) at or after `block`: a zero before that write
+/// is refused (the write and the corrections overwrite each other), while one after it may stand.
+fn writes_frame_after(timeline: &Timeline, block: usize) -> bool {
+    timeline.frame_writes.iter().any(|&w| w >= block)
 }
 
 /// The site of the reference measurement: the first fit one after the program's own setup (declarations,
