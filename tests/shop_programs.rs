@@ -119,7 +119,7 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
             ("siemens-cycle978", 15),
             ("tool-setter", 17),
             ("grinder-gauge", 20),
-            ("lathe-setter", 15),
+            ("lathe-setter", 16),
         ],
     );
     let sets = sets.into_iter().chain([shop11]).chain([(

@@ -164,3 +164,19 @@ fn a_side_changer_at_the_machine_top_is_no_travel_below_the_clearance() {
     assert!(out.is_some(), "{err}");
     assert!(!err.contains("audit incomplete"), "{err}");
 }
+
+#[test]
+fn a_tool_change_the_macro_may_skip_gives_the_spindle_back() {
+    // 13's L6 changes only where the preselected tool is not in the spindle (`IF $P_TOOLNO==$P_TOOLP GOTOF
+    // …`). Taken as a change that always stops the spindle, a setter's gate before it (no probe swap, so
+    // the macro skips its change) left the spindle stopped for the next cut; the audit refused the output.
+    // Such a change is no tool change for the gate before it, which gives the spindle back, and what the
+    // macro sets is unsure after it. A gate right before a call also gives back the spindle from before the
+    // call, not the one the call's own words leave.
+    for profile in ["lathe-setter", "tool-setter", "blum-tc50"] {
+        let (o, out) = shop11("13_l6_conditional_toolchange_macro_part_subs.mpf", profile);
+        let err = common::stderr(&o);
+        assert!(out.is_some(), "{profile}: {err}");
+        assert!(!err.contains("audit incomplete"), "{profile}: {err}");
+    }
+}

@@ -202,6 +202,9 @@ pub struct CalleeEffect {
     pub end_contour: bool,
     /// It moves an axis.
     pub moves: bool,
+    /// It changes the tool on every run (M6 outside any IF or loop, no jump): not a change it may skip
+    /// where the tool is in the spindle already.
+    pub changes_tool_always: bool,
     /// It selects a tool by an expression (`T=_TNR`, the tool its caller passes): called without that
     /// argument it selects none (T0).
     pub selects_by_expression: bool,

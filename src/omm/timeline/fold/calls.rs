@@ -300,7 +300,7 @@ impl Builder<'_> {
     /// (the block is a tool change), the spindle was replayed (see [`Builder::replay_spindle`]), and the
     /// position a gate reads from the control, as after an M6. The frames it changes combine with the
     /// caller's, so sites after the call are unfit until the program sets them again.
-    pub(super) fn after_tool_change_call(&mut self, i: usize, sub: &CalleeEffect) {
+    pub(super) fn after_tool_change_call(&mut self, i: usize, sub: &CalleeEffect, entry: &Modal) {
         // The feed under SAVE was made unsure at the call.
         let mut t = sub.left();
         t[field::FEED] &= !sub.saves;
@@ -316,7 +316,9 @@ impl Builder<'_> {
         self.state.unknown |= end.unknown;
         self.note_changes(i, &before);
         // What it set it set by its own words, whatever a call before it left; the tool is the one it
-        // loaded, and its change stopped the spindle (as the timeline has it after M6).
+        // loaded, and its change stopped the spindle (as the timeline has it after M6). A change it may
+        // skip (`IF $P_TOOLNO==$P_TOOLP GOTOF …`: the tool is in the spindle already) leaves what it sets
+        // and the spindle as they were on that way: unsure until the program sets them again.
         let mut whole = *t;
         for f in [
             field::FRAMES,
@@ -329,7 +331,18 @@ impl Builder<'_> {
         whole[field::COOLANT] &= end.coolant == Some(9);
         whole[field::TOOL] = true;
         whole[field::DIRECTION] = true;
-        self.mark_written(i + 1, whole);
+        if sub.changes_tool_always {
+            self.mark_written(i + 1, whole);
+        } else {
+            // The way that skips the change: the state before the block, with the selected tool in the
+            // spindle (why it skips).
+            let mut skipped = entry.clone();
+            skipped.tool = self.state.tool.clone();
+            self.merge(i, i + 1, &[skipped]);
+            let mut tool = [false; field::COUNT];
+            tool[field::TOOL] = true;
+            self.mark_written(i + 1, tool);
+        }
         if t[field::FRAMES] {
             let mut frames = [false; field::COUNT];
             frames[field::FRAMES] = true;

@@ -78,7 +78,7 @@ impl Builder<'_> {
                 _ => false,
             };
             if may_skip {
-                self.merge(i, std::slice::from_ref(&open.entry));
+                self.merge(i, i, std::slice::from_ref(&open.entry));
             }
             let (runs, unknown) = match open.runs {
                 Ok(n) => (Some(n), None),

@@ -45,6 +45,36 @@ struct OpenIf {
     ended: bool,
 }
 
+/// The spindle and path mode before a block's call: the call's own (its spindle words replayed, CYCLE832's
+/// path mode) come after a gate before it, which must give back the program's.
+#[derive(Clone, Copy)]
+pub(super) struct BeforeCall {
+    s: f64,
+    direction: u32,
+    css_rpm: Option<f64>,
+    path_mode: Option<u32>,
+}
+
+impl BeforeCall {
+    fn of(m: &Modal) -> Self {
+        BeforeCall {
+            s: m.s,
+            direction: m.direction,
+            css_rpm: m.css_rpm,
+            path_mode: m.path_mode,
+        }
+    }
+
+    /// `state` with the spindle and path mode from before the block's call, if it has one.
+    pub(super) fn state(entry: Option<Self>, state: &Modal) -> Modal {
+        let mut b = state.clone();
+        if let Some(e) = entry {
+            (b.s, b.direction, b.css_rpm, b.path_mode) = (e.s, e.direction, e.css_rpm, e.path_mode);
+        }
+        b
+    }
+}
+
 /// What a unit leaves its caller (see [`Builder::exit_here`]).
 struct Exit {
     state: Modal,
@@ -160,6 +190,8 @@ pub(super) struct Builder<'p> {
     exit: Option<Exit>,
     /// A return inside an IF or loop: the unit may leave a caller any state its blocks reach.
     exits_early: bool,
+    /// An M6 outside any IF or loop.
+    m6_always: bool,
     /// A swivel (CYCLE800 with an angle) turned its rotary axes, and no block has sent them home since.
     swivel_turned: bool,
 }
@@ -228,6 +260,7 @@ impl<'p> Builder<'p> {
             exit_block: None,
             exit: None,
             exits_early: false,
+            m6_always: false,
             swivel_turned: false,
         }
     }
@@ -308,7 +341,7 @@ impl<'p> Builder<'p> {
         let start = self.time();
         let blank = motion.is_none() && mv.axes.iter().all(Option::is_none);
         self.header_and_preamble(i, false, false, blank);
-        self.start_site(i, start, !self.open_ifs.is_empty());
+        self.start_site(i, start, !self.open_ifs.is_empty(), None);
         self.touched[field::MOTION] |= motion.is_some();
         self.touched[field::FEED] |= mv.f.is_some();
         self.mark_written(i + 1, field::motion_feed(motion.is_some(), mv.f.is_some()));
@@ -534,12 +567,13 @@ impl<'p> Builder<'p> {
             .into_iter()
             .flatten()
             .collect();
-        self.merge(i, &states);
+        self.merge(i, i, &states);
     }
 
     /// After block `i` the state is the fold's or one of `others` (the ways here differ): a field in
-    /// which they differ is unsure at the sites after it until the program sets it again.
-    pub(super) fn merge(&mut self, i: usize, others: &[Modal]) {
+    /// which they differ is unsure at the sites after it until the program sets it again at a block after
+    /// `set_from` (`i`, or one past it where block `i`'s own words set the field on one way only).
+    pub(super) fn merge(&mut self, i: usize, set_from: usize, others: &[Modal]) {
         let states: Vec<&Modal> = others.iter().chain([&self.state]).collect();
         let mut differ = [false; field::COUNT];
         for (k, a) in states.iter().enumerate() {
@@ -592,7 +626,7 @@ impl<'p> Builder<'p> {
             differ[field::OFFSET] = false;
         }
         if differ.contains(&true) {
-            self.merges.push((i, i, differ));
+            self.merges.push((i, set_from, differ));
         }
     }
 
@@ -607,6 +641,9 @@ impl<'p> Builder<'p> {
         self.speed_site_after_call(i);
         self.safe_site_after(i);
         let mut call_loads = None;
+        // The spindle and path mode before a call: the call's own (its spindle words replayed, CYCLE832's
+        // path mode) come after a gate before it, which must give back the program's.
+        let entry = s.call.as_ref().map(|_| BeforeCall::of(&self.state));
         if let Some(name) = &s.call {
             call_loads = self.call(i, name, name, s.repeats, &s.call_args);
             if self
@@ -676,7 +713,7 @@ impl<'p> Builder<'p> {
             || s.unknown != 0
             || s.g.iter().any(|g| matches!(g, 93..=97 | 331 | 332));
         let before = if may_mark {
-            self.state.clone()
+            BeforeCall::state(entry, &self.state)
         } else {
             Modal::default()
         };
@@ -698,7 +735,7 @@ impl<'p> Builder<'p> {
         // A gate before an ELSE or ENDIF is inside the IF it closes.
         let inside_if =
             !self.open_ifs.is_empty() || matches!(kind, BlockKind::Else | BlockKind::EndIf);
-        self.start_site(i, start, inside_if);
+        self.start_site(i, start, inside_if, entry);
         for r in &s.r {
             match r {
                 Some(n) => {
@@ -833,7 +870,10 @@ impl<'p> Builder<'p> {
         for m in s.m.iter() {
             match m {
                 3..=5 | POSITIONED => direction = Some(m),
-                6 => self.m6_seen = true,
+                6 => {
+                    self.m6_seen = true;
+                    self.m6_always |= self.open_ifs.is_empty() && self.loop_depth == 0;
+                }
                 // M17 ends a main program as M30 does, and returns from a subprogram.
                 2 | 17 | 30 => self.program_end(i),
                 7..=9 => self.state.coolant = coolant_after(self.state.coolant, m),
@@ -863,6 +903,14 @@ impl<'p> Builder<'p> {
         let own_m6 = s.m.contains(6);
         // A tool-change subprogram loads the selected tool as M6 does.
         let tool_change = own_m6 || call_loads.is_some();
+        // One that may skip its change leaves the spindle turning on that way: the pass's gate is then
+        // no gate before a tool change (it gives the spindle back).
+        let certain_change = own_m6
+            || match &call_loads {
+                Some(ToolChangeCall::Read(sub)) => sub.as_callee.changes_tool_always,
+                Some(ToolChangeCall::Declared(_)) => true,
+                None => false,
+            };
         if let (Some(ToolChangeCall::Read(sub)), Some(name)) = (&call_loads, &s.call) {
             if sub.as_callee.selects_by_expression {
                 self.t
@@ -914,7 +962,7 @@ impl<'p> Builder<'p> {
         let p = &self.profile.passes;
         let marked = s.marker || p.lines.contains(&(i + 1));
         if (p.tool_change && tool_change) || marked {
-            let mark = self.mark(i, tool_change, start, &before);
+            let mark = self.mark(i, certain_change, start, &before);
             self.pass_marks.push(mark);
             if self.after_call && !tool_change {
                 self.varies.insert(i);
@@ -956,7 +1004,9 @@ impl<'p> Builder<'p> {
             }
         }
         match call_loads {
-            Some(ToolChangeCall::Read(sub)) => self.after_tool_change_call(i, &sub.as_callee),
+            Some(ToolChangeCall::Read(sub)) => {
+                self.after_tool_change_call(i, &sub.as_callee, &before)
+            }
             Some(ToolChangeCall::Declared(tool)) => {
                 self.after_declared_change(i, !matches!(tool, DeclaredTool::Preselected))
             }
@@ -1238,6 +1288,7 @@ impl<'p> Builder<'p> {
         callee.end_unsure = exit.unsure;
         (callee.end_clear, callee.end_retracted, callee.end_contour) = exit.tool;
         callee.moves = self.t.moves;
+        callee.changes_tool_always = self.m6_always && self.jumps.is_empty() && !self.exits_early;
         self.place_passes_and_sites(total);
         (self.t, self.called)
     }

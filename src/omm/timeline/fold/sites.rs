@@ -8,7 +8,7 @@ use crate::omm::timeline::modal::{Modal, frame};
 use crate::omm::timeline::read::Scan;
 use crate::omm::timeline::record::{Pass, Site, SiteKind};
 
-use super::Builder;
+use super::{BeforeCall, Builder};
 
 impl Builder<'_> {
     pub(super) fn mark(&self, i: usize, tool_change: bool, start: f64, before: &Modal) -> PassMark {
@@ -90,7 +90,13 @@ impl Builder<'_> {
     /// Keeps block `i` as the start site while the setup is over and nothing has cut yet; a later setup
     /// block (work offset, frame) makes the block after it the candidate instead. Not inside an IF: the
     /// zero must be measured on every run.
-    pub(super) fn start_site(&mut self, i: usize, time_min: f64, inside_if: bool) {
+    pub(super) fn start_site(
+        &mut self,
+        i: usize,
+        time_min: f64,
+        inside_if: bool,
+        entry: Option<BeforeCall>,
+    ) {
         // A call that cuts is this block's first cut only once the gate before it has run.
         if self.t.first_cut.is_some_and(|cut| cut < i)
             || !(self.header_done && self.preamble_done)
@@ -117,7 +123,7 @@ impl Builder<'_> {
             kind: SiteKind::Start,
             time_min,
             pass: 0,
-            before: self.state.clone(),
+            before: BeforeCall::state(entry, &self.state),
             rpm_after: self.rpm,
             state_varies: false,
             frame_traverse: false,
