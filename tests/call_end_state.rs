@@ -4,21 +4,6 @@
 
 mod common;
 
-/// The builtin `name` measuring at every gate that can, as a profile file's text.
-fn measuring(name: &str) -> String {
-    let o = common::run(&["profiles", name]);
-    common::stdout(&o) + "[log]\nmeasure_every_gate = true\n"
-}
-
-/// `p.mpf` beside `files`, transformed with the builtin `profile` measuring at every gate that can: the
-/// output, audited clean.
-fn every_gate(profile: &str, files: &[(&str, &str)]) -> String {
-    let every = measuring(profile);
-    let mut all = files.to_vec();
-    all.push(("e.toml", &every));
-    common::transformed_in(&all, "p.mpf", "e.toml")
-}
-
 /// A part subprogram per station, then the second tool: the program writes neither motion nor feed
 /// between the call and the tool change.
 const STATIONS: &str = "\
@@ -61,7 +46,8 @@ fn the_gate_after_a_part_subprogram_gives_back_what_it_left_and_measures() {
     // the gate at the next tool change could not measure. A subprogram without IFs, loops or jumps that
     // sets them by literals leaves its own values: the gate gives those back.
     for profile in ["blum-tc50", "tool-setter"] {
-        let out = every_gate(profile, &[("p.mpf", STATIONS), ("PART.SPF", PART)]);
+        let out =
+            common::every_gate_transformed(profile, &[("p.mpf", STATIONS), ("PART.SPF", PART)]);
         let gate = common::gate_before(&out, "T=\"DR_D10\"");
         assert!(
             common::gate_measures(&gate),
@@ -91,7 +77,7 @@ fn a_feed_a_subprogram_sets_in_an_if_stays_unsure_after_it() {
             "S3500 M3 M8\nX0 Y0\nZ5\nG1 Z-2.5 F250",
             "S3500 M3 M8\nG0 X0 Y0\nZ5\nG1 Z-2.5",
         );
-    let out = every_gate("blum-tc50", &[("p.mpf", &prog), ("PART.SPF", &part)]);
+    let out = common::every_gate_transformed("blum-tc50", &[("p.mpf", &prog), ("PART.SPF", &part)]);
     let gate = common::gate_before(&out, "T=\"DR_D10\"");
     assert!(!common::gate_measures(&gate), "{}", gate.join("\n"));
     assert!(
@@ -108,7 +94,8 @@ fn a_subprogram_declared_with_save_gives_its_callers_g_codes_back() {
     // program's `X0 Y0` after the tool change runs in the G0 it had before the call, so the gate there
     // gives back G0, not the subprogram's G1.
     let part = "PROC PART SAVE\nG0 X-30 Y-25 Z5\nG1 Z-3 F800\nG1 X30\nG0 Z5\nM17\n";
-    let out = every_gate("blum-tc50", &[("p.mpf", STATIONS), ("PART.SPF", part)]);
+    let out =
+        common::every_gate_transformed("blum-tc50", &[("p.mpf", STATIONS), ("PART.SPF", part)]);
     let gate = common::gate_before(&out, "T=\"DR_D10\"");
     assert!(common::gate_measures(&gate), "{}", gate.join("\n"));
     let back = gate.iter().rev().find(|l| l.contains(" G90")).unwrap();
@@ -146,7 +133,7 @@ G0 Z50 M9
 M30
 ";
     for profile in ["blum-tc50", "tool-setter"] {
-        let out = every_gate(profile, &[("p.mpf", prog)]);
+        let out = common::every_gate_transformed(profile, &[("p.mpf", prog)]);
         let inserted = out.lines().filter(|l| l.ends_with(";DL"));
         assert!(
             !inserted.clone().any(|l| l.contains("F1400")),
@@ -173,7 +160,7 @@ G1 Z-5
 G0 Z200
 M30
 ";
-    let out = every_gate("blum-tc50", &[("p.mpf", prog)]);
+    let out = common::every_gate_transformed("blum-tc50", &[("p.mpf", prog)]);
     let inserted: Vec<&str> = out.lines().filter(|l| l.ends_with(";DL")).collect();
     assert!(
         !inserted.iter().any(|l| l.contains("G91")),
@@ -219,7 +206,7 @@ G0 Z100 M9
 M30
 ";
     for profile in ["blum-tc50", "siemens-cycle978"] {
-        let out = every_gate(profile, &[("p.mpf", prog)]);
+        let out = common::every_gate_transformed(profile, &[("p.mpf", prog)]);
         let zero = out.find("stage 4: reference").expect("a zero");
         assert!(zero < out.find("MCALL CYCLE81").unwrap(), "{out}");
     }
@@ -257,7 +244,7 @@ G1 X207 F1500
 G0 Z100 M9
 M30
 ";
-    let out = every_gate("blum-tc50", &[("p.mpf", prog)]);
+    let out = common::every_gate_transformed("blum-tc50", &[("p.mpf", prog)]);
     let gate = common::gate_before(&out, "T=\"EM_D12\" M6");
     assert!(common::gate_measures(&gate), "{}", gate.join("\n"));
     assert!(!gate.iter().any(|l| l.contains("F1800")), "{gate:#?}");

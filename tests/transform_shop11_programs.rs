@@ -4,18 +4,12 @@
 
 mod common;
 
-/// The builtin `name` measuring at every gate that can, as a profile file's text.
-fn measuring(name: &str) -> String {
-    let o = common::run(&["profiles", name]);
-    common::stdout(&o) + "[log]\nmeasure_every_gate = true\n"
-}
-
 /// `fixtures/shop11/NAME` (its subprograms from `fixtures/shop11/subs`) transformed with the builtin
 /// `profile` measuring at every gate: the run and the output, if written.
 fn shop11(name: &str, profile: &str) -> (std::process::Output, Option<String>) {
     let dir = tempfile::tempdir().unwrap();
     let every = dir.path().join("e.toml");
-    std::fs::write(&every, measuring(profile)).unwrap();
+    std::fs::write(&every, common::measuring_builtin(profile)).unwrap();
     let out = dir.path().join("out.mpf");
     let (program, subs, model) = (
         common::fixture(&format!("shop11/{name}")),
@@ -36,6 +30,14 @@ fn shop11(name: &str, profile: &str) -> (std::process::Output, Option<String>) {
     ]);
     let text = std::fs::read_to_string(&out).ok();
     (o, text)
+}
+
+/// `fixtures/shop11/NAME` with `profile` is refused, saying `why`.
+fn refused_saying(name: &str, profile: &str, why: &str) {
+    let (o, out) = shop11(name, profile);
+    let err = common::stderr(&o);
+    assert!(out.is_none(), "{err}");
+    assert!(err.contains(why), "{err}");
 }
 
 #[test]
@@ -71,12 +73,10 @@ fn a_tool_change_subprogram_that_takes_the_tool_as_argument_is_no_probe_swap() {
     // selects T0: the spindle emptied, and the probe cycle ran with no probe. Refused for a spindle probe
     // (until the profile declares its own change); the audit now also checks the probe is in the spindle
     // when its cycle runs.
-    let (o, out) = shop11("14_tc_proc_param_toolchange_g64_left.mpf", "blum-tc50");
-    let err = common::stderr(&o);
-    assert!(out.is_none(), "{err}");
-    assert!(
-        err.contains("changes tools with a subprogram that takes the tool as its argument"),
-        "{err}"
+    refused_saying(
+        "14_tc_proc_param_toolchange_g64_left.mpf",
+        "blum-tc50",
+        "changes tools with a subprogram that takes the tool as its argument",
     );
 }
 
@@ -124,14 +124,10 @@ fn the_zero_goes_before_a_part_subprogram_right_after_the_work_offset() {
 fn a_tool_setter_measures_no_zero_before_a_subprogram_that_loads_the_tool() {
     // 06: each operation's subprogram loads its own tool; the setter's zero before the first call measured
     // the tool left in the spindle from before.
-    let (o, out) = shop11("06_op_subs_load_their_own_tools.mpf", "tool-setter");
-    let err = common::stderr(&o);
-    assert!(out.is_none(), "{err}");
-    assert!(
-        err.contains(
-            "loads the tool that cuts: a tool setter's zero here would measure another tool"
-        ),
-        "{err}"
+    refused_saying(
+        "06_op_subs_load_their_own_tools.mpf",
+        "tool-setter",
+        "loads the tool that cuts: a tool setter's zero here would measure another tool",
     );
 }
 

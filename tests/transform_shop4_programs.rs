@@ -6,12 +6,6 @@
 
 mod common;
 
-/// The builtin `name` measuring at every gate that can (the branch a pause takes on the machine).
-fn measuring(name: &str) -> String {
-    let o = common::run(&["profiles", name]);
-    common::stdout(&o) + "[log]\nmeasure_every_gate = true\n"
-}
-
 /// The inserted lines between the original lines starting with `from` and `to`.
 fn inserted_between<'a>(out: &'a str, from: &str, to: &str) -> Vec<&'a str> {
     let lines: Vec<&str> = out.lines().collect();
@@ -34,7 +28,10 @@ fn every_gate_between(
     ["tool-setter", "blum-tc50"]
         .into_iter()
         .map(|profile| {
-            let files = [("p.mpf", prog), ("every.toml", &measuring(profile))];
+            let files = [
+                ("p.mpf", prog),
+                ("every.toml", &common::measuring_builtin(profile)),
+            ];
             let out = common::transformed_in(&files, "p.mpf", "every.toml");
             let gate = inserted_between(&out, from, to)
                 .into_iter()

@@ -5,21 +5,6 @@
 
 mod common;
 
-/// The builtin `name` measuring at every gate that can (the branch a pause takes on the machine), with
-/// `more` TOML appended.
-fn measuring(name: &str, more: &str) -> String {
-    let o = common::run(&["profiles", name]);
-    common::stdout(&o) + "[log]\nmeasure_every_gate = true\n" + more
-}
-
-/// `p.mpf` (among `files`) transformed with the builtin `profile` measuring at every gate that can.
-fn every_gate(profile: &str, files: &[(&str, &str)]) -> String {
-    let every = measuring(profile, "");
-    let mut all = files.to_vec();
-    all.push(("e.toml", &every));
-    common::transformed_in(&all, "p.mpf", "e.toml")
-}
-
 /// This machine's through-spindle coolant: M50 on, M51 off; M9 leaves it on.
 const TSC: &str = "[coolant]\ncodes = [[50, 51]]\nm9_ends = false\n";
 
@@ -74,7 +59,7 @@ M30
 fn a_gate_switches_through_spindle_coolant_off_before_the_probe_and_gives_it_back() {
     // fixtures/shop5/17: M50 (through-spindle coolant, 40 bar) was not followed. The gate loaded the
     // probe with the coolant running through the spindle, and the end mill came back without it.
-    let profile = measuring("blum-tc50", TSC);
+    let profile = common::measuring_builtin("blum-tc50") + TSC;
     let out = common::transformed_in(
         &[("p.mpf", TSC_PART), ("tsc.toml", &profile)],
         "p.mpf",
@@ -92,7 +77,7 @@ fn a_gate_switches_through_spindle_coolant_off_before_the_probe_and_gives_it_bac
 
 #[test]
 fn a_tool_setter_gate_switches_through_spindle_coolant_off_before_it_travels_to_the_setter() {
-    let profile = measuring("tool-setter", TSC);
+    let profile = common::measuring_builtin("tool-setter") + TSC;
     let out = common::transformed_in(
         &[("p.mpf", TSC_PART), ("tsc.toml", &profile)],
         "p.mpf",
@@ -108,7 +93,7 @@ fn no_probe_swap_right_before_the_programs_tool_change_while_through_spindle_coo
     // Before the program's own M6 a gate gives back only the preselection and the coolant, and the probe
     // goes out with that change: through-spindle coolant given back there runs through the probe.
     let prog = TSC_PART.replace("M51\nT=\"DR_D8\" M6", "T=\"DR_D8\" M6\nM51");
-    let profile = measuring("blum-tc50", TSC);
+    let profile = common::measuring_builtin("blum-tc50") + TSC;
     let out = common::transformed_in(
         &[("p.mpf", &prog), ("tsc.toml", &profile)],
         "p.mpf",
@@ -132,7 +117,7 @@ fn no_probe_swap_right_before_the_programs_tool_change_while_through_spindle_coo
 #[test]
 fn the_audit_follows_the_machine_coolant_codes() {
     // The same gate with the coolant's return taken out: the audit reports it where the program resumes.
-    let profile = measuring("blum-tc50", TSC);
+    let profile = common::measuring_builtin("blum-tc50") + TSC;
     let out = common::transformed_in(
         &[("p.mpf", TSC_PART), ("tsc.toml", &profile)],
         "p.mpf",
@@ -208,7 +193,7 @@ M5
 M30
 ";
     for profile in ["tool-setter", "blum-tc50"] {
-        let out = every_gate(profile, &[("p.mpf", prog)]);
+        let out = common::every_gate_transformed(profile, &[("p.mpf", prog)]);
         let after = between(&out, "REPEATB", "M5");
         assert!(
             !after.iter().any(|l| l.contains("G90 F800")),
@@ -300,7 +285,7 @@ fn no_gate_after_a_subprogram_gives_back_the_motion_and_feed_from_before_it() {
     for (first, call, sub, (motion, feed)) in cases {
         let prog = after_call(first, call);
         for profile in ["tool-setter", "blum-tc50", "lathe-setter"] {
-            let out = every_gate(profile, &[("p.mpf", &prog), sub]);
+            let out = common::every_gate_transformed(profile, &[("p.mpf", &prog), sub]);
             let lines: Vec<&str> = out.lines().collect();
             let from = at(&lines, call);
             let down = from + at(&lines[from..], "Z-2");
@@ -376,7 +361,10 @@ M5
 M30
 ";
     for profile in ["tool-setter", "blum-tc50"] {
-        let out = every_gate(profile, &[("p.mpf", prog), ("POCKET_A.SPF", LEAVES_G1)]);
+        let out = common::every_gate_transformed(
+            profile,
+            &[("p.mpf", prog), ("POCKET_A.SPF", LEAVES_G1)],
+        );
         let body = between(&out, "FOR R1", "POCKET_A");
         let (g, f) = motion_and_feed(&body);
         assert!(g.is_none() && f.is_none(), "{profile}: {body:#?}");

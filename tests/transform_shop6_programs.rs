@@ -4,15 +4,12 @@
 
 mod common;
 
-/// The builtin `name` measuring at every gate that can (the branch a pause takes on the machine).
-fn measuring(name: &str) -> String {
-    let o = common::run(&["profiles", name]);
-    common::stdout(&o) + "[log]\nmeasure_every_gate = true\n"
-}
-
 /// `prog` transformed with the builtin `profile` measuring at every gate: the output.
 fn every_gate(prog: &str, profile: &str) -> String {
-    let files = [("p.mpf", prog), ("every.toml", &measuring(profile))];
+    let files = [
+        ("p.mpf", prog),
+        ("every.toml", &common::measuring_builtin(profile)),
+    ];
     common::transformed_in(&files, "p.mpf", "every.toml")
 }
 

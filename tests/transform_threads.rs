@@ -5,16 +5,13 @@
 
 mod common;
 
-/// The builtin `name` measuring at every gate that can (the branch a pause takes on the machine).
-fn measuring(name: &str) -> String {
-    let o = common::run(&["profiles", name]);
-    common::stdout(&o) + "[log]\nmeasure_every_gate = true\n"
-}
-
 /// `prog` transformed with the builtin `profile`, as planned or measuring at every gate: the output.
 fn transformed(prog: &str, profile: &str, every: bool) -> String {
     if every {
-        let files = [("p.mpf", prog), ("every.toml", &measuring(profile))];
+        let files = [
+            ("p.mpf", prog),
+            ("every.toml", &common::measuring_builtin(profile)),
+        ];
         common::transformed_in(&files, "p.mpf", "every.toml")
     } else {
         common::transformed_in(&[("p.mpf", prog)], "p.mpf", profile)
@@ -271,7 +268,10 @@ fn threads_and_taps_are_audited_to_the_end() {
         (DRILL_THEN_TAP, "blum-tc50"),
         (LATHE_THREAD, "lathe-setter"),
     ] {
-        let files = [("p.mpf", prog), ("every.toml", &measuring(profile))];
+        let files = [
+            ("p.mpf", prog),
+            ("every.toml", &common::measuring_builtin(profile)),
+        ];
         let (o, _dir) = common::transform_in(&files, "p.mpf", "every.toml");
         let err = common::stderr(&o);
         assert!(o.status.success(), "{profile}: {err}");

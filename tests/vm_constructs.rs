@@ -22,10 +22,15 @@ fn program(construct: &str) -> String {
 
 /// `original` with driftloop's header and the `planted` lines (marked `;DL`) after line 9.
 fn planted(original: &str, planted: &[&str]) -> String {
+    planted_after(original, 9, planted)
+}
+
+/// `original` with driftloop's header and the `planted` lines (marked `;DL`) after line `line`.
+fn planted_after(original: &str, line: usize, planted: &[&str]) -> String {
     let mut lines: Vec<String> = vec!["; driftloop-omm ;DL".into()];
-    for (k, line) in original.lines().enumerate() {
-        lines.push(line.to_string());
-        if k == 8 {
+    for (k, text) in original.lines().enumerate() {
+        lines.push(text.to_string());
+        if k + 1 == line {
             lines.extend(planted.iter().map(|p| format!("{p} ;DL")));
         }
     }
@@ -958,26 +963,11 @@ fn a_tool_change_subprogram_after_a_gate_is_judged_at_its_return() {
         "G0 X0 Y0",
         "T=\"DRILL\"",
     ];
-    let after_line = |text: &str, line: usize, plant: &[&str]| {
-        let mut lines: Vec<String> = vec!["; driftloop-omm ;DL".into()];
-        for (k, l) in text.lines().enumerate() {
-            lines.push(l.to_string());
-            if k + 1 == line {
-                lines.extend(plant.iter().map(|p| format!("{p} ;DL")));
-            }
-        }
-        lines.join("\n") + "\n"
-    };
-    let found = audited(original, &after_line(original, 10, &gate), Some(dir.path()));
-    assert_eq!(found.stopped, None);
-    let hazards: Vec<_> = found
-        .findings
-        .iter()
-        .filter(|f| f.kind != Kind::ProbeInMachinedVolume)
-        .collect();
-    assert!(hazards.is_empty(), "{hazards:#?}");
+    let mut settings = AuditSettings::from_profile(&Profile::default_profile());
+    settings.dir = Some(dir.path().to_path_buf());
+    common::assert_audit_clean(original, &planted_after(original, 10, &gate), &settings);
     let part = original.replace("T=\"DRILL\"\nL6\n", "PART\nT=\"DRILL\"\nL6\n");
-    let found = audited(&part, &after_line(&part, 9, &["G91"]), Some(dir.path()));
+    let found = audited(&part, &planted_after(&part, 9, &["G91"]), Some(dir.path()));
     assert!(
         found
             .findings

@@ -520,11 +520,7 @@ fn turning_reads_tool(site: &Site, profile: &Profile) -> Option<&'static str> {
 /// was); or the program changes tools with a subprogram that takes the tool as its argument, which a gate
 /// would call without it (T0: the spindle emptied, the probe cycle run with none), and the profile
 /// declares no change of its own.
-fn swap_loses_preselection(
-    timeline: &Timeline,
-    site: &Site,
-    profile: &Profile,
-) -> Option<&'static str> {
+fn swap_unfit(timeline: &Timeline, site: &Site, profile: &Profile) -> Option<&'static str> {
     if profile.probe.kind != ProbeKind::SpindleProbe {
         return None;
     }
@@ -683,7 +679,7 @@ fn reference_site(
                 return Some(SETUP_CALL);
             }
             unfit_for_reference(timeline, site, profile, rule)
-                .or_else(|| swap_loses_preselection(timeline, site, profile))
+                .or_else(|| swap_unfit(timeline, site, profile))
                 .or_else(|| turning_reads_tool(site, profile))
         };
         // A place whose tool the program names comes first: one that reads the tool at run time measures
@@ -1007,7 +1003,7 @@ pub fn plan(
             site.block
         };
         let restorable = unfit_for_measuring(site, profile, rule, reference_tool.as_ref())
-            .or_else(|| swap_loses_preselection(timeline, site, profile))
+            .or_else(|| swap_unfit(timeline, site, profile))
             .or_else(|| turning_reads_tool(site, profile))
             .is_none();
         let (kind, can_measure) = match site.kind {

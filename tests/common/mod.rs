@@ -242,6 +242,22 @@ pub fn measuring_default_profile() -> String {
     )
 }
 
+/// The builtin profile `name` (`driftloop profiles NAME`) measuring at every gate that can (the branch a
+/// pause takes on the machine), as a profile file's text.
+pub fn measuring_builtin(name: &str) -> String {
+    let o = run(&["profiles", name]);
+    stdout(&o) + "[log]\nmeasure_every_gate = true\n"
+}
+
+/// `p.mpf` (among `files`) transformed with the builtin `profile` measuring at every gate that can: the
+/// output, which the command's own audits passed.
+pub fn every_gate_transformed(profile: &str, files: &[(&str, &str)]) -> String {
+    let every = measuring_builtin(profile);
+    let mut all = files.to_vec();
+    all.push(("every.toml", &every));
+    transformed_in(&all, "p.mpf", "every.toml")
+}
+
 /// The builtin profiles whose gates move the machine (all but the gauge's).
 pub const MOVING_PROFILES: [&str; 4] = [
     "blum-tc50",

@@ -176,6 +176,28 @@ impl Modal {
         }
     }
 
+    /// Whether field `f`, one of [`field::SET_ONLY`], is unset: the program set none, so a gate writes none.
+    pub fn is_unset(&self, f: usize) -> bool {
+        match f {
+            field::FEED => self.feed.is_none(),
+            field::PLANE => self.plane.is_none(),
+            field::FEED_MODE => self.feed_mode.is_none(),
+            field::PATH_MODE => self.path_mode.is_none(),
+            _ => false,
+        }
+    }
+
+    /// Leaves field `f`, one of [`field::SET_ONLY`], unset.
+    pub fn unset(&mut self, f: usize) {
+        match f {
+            field::FEED => self.feed = None,
+            field::PLANE => self.plane = None,
+            field::FEED_MODE => self.feed_mode = None,
+            field::PATH_MODE => self.path_mode = None,
+            _ => {}
+        }
+    }
+
     /// Why a gate here cannot measure and give the state back, beyond [`Modal::unfit`]; `None` when it can.
     pub fn not_restorable(&self) -> Option<&'static str> {
         if let Some(why) = self.unfit() {
@@ -260,6 +282,29 @@ pub(super) mod field {
             "the unit (G70/G71/G700/G710)",
             "a machine coolant of the profile's [coolant]",
         ][f]
+    }
+
+    /// The fields a gate writes back only where the program set them (feed, plane, feed type, path mode):
+    /// where it set none, a gate writes none and the control's value stays (see [`Modal::is_unset`]).
+    pub const SET_ONLY: [usize; 4] = [FEED, PLANE, FEED_MODE, PATH_MODE];
+
+    /// The fields `fields`, as a set.
+    pub fn only(fields: &[usize]) -> [bool; COUNT] {
+        let mut set = [false; COUNT];
+        for &f in fields {
+            set[f] = true;
+        }
+        set
+    }
+
+    /// Of `fields`, those not set at a block past `since` (`last`: the block, one past, where each was last
+    /// set).
+    pub fn not_set_since(
+        fields: &[bool; COUNT],
+        since: usize,
+        last: &[usize; COUNT],
+    ) -> [bool; COUNT] {
+        std::array::from_fn(|f| fields[f] && last[f] <= since)
     }
 
     /// The motion and feed fields, as a plain move or a run of them sets them.

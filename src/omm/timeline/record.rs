@@ -194,12 +194,9 @@ pub struct CalleeEffect {
     pub end_unsure: [bool; field::COUNT],
     /// `PROC … SAVE`: its G codes come back at its end (Siemens, K2 "Subprograms with SAVE attribute").
     pub saves: bool,
-    /// Where it leaves the tool, for what its caller's next places are: the tool clear of the part (a
-    /// rapid rose in Z since its last cut), its last move a rapid up the tool axis, its last move a feed
-    /// along a contour. Taken by the caller where the subprogram moves (`moves`).
-    pub end_clear: bool,
-    pub end_retracted: bool,
-    pub end_contour: bool,
+    /// Where it leaves the tool, for what its caller's next places are. Taken by the caller where the
+    /// subprogram moves (`moves`).
+    pub end_standing: Standing,
     /// It moves an axis.
     pub moves: bool,
     /// It changes the tool on every run (M6 outside any IF or loop, no jump): not a change it may skip
@@ -256,6 +253,26 @@ impl CalleeEffect {
         }
         unsure
     }
+}
+
+/// Where a unit leaves the tool, for the places after its call.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Standing {
+    /// Clear of the part: a rapid rose in Z since its last cut (or nothing was cut).
+    pub clear: bool,
+    /// Its last move a rapid up the tool axis.
+    pub retracted: bool,
+    /// Its last move a feed along a contour under continuous path.
+    pub contour: bool,
+}
+
+impl Standing {
+    /// Where a unit that may return from several places leaves the tool: in the part, on a contour.
+    pub const UNKNOWN: Standing = Standing {
+        clear: false,
+        retracted: false,
+        contour: true,
+    };
 }
 
 /// The fields `PROC … SAVE` brings back at the subprogram's end (its modal G codes).

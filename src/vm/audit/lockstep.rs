@@ -372,10 +372,11 @@ impl Runner<'_> {
             }
             ran = true;
             let at = At::of(&self.lines, &unit, block);
-            if t.calls_probe(&unit, block) {
+            let probe_call = t.calls_probe(&unit, block);
+            if probe_call {
                 self.probe_in_spindle(&at, t);
             }
-            if !forked && t.calls_probe(&unit, block) {
+            if !forked && probe_call {
                 forked = true;
                 // A gate in a loop runs its abort paths from the same code each time: following them the
                 // first few times checks them, following them on every run costs a fork of the whole
@@ -680,25 +681,19 @@ impl Runner<'_> {
         (t_step, o_step): (&Done, &Done),
         before: Option<[Vec<Difference>; 3]>,
     ) {
-        let after = before.as_ref().map(|_| self.differences(t, o));
-        let Some(call) = self.over_call.as_mut() else {
+        let Some(mut call) = self.over_call.take() else {
             return;
         };
         call.tool_changed |= t_step.tool_change && o_step.tool_change;
-        if let (Some(before), Some(after)) = (before, after) {
-            let resume = call.resume.clone();
-            let found = self.resume_findings(&resume, before, &after, Some(t_step));
-            if let Some(call) = self.over_call.as_mut() {
-                call.first_inner = Some(found);
-            }
+        if let Some(before) = before {
+            let after = self.differences(t, o);
+            call.first_inner =
+                Some(self.resume_findings(&call.resume, before, &after, Some(t_step)));
         }
-        if self
-            .over_call
-            .as_ref()
-            .is_some_and(|c| t.depth() <= c.depth)
-        {
-            let call = self.over_call.take().expect("checked");
+        if t.depth() <= call.depth {
             self.returned(call, t, o);
+        } else {
+            self.over_call = Some(call);
         }
     }
 

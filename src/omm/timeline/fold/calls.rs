@@ -42,29 +42,26 @@ impl Builder<'_> {
         match self.callees.timeline(name) {
             Some((sub, elsewhere)) => {
                 let loads = sub.as_callee.is_tool_change(sub.first_cut.is_some());
-                if loads {
-                    let callee = &sub.as_callee;
-                    for (mine, its) in self.touched.iter_mut().zip(callee.left()) {
-                        *mine |= its;
-                    }
-                    if callee.saves && callee.touched[field::FEED] {
-                        let mut feed = [false; field::COUNT];
-                        feed[field::FEED] = true;
-                        self.unsure_after(i, name, Some(feed));
-                    }
-                } else if sub.as_callee.leaves_unknown {
+                let callee = &sub.as_callee;
+                if !loads && callee.leaves_unknown {
                     self.state_unknown_after(name);
                     self.unsure_after(i, name, None);
                 } else {
-                    // Read to its end with no call it cannot read: each field it sets is followed, sure
-                    // (its end's value, taken after the block) or unsure until the program sets it again,
-                    // for this unit's callers too.
-                    let callee = &sub.as_callee;
+                    // Read to its end with no call it cannot read: each field it sets is followed, for this
+                    // unit's callers too.
                     for (mine, its) in self.touched.iter_mut().zip(callee.left()) {
                         *mine |= its;
                     }
-                    self.unsure_after(i, name, Some(callee.unsure_after()));
-                    self.end_to_take = Some(sub.clone());
+                    if loads {
+                        if callee.saves && callee.touched[field::FEED] {
+                            self.unsure_after(i, name, Some(field::only(&[field::FEED])));
+                        }
+                    } else {
+                        // Sure (its end's value, taken after the block) or unsure until the program sets
+                        // it again.
+                        self.unsure_after(i, name, Some(callee.unsure_after()));
+                        self.end_to_take = Some(sub.clone());
+                    }
                 }
                 // A subprogram that selects a work offset or changes frames before the program has cut sets up
                 // the coordinates the zero measures in: the zero goes after it, and where it cuts too there is
@@ -176,11 +173,9 @@ impl Builder<'_> {
         // What a gate writes back only when the program had set it: unset, the gate writes nothing and
         // the call's value stays (a gate switches coolant off only where the timeline has it on, so a
         // coolant the call left on stays on through the measurement: unsure whatever the timeline has).
-        let st = &self.state;
-        unsure[field::FEED] &= st.feed.is_some();
-        unsure[field::PLANE] &= st.plane.is_some();
-        unsure[field::FEED_MODE] &= st.feed_mode.is_some();
-        unsure[field::PATH_MODE] &= st.path_mode.is_some();
+        for f in field::SET_ONLY {
+            unsure[f] &= !self.state.is_unset(f);
+        }
         if !unsure.contains(&true) {
             return;
         }
@@ -217,10 +212,7 @@ impl Builder<'_> {
         let mut unsure_at: BTreeMap<usize, (usize, [bool; field::COUNT])> = BTreeMap::new();
         for (k, (call, _, unsure)) in calls.iter().enumerate() {
             let open = |written: &[usize; field::COUNT], since: usize| {
-                let mut open = [false; field::COUNT];
-                for f in 0..field::COUNT {
-                    open[f] = unsure[f] && written[f] <= since;
-                }
+                let open = field::not_set_since(unsure, since, written);
                 open.contains(&true).then_some(open)
             };
             let after = self.site_changes.partition_point(|(b, ..)| *b <= *call);
@@ -339,14 +331,10 @@ impl Builder<'_> {
             let mut skipped = entry.clone();
             skipped.tool = self.state.tool.clone();
             self.merge(i, i + 1, &[skipped]);
-            let mut tool = [false; field::COUNT];
-            tool[field::TOOL] = true;
-            self.mark_written(i + 1, tool);
+            self.mark_written(i + 1, field::only(&[field::TOOL]));
         }
         if t[field::FRAMES] {
-            let mut frames = [false; field::COUNT];
-            frames[field::FRAMES] = true;
-            self.merges.push((i, i + 1, frames));
+            self.merges.push((i, i + 1, field::only(&[field::FRAMES])));
         }
     }
 
@@ -363,9 +351,10 @@ impl Builder<'_> {
         // after its last cut (or it cut nothing and the tool was clear before), the height the fold holds
         // no longer the tool's.
         if sub.moves {
-            self.clear = sub.end_clear && (cuts || self.clear);
-            self.last_was_z_retract = sub.end_retracted;
-            self.contour = sub.end_contour;
+            let end = sub.end_standing;
+            self.clear = end.clear && (cuts || self.clear);
+            self.last_was_z_retract = end.retracted;
+            self.contour = end.contour;
             self.position_doubt = true;
         }
     }

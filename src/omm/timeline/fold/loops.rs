@@ -251,8 +251,7 @@ impl Builder<'_> {
         for (t, set_from, differ) in std::mem::take(&mut self.merges) {
             let from = self.site_changes.partition_point(|(b, ..)| *b <= t);
             for (b, changed, _) in &self.site_changes[from..] {
-                let set_since = |f: usize| changed[f] > set_from;
-                if !(0..field::COUNT).any(|f| differ[f] && !set_since(f)) {
+                if !field::not_set_since(&differ, set_from, changed).contains(&true) {
                     // Every differing field is set again: so it stays at every later site.
                     break;
                 }

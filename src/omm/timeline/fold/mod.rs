@@ -13,7 +13,7 @@ use crate::syntax::BlockKind;
 use super::modal::{Modal, POSITIONED, coolant_after, field, frame, is_thread, unknown};
 use super::moves::{Run, RunRef};
 use super::read::{Chunk, Move, Scan, frame_op, head};
-use super::record::{Site, SiteKind, Timeline};
+use super::record::{Site, SiteKind, Standing, Timeline};
 use super::timing::{TICKS_PER_MIN, move_length, ticks};
 
 mod calls;
@@ -79,8 +79,7 @@ impl BeforeCall {
 struct Exit {
     state: Modal,
     unsure: [bool; field::COUNT],
-    /// Clear of the part, just retracted, on a contour.
-    tool: (bool, bool, bool),
+    standing: Standing,
 }
 
 pub(super) struct Builder<'p> {
@@ -586,30 +585,11 @@ impl<'p> Builder<'p> {
         // A feed, plane, feed type or path mode one way leaves unset (the program had set none there) is
         // given back by no gate: each way keeps its own value through the gate, so it is no doubt (a WHILE
         // that may not run, after `G1 … F1800` in its body and no F before it).
-        let unset = |f: usize| {
-            differ[f]
-                && states.iter().any(|m| match f {
-                    field::FEED => m.feed.is_none(),
-                    field::PLANE => m.plane.is_none(),
-                    field::FEED_MODE => m.feed_mode.is_none(),
-                    _ => m.path_mode.is_none(),
-                })
-        };
-        let unset = [
-            field::FEED,
-            field::PLANE,
-            field::FEED_MODE,
-            field::PATH_MODE,
-        ]
-        .map(|f| (f, unset(f)));
-        let s = &mut self.state;
-        for (f, unset) in unset.into_iter().filter(|(_, u)| *u) {
-            differ[f] = !unset;
-            match f {
-                field::FEED => s.feed = None,
-                field::PLANE => s.plane = None,
-                field::FEED_MODE => s.feed_mode = None,
-                _ => s.path_mode = None,
+        let unset = field::SET_ONLY.map(|f| differ[f] && states.iter().any(|m| m.is_unset(f)));
+        for (f, unset) in field::SET_ONLY.into_iter().zip(unset) {
+            if unset {
+                differ[f] = false;
+                self.state.unset(f);
             }
         }
         // A tool one branch loads is not known after the IF (`IF $P_TOOLNO<>12` / `T12 M6` / `ENDIF`): a
@@ -1238,16 +1218,25 @@ impl<'p> Builder<'p> {
     /// the tool stands (clear, just retracted, on a contour), as unsure as the state where the unit may
     /// return from elsewhere too.
     fn exit_here(&self) -> Exit {
-        let several = self.exits_early || !self.jumps.is_empty();
         Exit {
             state: self.state.clone(),
             unsure: self.unsure_here(),
-            tool: if several {
-                (false, false, true)
+            standing: if self.returns_from_several_places() {
+                Standing::UNKNOWN
             } else {
-                (self.clear, self.last_was_z_retract, self.contour)
+                Standing {
+                    clear: self.clear,
+                    retracted: self.last_was_z_retract,
+                    contour: self.contour,
+                }
             },
         }
+    }
+
+    /// The unit jumps, or returns from inside an IF or loop: what it leaves a caller is one of several
+    /// states.
+    fn returns_from_several_places(&self) -> bool {
+        self.exits_early || !self.jumps.is_empty()
     }
 
     /// The fields whose value here the fold does not know for sure: set differently on the ways here (an
@@ -1255,18 +1244,21 @@ impl<'p> Builder<'p> {
     /// them where the unit jumps or returns from inside an IF or loop (its end state is then one of
     /// several).
     fn unsure_here(&self) -> [bool; field::COUNT] {
-        if self.exits_early || !self.jumps.is_empty() {
+        if self.returns_from_several_places() {
             return [true; field::COUNT];
         }
+        let merges = self
+            .merges
+            .iter()
+            .map(|(_, set_from, differ)| field::not_set_since(differ, *set_from, &self.changed));
+        let calls = self
+            .call_unsure
+            .iter()
+            .map(|(call, _, unsure)| field::not_set_since(unsure, call + 1, &self.written));
         let mut open = [false; field::COUNT];
-        for (_, set_from, differ) in &self.merges {
-            for f in 0..field::COUNT {
-                open[f] |= differ[f] && self.changed[f] <= *set_from;
-            }
-        }
-        for (call, _, unsure) in &self.call_unsure {
-            for f in 0..field::COUNT {
-                open[f] |= unsure[f] && self.written[f] <= call + 1;
+        for fields in merges.chain(calls) {
+            for (o, f) in open.iter_mut().zip(fields) {
+                *o |= f;
             }
         }
         open
@@ -1283,12 +1275,13 @@ impl<'p> Builder<'p> {
         self.t.as_callee.touched = self.touched;
         self.t.as_callee.loads_tool |= self.m6_seen;
         self.t.as_callee.leaves_unknown |= self.after_call;
+        let always = self.m6_always && !self.returns_from_several_places();
         let callee = &mut self.t.as_callee;
         callee.end = exit.state;
         callee.end_unsure = exit.unsure;
-        (callee.end_clear, callee.end_retracted, callee.end_contour) = exit.tool;
+        callee.end_standing = exit.standing;
         callee.moves = self.t.moves;
-        callee.changes_tool_always = self.m6_always && self.jumps.is_empty() && !self.exits_early;
+        callee.changes_tool_always = always;
         self.place_passes_and_sites(total);
         (self.t, self.called)
     }
