@@ -177,7 +177,7 @@ impl Modal {
     }
 
     /// Whether field `f`, one of [`field::SET_ONLY`], is unset: the program set none, so a gate writes none.
-    pub fn is_unset(&self, f: usize) -> bool {
+    pub(super) fn is_unset(&self, f: usize) -> bool {
         match f {
             field::FEED => self.feed.is_none(),
             field::PLANE => self.plane.is_none(),
@@ -188,7 +188,7 @@ impl Modal {
     }
 
     /// Leaves field `f`, one of [`field::SET_ONLY`], unset.
-    pub fn unset(&mut self, f: usize) {
+    pub(super) fn unset(&mut self, f: usize) {
         match f {
             field::FEED => self.feed = None,
             field::PLANE => self.plane = None,
