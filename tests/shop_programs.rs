@@ -56,9 +56,9 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
             [
                 ("blum-tc50", 18),
                 ("siemens-cycle978", 18),
-                ("tool-setter", 24),
+                ("tool-setter", 25),
                 ("grinder-gauge", 25),
-                ("lathe-setter", 24),
+                ("lathe-setter", 25),
             ],
         ),
         (
@@ -117,9 +117,9 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
         [
             ("blum-tc50", 15),
             ("siemens-cycle978", 15),
-            ("tool-setter", 17),
+            ("tool-setter", 19),
             ("grinder-gauge", 20),
-            ("lathe-setter", 16),
+            ("lathe-setter", 18),
         ],
     );
     let sets = sets.into_iter().chain([shop11]).chain([(

@@ -176,3 +176,101 @@ fn a_tool_change_the_macro_may_skip_gives_the_spindle_back() {
         assert!(!err.contains("audit incomplete"), "{profile}: {err}");
     }
 }
+
+#[test]
+fn a_tool_change_subprogram_called_with_a_literal_loads_that_tool() {
+    // F7: `TC(4)` of `PROC TC(INT _NR)` … `T=_NR`, and `WZW("SF_D16_STUFE", 1)` of `PROC WZW(STRING[32]
+    // _WZ, INT _SCHN)` … `T=_WZ` … `D=_SCHN`: the tool and edge are the call's literals, bound to the
+    // parameters. The setters refused both ("the tool is set by an expression", "the D number is set by
+    // an expression"); they measure the tool the call loads now.
+    for (name, tool) in [
+        ("14_tc_proc_param_toolchange_g64_left.mpf", "T4"),
+        (
+            "15_wzw_string_toolchange_sub_leaves_atrans_d2_m8.mpf",
+            "SF_D16_STUFE",
+        ),
+    ] {
+        for profile in ["tool-setter", "lathe-setter"] {
+            let (o, out) = shop11(name, profile);
+            let out = out.unwrap_or_else(|| panic!("{name}, {profile}: {}", common::stderr(&o)));
+            let zero = format!("(reference, pass 1 {tool})");
+            assert!(
+                out.contains(&zero),
+                "{name}, {profile}: no `{zero}` in\n{out}"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_string_parameter_with_its_length_runs_in_the_dry_run() {
+    // F8: `PROC WZW(STRING[32] _WZ, …)`: `[32]` is the string's length, not an array; the dry run stopped
+    // at the first call ("array parameters"), so the setter's audit compared nothing after it.
+    let (o, out) = shop11(
+        "15_wzw_string_toolchange_sub_leaves_atrans_d2_m8.mpf",
+        "tool-setter",
+    );
+    let err = common::stderr(&o);
+    assert!(out.is_some(), "{err}");
+    assert!(!err.contains("audit incomplete"), "{err}");
+    assert!(!err.contains("array parameters"), "{err}");
+}
+
+/// A setter's transform of `p.mpf` calling `TC.SPF` (`tc`) as `call`: refused, saying `why`.
+fn tc_refused_saying(tc: &str, call: &str, why: &str) {
+    let program = format!(
+        "G17 G90 G40 G94 G71\nG54\n{call}\nD1\nS3000 M3\nG0 X10 Y10 Z50\nG1 Z-1 F300\nG1 X40\nG0 Z50\nM30\n"
+    );
+    let every = common::measuring_builtin("tool-setter");
+    let files = [
+        ("p.mpf", program.as_str()),
+        ("TC.SPF", tc),
+        ("e.toml", &every),
+    ];
+    let (o, dir) = common::transform_in(&files, "p.mpf", "e.toml");
+    let err = common::stderr(&o);
+    assert!(
+        !dir.path().join("out.mpf").exists(),
+        "{call}: written\n{err}"
+    );
+    assert!(err.contains(why), "{call}: {err}");
+}
+
+#[test]
+fn a_tool_the_call_does_not_pass_as_a_literal_stays_unknown() {
+    // The binding takes the call's literal only where the subprogram selects by the parameter as passed.
+    let plain = "PROC TC(INT _NR)\nT=_NR\nM6\nM17\n";
+    tc_refused_saying(plain, "TC(R5)", "the tool is set by an expression");
+    // The subprogram changes the parameter before it selects: not the call's number.
+    let shifted = "PROC TC(INT _NR)\n_NR=_NR+100\nT=_NR\nM6\nM17\n";
+    tc_refused_saying(shifted, "TC(4)", "the tool is set by an expression");
+    // Two selections by different parameters.
+    let two = "PROC TC(INT _A, INT _B)\nT=_A\nIF _B>0\nT=_B\nENDIF\nM6\nM17\n";
+    tc_refused_saying(two, "TC(4, 5)", "the tool is set by an expression");
+}
+
+#[test]
+fn a_probe_with_a_t_number_is_written_as_a_number_without_tool_management() {
+    // A machine that selects tools by plain T numbers (`tool_by_number = "{t}"`) and changes them with
+    // `PROC TC(INT _NR)`: the probe swap wrote `TC("99")`, which the control refuses (a string for an INT
+    // parameter); the dry run stopped there and the output was written with its audit incomplete.
+    let profile = common::measuring_builtin("blum-tc50")
+        .replace("tool = \"BLUM_TC50\"", "tool = \"99\"")
+        .replace(
+            "tool_by_number = \"$TC_TP2[{t}]\"",
+            "tool_by_number = \"{t}\"",
+        )
+        .replace("[probe]\n", "[probe]\nchange = \"TC({tool})\"\n")
+        + "\n[calls.TC]\nloads = \"arg 1\"\n";
+    let program = "G17 G90 G40 G94 G71\nG54\nTC(4)\nD1\nS3000 M3\nG0 X60 Y60 Z50\nG1 Z-1 F300\n\
+                   G1 X90\nG0 Z50\nM30\n";
+    let tc = "PROC TC(INT _NR)\nM5\nT=_NR\nM6\nM17\n";
+    let files = [("p.mpf", program), ("TC.SPF", tc), ("e.toml", &profile)];
+    let (o, dir) = common::transform_in(&files, "p.mpf", "e.toml");
+    let err = common::stderr(&o);
+    let out = std::fs::read_to_string(dir.path().join("out.mpf"))
+        .unwrap_or_else(|_| panic!("not written: {err}"));
+    assert!(out.contains("TC(99) ;DL"), "{out}");
+    assert!(!out.contains("TC(\"99\")"), "{out}");
+    assert!(!err.contains("audit incomplete"), "{err}");
+}

@@ -136,6 +136,18 @@ impl Probe {
         self.cycle.split('(').next().unwrap_or(&self.cycle).trim()
     }
 
+    /// The probe as a gate writes it after `T=` or as a tool argument: a T number on a machine that
+    /// selects tools by plain numbers (`tool_by_number = "{t}"`, no tool management: `T="99"` would be
+    /// a name it has not got), else its name in quotes.
+    pub fn written_tool(&self) -> String {
+        let number = !self.tool.is_empty() && self.tool.bytes().all(|b| b.is_ascii_digit());
+        if number && !self.tool_by_number.contains("$TC_TP2") {
+            self.tool.clone()
+        } else {
+            format!("\"{}\"", self.tool)
+        }
+    }
+
     /// `T=` of the tool whose T number the R-parameter `reg` holds ([`Probe::tool_by_number`]).
     pub fn reselect(&self, reg: &str) -> String {
         self.tool_by_number.replace("{t}", reg)
@@ -807,7 +819,7 @@ impl Profile {
                 }
             ));
         }
-        let text = change.replace("{tool}", &format!("\"{}\"", probe.tool));
+        let text = change.replace("{tool}", &probe.written_tool());
         if let Some(d) = crate::syntax::line_syntax_errors(text.as_bytes()).first() {
             return Err(format!(
                 "probe.change: `{text}` is not a valid NC block: {}",

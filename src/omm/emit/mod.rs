@@ -1058,7 +1058,7 @@ impl Emitter<'_> {
             v.push("G17".into());
         }
         if p.probe.kind == ProbeKind::SpindleProbe {
-            v.extend(self.load(&format!("\"{}\"", p.probe.tool)));
+            v.extend(self.load(&p.probe.written_tool()));
             v.push(format!("D{}", p.probe.tool_offset));
             v.push(self.clear());
         }

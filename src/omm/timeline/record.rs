@@ -202,9 +202,37 @@ pub struct CalleeEffect {
     /// It changes the tool on every run (M6 outside any IF or loop, no jump): not a change it may skip
     /// where the tool is in the spindle already.
     pub changes_tool_always: bool,
-    /// It selects a tool by an expression (`T=_TNR`, the tool its caller passes): called without that
+    /// How it selects a tool by an expression (`T=_TNR`, the tool its caller passes): called without that
     /// argument it selects none (T0).
-    pub selects_by_expression: bool,
+    pub selects: ByExpression,
+    /// How it sets the cutting edge by an expression (`D=_SCHN`).
+    pub sets_d: ByExpression,
+}
+
+/// How a unit sets a field by an expression: never, always by the same one of its `PROC` parameters
+/// (untouched by the unit before), or otherwise. A call that passes a literal in that parameter's place
+/// (`TC(4)`, `WZW("MILL", 2)`) sets the field to it.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub enum ByExpression {
+    #[default]
+    Never,
+    Parameter(usize),
+    Other,
+}
+
+impl ByExpression {
+    /// After one more block sets the field by an expression: by the parameter in `place`, or another.
+    pub fn and(self, place: Option<usize>) -> Self {
+        match (self, place) {
+            (ByExpression::Never, Some(k)) => ByExpression::Parameter(k),
+            (ByExpression::Parameter(j), Some(k)) if j == k => self,
+            _ => ByExpression::Other,
+        }
+    }
+
+    pub fn ever(self) -> bool {
+        self != ByExpression::Never
+    }
 }
 
 impl CalleeEffect {

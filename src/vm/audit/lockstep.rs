@@ -408,12 +408,7 @@ impl Runner<'_> {
         let Some(probe) = &self.settings.probe_tool else {
             return;
         };
-        let loaded = match &t.motion.tool {
-            Some(Tool::Name(name)) => name.eq_ignore_ascii_case(probe.trim_matches('"')),
-            Some(Tool::Number(n)) => probe.parse::<f64>() == Ok(*n),
-            None => false,
-        };
-        if !loaded {
+        if !is_the_probe(&t.motion.tool, probe) {
             self.add(at.finding(
                 Kind::ToolState,
                 format!(
@@ -862,10 +857,8 @@ impl Runner<'_> {
             return;
         };
         if ts.tool != os.tool {
-            let probe = match (&ts.tool, &self.settings.probe_tool) {
-                (Some(Tool::Name(name)), Some(probe)) => **name == **probe,
-                _ => false,
-            };
+            let probe = (self.settings.probe_tool.as_ref())
+                .is_some_and(|probe| is_the_probe(&ts.tool, probe));
             self.add(at.finding(
                 Kind::ToolState,
                 format!(
@@ -991,4 +984,14 @@ fn describe_entry(c: &Correction) -> String {
         num(c.transformed),
         num(c.original)
     )
+}
+
+/// The tool in the spindle is the probe the profile names (by name, or by number where the machine
+/// selects tools by plain T numbers).
+fn is_the_probe(tool: &Option<Tool>, probe: &str) -> bool {
+    match tool {
+        Some(Tool::Name(name)) => name.eq_ignore_ascii_case(probe.trim_matches('"')),
+        Some(Tool::Number(n)) => probe.parse::<f64>() == Ok(*n),
+        None => false,
+    }
 }

@@ -397,13 +397,19 @@ impl Interp<'_> {
                 ty = ty.or(VarType::from_keyword(&word));
             }
             let ty = ty.ok_or("PROC parameter without a supported type")?;
-            if p.find(NodeKind::Index).is_some() {
+            let at_name = p
+                .children
+                .iter()
+                .position(|c| c.kind == NodeKind::Name)
+                .ok_or("PROC parameter without name")?;
+            // `STRING[32] _NAME` gives the string's length before the name; an index after it is an array.
+            if p.children[at_name..]
+                .iter()
+                .any(|c| c.kind == NodeKind::Index)
+            {
                 return Err("array parameters are not supported".into());
             }
-            let name = unit.upper(
-                p.find(NodeKind::Name)
-                    .ok_or("PROC parameter without name")?,
-            );
+            let name = unit.upper(&p.children[at_name]);
             let mut var = Variable::new(ty, Vec::new());
             if let Some(Some(v)) = args.get(k) {
                 var.set(&[], v.clone())?;

@@ -3,13 +3,14 @@
 //! every block that moves.
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 use super::Builder;
 use super::declared::ToolChangeCall;
 use crate::omm::declared_calls;
 use crate::omm::timeline::modal::{Modal, POSITIONED, coolant_after, field, is_thread, unknown};
 use crate::omm::timeline::read::{CallArg, Move, Scan};
-use crate::omm::timeline::record::{CalleeEffect, Timeline};
+use crate::omm::timeline::record::{ByExpression, CalleeEffect, Timeline};
 
 impl Builder<'_> {
     /// A subprogram or cycle runs at block `i`, `repeats` times, with the arguments `args`: an archive
@@ -383,6 +384,34 @@ impl Builder<'_> {
         }
     }
 
+    /// The place of the unit's `PROC` parameter `variable`, where the unit has not assigned it.
+    fn parameter(&self, variable: &Option<String>) -> Option<usize> {
+        let v = variable.as_ref()?;
+        self.params.iter().position(|p| p == v)
+    }
+
+    /// The literal a call passes in the place of the parameter a subprogram sets a field by.
+    pub(super) fn passed(by: ByExpression, args: &[CallArg]) -> Option<Arc<str>> {
+        let ByExpression::Parameter(k) = by else {
+            return None;
+        };
+        match args.get(k)? {
+            CallArg::Literal(value) => Some(value.clone()),
+            _ => None,
+        }
+    }
+
+    /// After a call of `sub` with `args`: a cutting edge its last `D=` set from a parameter is the one
+    /// the call passes.
+    pub(super) fn bind_edge(&mut self, sub: &CalleeEffect, args: &[CallArg]) {
+        let last_by_expression = sub.end.unknown & unknown::D != 0 && !sub.end_unsure[field::D];
+        let passed = Self::passed(sub.sets_d, args).and_then(|d| d.parse::<u32>().ok());
+        if let (true, Some(d)) = (last_by_expression, passed) {
+            self.state.d = Some(d);
+            self.state.unknown &= !unknown::D;
+        }
+    }
+
     /// Block `i` changed the fields in which the state differs from `before`.
     fn note_changes(&mut self, i: usize, before: &Modal) {
         for (f, differs) in field::differ(before, &self.state).into_iter().enumerate() {
@@ -428,7 +457,26 @@ impl Builder<'_> {
         }
         // A value an expression sets is set all the same (`F=R1`): a caller's value no longer holds.
         let by_expression = |bit| s.unknown & bit != 0;
-        self.t.as_callee.selects_by_expression |= by_expression(unknown::TOOL);
+        if by_expression(unknown::TOOL) {
+            let by = self.t.as_callee.selects;
+            self.t.as_callee.selects = by.and(self.parameter(&s.tool_variable));
+        }
+        if by_expression(unknown::D) {
+            let by = self.t.as_callee.sets_d;
+            self.t.as_callee.sets_d = by.and(self.parameter(&s.d_variable));
+        }
+        if !s.params.is_empty() {
+            self.params.clone_from(&s.params);
+        }
+        for (name, _) in &s.var_set {
+            for p in self
+                .params
+                .iter_mut()
+                .filter(|p| p.eq_ignore_ascii_case(name))
+            {
+                p.clear();
+            }
+        }
         t[field::FEED] |= (s.mv.f.is_some() || by_expression(unknown::FEED)) && !dwell;
         t[field::S] |=
             ((s.s.is_some() || by_expression(unknown::S)) && !no_speed) || s.lims.is_some();

@@ -193,6 +193,9 @@ pub(super) struct Builder<'p> {
     m6_always: bool,
     /// A swivel (CYCLE800 with an angle) turned its rotary axes, and no block has sent them home since.
     swivel_turned: bool,
+    /// The unit's `PROC` parameters (upper case) in their places; one the unit assigns is blanked: it no
+    /// longer holds what the caller passed.
+    params: Vec<String>,
 }
 
 impl<'p> Builder<'p> {
@@ -258,6 +261,7 @@ impl<'p> Builder<'p> {
             end_to_take: None,
             exit_block: None,
             exit: None,
+            params: Vec::new(),
             exits_early: false,
             m6_always: false,
             swivel_turned: false,
@@ -892,7 +896,7 @@ impl<'p> Builder<'p> {
                 None => false,
             };
         if let (Some(ToolChangeCall::Read(sub)), Some(name)) = (&call_loads, &s.call) {
-            if sub.as_callee.selects_by_expression {
+            if sub.as_callee.selects.ever() {
                 self.t
                     .tool_change_by_argument
                     .get_or_insert_with(|| (i + 1, name.clone()));
@@ -901,10 +905,15 @@ impl<'p> Builder<'p> {
             }
         }
         self.m6_seen |= call_loads.is_some();
-        // A declared call that takes its tool as an argument selects it as it loads it.
+        // A declared call that takes its tool as an argument selects it as it loads it, and so does a
+        // read one called with the tool it selects by its parameter.
+        let passed = match &call_loads {
+            Some(ToolChangeCall::Read(sub)) => Self::passed(sub.as_callee.selects, &s.call_args),
+            _ => None,
+        };
         let selects = match &call_loads {
             Some(ToolChangeCall::Declared(DeclaredTool::Named(tool))) => Some(tool),
-            _ => s.tool.as_ref(),
+            _ => passed.as_ref().or(s.tool.as_ref()),
         };
         if let Some(tool) = selects {
             self.state.selected = Some(tool.clone());
@@ -985,7 +994,11 @@ impl<'p> Builder<'p> {
         }
         match call_loads {
             Some(ToolChangeCall::Read(sub)) => {
-                self.after_tool_change_call(i, &sub.as_callee, &before)
+                self.after_tool_change_call(i, &sub.as_callee, &before);
+                if passed.is_some() {
+                    self.state.unknown &= !unknown::TOOL;
+                }
+                self.bind_edge(&sub.as_callee, &s.call_args);
             }
             Some(ToolChangeCall::Declared(tool)) => {
                 self.after_declared_change(i, !matches!(tool, DeclaredTool::Preselected))
@@ -994,6 +1007,7 @@ impl<'p> Builder<'p> {
         }
         if let Some(sub) = self.end_to_take.take() {
             self.after_call_end(i, &sub.as_callee, sub.first_cut.is_some());
+            self.bind_edge(&sub.as_callee, &s.call_args);
         }
         if s.saves {
             self.t.as_callee.saves = true;

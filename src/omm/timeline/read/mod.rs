@@ -29,6 +29,12 @@ pub(super) struct Scan {
     pub(super) declaration: bool,
     /// `PROC … SAVE`: the unit's G codes come back at its end.
     pub(super) saves: bool,
+    /// The names of a `PROC`'s parameters, in order (upper case).
+    pub(super) params: Vec<String>,
+    /// `T=_NR`: the variable a tool is selected by, where the expression is one name alone.
+    pub(super) tool_variable: Option<String>,
+    /// `D=_SCHN`: the same for the cutting edge.
+    pub(super) d_variable: Option<String>,
     pub(super) path_comment: bool,
     pub(super) kind_header: bool,
     pub(super) r: Vec<Option<u32>>,

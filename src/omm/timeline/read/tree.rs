@@ -140,6 +140,7 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
             s.tool = Some(Arc::from(String::from_utf8_lossy(text).as_ref()));
         } else {
             s.unknown |= unknown::TOOL;
+            s.tool_variable = variable_alone(text);
         }
     }
     for &g in &f.g_codes {
@@ -168,6 +169,9 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                     && node.significant().any(|c| {
                         c.kind == NodeKind::Name && block.text(c).eq_ignore_ascii_case(b"SAVE")
                     });
+                if node.kind == NodeKind::Proc {
+                    s.params = proc_params(&block, node);
+                }
             }
             NodeKind::For => s.count = for_bounds(&block, node),
             NodeKind::Repeat => s.count = section_repeat(&block, node),
@@ -245,6 +249,19 @@ fn call_arg(block: &Block<'_>, arg: Option<&Node>) -> CallArg {
         }
         Some(_) => CallArg::Other,
     }
+}
+
+/// The names of a `PROC`'s parameters, in order.
+fn proc_params(block: &Block<'_>, proc: &Node) -> Vec<String> {
+    proc.find(NodeKind::Args)
+        .into_iter()
+        .flat_map(|a| a.significant().filter(|c| c.kind == NodeKind::Param))
+        .map(|p| {
+            p.find(NodeKind::Name)
+                .map(|n| String::from_utf8_lossy(block.text(n)).to_ascii_uppercase())
+                .unwrap_or_default()
+        })
+        .collect()
 }
 
 /// A tool written as a name in quotes or a number: what a gate can write back as it is.
@@ -407,6 +424,15 @@ fn r_number(text: &[u8]) -> Option<u32> {
     std::str::from_utf8(digits).ok()?.parse().ok()
 }
 
+/// An expression that is one variable's name alone (`_NR`), upper case.
+fn variable_alone(text: &[u8]) -> Option<String> {
+    let name = text
+        .first()
+        .is_some_and(|c| c.is_ascii_alphabetic() || *c == b'_')
+        && text.iter().all(|c| c.is_ascii_alphanumeric() || *c == b'_');
+    name.then(|| String::from_utf8_lossy(text).to_ascii_uppercase())
+}
+
 /// The text after `T`/`T=` in a tool word or assignment.
 fn tool_text<'a>(block: &'a Block<'_>, span: crate::Span) -> &'a [u8] {
     let node = Node::leaf(NodeKind::Text, span);
@@ -462,7 +488,10 @@ fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
         b"LIMS" => s.lims = v,
         b"D" => match v {
             Some(d) if d >= 0.0 && d.fract() == 0.0 => s.d = Some(d as u32),
-            _ => s.unknown |= unknown::D,
+            _ => {
+                s.unknown |= unknown::D;
+                s.d_variable = variable_alone(block.text(value).trim_ascii());
+            }
         },
         b"DL" => s.sum_offset = Some(v != Some(0.0)),
         b"TCARR" => s.tool_carrier = Some(v != Some(0.0)),
