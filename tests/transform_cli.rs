@@ -520,3 +520,23 @@ N100 M30
     assert_eq!(json["program_min"], given["program_min"]);
     assert_eq!(json["timed_calls"], given["timed_calls"]);
 }
+
+#[test]
+fn an_audit_warning_in_a_subprogram_names_its_file() {
+    // The subprogram's first block cuts across the probe point: the warning named "line 1", which in
+    // the main program is a comment.
+    let main = "; job\nG17 G90 G40 G94 G71\nG54\nT=\"MILL12\" M6\nD1\nS3000 M3\nG0 X10 Y10 Z50\n\
+                EXTCALL \"ROUGH\"\nG0 Z100\nM30\n";
+    let rough = "G1 Z-2 F800\nG1 X-10 Y-10\nG0 Z50\nM17\n";
+    let (o, _dir) = common::transform_in(
+        &[("p.mpf", main), ("ROUGH.SPF", rough)],
+        "p.mpf",
+        "blum-tc50",
+    );
+    let err = common::stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("ROUGH.SPF line 2: probe-in-machined-volume"),
+        "{err}"
+    );
+}

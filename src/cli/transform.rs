@@ -715,9 +715,9 @@ fn audit_output(
         return Err(Refusal::new(
             "audit findings",
             format!(
-                "the safety audit found {} hazard(s) in the output{variant}, nothing written; first: line {}: {}: {} (`driftloop run --audit` on the output shows them all)",
+                "the safety audit found {} hazard(s) in the output{variant}, nothing written; first: {}: {}: {} (`driftloop run --audit` on the output shows them all)",
                 caused.len(),
-                f.line,
+                f.place(),
                 f.kind.name(),
                 f.message
             ),
@@ -726,15 +726,7 @@ fn audit_output(
     Ok(AuditNote {
         warnings: warnings
             .iter()
-            .map(|f| match f.original_line {
-                Some(line) => format!("line {line}: {}: {}", f.kind.name(), f.message),
-                None => format!(
-                    "line {} of the output: {}: {}",
-                    f.line,
-                    f.kind.name(),
-                    f.message
-                ),
-            })
+            .map(|f| format!("{}: {}: {}", f.place(), f.kind.name(), f.message))
             .collect(),
         incomplete: found.stopped.clone(),
         notes: found.notes.clone(),

@@ -357,6 +357,18 @@ pub struct Finding {
     pub times: usize,
 }
 
+impl Finding {
+    /// Where it is, for a message about the program the audit was given: `line N` of the original where
+    /// the block is one, else `line N of the output`; in a subprogram, that file's line.
+    pub fn place(&self) -> String {
+        match (&self.file, self.original_line) {
+            (Some(file), _) => format!("{file} line {}", self.line),
+            (None, Some(line)) => format!("line {line}"),
+            (None, None) => format!("line {} of the output", self.line),
+        }
+    }
+}
+
 /// The audit's result.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct Audit {
