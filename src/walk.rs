@@ -169,6 +169,22 @@ fn walk_dir(dir: &Path, out: &mut Vec<Input>) {
     }
 }
 
+/// The program a path names, as a call names it (`/_N_WKS_DIR/_N_SHAFT_WPD/_N_PART1_SPF` → `PART1`,
+/// `PART1.SPF` → `PART1`): `EXTCALL` and `PCALL` name programs by their path.
+pub fn program_name(path: &str) -> String {
+    let last = path
+        .rsplit(['/', '\\'])
+        .next()
+        .unwrap_or(path)
+        .to_ascii_uppercase();
+    let last = last.strip_prefix("_N_").unwrap_or(&last);
+    [".SPF", ".MPF", "_SPF", "_MPF"]
+        .iter()
+        .find_map(|ext| last.strip_suffix(ext))
+        .unwrap_or(last)
+        .to_string()
+}
+
 /// The `.SPF` / `.MPF` files of a folder (`_N_NAME_SPF` too) by upper-cased program name, as a call names
 /// them (`NAME`, `L123`); of two that differ only in case or form, the
 /// first in byte order.

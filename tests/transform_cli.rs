@@ -540,3 +540,28 @@ fn an_audit_warning_in_a_subprogram_names_its_file() {
         "{err}"
     );
 }
+
+#[test]
+fn a_program_called_by_extcall_beside_the_main_program_is_read() {
+    // `EXTCALL "path/ROUGH.SPF"` runs ROUGH from the external drive; beside the main program (or in a
+    // subprogram folder) it is read like any subprogram: timed, its end state followed, and the
+    // R-parameter it counts with (R60) left alone. It was listed as not timed and its R60 was taken for a
+    // gate's register, which the program's count would then overwrite.
+    let main = "G17 G90 G40 G94 G71\nG54\nT=\"MILL12\" M6\nD1\nS3000 M3\nG0 X60 Y60 Z50\n\
+                EXTCALL \"CF_CARD/JOBS/ROUGH.SPF\"\nG0 Z100\nM30\n";
+    let rough = "G1 Z-2 F800\nR60=R60+1\nG1 X90\nG1 Y90\nG0 Z50\nM17\n";
+    let files = [("p.mpf", main), ("ROUGH.SPF", rough)];
+    let m = model();
+    let (o, _dir) = common::run_in(
+        &files,
+        &["plan", "p.mpf", "--model", &m, "--profile", "blum-tc50"],
+    );
+    let plan = common::stdout(&o);
+    let timed = plan
+        .split("timed subprograms")
+        .nth(1)
+        .unwrap_or_else(|| panic!("nothing timed:\n{plan}"));
+    assert!(timed.contains("EXTCALL ROUGH"), "{plan}");
+    let out = common::transformed_in(&files, "p.mpf", "blum-tc50");
+    assert!(!out.contains("R60"), "{out}");
+}

@@ -231,7 +231,7 @@ impl Interp<'_> {
                     }
                     _ => (u.upper(target), Vec::new()),
                 };
-                w.call = Some((program_name(&name), args, Vec::new()));
+                w.call = Some((crate::walk::program_name(&name), args, Vec::new()));
                 Ok(())
             }
             // A modal call runs its subprogram or cycle after every later block of this program that moves,
@@ -445,21 +445,6 @@ fn transformation(name: &str) -> &'static str {
         "TRAANG" => "TRAANG",
         _ => "TRACYL",
     }
-}
-
-/// The program a path names (`/_N_WKS_DIR/_N_SHAFT_WPD/_N_PART1_SPF` → `PART1`, `PART1.SPF` → `PART1`).
-fn program_name(path: &str) -> String {
-    let last = path
-        .rsplit(['/', '\\'])
-        .next()
-        .unwrap_or(path)
-        .to_ascii_uppercase();
-    let last = last.strip_prefix("_N_").unwrap_or(&last);
-    [".SPF", ".MPF", "_SPF", "_MPF"]
-        .iter()
-        .find_map(|ext| last.strip_suffix(ext))
-        .unwrap_or(last)
-        .to_string()
 }
 
 pub(super) fn proc_has_save(unit: &Unit) -> bool {

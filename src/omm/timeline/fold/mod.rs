@@ -629,7 +629,8 @@ impl<'p> Builder<'p> {
         // path mode) come after a gate before it, which must give back the program's.
         let entry = s.call.as_ref().map(|_| BeforeCall::of(&self.state));
         if let Some(name) = &s.call {
-            call_loads = self.call(i, name, name, s.repeats, &s.call_args);
+            let shown = s.call_shown.as_ref().unwrap_or(name);
+            call_loads = self.call(i, name, shown, s.repeats, &s.call_args);
             if self
                 .profile
                 .passes

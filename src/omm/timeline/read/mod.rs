@@ -46,6 +46,9 @@ pub(super) struct Scan {
     pub(super) count: Option<Count>,
     /// A subprogram or cycle the block calls.
     pub(super) call: Option<String>,
+    /// How the block writes that call where it is not by the name alone (`EXTCALL ROUGH` for
+    /// `EXTCALL "D:/JOBS/ROUGH.SPF"`), for what driftloop says about it.
+    pub(super) call_shown: Option<String>,
     /// The arguments of the call written with parentheses, for a call declared to load the tool one of
     /// them gives (`L706(, 5, , "1")`).
     pub(super) call_args: Vec<CallArg>,

@@ -219,7 +219,11 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                     .is_some_and(|t| t.eq_ignore_ascii_case(b"GOTOS"));
             }
             NodeKind::ProgramCall => match program_call(&block, node) {
-                Some(ProgramCall::Once(name)) => s.call = s.call.take().or(Some(name)),
+                Some(ProgramCall::Once(name, shown)) if s.call.is_none() => {
+                    s.call = Some(name);
+                    s.call_shown = shown;
+                }
+                Some(ProgramCall::Once(..)) => {}
                 Some(ProgramCall::Modal(name)) => s.modal_call = Some(name),
                 None => {}
             },
@@ -352,8 +356,10 @@ const TIMELESS_PROCEDURES: &[&str] = &[
 
 /// What a `CALL`, `PCALL`, `EXTCALL`, `ISOCALL` or `MCALL` statement does.
 enum ProgramCall {
-    /// Runs the program now: `NAME` for `CALL`, `KEYWORD NAME` for the others.
-    Once(String),
+    /// Runs the program now: its name (`NAME` for `CALL`, the program a path names for `EXTCALL` and
+    /// `PCALL`, `ISOCALL NAME`, which runs in the ISO dialect driftloop does not read) and, where it is
+    /// not that, how the call is shown (`EXTCALL NAME`).
+    Once(String, Option<String>),
     /// `MCALL NAME` (the cycle's name) or `MCALL` alone, which ends the modal call.
     Modal(Option<String>),
 }
@@ -372,9 +378,13 @@ fn program_call(block: &Block<'_>, node: &Node) -> Option<ProgramCall> {
     let text = String::from_utf8_lossy(block.text(target));
     let name = text.trim_matches('"').to_ascii_uppercase();
     Some(match keyword.as_str() {
-        "CALL" => ProgramCall::Once(name),
+        "CALL" => ProgramCall::Once(name, None),
         "MCALL" => ProgramCall::Modal(Some(name)),
-        _ => ProgramCall::Once(format!("{keyword} {name}")),
+        "EXTCALL" | "PCALL" => {
+            let program = crate::walk::program_name(&name);
+            ProgramCall::Once(program.clone(), Some(format!("{keyword} {program}")))
+        }
+        _ => ProgramCall::Once(format!("{keyword} {name}"), None),
     })
 }
 
