@@ -178,3 +178,54 @@ M30
         "{out}"
     );
 }
+
+/// A face milled in steps by a WHILE loop the timeline cannot count (`R22` to `R20`): after it the feed is
+/// the body's or, had it not run, the one before it (F250). `after` follows the loop.
+fn stepdown(after: &str) -> String {
+    format!(
+        "G17 G90 G94 G71 G40\nG54\nT=\"FM_D80\" M6\nD1\nS1600 M3 M8 F250\nR20=-6 R21=1.2 R22=0\n\
+         WHILE R22>R20\nR22=R22-R21\nG0 X-50 Y0 Z5\nG1 Z=R22 F400\nG1 X250 F1800\nG0 Z5\nENDWHILE\n\
+         G0 Z100\nM9 M5\n{after}M30\n"
+    )
+}
+
+#[test]
+fn a_feed_the_program_sets_again_before_it_cuts_does_not_cost_the_measurement() {
+    // shop4/14: the program sets F300 on its next cut, so the feed left by the loop is never used; the
+    // places at its M5 and the tool change measured nothing (the state "varies"). They measure now, and
+    // their gates give no feed back.
+    let prog = stepdown(
+        "T=\"EM_D12\" M6\nD1\nS6000 M3 M8\nG0 X-7 Y-7 Z5\nG1 Z-7 F300\nG1 X207 F1500\nG0 Z100\n",
+    );
+    for profile in ["blum-tc50", "tool-setter"] {
+        let out = common::every_gate_transformed(profile, &[("p.mpf", &prog)]);
+        let gate = common::gate_before(&out, "M9 M5");
+        assert!(
+            common::gate_measures(&gate),
+            "{profile}:\n{}",
+            gate.join("\n")
+        );
+        let feed = |l: &&str| {
+            l.split_whitespace()
+                .any(|w| w.starts_with('F') && w[1..].starts_with(|c: char| c.is_ascii_digit()))
+        };
+        assert!(
+            !gate.iter().any(feed),
+            "{profile}: a feed given back:\n{}",
+            gate.join("\n")
+        );
+    }
+}
+
+#[test]
+fn a_feed_the_program_uses_after_the_loop_still_keeps_the_place_from_measuring() {
+    // The next cut has no F: it runs at whichever feed the loop left. No gate can give that back.
+    let reads = stepdown("G0 X-7 Y-7 Z5\nG1 Z-7\nG0 Z100\n");
+    // A label between: a jump may come there with yet another feed.
+    let label = stepdown("BACK:\nG0 X-7 Y-7 Z5\nG1 Z-7 F300\nG0 Z100\n");
+    for prog in [reads, label] {
+        let out = common::every_gate_transformed("tool-setter", &[("p.mpf", &prog)]);
+        let gate = common::gate_before(&out, "M9 M5");
+        assert!(!common::gate_measures(&gate), "{prog}\n{}", gate.join("\n"));
+    }
+}

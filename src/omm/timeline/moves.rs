@@ -66,6 +66,9 @@ pub(super) struct Run {
     pub(super) clear_after: Option<bool>,
     /// Its first block that moves is a feed move (`None`: none moves).
     pub(super) first_feed: Option<bool>,
+    /// Its first feed move uses the feed in force before the run (`Some(false)`: a block of the run set
+    /// one first; `None`: no feed move).
+    pub(super) feed_read_first: Option<bool>,
     /// Its last block that moves is a feed along a contour, not straight up Z (`None`: none moves).
     pub(super) contour_after: Option<bool>,
     /// One of its blocks is such a feed.
@@ -433,6 +436,7 @@ impl Mover {
                 end_retract: false,
                 clear_after: None,
                 first_feed: None,
+                feed_read_first: None,
                 contour_after: None,
                 any_contour: false,
             }),
@@ -463,6 +467,7 @@ impl Mover {
                 run.rapids_after_cut = 0;
                 run.clear_after = Some(false);
                 run.first_feed.get_or_insert(true);
+                run.feed_read_first.get_or_insert(run.feed.first.is_none());
                 let contour = !(rises && written & 3 == 0);
                 run.contour_after = Some(contour);
                 run.any_contour |= contour;

@@ -240,6 +240,9 @@ impl Builder<'_> {
             }
         }
         for (b, (k, fields)) in unsure_at {
+            if self.only_an_unused_feed(b, &fields) {
+                continue;
+            }
             self.varies.insert(b);
             let (call, name, _) = &calls[k];
             let words: Vec<&str> = (0..field::COUNT)

@@ -250,12 +250,16 @@ impl Builder<'_> {
     pub(super) fn mark_merges(&mut self) {
         for (t, set_from, differ) in std::mem::take(&mut self.merges) {
             let from = self.site_changes.partition_point(|(b, ..)| *b <= t);
-            for (b, changed, _) in &self.site_changes[from..] {
-                if !field::not_set_since(&differ, set_from, changed).contains(&true) {
+            for k in from..self.site_changes.len() {
+                let (b, changed, _) = self.site_changes[k];
+                let unsure = field::not_set_since(&differ, set_from, &changed);
+                if !unsure.contains(&true) {
                     // Every differing field is set again: so it stays at every later site.
                     break;
                 }
-                self.varies.insert(*b);
+                if !self.only_an_unused_feed(b, &unsure) {
+                    self.varies.insert(b);
+                }
             }
         }
     }

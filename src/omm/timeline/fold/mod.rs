@@ -18,6 +18,7 @@ use super::timing::{TICKS_PER_MIN, move_length, ticks};
 
 mod calls;
 mod declared;
+mod liveness;
 mod loops;
 mod sites;
 
@@ -196,6 +197,10 @@ pub(super) struct Builder<'p> {
     /// The unit's `PROC` parameters (upper case) in their places; one the unit assigns is blanked: it no
     /// longer holds what the caller passed.
     params: Vec<String>,
+    /// How each block uses the feed, in block order ([`liveness`]).
+    feed_uses: Vec<(usize, liveness::FeedUse)>,
+    /// Sites whose feed is not known but not used either: their gates give no feed back.
+    feed_not_given: BTreeSet<usize>,
 }
 
 impl<'p> Builder<'p> {
@@ -262,6 +267,8 @@ impl<'p> Builder<'p> {
             exit_block: None,
             exit: None,
             params: Vec::new(),
+            feed_uses: Vec::new(),
+            feed_not_given: BTreeSet::new(),
             exits_early: false,
             m6_always: false,
             swivel_turned: false,
@@ -369,6 +376,7 @@ impl<'p> Builder<'p> {
             self.note_site(i);
         }
         self.movement(i, start, &before, mv, false, None, false, false);
+        self.note_move_feed_use(i, mv);
         self.modal_call_after(i, mv);
         self.start_site_speed(i);
     }
@@ -399,6 +407,7 @@ impl<'p> Builder<'p> {
         if !plain {
             return false;
         }
+        self.note_run_feed_use(run);
         if let Some((b, g)) = run.motion.first
             && g != self.state.motion
         {
@@ -1021,6 +1030,7 @@ impl<'p> Builder<'p> {
         {
             self.t.inch_at.insert(i, g);
         }
+        self.note_feed_use(i, s, kind, &set);
         self.loops(i, s, kind, start);
         self.jump_from(i);
         self.start_site_speed(i);

@@ -4,7 +4,7 @@
 use std::sync::Arc;
 
 use crate::omm::profile::{ProbeKind, ToolChange};
-use crate::omm::timeline::modal::{Modal, frame};
+use crate::omm::timeline::modal::{Modal, field, frame};
 use crate::omm::timeline::read::Scan;
 use crate::omm::timeline::record::{Pass, Site, SiteKind};
 
@@ -279,6 +279,9 @@ impl Builder<'_> {
         let conditional = Spans::new(&self.t.conditional);
         for site in &mut self.t.sites {
             site.state_varies = self.varies.contains(&site.block);
+            if !site.state_varies && self.feed_not_given.contains(&site.block) {
+                site.before.unset(field::FEED);
+            }
             site.frame_traverse = traverses.contains(site.block);
             site.conditional = conditional.contains(site.block);
             site.in_part = self.in_part.contains(&site.block);
