@@ -197,6 +197,78 @@ fn the_original_cuts_where_the_probe_touches() {
 }
 
 #[test]
+fn a_face_milling_cycle_over_the_probe_point() {
+    // QA round 12, shop9 F4: the dry run skips the cycle, so no move of it passed the point before.
+    let a = expect(
+        "cycle_face_probe",
+        &[(Kind::ProbeInMachinedVolume, 8)],
+        &["CYCLE61 machines X-10…130 Y-10…90 Z0…1", "[position] x, y"],
+    );
+    assert_eq!(a.findings[0].original_line, Some(7));
+}
+
+#[test]
+fn a_face_milling_cycle_clear_of_the_probe_point() {
+    let a = audited("cycle_face_clear");
+    assert!(a.findings.is_empty(), "{:#?}", a.findings);
+    assert!(a.resume_points >= 2, "the gate was compared");
+}
+
+#[test]
+fn a_pocket_cycle_around_the_probe_point() {
+    expect(
+        "cycle_pocket_probe",
+        &[(Kind::ProbeInMachinedVolume, 8)],
+        &["POCKET3 machines X-15…35 Y-10…20 Z-8…0"],
+    );
+}
+
+#[test]
+fn a_turned_pocket_counts_by_the_box_that_holds_it() {
+    expect(
+        "cycle_pocket_turned",
+        &[(Kind::ProbeInMachinedVolume, 8)],
+        &["POCKET3 machines X2.322"],
+    );
+    // The same pocket not turned runs along Y15…25, 15 mm from the point.
+    let transformed = std::fs::read_to_string(fixture("cycle_pocket_turned"))
+        .unwrap()
+        .replace(",20,20,45,", ",20,20,0,");
+    let original = strip(transformed.as_bytes()).bytes;
+    let a = audit(
+        &original,
+        transformed.as_bytes(),
+        &settings(),
+        &Config::default(),
+    )
+    .unwrap();
+    assert!(a.findings.is_empty(), "{:#?}", a.findings);
+}
+
+#[test]
+fn a_cycle_whose_machined_region_is_not_known() {
+    // Once per cycle: the second CYCLE72 (line 10) is not reported again.
+    expect(
+        "cycle_unknown",
+        &[
+            (Kind::MachinedVolumeUnknown, 8),
+            (Kind::MachinedVolumeUnknown, 9),
+        ],
+        &[
+            "the region CYCLE61 machines is not known here (its parameter 7 (corner X1) is a value the dry run \
+             cannot evaluate): the probe point (X0 Y0 at Z0) is not checked against it",
+            "the region CYCLE72 machines is not known here (it mills along a contour defined elsewhere)",
+        ],
+    );
+    // A probe that does not touch the part (a tool setter) is not measuring on a face the cycle mills.
+    let setter = AuditSettings {
+        spindle_probe: false,
+        ..settings()
+    };
+    assert!(audited_with("cycle_unknown", &setter).findings.is_empty());
+}
+
+#[test]
 fn an_inserted_jump_over_an_original_block() {
     expect(
         "flow_changed",
