@@ -27,6 +27,20 @@ fn audited_with(name: &str, settings: &AuditSettings) -> Audit {
     audit(&original, &transformed, settings, &Config::default()).unwrap()
 }
 
+/// Fixture `name` with `from` replaced by `to`, audited against itself without its `;DL` lines.
+fn audited_edited(name: &str, from: &str, to: &str) -> Result<Audit, driftloop::vm::VmError> {
+    let transformed = std::fs::read_to_string(fixture(name))
+        .unwrap()
+        .replace(from, to);
+    let original = strip(transformed.as_bytes()).bytes;
+    audit(
+        &original,
+        transformed.as_bytes(),
+        &settings(),
+        &Config::default(),
+    )
+}
+
 fn audited(name: &str) -> Audit {
     audited_with(name, &settings())
 }
@@ -231,17 +245,7 @@ fn a_turned_pocket_counts_by_the_box_that_holds_it() {
         &["POCKET3 machines X2.322"],
     );
     // The same pocket not turned runs along Y15…25, 15 mm from the point.
-    let transformed = std::fs::read_to_string(fixture("cycle_pocket_turned"))
-        .unwrap()
-        .replace(",20,20,45,", ",20,20,0,");
-    let original = strip(transformed.as_bytes()).bytes;
-    let a = audit(
-        &original,
-        transformed.as_bytes(),
-        &settings(),
-        &Config::default(),
-    )
-    .unwrap();
+    let a = audited_edited("cycle_pocket_turned", ",20,20,45,", ",20,20,0,").unwrap();
     assert!(a.findings.is_empty(), "{:#?}", a.findings);
 }
 
@@ -309,17 +313,7 @@ fn a_machine_whose_probe_fails_ends_the_comparison_without_a_finding() {
 
 #[test]
 fn a_construct_the_machine_cannot_run_is_an_error_naming_the_line() {
-    let transformed = std::fs::read_to_string(fixture("clean"))
-        .unwrap()
-        .replace("R2=99999 ;DL", "G33 Z-5 K1 ;DL");
-    let original = strip(transformed.as_bytes()).bytes;
-    let e = audit(
-        &original,
-        transformed.as_bytes(),
-        &settings(),
-        &Config::default(),
-    )
-    .unwrap_err();
+    let e = audited_edited("clean", "R2=99999 ;DL", "G33 Z-5 K1 ;DL").unwrap_err();
     assert_eq!((e.file.as_str(), e.line), ("transformed", 21));
     assert!(e.message.contains("G33"), "{e}");
 }

@@ -141,6 +141,14 @@ impl Args<'_> {
         }
     }
 
+    /// Arguments `k` and `k + 1`: a point in the working plane (`_PA`, `_PO`, …), `what` in messages.
+    fn point(&self, k: usize, what: &str) -> Result<[f64; 2], String> {
+        Ok([
+            self.num(k, &format!("{what}, first axis"))?,
+            self.num(k + 1, &format!("{what}, second axis"))?,
+        ])
+    }
+
     /// Argument `k` as a length or radius: positive (the manuals enter them without sign).
     fn size(&self, k: usize, what: &str) -> Result<f64, String> {
         let v = self.num(k, what)?.abs();
@@ -236,10 +244,7 @@ fn face_cycle61(a: &Args) -> Result<Region, String> {
 /// Face milling: `CYCLE71(_RTP, _RFP, _SDIS, _DP, _PA, _PO, _LENG, _WID, _STA, …)` — from the starting
 /// point `_PA`/`_PO` a rectangle `_LENG` × `_WID` (signed: the corner it starts from), turned by `_STA`.
 fn face_cycle71(a: &Args) -> Result<Region, String> {
-    let at = [
-        a.num(4, "starting point _PA")?,
-        a.num(5, "starting point _PO")?,
-    ];
+    let at = a.point(4, "starting point")?;
     let (l, w) = (a.num(6, "length _LENG")?, a.num(7, "width _WID")?);
     if l == 0.0 || w == 0.0 {
         return Err("its rectangle (parameters 7 and 8) has no area".into());
@@ -260,7 +265,7 @@ fn centred_rectangle(at: [f64; 2], l: f64, w: f64, sta: f64) -> [[f64; 2]; 2] {
 /// `POCKET1(_RTP, _RFP, _SDIS, _DP, _DPR, _LENG, _WID, _CRAD, _CPA, _CPO, _STA1, …)`: centred at
 /// `_CPA`/`_CPO`.
 fn pocket1(a: &Args) -> Result<Region, String> {
-    let at = [a.num(8, "centre _CPA")?, a.num(9, "centre _CPO")?];
+    let at = a.point(8, "centre")?;
     let (l, w) = (a.size(5, "length _LENG")?, a.size(6, "width _WID")?);
     let sta = a.opt(10, "angle _STA1")?.unwrap_or(0.0);
     Ok(Region {
@@ -272,7 +277,7 @@ fn pocket1(a: &Args) -> Result<Region, String> {
 
 /// `POCKET2(_RTP, _RFP, _SDIS, _DP, _DPR, _PRAD, _CPA, _CPO, …)`: a circle about `_CPA`/`_CPO`.
 fn pocket2(a: &Args) -> Result<Region, String> {
-    let at = [a.num(6, "centre _CPA")?, a.num(7, "centre _CPO")?];
+    let at = a.point(6, "centre")?;
     Ok(Region {
         plane: around(at, a.size(5, "radius _PRAD")?),
         depth: depth(a, 1, 3, Some(4), false)?,
@@ -284,10 +289,7 @@ fn pocket2(a: &Args) -> Result<Region, String> {
 /// _CDIR, _VARI, _MIDA, _AP1, _AP2, _AD, _RAD1, _DP1)`: centred at `_PA`/`_PO`. The longer Operate form
 /// may place the reference point at a corner: the box then covers the rectangle on every side of it.
 fn pocket3(a: &Args) -> Result<Region, String> {
-    let at = [
-        a.num(7, "reference point _PA")?,
-        a.num(8, "reference point _PO")?,
-    ];
+    let at = a.point(7, "reference point")?;
     let (l, w) = (a.size(4, "length _LENG")?, a.size(5, "width _WID")?);
     let sta = a.opt(9, "angle _STA")?.unwrap_or(0.0);
     let longer = a.longer_than(23);
@@ -306,7 +308,7 @@ fn pocket3(a: &Args) -> Result<Region, String> {
 /// `POCKET4(_RTP, _RFP, _SDIS, _DP, _PRAD, _PA, _PO, _MID, _FAL, _FALD, _FFP1, _FFD, _CDIR, _VARI, _MIDA,
 /// _AP1, _AD, _RAD1, _DP1)`: a circle about `_PA`/`_PO`.
 fn pocket4(a: &Args) -> Result<Region, String> {
-    let at = [a.num(5, "centre _PA")?, a.num(6, "centre _PO")?];
+    let at = a.point(5, "centre")?;
     Ok(Region {
         plane: around(at, a.size(4, "radius _PRAD")?),
         depth: depth(a, 1, 3, None, a.longer_than(19))?,
@@ -318,7 +320,7 @@ fn pocket4(a: &Args) -> Result<Region, String> {
 /// _FFD, _CDIR, _VARI, _AP1, _AP2)`: the blank `_AP1` × `_AP2` about the spigot's centre `_PA`/`_PO`
 /// milled down, the spigot `_LENG` × `_WID` left standing.
 fn spigot_cycle76(a: &Args) -> Result<Region, String> {
-    let at = [a.num(8, "centre _PA")?, a.num(9, "centre _PO")?];
+    let at = a.point(8, "centre")?;
     let (l, w) = (a.size(5, "length _LENG")?, a.size(6, "width _WID")?);
     let (bl, bw) = (
         a.size(18, "blank length _AP1")?,
@@ -340,7 +342,7 @@ fn spigot_cycle76(a: &Args) -> Result<Region, String> {
 /// _AP1)`: the blank of diameter `_AP1` about `_PA`/`_PO` milled down, the spigot of radius `_PRAD` left
 /// standing (the square inside it).
 fn spigot_cycle77(a: &Args) -> Result<Region, String> {
-    let at = [a.num(6, "centre _PA")?, a.num(7, "centre _PO")?];
+    let at = a.point(6, "centre")?;
     let radius = a.size(5, "radius _PRAD")?;
     let blank = a.size(15, "blank diameter _AP1")? / 2.0;
     if blank < radius {
@@ -364,10 +366,7 @@ fn ring(at: [f64; 2], radius: f64, reach: f64) -> [[[f64; 2]; 2]; 2] {
 /// slots `_LENG` × `_WID` on the circle `_RAD` about `_CPA`/`_CPO`; wherever on the slot the circle runs,
 /// it stays within length plus width of it.
 fn slot1(a: &Args) -> Result<Region, String> {
-    let at = [
-        a.num(8, "circle centre _CPA")?,
-        a.num(9, "circle centre _CPO")?,
-    ];
+    let at = a.point(8, "circle centre")?;
     let (l, w) = (a.size(6, "length _LENG")?, a.size(7, "width _WID")?);
     let [outer, inner] = ring(at, a.num(10, "circle radius _RAD")?.abs(), l + w);
     Ok(Region {
@@ -380,10 +379,7 @@ fn slot1(a: &Args) -> Result<Region, String> {
 /// `SLOT2(_RTP, _RFP, _SDIS, _DP, _DPR, _NUM, _AFSL, _WID, _CPA, _CPO, _RAD, _STA1, _INDA, …)`: `_NUM`
 /// circumferential slots `_WID` wide along the circle `_RAD` about `_CPA`/`_CPO`.
 fn slot2(a: &Args) -> Result<Region, String> {
-    let at = [
-        a.num(8, "circle centre _CPA")?,
-        a.num(9, "circle centre _CPO")?,
-    ];
+    let at = a.point(8, "circle centre")?;
     let w = a.size(7, "width _WID")?;
     let [outer, inner] = ring(at, a.num(10, "circle radius _RAD")?.abs(), w);
     Ok(Region {
