@@ -212,7 +212,7 @@ fn the_original_cuts_where_the_probe_touches() {
 
 #[test]
 fn a_face_milling_cycle_over_the_probe_point() {
-    // QA round 12, shop9 F4: the dry run skips the cycle, so no move of it passed the point before.
+    // QA round 9, shop9 F4: the dry run skips the cycle, so no move of it passed the point before.
     let a = expect(
         "cycle_face_probe",
         &[(Kind::ProbeInMachinedVolume, 8)],
