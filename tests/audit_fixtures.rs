@@ -229,6 +229,26 @@ fn a_face_milling_cycle_clear_of_the_probe_point() {
 }
 
 #[test]
+fn a_cycle_region_moves_with_the_programmable_frame() {
+    // The clear face (X20…150 Y20…110) called under TRANS X-50 Y-50 runs over X-30…100 Y-30…60 of G54.
+    let call = "CYCLE61(50,1,2,0,20,20,130,90,3,40,0.2,1000,31,0,1,10100)";
+    let a = audited_edited(
+        "cycle_face_clear",
+        call,
+        &format!("TRANS X-50 Y-50\n{call}\nTRANS"),
+    )
+    .unwrap();
+    assert_eq!(found(&a), [(Kind::ProbeInMachinedVolume, 9)]);
+    assert!(
+        a.findings[0]
+            .message
+            .contains("CYCLE61 machines X-30…100 Y-30…60 Z0…1"),
+        "{}",
+        a.findings[0].message
+    );
+}
+
+#[test]
 fn a_pocket_cycle_around_the_probe_point() {
     expect(
         "cycle_pocket_probe",
