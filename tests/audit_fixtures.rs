@@ -27,6 +27,20 @@ fn audited_with(name: &str, settings: &AuditSettings) -> Audit {
     audit(&original, &transformed, settings, &Config::default()).unwrap()
 }
 
+/// Fixture `name` with `from` replaced by `to`, audited against itself without its `;DL` lines.
+fn audited_edited(name: &str, from: &str, to: &str) -> Result<Audit, driftloop::vm::VmError> {
+    let transformed = std::fs::read_to_string(fixture(name))
+        .unwrap()
+        .replace(from, to);
+    let original = strip(transformed.as_bytes()).bytes;
+    audit(
+        &original,
+        transformed.as_bytes(),
+        &settings(),
+        &Config::default(),
+    )
+}
+
 fn audited(name: &str) -> Audit {
     audited_with(name, &settings())
 }
@@ -197,6 +211,88 @@ fn the_original_cuts_where_the_probe_touches() {
 }
 
 #[test]
+fn a_face_milling_cycle_over_the_probe_point() {
+    // QA round 9, shop9 F4: the dry run skips the cycle, so no move of it passed the point before.
+    let a = expect(
+        "cycle_face_probe",
+        &[(Kind::ProbeInMachinedVolume, 8)],
+        &["CYCLE61 machines X-10…130 Y-10…90 Z0…1", "[position] x, y"],
+    );
+    assert_eq!(a.findings[0].original_line, Some(7));
+}
+
+#[test]
+fn a_face_milling_cycle_clear_of_the_probe_point() {
+    let a = audited("cycle_face_clear");
+    assert!(a.findings.is_empty(), "{:#?}", a.findings);
+    assert!(a.resume_points >= 2, "the gate was compared");
+}
+
+#[test]
+fn a_cycle_region_moves_with_the_programmable_frame() {
+    // The clear face (X20…150 Y20…110) called under TRANS X-50 Y-50 runs over X-30…100 Y-30…60 of G54.
+    let call = "CYCLE61(50,1,2,0,20,20,130,90,3,40,0.2,1000,31,0,1,10100)";
+    let a = audited_edited(
+        "cycle_face_clear",
+        call,
+        &format!("TRANS X-50 Y-50\n{call}\nTRANS"),
+    )
+    .unwrap();
+    assert_eq!(found(&a), [(Kind::ProbeInMachinedVolume, 9)]);
+    assert!(
+        a.findings[0]
+            .message
+            .contains("CYCLE61 machines X-30…100 Y-30…60 Z0…1"),
+        "{}",
+        a.findings[0].message
+    );
+}
+
+#[test]
+fn a_pocket_cycle_around_the_probe_point() {
+    expect(
+        "cycle_pocket_probe",
+        &[(Kind::ProbeInMachinedVolume, 8)],
+        &["POCKET3 machines X-15…35 Y-10…20 Z-8…0"],
+    );
+}
+
+#[test]
+fn a_turned_pocket_counts_by_the_box_that_holds_it() {
+    expect(
+        "cycle_pocket_turned",
+        &[(Kind::ProbeInMachinedVolume, 8)],
+        &["POCKET3 machines X2.322"],
+    );
+    // The same pocket not turned runs along Y15…25, 15 mm from the point.
+    let a = audited_edited("cycle_pocket_turned", ",20,20,45,", ",20,20,0,").unwrap();
+    assert!(a.findings.is_empty(), "{:#?}", a.findings);
+}
+
+#[test]
+fn a_cycle_whose_machined_region_is_not_known() {
+    // Once per cycle: the second CYCLE72 (line 10) is not reported again.
+    expect(
+        "cycle_unknown",
+        &[
+            (Kind::MachinedVolumeUnknown, 8),
+            (Kind::MachinedVolumeUnknown, 9),
+        ],
+        &[
+            "the region CYCLE61 machines is not known here (its parameter 7 (corner X1) is a value the dry run \
+             cannot evaluate): the probe point (X0 Y0 at Z0) is not checked against it",
+            "the region CYCLE72 machines is not known here (it mills along a contour defined elsewhere)",
+        ],
+    );
+    // A probe that does not touch the part (a tool setter) is not measuring on a face the cycle mills.
+    let setter = AuditSettings {
+        spindle_probe: false,
+        ..settings()
+    };
+    assert!(audited_with("cycle_unknown", &setter).findings.is_empty());
+}
+
+#[test]
 fn an_inserted_jump_over_an_original_block() {
     expect(
         "flow_changed",
@@ -237,17 +333,7 @@ fn a_machine_whose_probe_fails_ends_the_comparison_without_a_finding() {
 
 #[test]
 fn a_construct_the_machine_cannot_run_is_an_error_naming_the_line() {
-    let transformed = std::fs::read_to_string(fixture("clean"))
-        .unwrap()
-        .replace("R2=99999 ;DL", "G33 Z-5 K1 ;DL");
-    let original = strip(transformed.as_bytes()).bytes;
-    let e = audit(
-        &original,
-        transformed.as_bytes(),
-        &settings(),
-        &Config::default(),
-    )
-    .unwrap_err();
+    let e = audited_edited("clean", "R2=99999 ;DL", "G33 Z-5 K1 ;DL").unwrap_err();
     assert_eq!((e.file.as_str(), e.line), ("transformed", 21));
     assert!(e.message.contains("G33"), "{e}");
 }

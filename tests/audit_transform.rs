@@ -108,6 +108,22 @@ fn every_builtin_profile_on_every_fixture_runs_through_the_audit_in_step() {
 }
 
 #[test]
+fn a_probe_point_on_the_face_a_siemens_cycle_mills_is_reported() {
+    // QA round 9 (fixtures/shop9/REPORT.md, F4): `CYCLE61` faces X-10…130 Y-10…90 from Z1 down to Z0 over
+    // the default profile's probe point X0 Y0 Z0. The dry run does not run the cycle; its region does.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures/shop9/09_828d_shopmill_gcode_cycles.mpf");
+    let a = audited(&path).unwrap();
+    let f = a
+        .findings
+        .iter()
+        .find(|f| f.kind == Kind::ProbeInMachinedVolume)
+        .unwrap_or_else(|| panic!("{:#?}", a.findings));
+    assert!(f.message.starts_with("CYCLE61 machines"), "{}", f.message);
+    assert_eq!(f.original_line, Some(9));
+}
+
+#[test]
 fn the_corpus_cam_program_runs_through_the_audit() {
     let Some(cam) =
         shared_data::path("corpus/sinumerik-840d-sl-cas-package/Approach A/CAM TEST.MPF")

@@ -655,7 +655,7 @@ fn audit_output(
     start: Start,
     variant: &str,
 ) -> Result<AuditNote, Refusal> {
-    use crate::vm::audit::{AuditSettings, Kind, audit_owned};
+    use crate::vm::audit::{AuditSettings, audit_owned};
     let Audited {
         input,
         program,
@@ -710,7 +710,7 @@ fn audit_output(
     let (warnings, caused): (Vec<_>, Vec<_>) = found
         .findings
         .iter()
-        .partition(|f| f.kind == Kind::ProbeInMachinedVolume);
+        .partition(|f| f.kind.is_probe_point_warning());
     if let Some(f) = caused.first() {
         return Err(Refusal::new(
             "audit findings",

@@ -18,6 +18,7 @@
 
 pub mod audit;
 mod config;
+mod cycle_extent;
 mod interp;
 mod machine;
 mod motion;

@@ -124,7 +124,7 @@ pub fn assert_audit_clean(
     transformed: &str,
     settings: &driftloop::vm::audit::AuditSettings,
 ) {
-    use driftloop::vm::audit::{Kind, audit};
+    use driftloop::vm::audit::audit;
     let report = audit(
         original.as_bytes(),
         transformed.as_bytes(),
@@ -135,7 +135,7 @@ pub fn assert_audit_clean(
     let hazards: Vec<_> = report
         .findings
         .iter()
-        .filter(|f| f.kind != Kind::ProbeInMachinedVolume)
+        .filter(|f| !f.kind.is_probe_point_warning())
         .collect();
     assert!(hazards.is_empty(), "{hazards:#?}");
     assert!(report.stopped.is_none(), "{:?}", report.stopped);

@@ -76,6 +76,35 @@ pub(super) fn touches(m: &Movement, point: [f64; 3], axis: usize, margin: f64) -
     (0..pieces).any(|k| segment_touches(at(k), at(k + 1), point, axis, margin))
 }
 
+/// A box in work coordinates (X, Y, Z) a cycle machines, with what it leaves standing: a box within it
+/// across the tool axis, from the bottom to the top.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Machined {
+    pub lo: [f64; 3],
+    pub hi: [f64; 3],
+    /// The tool axis (0, 1, 2) and the standing box's `lo`, `hi` across it.
+    pub island: Option<(usize, [f64; 3], [f64; 3])>,
+}
+
+/// Whether the box reaches `point` or below it on `axis` within `margin` of it across that axis, and the
+/// point does not stand on the island (deeper inside it than `margin`).
+pub(super) fn box_touches(b: &Machined, point: [f64; 3], axis: usize, margin: f64) -> bool {
+    if b.lo[axis] > point[axis] + EPS {
+        return false;
+    }
+    let (i, j) = plane_of(axis);
+    let outside = |k: usize| (b.lo[k] - point[k]).max(point[k] - b.hi[k]).max(0.0);
+    if outside(i).hypot(outside(j)) > margin + EPS {
+        return false;
+    }
+    match b.island {
+        Some((tool_axis, lo, hi)) if tool_axis == axis => ![i, j]
+            .iter()
+            .all(|&k| point[k] > lo[k] + margin && point[k] < hi[k] - margin),
+        _ => true,
+    }
+}
+
 /// The segment's part at or below `point` on `axis`, within `margin` of it across that axis.
 fn segment_touches(a: [f64; 3], b: [f64; 3], point: [f64; 3], axis: usize, margin: f64) -> bool {
     let level = point[axis] + EPS;
@@ -167,6 +196,41 @@ mod tests {
         );
         let clockwise = Movement { motion: 2, ..half };
         assert!(touches(&clockwise, [0.0, -18.0, 0.0], 2, 5.0));
+    }
+
+    #[test]
+    fn a_machined_box_touches_the_point_unless_it_stands_on_its_island() {
+        let face = Machined {
+            lo: [-10.0, -10.0, 0.0],
+            hi: [130.0, 90.0, 1.0],
+            island: None,
+        };
+        assert!(box_touches(&face, [0.0, 0.0, 0.0], 2, 5.0));
+        assert!(
+            !box_touches(&face, [0.0, 0.0, -0.5], 2, 5.0),
+            "below the cut"
+        );
+        assert!(box_touches(&face, [-14.0, 0.0, 0.0], 2, 5.0));
+        assert!(
+            !box_touches(&face, [-14.0, -14.0, 0.0], 2, 5.0),
+            "5.7 mm off the corner"
+        );
+        let spigot = Machined {
+            island: Some((2, [20.0, 20.0, 0.0], [60.0, 60.0, 0.0])),
+            ..face
+        };
+        assert!(
+            !box_touches(&spigot, [40.0, 40.0, 0.0], 2, 5.0),
+            "on the spigot"
+        );
+        assert!(
+            box_touches(&spigot, [23.0, 40.0, 0.0], 2, 5.0),
+            "at its edge"
+        );
+        assert!(
+            box_touches(&spigot, [40.0, 40.0, 0.0], 0, 5.0),
+            "measured across: the island is no help"
+        );
     }
 
     #[test]

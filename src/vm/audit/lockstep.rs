@@ -7,11 +7,11 @@ mod aborts;
 use std::rc::Rc;
 
 use super::state::{self, Correction, Difference};
-use super::{Audit, AuditSettings, Finding, Kind, geometry};
+use super::{Audit, AuditSettings, Finding, Kind, cycles, geometry};
 use crate::omm::nc::shown as num;
 use crate::vm::VmError;
 use crate::vm::config::Config;
-use crate::vm::interp::{Done, Interp, Movement};
+use crate::vm::interp::{Done, Interp, Movement, SkippedCall};
 use crate::vm::motion::{SPLINE, Tool, is_thread};
 use crate::vm::polynomial::POLY;
 use crate::vm::report::End;
@@ -112,6 +112,8 @@ struct Watch {
     stopre: Option<At>,
     /// The probe point was found in the machined volume (reported once).
     machined: bool,
+    /// The milling cycles whose region is not known, reported (once each).
+    unknown_cycles: std::collections::BTreeSet<String>,
     /// Inserted STOPREs and offset writes that ran under a transformation: the finding, with the kinds that
     /// were active, waiting for the machine to move while one of them still is.
     under_transform: Vec<(At, String, Vec<&'static str>)>,
@@ -808,46 +810,119 @@ impl Runner<'_> {
             self.watch.in_contour = false;
             self.watch.stopre = None;
         }
-        let s = self.settings;
-        let (Some(m), Some(point)) = (&o_step.movement, s.probe_point) else {
+        let Some(point) = self.settings.probe_point else {
             return;
         };
-        if self.watch.machined || !is_feed(m.motion) || o.motion.spindle_rpm() <= 0.0 {
-            return;
-        }
-        // A point on the machine table, in the work coordinates the original cuts in at this move.
+        // A point on the machine table, in the work coordinates the original cuts in at this block.
         let frames = &o.motion.frames;
-        let work = if s.probe_point_in_machine {
+        let work = if self.settings.probe_point_in_machine {
             std::array::from_fn(|k| point[k] - frames.geo[k].map_or(0.0, |a| frames.offset(a)))
         } else {
             point
         };
-        if geometry::touches(m, work, s.axis, s.probe_margin_mm) {
-            self.watch.machined = true;
-            let (i, j) = geometry::plane_of(s.axis);
-            let names = ["x", "y", "z"];
-            self.add(at.finding(
-                Kind::ProbeInMachinedVolume,
-                format!(
-                    "this cutting move passes within {} mm of the probe point ({}{} {}{} at {}{}{}): the probe \
-                     would touch machined material; move it with [position] {}, {} in the profile",
-                    num(s.probe_margin_mm),
-                    AXES[i],
-                    num(point[i]),
-                    AXES[j],
-                    num(point[j]),
-                    AXES[s.axis],
-                    num(point[s.axis]),
-                    if s.probe_point_in_machine {
-                        ", machine coordinates"
-                    } else {
-                        ""
-                    },
-                    names[i],
-                    names[j]
-                ),
-            ));
+        if let Some(m) = &o_step.movement
+            && is_feed(m.motion)
+        {
+            self.cut_near_probe(at, o, work, |s, work| {
+                geometry::touches(m, work, s.axis, s.probe_margin_mm)
+                    .then(|| "this cutting move passes".to_string())
+            });
         }
+        if let Some(call) = &o_step.skipped {
+            self.cycle_near_probe(at, call, o, work);
+        }
+    }
+
+    /// A milling cycle the dry run skipped: the region it machines against the probe point, as a cutting
+    /// move's path; a region it cannot know is reported once per cycle name where a spindle probe touches
+    /// the part.
+    fn cycle_near_probe(&mut self, at: &At, call: &SkippedCall, o: &Interp<'_>, work: [f64; 3]) {
+        let Some(region) = cycles::machined(call, &o.motion) else {
+            return;
+        };
+        let name = &call.name;
+        match region {
+            Ok(b) => self.cut_near_probe(at, o, work, |s, work| {
+                geometry::box_touches(&b, work, s.axis, s.probe_margin_mm).then(|| {
+                    let extent: Vec<String> = (0..3)
+                        .map(|k| format!("{}{}…{}", AXES[k], num(b.lo[k]), num(b.hi[k])))
+                        .collect();
+                    format!(
+                        "{name} machines {} (its region as a box), which comes",
+                        extent.join(" ")
+                    )
+                })
+            }),
+            Err(why) => {
+                if !self.settings.spindle_probe || !self.watch.unknown_cycles.insert(name.clone()) {
+                    return;
+                }
+                let point = self.probe_point_text();
+                self.add(at.finding(
+                    Kind::MachinedVolumeUnknown,
+                    format!(
+                        "the region {name} machines is not known here ({why}): the probe point ({point}) is not \
+                         checked against it; make sure the probe does not touch a face it machines"
+                    ),
+                ));
+            }
+        }
+    }
+
+    /// The probe point against what the original machines at a block, while its spindle turns: `near`
+    /// says, given the point in the block's work coordinates, what passes within the margin of it. Reported
+    /// once per program.
+    fn cut_near_probe(
+        &mut self,
+        at: &At,
+        o: &Interp<'_>,
+        work: [f64; 3],
+        near: impl FnOnce(&AuditSettings, [f64; 3]) -> Option<String>,
+    ) {
+        let s = self.settings;
+        if self.watch.machined || o.motion.spindle_rpm() <= 0.0 {
+            return;
+        }
+        let Some(what) = near(s, work) else {
+            return;
+        };
+        self.watch.machined = true;
+        let (i, j) = geometry::plane_of(s.axis);
+        let names = ["x", "y", "z"];
+        self.add(at.finding(
+            Kind::ProbeInMachinedVolume,
+            format!(
+                "{what} within {} mm of the probe point ({}): the probe would touch machined material; move it \
+                 with [position] {}, {} in the profile",
+                num(s.probe_margin_mm),
+                self.probe_point_text(),
+                names[i],
+                names[j]
+            ),
+        ));
+    }
+
+    /// The probe point as the profile gives it: `X0 Y0 at Z0`.
+    fn probe_point_text(&self) -> String {
+        let s = self.settings;
+        let Some(point) = s.probe_point else {
+            return String::new();
+        };
+        let (i, j) = geometry::plane_of(s.axis);
+        format!(
+            "{}{} {}{} at {}{}{}",
+            AXES[i],
+            num(point[i]),
+            AXES[j],
+            num(point[j]),
+            AXES[s.axis],
+            num(point[s.axis]),
+            if s.probe_point_in_machine {
+                ", machine coordinates"
+            } else {
+                ""
+            }
+        )
     }
 
     /// Both programs ended: the tool in the spindle and the persistent offset.

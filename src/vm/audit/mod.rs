@@ -21,6 +21,7 @@
 //! assert_eq!(found.findings[0].line, 5);
 //! ```
 
+mod cycles;
 mod geometry;
 mod lockstep;
 #[cfg(test)]
@@ -93,6 +94,9 @@ pub struct AuditSettings {
     /// A cutting move of the original closer than this (mm, across the measured axis) to the probe point
     /// touches it.
     pub probe_margin_mm: f64,
+    /// `probe.kind = "spindle-probe"`: the probe touches the part itself, so a milling cycle whose region
+    /// is not known is reported too.
+    pub spindle_probe: bool,
     /// The machine both programs run on (drift, probe noise and faults); the default does not drift.
     pub machine: MachineSpec,
     pub seed: u64,
@@ -191,6 +195,7 @@ impl AuditSettings {
             tolerance_um: profile.limits.tolerance_um,
             plausibility_um: profile.limits.plausibility_um,
             probe_margin_mm: DEFAULT_PROBE_MARGIN_MM,
+            spindle_probe: probe.kind == ProbeKind::SpindleProbe,
             machine: MachineSpec::default(),
             seed: 1,
             original_name: "original".into(),
@@ -311,8 +316,12 @@ pub enum Kind {
     /// A probe value that is NaN or orders of magnitude off reaches the work offset: the abort path the
     /// plausibility check should take is not taken.
     FaultReachesOffset,
-    /// The original's cutting moves pass the probe point: the probe would touch machined material.
+    /// The original's cutting moves, or the region a Siemens milling cycle of it machines, pass the probe
+    /// point: the probe would touch machined material.
     ProbeInMachinedVolume,
+    /// A Siemens milling cycle of the original machines a region the audit cannot know (a contour, an
+    /// argument it cannot evaluate): the probe point is not checked against it.
+    MachinedVolumeUnknown,
     /// The original's blocks run in another order in the transformed program.
     FlowChanged,
     /// A line of the original is not in the transformed program as it was.
@@ -334,10 +343,22 @@ impl Kind {
             Kind::OffsetLeftOnAbort => "offset-left-on-abort",
             Kind::FaultReachesOffset => "fault-reaches-offset",
             Kind::ProbeInMachinedVolume => "probe-in-machined-volume",
+            Kind::MachinedVolumeUnknown => "machined-volume-unknown",
             Kind::FlowChanged => "flow-changed",
             Kind::OriginalChanged => "original-changed",
             Kind::GateInThread => "gate-in-thread",
         }
+    }
+}
+
+impl Kind {
+    /// Whether the finding is about where the profile puts the probe point relative to what the original
+    /// machines — the user's choice, warned of — rather than a hazard the inserted blocks caused.
+    pub fn is_probe_point_warning(self) -> bool {
+        matches!(
+            self,
+            Kind::ProbeInMachinedVolume | Kind::MachinedVolumeUnknown
+        )
     }
 }
 

@@ -300,6 +300,8 @@ impl Interp<'_> {
                 }
                 Err(why) if self.cfg.skip_missing_calls => {
                     skipped = true;
+                    self.done.skipped =
+                        Some(SkippedCall::new(&name, &args, &w.call_unknown, false));
                     let at = self.at(u, i);
                     self.run.messages.push(Message {
                         at,
@@ -352,6 +354,7 @@ impl Interp<'_> {
                 modally: true,
             }),
             Err(why) if self.cfg.skip_missing_calls => {
+                self.done.skipped = Some(SkippedCall::new(name, &args, &[], true));
                 self.note(
                     u,
                     i,

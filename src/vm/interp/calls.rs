@@ -110,7 +110,14 @@ impl Interp<'_> {
                     .collect();
                 w.probe = Some((name, nums));
             }
-            _ => w.call = Some((name, values, refs)),
+            _ => {
+                w.call_unknown = args
+                    .iter()
+                    .zip(&values)
+                    .map(|(a, v)| a.is_some() && v.is_none())
+                    .collect();
+                w.call = Some((name, values, refs));
+            }
         }
         Ok(())
     }

@@ -20,6 +20,7 @@ use crate::syntax::{BlockKind, Node, NodeKind};
 
 use super::VmError;
 use super::config::{Config, ProbeTarget};
+use super::cycle_extent::Arg;
 use super::machine::{Machine, ProbeCall, ProbeResult, SpindleHistory};
 use super::motion::{
     ArcSpec, Dim, FeedMode, IDENTITY, Matrix, SPINDLES, SPLINE, Saved, State, Tool, arc_length,
@@ -115,6 +116,9 @@ struct Words {
     frame_command: Option<String>,
     suppress_frames: bool,
     call: Option<(String, CallArgs, Vec<Option<Ref>>)>,
+    /// The call's arguments given but not evaluated (a cycle's symbolic argument where missing calls are
+    /// skipped): `true` at their positions.
+    call_unknown: Vec<bool>,
     /// `MCALL NAME(…)` (`Some(Some(…))`) or `MCALL` alone, which ends the modal call (`Some(None)`).
     modal_call: Option<Option<(String, CallArgs)>>,
     repeat: Option<u32>,
@@ -202,10 +206,41 @@ pub(in crate::vm) struct Done {
     pub tool_change: bool,
     /// It called a subprogram.
     pub call: bool,
+    /// A call it skipped as doing nothing (a cycle the dry run cannot find), with its arguments.
+    pub skipped: Option<SkippedCall>,
     /// M0, M1, M2 or M30.
     pub stop: Option<u32>,
     /// It ended the run (program end or alarm).
     pub end: Option<End>,
+}
+
+/// A call the dry run skipped: what it knows of the arguments, for what the cycle would have machined.
+#[derive(Debug, Clone)]
+pub(in crate::vm) struct SkippedCall {
+    pub name: String,
+    pub args: Vec<Arg>,
+    /// Called by `MCALL` after a move.
+    pub modally: bool,
+}
+
+impl SkippedCall {
+    fn new(name: &str, args: &[Option<Value>], unknown: &[bool], modally: bool) -> SkippedCall {
+        let args = args
+            .iter()
+            .enumerate()
+            .map(|(k, v)| match v {
+                Some(Value::Num(n)) => Arg::Num(*n),
+                Some(Value::Str(_)) => Arg::Text,
+                None if unknown.get(k).copied().unwrap_or(false) => Arg::Unknown,
+                None => Arg::Omitted,
+            })
+            .collect();
+        SkippedCall {
+            name: name.to_string(),
+            args,
+            modally,
+        }
+    }
 }
 
 /// A move: its motion mode and the geometry axes X, Y, Z before and after it, programmed positions in the
