@@ -55,3 +55,25 @@ fn a_blank_line_or_a_switch_after_the_retract_keeps_the_place_after_it() {
         );
     }
 }
+
+#[test]
+fn the_zero_is_measured_once_before_a_loop_over_the_parts() {
+    // 02: `FOR _TEIL=0 TO 3` / `TRANS X=_TEIL*100` around each part. A tool setter's zero went after the
+    // TRANS, inside the loop: measured again on every part, it took the drift of the parts before as the
+    // reference and started the model cold, so no later part was corrected for it. It goes before the
+    // loop now (a gate inside the loop still updates and measures).
+    let src = shop12("02_part_loop_trans_per_part.mpf");
+    for profile in ["blum-tc50", "tool-setter", "lathe-setter", "grinder-gauge"] {
+        let out = common::every_gate_transformed(profile, &[("p.mpf", &src)]);
+        let line = |text: &str| out.lines().position(|l| l.contains(text)).unwrap();
+        assert!(
+            line("stage 1: initial data") < line("N60 FOR"),
+            "{profile}:\n{out}"
+        );
+        assert_eq!(
+            out.matches("stage 4: reference measurement").count(),
+            1,
+            "{profile}"
+        );
+    }
+}
