@@ -16,7 +16,7 @@ use crate::model::{DriftModel, extrapolation_warning};
 use super::loops::{Loop, site_runs};
 use super::nc::number;
 use super::profile::{Axis, MeasureFrame, OffsetMethod, Position, ProbeKind, Profile, UnknownTool};
-use super::timeline::{self, Modal, Site, SiteKind, Timeline};
+use super::timeline::{self, LoopKind, Modal, Site, SiteKind, Timeline};
 
 /// What a gate does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -539,6 +539,10 @@ pub fn reads_tool(profile: &Profile) -> bool {
         && profile.probe.unknown_tool == UnknownTool::Runtime
 }
 
+/// Why no zero goes inside a loop: run again on each pass of the loop, it would take the drift of the
+/// passes before it as the reference and start the model cold again, so no later part is corrected for it.
+const IN_LOOP: &str = "it lies inside a loop of the program, which runs it again on every pass, and the zero must be measured once, before the loop";
+
 /// Whether a gate at `site` knows from the program which tool to load again after the probe (or needs
 /// none); otherwise it reads the tool at run time.
 fn names_tool(site: &Site, profile: &Profile) -> bool {
@@ -570,6 +574,13 @@ fn unfit_for_reference(
         return Some(
             "it lies inside an IF … ENDIF of the program, which does not run every time, and the zero must",
         );
+    }
+    if timeline.loops.iter().any(|l| {
+        // A section repeat starts at its label's line: what goes before that line runs once.
+        let section = matches!(l.kind, LoopKind::Repeat | LoopKind::RepeatBlock);
+        (l.body.0 + usize::from(section)..=l.body.1).contains(&site.block)
+    }) {
+        return Some(IN_LOOP);
     }
     if site.in_part {
         return Some(IN_PART);

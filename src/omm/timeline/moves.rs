@@ -370,8 +370,13 @@ impl Mover {
         let from = self.pos;
         let to = [self.vals[0], self.vals[1], self.vals[2]];
         let rapid_xy = axes != 0 && motion == 0 && axes & 4 == 0;
-        // A rapid Z-only move up retracts (an unknown start counts as below, as the fold has it).
-        let retracts = if axes != 4 || (motion != 0 && motion != NO_MOTION) {
+        // A rapid Z-only move up retracts (an unknown start counts as below, as the fold has it). A line
+        // that writes neither an axis nor a motion code (blank, a comment, a block number, F alone) leaves
+        // the tool where it was: a blank line between the retract and the next rapid is no reason to lose
+        // the place after it.
+        let retracts = if axes == 0 && self.motion_word == NO_MOTION {
+            self.retract
+        } else if axes != 4 || (motion != 0 && motion != NO_MOTION) {
             0
         } else if motion == NO_MOTION || self.known & 4 == 0 {
             UNKNOWN
@@ -379,7 +384,8 @@ impl Mover {
             u8::from(to[2] > from[2])
         };
         let value = if axes == 0 {
-            Some(Timed::Still)
+            // It opens no run: the rapid after it must be a run's first block to be a retract site.
+            self.open.is_some().then_some(Timed::Still)
         } else if motion == NO_MOTION
             || axes & !self.known != 0
             || (motion >= 2 && self.known & 3 != 3)

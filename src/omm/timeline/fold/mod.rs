@@ -375,8 +375,12 @@ impl<'p> Builder<'p> {
             self.pass_marks.push(mark);
             self.note_site(i);
         }
+        // A blank line, a comment or a block number alone between the retract and the next rapid leaves
+        // the tool where the retract put it.
+        let keeps_clear = blank && self.last_was_z_retract;
         self.movement(i, start, &before, mv, false, None, false, false);
         self.note_move_feed_use(i, mv);
+        self.last_was_z_retract |= keeps_clear;
         self.modal_call_after(i, mv);
         self.start_site_speed(i);
     }
@@ -988,7 +992,24 @@ impl<'p> Builder<'p> {
             self.state.modal_call = self.modal_call.is_some();
         }
         let mv = if limits { Move::default() } else { s.mv };
+        // A block that only switches (coolant, a stop, the spindle, a preselection, an assignment) leaves
+        // the tool where the retract put it: `M9` between the retract and the next rapid keeps that place.
+        // One that may move it some other way, or that a jump may reach from elsewhere, does not.
+        let keeps_clear = self.last_was_z_retract
+            && kind == BlockKind::Plain
+            && !tool_change
+            && !s.inexact
+            && mv.axes.iter().all(Option::is_none)
+            && !s.other_axes
+            && s.call.is_none()
+            && s.modal_call.is_none()
+            && s.label.is_none()
+            && s.frame_ops == 0
+            && !s.writes_frame_in_force
+            && !s.leaves
+            && !s.g.iter().any(|g| matches!(g, 74 | 75));
         self.movement(i, start, &before, &mv, dwell, s.s, s.inexact, own_m6);
+        self.last_was_z_retract |= keeps_clear;
         // G9: this block's move ends in an exact stop.
         self.contour &= !s.g.contains(9);
         self.modal_call_after(i, &s.mv);
