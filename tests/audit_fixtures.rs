@@ -367,3 +367,28 @@ fn probing_under_a_rotation_or_a_kinematic_transformation() {
         assert!(messages(&a).contains(named), "{on}: {}", messages(&a));
     }
 }
+
+#[test]
+fn a_hole_a_modal_drilling_cycle_drills_at_the_probe_point() {
+    // `MCALL CYCLE81` drills after each move; the dry run skips the cycle, so the hole at X2 Y1 (the
+    // probe point X0 Y0 within the margin) was no cut it saw. Holes clear of it are no finding.
+    let call = "CYCLE61(50,1,2,0,20,20,130,90,3,40,0.2,1000,31,0,1,10100)";
+    let drill = |holes: &str| {
+        audited_edited(
+            "cycle_face_clear",
+            call,
+            &format!("MCALL CYCLE81(50,1,2,-10,)\n{holes}MCALL"),
+        )
+        .unwrap()
+    };
+    let a = drill("X60 Y60\nX2 Y1\n");
+    assert_eq!(found(&a), [(Kind::ProbeInMachinedVolume, 10)]);
+    assert!(
+        a.findings[0]
+            .message
+            .contains("CYCLE81 machines X2…2 Y1…1 Z-10…1"),
+        "{}",
+        a.findings[0].message
+    );
+    assert!(found(&drill("X60 Y60\nX90 Y60\n")).is_empty());
+}

@@ -18,6 +18,9 @@
 //!   3.25 "Programming cycles externally" (the first parameter is the contour's name) — verified.
 //! - `POCKET1`: the parameter list of the 840D cycles as reproduced on a public forum (not a Siemens page).
 //! - `POCKET3`: a public help text listing it, consistent with the calls in the shop programs.
+//! - `CYCLE81` … `CYCLE89`, `CYCLE840`: SINUMERIK 840D/840Di/810D Programming Guide Cycles (PGZ), 11.02,
+//!   2.1 (`RTP, RFP, SDIS, DP, DPR` first in every drilling cycle) — verified. They drill where the tool
+//!   stands, at the call or, under `MCALL`, after each later move.
 //! - `CYCLE61`, `POCKET2`, `POCKET4`, `CYCLE76`, `CYCLE77`, `SLOT1`, `SLOT2`: the 840D sl / 828D cycles
 //!   manuals as known from use; no Siemens page was found to check them against here. The values each
 //!   shape needs are checked to make a shape (lengths and radii positive, a blank larger than its spigot),
@@ -53,12 +56,28 @@ pub(in crate::vm) enum Extent {
     Unknown(String),
 }
 
-/// The region of a call of `name` (upper case) with `args`; `None` for a call that is no milling cycle
-/// known here. `modally`: called by `MCALL` after each later move, where it machines at positions the
-/// call does not give.
-pub(in crate::vm) fn extent(name: &str, args: &[Arg], modally: bool) -> Option<Extent> {
+/// The region of a call of `name` (upper case) with `args`; `None` for a call that is no milling or
+/// drilling cycle known here. `modally`: called by `MCALL` after each later move, where a milling cycle
+/// machines at positions the call does not give. `at`: where the tool stands in the working plane (the
+/// call's coordinates), where a drilling cycle drills.
+pub(in crate::vm) fn extent(
+    name: &str,
+    args: &[Arg],
+    modally: bool,
+    at: [f64; 2],
+) -> Option<Extent> {
     if let Some((_, why)) = UNKNOWABLE.iter().find(|(n, _)| *n == name) {
         return Some(Extent::Unknown((*why).to_string()));
+    }
+    if DRILLS.contains(&name) {
+        return Some(match depth(&Args(args), 1, 3, Some(4), false) {
+            Ok(depth) => Extent::Known(Region {
+                plane: [[at[0], at[0]], [at[1], at[1]]],
+                depth,
+                island: None,
+            }),
+            Err(why) => Extent::Unknown(why),
+        });
     }
     let (_, shape) = SHAPES.iter().find(|(n, _)| *n == name)?;
     if modally {
@@ -101,6 +120,13 @@ const UNKNOWABLE: &[(&str, &str)] = &[
         "CYCLE899",
         "its parameter order (open slot) is not known here",
     ),
+];
+
+/// Drilling cycles, `CYCLE8x(RTP, RFP, SDIS, DP, DPR, …)`: a hole where the tool stands, from the
+/// reference plane down to the final depth (its radius is the tool's, which the probe margin covers).
+const DRILLS: &[&str] = &[
+    "CYCLE81", "CYCLE82", "CYCLE83", "CYCLE84", "CYCLE840", "CYCLE85", "CYCLE86", "CYCLE87",
+    "CYCLE88", "CYCLE89",
 ];
 
 type Shape = fn(&Args) -> Result<Region, String>;
@@ -401,7 +427,7 @@ mod tests {
     }
 
     fn known(name: &str, values: &[Option<f64>]) -> Region {
-        match extent(name, &args(values), false) {
+        match extent(name, &args(values), false, [0.0, 0.0]) {
             Some(Extent::Known(r)) => r,
             other => panic!("{name}: {other:?}"),
         }
@@ -471,27 +497,43 @@ mod tests {
         let mut a = args(&[50., 1., 2., 0., -10., -10., 130., 90.].map(Some));
         a[6] = Arg::Unknown;
         assert_eq!(
-            extent("CYCLE61", &a, false),
+            extent("CYCLE61", &a, false, [0.0, 0.0]),
             Some(Extent::Unknown(
                 "its parameter 7 (corner X1) is a value the dry run cannot evaluate".into()
             ))
         );
         assert!(matches!(
-            extent("CYCLE72", &[], false),
+            extent("CYCLE72", &[], false, [0.0, 0.0]),
             Some(Extent::Unknown(_))
         ));
         assert!(matches!(
-            extent("POCKET4", &args(&[Some(50.), Some(0.)]), false),
+            extent("POCKET4", &args(&[Some(50.), Some(0.)]), false, [0.0, 0.0]),
             Some(Extent::Unknown(_))
         ));
         assert!(matches!(
             extent(
                 "POCKET4",
                 &args(&[50., 0., 1., -5., 10., 0., 0.].map(Some)),
-                true
+                true,
+                [0.0, 0.0]
             ),
             Some(Extent::Unknown(_))
         ));
-        assert_eq!(extent("CYCLE81", &[], false), None);
+        assert_eq!(extent("L100", &[], false, [0.0, 0.0]), None);
+    }
+
+    #[test]
+    fn a_drilling_cycle_drills_where_the_tool_stands() {
+        // `MCALL CYCLE83(50, 0, 2, , 12)` after `X12 Y34`: DPR 12 below the reference plane.
+        let a = args(&[Some(50.), Some(0.), Some(2.), None, Some(12.)]);
+        let Some(Extent::Known(r)) = extent("CYCLE83", &a, true, [12.0, 34.0]) else {
+            panic!("no region");
+        };
+        assert_eq!(r.plane, [[12.0, 12.0], [34.0, 34.0]]);
+        assert_eq!(r.depth, [-12.0, 0.0]);
+        assert!(matches!(
+            extent("CYCLE81", &args(&[Some(50.), Some(0.)]), true, [0.0, 0.0]),
+            Some(Extent::Unknown(_))
+        ));
     }
 }

@@ -11,10 +11,13 @@ const MM_PER_INCH: f64 = 25.4;
 /// The region of a skipped call in the coordinates of the settable work offset (those of a `Movement`), or
 /// why it cannot be known; `None` for a call that is no milling cycle.
 pub(super) fn machined(call: &SkippedCall, st: &State) -> Option<Result<Machined, String>> {
-    Some(match extent(&call.name, &call.args, call.modally)? {
-        Extent::Known(region) => in_work_coordinates(&region, st),
-        Extent::Unknown(why) => Err(why),
-    })
+    let at = st.modal.plane.map(|a| a.map_or(0.0, |a| st.local[a]));
+    Some(
+        match extent(&call.name, &call.args, call.modally, [at[0], at[1]])? {
+            Extent::Known(region) => in_work_coordinates(&region, st),
+            Extent::Unknown(why) => Err(why),
+        },
+    )
 }
 
 /// The cycle's box (working plane, tool axis) through the programmable frame: the box holding its corners,
