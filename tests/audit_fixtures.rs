@@ -238,11 +238,14 @@ fn a_cycle_region_moves_with_the_programmable_frame() {
         &format!("TRANS X-50 Y-50\n{call}\nTRANS"),
     )
     .unwrap();
-    assert_eq!(found(&a), [(Kind::ProbeInMachinedVolume, 9)]);
+    machined_once(&a, 9, "CYCLE61 machines X-30…100 Y-30…60 Z0…1");
+}
+
+/// `a` found the probe point in the machined volume once, at `line`, saying `what`.
+fn machined_once(a: &Audit, line: usize, what: &str) {
+    assert_eq!(found(a), [(Kind::ProbeInMachinedVolume, line)]);
     assert!(
-        a.findings[0]
-            .message
-            .contains("CYCLE61 machines X-30…100 Y-30…60 Z0…1"),
+        a.findings[0].message.contains(what),
         "{}",
         a.findings[0].message
     );
@@ -381,14 +384,10 @@ fn a_hole_a_modal_drilling_cycle_drills_at_the_probe_point() {
         )
         .unwrap()
     };
-    let a = drill("X60 Y60\nX2 Y1\n");
-    assert_eq!(found(&a), [(Kind::ProbeInMachinedVolume, 10)]);
-    assert!(
-        a.findings[0]
-            .message
-            .contains("CYCLE81 machines X2…2 Y1…1 Z-10…1"),
-        "{}",
-        a.findings[0].message
+    machined_once(
+        &drill("X60 Y60\nX2 Y1\n"),
+        10,
+        "CYCLE81 machines X2…2 Y1…1 Z-10…1",
     );
     assert!(found(&drill("X60 Y60\nX90 Y60\n")).is_empty());
 }

@@ -32,31 +32,26 @@ impl Builder<'_> {
         set: &[bool; field::COUNT],
     ) {
         let moves = s.mv.axes.iter().any(Option::is_some) || s.other_axes;
-        let use_ = if set[field::FEED] {
-            FeedUse::Sets
-        } else if kind != BlockKind::Plain
+        let ends = kind != BlockKind::Plain
             || s.label.is_some()
             || self.jumps.contains_key(&i)
             || s.call.is_some()
-            || self.modal_call.is_some()
-            || s.leaves
-        {
-            FeedUse::Ends
-        } else if moves && self.feeds() {
-            FeedUse::Reads
-        } else {
-            FeedUse::Neither
-        };
-        self.feed_uses.push((i, use_));
+            || s.leaves;
+        self.note_use(i, set[field::FEED], ends, moves);
     }
 
     /// Notes how a block that only moves uses the feed (its motion already in the state).
     pub(super) fn note_move_feed_use(&mut self, i: usize, mv: &Move) {
         let moves = mv.axes.iter().any(Option::is_some);
-        let use_ = if mv.f.is_some() {
+        self.note_use(i, mv.f.is_some(), false, moves);
+    }
+
+    /// Block `i` sets a feed, ends the straight run of blocks, or moves (at a feed if the motion in force
+    /// is one). A modal call ends it too: the cycle it runs after a move drills at the feed in force.
+    fn note_use(&mut self, i: usize, sets: bool, ends: bool, moves: bool) {
+        let use_ = if sets {
             FeedUse::Sets
-        } else if self.modal_call.is_some() {
-            // The cycle a modal call runs after the move drills at the feed in force.
+        } else if ends || self.modal_call.is_some() {
             FeedUse::Ends
         } else if moves && self.feeds() {
             FeedUse::Reads
