@@ -77,3 +77,20 @@ fn the_zero_is_measured_once_before_a_loop_over_the_parts() {
         );
     }
 }
+
+#[test]
+fn a_gate_after_g700_and_g71_gives_the_feed_back_in_the_units_in_force() {
+    // F4: `F60.` under G700 is 60 inch/min; after G71 the control reads a programmed F in mm/min, so the gate
+    // before the second tool change gave back F60 (60 mm/min, the next cut has no F) and the audit refused
+    // the program. The feed is 1524 mm/min there.
+    let prog = "G17 G90 G94 G40\nG700\nG54\nT=\"EM_D12\" M6\nD1\nS3000 M3\nG0 X1. Y1. Z1.\n\
+                G1 Z-0.1 F60.\nG1 X3.\nG0 Z1.\nG71\nG0 Z100 M9\nT=\"EM_D8\" M6\nD1\nS4000 M3\n\
+                G0 X60 Y60 Z5\nG1 Z-2\nG1 X90\nG0 Z100\nM30\n";
+    let out = common::every_gate_transformed("blum-tc50", &[("p.mpf", prog)]);
+    let gate = common::gate_before(&out, "T=\"EM_D8\" M6");
+    assert!(
+        gate.iter().any(|l| l.ends_with(" F1524 ;DL")),
+        "{}",
+        gate.join("\n")
+    );
+}

@@ -26,6 +26,8 @@ use declared::{DeclaredTool, ToolChangeCall};
 use loops::{Label, OpenLoop};
 use sites::PassMark;
 
+const MM_PER_INCH: f64 = 25.4;
+
 /// What a call runs, as the fold asks for it.
 pub(super) trait Callees {
     /// The timeline of subprogram `name`, and whether it is in another file (a folder's) rather than in
@@ -332,6 +334,21 @@ impl<'p> Builder<'p> {
                 self.plain_move(i, motion, &Move::decode(h, &mut numbers));
             }
             i += 1;
+        }
+    }
+
+    /// The feed in force as the units `g` (G70, G71, G700, G710) read it. G700 reads a programmed F in
+    /// inch/min, the others in the basic system's unit (mm/min: MD10240 metric, as the dry run has it):
+    /// the feed does not change, the number a gate writes back for it does (`F60.` under G700 is F1524
+    /// after G71).
+    fn feed_in_units(&mut self, g: u32) {
+        let (was, will) = (self.state.units == Some(700), g == 700);
+        if let (true, Some(f)) = (was != will, self.state.feed) {
+            self.state.feed = Some(if was {
+                f * MM_PER_INCH
+            } else {
+                f / MM_PER_INCH
+            });
         }
     }
 
@@ -810,7 +827,10 @@ impl<'p> Builder<'p> {
                 17..=19 => self.state.plane = Some(g),
                 40..=42 => self.state.comp = g,
                 60 | 64 | 641..=645 => self.state.path_mode = Some(g),
-                70 | 71 | 700 | 710 => self.state.units = Some(g),
+                70 | 71 | 700 | 710 => {
+                    self.feed_in_units(g);
+                    self.state.units = Some(g);
+                }
                 g if is_iso_only(g) => {
                     self.t.iso_dialect.get_or_insert((i, g));
                 }
