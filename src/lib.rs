@@ -60,6 +60,9 @@ pub mod views;
 pub mod vm;
 pub mod walk;
 
+/// Millimetres in an inch: what G70/G700 values and G700 feeds are worth in the metric basic system.
+pub(crate) const MM_PER_INCH: f64 = 25.4;
+
 pub use diagnostic::{Diagnostic, Severity};
 pub use edit::{EditError, Editor, Edits};
 pub use source::{LineIndex, Span};

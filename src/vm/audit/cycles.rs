@@ -2,11 +2,10 @@
 //! is checked in: the dry run skips the cycles, so the probe-point check sees no moves of theirs.
 
 use super::geometry::Machined;
+use crate::MM_PER_INCH;
 use crate::vm::cycle_extent::{Extent, Region, extent};
 use crate::vm::interp::SkippedCall;
 use crate::vm::motion::{IDENTITY, State};
-
-const MM_PER_INCH: f64 = 25.4;
 
 /// The region of a skipped call in the coordinates of the settable work offset (those of a `Movement`), or
 /// why it cannot be known; `None` for a call that is no milling cycle.

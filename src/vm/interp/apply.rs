@@ -2,6 +2,7 @@
 //! dwell, probe, program end.
 
 use super::*;
+use crate::MM_PER_INCH;
 
 /// What a tool change takes from its block: the edge and sum offset it selects, and whether it starts
 /// the spindle again (M3/M4).

@@ -155,8 +155,6 @@ struct Words {
     pl: Option<f64>,
 }
 
-const MM_PER_INCH: f64 = 25.4;
-
 /// Frame commands that take axis values; the bare form of an absolute one deletes the programmable frame.
 const ABSOLUTE_FRAMES: &[&str] = &["TRANS", "ROT", "SCALE", "MIRROR"];
 

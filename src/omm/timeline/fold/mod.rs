@@ -6,6 +6,7 @@
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::rc::Rc;
 
+use crate::MM_PER_INCH;
 use crate::omm::machine_coolant::is_control_m;
 use crate::omm::profile::{OffsetMethod, Profile};
 use crate::syntax::BlockKind;
@@ -25,8 +26,6 @@ mod sites;
 use declared::{DeclaredTool, ToolChangeCall};
 use loops::{Label, OpenLoop};
 use sites::PassMark;
-
-const MM_PER_INCH: f64 = 25.4;
 
 /// What a call runs, as the fold asks for it.
 pub(super) trait Callees {
