@@ -95,3 +95,15 @@ fn a_gate_after_g700_and_g71_gives_the_feed_back_in_the_units_in_force() {
         gate.join("\n")
     );
 }
+
+#[test]
+fn an_incremental_first_move_goes_on_from_where_the_offset_in_force_puts_the_axes() {
+    // F3: no work offset in the program, the first move on Y incremental. The audit's dry run on shifted
+    // offsets took the offset in force at the start for a frame change not yet traversed, so the
+    // original's `Y=IC(5)` went to Y5 while the output's (after the gate's return to where the axes
+    // stand) went on from Y-80: "position-not-restored", and nothing was written. The control reads the
+    // axes in the frame in force when the program starts; the first incremental move goes on from there.
+    let prog = "G90 G17 G94\nG0 X10\nG91 G1 Y5 F200\nG90\nM30\n";
+    let out = common::every_gate_transformed("blum-tc50", &[("p.mpf", prog)]);
+    assert!(out.contains("G91 G1 Y5 F200"), "{out}");
+}

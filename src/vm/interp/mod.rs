@@ -303,6 +303,12 @@ impl<'m> Interp<'m> {
             .select(cfg.reset_frame.min(super::motion::FRAMES - 1));
         motion.frames.trans_is_correction = cfg.trans_is_correction;
         motion.frames.geo = ["X", "Y", "Z"].map(|g| cfg.axes.iter().position(|a| a == g));
+        // The frame in force when the program starts is traversed: the control reads the axes in it, so a
+        // first incremental move goes on from there (only a frame the program changes waits for the move
+        // that traverses it).
+        for a in 0..axes {
+            motion.local[a] = motion.work_position(a);
+        }
         Interp {
             cfg,
             machine,
