@@ -802,6 +802,19 @@ fn axis_variables_indirect_axes_and_the_active_g_codes_run() {
     );
 }
 
+#[test]
+fn an_axis_variable_takes_an_axis_name_in_brackets() {
+    // A builder's axis-calibration macro writes `AXIVAR=(C)`; a declaration may set the axis at once
+    // (QA round 13: the dry run stopped, "axis C used as a value").
+    let src = "DEF AXIS AV, AW\nDEF AXIS AZ=(Z), AY=Y\nAV=(X)\nAW=((Y))\nG90 G1 AX[AV]=4 AX[AW]=5 F500\n\
+               AX[AZ]=-1\nAX[AY]=6\nM30\n";
+    let run = dry_run(src.as_bytes(), &Config::default());
+    assert_eq!(
+        &run.trace.last().unwrap().programmed[..3],
+        &[4.0, 6.0, -1.0]
+    );
+}
+
 /// The shop programs the dry run stopped at (TRAORI orientation words, a machine axis name, GETT, POLY,
 /// G58/G59) transform with every profile that writes them, audited to the end.
 #[test]
