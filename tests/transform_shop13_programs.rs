@@ -45,3 +45,22 @@ fn after_a_retract_with_d0_the_spindle_start_of_the_next_tool_measures() {
         "N200 S5000 M3"
     )));
 }
+
+#[test]
+fn a_grinder_program_with_pi_and_an_axis_variable_is_audited_to_its_end() {
+    // 02: the wheel speed from the cutting speed with `$PI`, the oscillation axis held in an AXIS variable
+    // set as `PENDEL=(Z)` (both as grinder builders' macros write them). The dry run stopped at each, so
+    // the output was written "audit incomplete", without the safety audit from there on.
+    let src = shop13("02_grinder_pi_wheel_speed_axis_variable.mpf");
+    for profile in ["grinder-gauge", "lathe-setter"] {
+        let every = common::measuring_builtin(profile);
+        let (o, _dir) = common::transform_in(
+            &[("p.mpf", &src), ("every.toml", &every)],
+            "p.mpf",
+            "every.toml",
+        );
+        let err = common::stderr(&o);
+        assert!(o.status.success(), "{profile}: {err}");
+        assert!(!err.contains("audit incomplete"), "{profile}: {err}");
+    }
+}
