@@ -391,3 +391,47 @@ fn a_hole_a_modal_drilling_cycle_drills_at_the_probe_point() {
     );
     assert!(found(&drill("X60 Y60\nX90 Y60\n")).is_empty());
 }
+
+#[test]
+fn a_hole_pattern_under_a_modal_drilling_cycle_drills_at_its_positions() {
+    // `HOLES2` moves to each hole of its circle and calls the modal cycle there: the dry run skips the
+    // pattern, so its holes were no cut it saw — a circle about the probe point went unchecked.
+    let call = "CYCLE61(50,1,2,0,20,20,130,90,3,40,0.2,1000,31,0,1,10100)";
+    let pattern = |modal: &str, holes: &str| {
+        audited_edited(
+            "cycle_face_clear",
+            call,
+            &format!("G0 X60 Y60\n{modal}\n{holes}\nMCALL"),
+        )
+        .unwrap()
+    };
+    let drill = "MCALL CYCLE81(50,1,2,-10,)";
+    machined_once(
+        &pattern(drill, "HOLES2(0,0,3,0,0,4)"),
+        10,
+        "HOLES2 machines X3…3 Y0…0 Z-10…1",
+    );
+    machined_once(
+        &pattern(drill, "HOLES1(-30,2,0,10,10,4)"),
+        10,
+        "HOLES1 machines X0…0 Y2…2",
+    );
+    machined_once(
+        &pattern(drill, "CYCLE801(-10,-10,0,10,10,3,3)"),
+        10,
+        "CYCLE801 machines X0…0 Y0…0",
+    );
+    // Holes clear of the point are no finding, also on a circle about it; without a modal call a pattern
+    // only positions the tool.
+    assert!(found(&pattern(drill, "HOLES2(60,60,20,0,0,6)")).is_empty());
+    assert!(found(&pattern(drill, "HOLES2(0,0,40,0,0,6)")).is_empty());
+    assert!(found(&pattern("", "HOLES2(0,0,3,0,0,4)")).is_empty());
+    // A modal subprogram or milling cycle at each position is a region the dry run does not know.
+    let a = pattern("MCALL POCKET4(50,1,2,-5,4,0,0)", "HOLES2(0,0,30,0,0,4)");
+    assert_eq!(found(&a), [(Kind::MachinedVolumeUnknown, 10)]);
+    assert!(
+        messages(&a).contains("it calls POCKET4, made modal by MCALL, at each of its positions"),
+        "{}",
+        messages(&a)
+    );
+}

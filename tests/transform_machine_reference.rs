@@ -266,3 +266,21 @@ M30
     );
     assert!(clean, "{report}");
 }
+
+#[test]
+fn a_lathe_gate_does_not_go_where_the_program_mills() {
+    // A milling program (G17, X in radius) with the lathe profile: its gate would retract along X to a
+    // clearance diameter and travel Z to the arm, dragging the end mill sideways through the part.
+    let mill = "G17 G90 G94 G54\nT=\"EM12\" M6\nD1\nS6000 M3 M8\nG0 X-10 Y0 Z20\nG1 Z-2 F500\nX80 F1200\nG0 Z50\nM30\n";
+    let (o, _dir) = common::transform_in(&[("mill.mpf", mill)], "mill.mpf", "lathe-setter");
+    assert!(!o.status.success());
+    assert!(
+        common::stderr(&o).contains("the program mills there (the milling plane G17 in force"),
+        "{}",
+        common::stderr(&o)
+    );
+    // A lathe drilling on its axis under G17 is measured once the program turns in G18 again.
+    let lathe = "G18 G90 G95 G54 DIAMON\nT1 D1\nG96 S180 LIMS=2500 M4 M8\nG0 X52 Z2\nG1 Z-40 F0.2\nG0 X60\nG0 Z2\nG17\nT2 D1\nG97 S1200 M3\nG0 X0 Z5\nG1 Z-20 F0.1\nG0 Z5\nG18\nT1 D1\nG96 S180 M4\nG0 X60 Z2\nG1 X48 F0.2\nG1 Z-40\nG0 X60\nM30\n";
+    let out = transformed_in(&[("lathe.mpf", lathe)], "lathe.mpf", "lathe-setter");
+    assert!(out.contains("driftloop gate"), "{out}");
+}

@@ -61,9 +61,10 @@ fn the_zero_is_measured_once_before_a_loop_over_the_parts() {
     // 02: `FOR _TEIL=0 TO 3` / `TRANS X=_TEIL*100` around each part. A tool setter's zero went after the
     // TRANS, inside the loop: measured again on every part, it took the drift of the parts before as the
     // reference and started the model cold, so no later part was corrected for it. It goes before the
-    // loop now (a gate inside the loop still updates and measures).
+    // loop now (a gate inside the loop still updates and measures). The lathe setter refuses this milling
+    // program.
     let src = shop12("02_part_loop_trans_per_part.mpf");
-    for profile in ["blum-tc50", "tool-setter", "lathe-setter", "grinder-gauge"] {
+    for profile in ["blum-tc50", "tool-setter", "grinder-gauge"] {
         let out = common::every_gate_transformed(profile, &[("p.mpf", &src)]);
         let line = |text: &str| out.lines().position(|l| l.contains(text)).unwrap();
         assert!(

@@ -284,7 +284,7 @@ fn no_gate_after_a_subprogram_gives_back_the_motion_and_feed_from_before_it() {
     ];
     for (first, call, sub, (motion, feed)) in cases {
         let prog = after_call(first, call);
-        for profile in ["tool-setter", "blum-tc50", "lathe-setter"] {
+        for profile in ["tool-setter", "blum-tc50"] {
             let out = common::every_gate_transformed(profile, &[("p.mpf", &prog), sub]);
             let lines: Vec<&str> = out.lines().collect();
             let from = at(&lines, call);

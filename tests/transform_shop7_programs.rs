@@ -65,7 +65,7 @@ fn a_gate_before_the_programs_spindle_measures_only_where_the_spindle_stands() {
     // still. Now the zero reads the actual speed after its STOPRE and goes around the probe where the
     // spindle turns.
     let prog = std::fs::read_to_string(common::fixture("shop7/01_mda_spindle_face.mpf")).unwrap();
-    for profile in common::MOVING_PROFILES {
+    for profile in common::MILLING_PROFILES {
         let (o, out) = transform_fixture("01_mda_spindle_face.mpf", profile);
         let out = out.unwrap_or_else(|| panic!("{profile}: {}", common::stderr(&o)));
         let check = out.find("$AA_S[1]<>0").expect("the spindle check");

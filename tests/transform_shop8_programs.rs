@@ -37,7 +37,7 @@ fn no_zero_before_a_builder_cycle_that_is_the_first_cut_with_no_tool_known() {
     // offset the RESET left (G500), before the table was turned to B0; the setters measured the previous
     // program's tool. 01 (DMG, `L710` then `T="…" TC(1)`), 10 (Pittler, `WZW("15226","BLIND2",1)`), 15: the
     // setters' zero measured the turret's last tool before the program selected its own.
-    for profile in common::MOVING_PROFILES {
+    for profile in common::MILLING_PROFILES {
         let (o, out) = transform_fixture("08_bw_mcx_b_table_puifr_search_guard.mpf", profile);
         assert_eq!(o.status.code(), Some(2), "{profile}: {out:?}");
     }
@@ -102,7 +102,7 @@ fn no_correction_is_written_under_a_swivel_at_the_programs_offset_selection() {
     // caught it (measure-under-transform) and nothing was written for any profile. Now no inserted block
     // runs there: the correction the selection dropped stays off until the next gate reads what is in
     // force.
-    for profile in common::MOVING_PROFILES {
+    for profile in common::MILLING_PROFILES {
         let (o, out) = transform_fixture("11_hermle_c22_cycle800_3plus2.mpf", profile);
         let out = out.unwrap_or_else(|| panic!("{profile}: {}", common::stderr(&o)));
         let swivelled = between(&out, "CYCLE800(0,\"HERMLE\",0,39,0,0,0,180", "CYCLE800()");

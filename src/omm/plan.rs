@@ -515,6 +515,21 @@ fn turning_reads_tool(site: &Site, profile: &Profile) -> Option<&'static str> {
     .then_some(TURNING_READS_TOOL)
 }
 
+const MILLING_UNDER_A_LATHE_GATE: &str = "the program mills there (the milling plane G17 in force, X in radius): the profile's gate retracts along X to a clearance diameter as on a lathe, which would drag a milling tool sideways through the part; choose a milling profile (blum-tc50, siemens-cycle978, tool-setter), or for a lathe's axial drilling under G17 select G18 again before the place";
+
+/// Why the profile's kind of gate does not suit the machining at `site`: a milling probe's swap where the
+/// program turns or grinds, or a lathe's gate, which retracts along X, where it mills (a gauge, which
+/// moves nothing, measures where it is).
+fn machine_unfit(site: &Site, profile: &Profile) -> Option<&'static str> {
+    turning_reads_tool(site, profile).or_else(|| {
+        (profile.position.retract_axis == Axis::X
+            && profile.probe.kind != ProbeKind::Gauge
+            && site.before.plane == Some(17)
+            && !site.before.diameter.on())
+        .then_some(MILLING_UNDER_A_LATHE_GATE)
+    })
+}
+
 /// Why a spindle probe may not be swapped in at `site`: a later M6 of the program loads the tool the
 /// operator preselected, which the swap's `T` would replace (the control cannot tell the gate which it
 /// was); or the program changes tools with a subprogram that takes the tool as its argument, which a gate
@@ -567,7 +582,10 @@ fn unfit_for_reference(
     {
         return Some(TOOL_LOADED_BY_CALL);
     }
-    if let Some(why) = unfit_for_gate(site, profile, rule).or_else(|| frame_blocks(site, profile)) {
+    if let Some(why) = unfit_for_gate(site, profile, rule)
+        .or_else(|| frame_blocks(site, profile))
+        .or_else(|| machine_unfit(site, profile))
+    {
         return Some(why);
     }
     if site.conditional {
@@ -691,7 +709,6 @@ fn reference_site(
             }
             unfit_for_reference(timeline, site, profile, rule)
                 .or_else(|| swap_unfit(timeline, site, profile))
-                .or_else(|| turning_reads_tool(site, profile))
         };
         // A place whose tool the program names comes first: one that reads the tool at run time measures
         // nothing where the operator left none in force.
@@ -1018,7 +1035,7 @@ pub fn plan(
         };
         let restorable = unfit_for_measuring(site, profile, rule, reference_tool.as_ref())
             .or_else(|| swap_unfit(timeline, site, profile))
-            .or_else(|| turning_reads_tool(site, profile))
+            .or_else(|| machine_unfit(site, profile))
             .is_none();
         let (kind, can_measure) = match site.kind {
             _ if reference => (GateKind::Reference, true),

@@ -21,6 +21,10 @@
 //! - `CYCLE81` … `CYCLE89`, `CYCLE840`: SINUMERIK 840D/840Di/810D Programming Guide Cycles (PGZ), 11.02,
 //!   2.1 (`RTP, RFP, SDIS, DP, DPR` first in every drilling cycle) — verified. They drill where the tool
 //!   stands, at the call or, under `MCALL`, after each later move.
+//! - `HOLES1`, `HOLES2`, `CYCLE801`: the 840D cycles guide's orders as a public cycle reader and a
+//!   public test repeat them (not a Siemens page); consistent with the calls in the shop programs.
+//!   `CYCLE802`: the positions' pairs from its third argument on, as the shop programs write them; what its
+//!   two leading masks select is not known here, so both readings are covered.
 //! - `CYCLE61`, `POCKET2`, `POCKET4`, `CYCLE76`, `CYCLE77`, `SLOT1`, `SLOT2`: the 840D sl / 828D cycles
 //!   manuals as known from use; no Siemens page was found to check them against here. The values each
 //!   shape needs are checked to make a shape (lengths and radii positive, a blank larger than its spigot),
@@ -53,6 +57,8 @@ pub(in crate::vm) struct Region {
 #[derive(Debug, Clone, PartialEq)]
 pub(in crate::vm) enum Extent {
     Known(Region),
+    /// A hole pattern's holes, each where the tool drills it.
+    Holes(Vec<Region>),
     Unknown(String),
 }
 
@@ -89,6 +95,165 @@ pub(in crate::vm) fn extent(
         Ok(region) => Extent::Known(region),
         Err(why) => Extent::Unknown(why),
     })
+}
+
+/// The region of a hole pattern's call (`HOLES1`, `HOLES2`, `CYCLE801`, `CYCLE802`) under `MCALL`: the
+/// pattern moves to each of its positions and calls `under`, the cycle `MCALL` made modal, there. `None`
+/// for a call that is no hole pattern, or one with no modal call in force (it only positions the tool).
+/// `at`: where the tool stands in the working plane, from which positions may be incremental.
+pub(in crate::vm) fn pattern_extent(
+    name: &str,
+    args: &[Arg],
+    at: [f64; 2],
+    under: Option<&(String, Vec<Arg>)>,
+) -> Option<Extent> {
+    let (_, positions) = PATTERNS.iter().find(|(n, _)| *n == name)?;
+    let (cycle, cycle_args) = under?;
+    let points = match positions(&Args(args), at) {
+        Ok(points) => points,
+        Err(why) => return Some(Extent::Unknown(why)),
+    };
+    if !DRILLS.contains(&cycle.as_str()) {
+        return Some(Extent::Unknown(format!(
+            "it calls {cycle}, made modal by MCALL, at each of its positions, where the dry run does not run it"
+        )));
+    }
+    Some(match depth(&Args(cycle_args), 1, 3, Some(4), false) {
+        Ok(depth) => Extent::Holes(
+            points
+                .into_iter()
+                .map(|[x, y]| Region {
+                    plane: [[x, x], [y, y]],
+                    depth,
+                    island: None,
+                })
+                .collect(),
+        ),
+        Err(why) => Extent::Unknown(format!("the {cycle} it calls at each position: {why}")),
+    })
+}
+
+/// The positions of a hole pattern, from its arguments and where the tool stands.
+type Positions = fn(&Args, [f64; 2]) -> Result<Vec<[f64; 2]>, String>;
+
+const PATTERNS: &[(&str, Positions)] = &[
+    ("HOLES1", row_of_holes),
+    ("HOLES2", circle_of_holes),
+    ("CYCLE801", grid_of_holes),
+    ("CYCLE802", free_positions),
+];
+
+/// More holes than any pattern on a part has: a count read wrong, rather than a pattern to enumerate.
+const MAX_HOLES: f64 = 10_000.0;
+
+/// Argument `k` as a number of holes: a whole number from 1 up.
+fn count(a: &Args, k: usize, what: &str) -> Result<usize, String> {
+    let n = a.num(k, what)?;
+    if (1.0..=MAX_HOLES).contains(&n) && n.fract() == 0.0 {
+        Ok(n as usize)
+    } else {
+        Err(format!(
+            "its parameter {} ({what}) is no number of holes",
+            k + 1
+        ))
+    }
+}
+
+/// `HOLES1(SPCA, SPCO, STA1, FDIS, DBH, NUM)`: `NUM` holes on the line through `SPCA`/`SPCO` at the angle
+/// `STA1`, the first `FDIS` from that point, the next `DBH` apart.
+fn row_of_holes(a: &Args, _at: [f64; 2]) -> Result<Vec<[f64; 2]>, String> {
+    let base = a.point(0, "reference point")?;
+    let (s, c) = a
+        .opt(2, "angle STA1")?
+        .unwrap_or(0.0)
+        .to_radians()
+        .sin_cos();
+    let first = a.opt(3, "first hole's distance FDIS")?.unwrap_or(0.0);
+    let pitch = a.num(4, "distance between holes DBH")?;
+    let n = count(a, 5, "number of holes NUM")?;
+    Ok((0..n)
+        .map(|i| {
+            let d = first + i as f64 * pitch;
+            [base[0] + c * d, base[1] + s * d]
+        })
+        .collect())
+}
+
+/// `HOLES2(CPA, CPO, RAD, STA1, INDA, NUM)`: `NUM` holes on the circle `RAD` about `CPA`/`CPO` from the angle
+/// `STA1`, `INDA` apart (the full circle divided by `NUM` where `INDA` is 0).
+fn circle_of_holes(a: &Args, _at: [f64; 2]) -> Result<Vec<[f64; 2]>, String> {
+    let centre = a.point(0, "circle centre")?;
+    let radius = a.size(2, "radius RAD")?;
+    let start = a.opt(3, "start angle STA1")?.unwrap_or(0.0);
+    let n = count(a, 5, "number of holes NUM")?;
+    let step = match a.opt(4, "angle between holes INDA")?.unwrap_or(0.0) {
+        0.0 => 360.0 / n as f64,
+        v => v,
+    };
+    Ok((0..n)
+        .map(|i| {
+            let (s, c) = (start + i as f64 * step).to_radians().sin_cos();
+            [centre[0] + radius * c, centre[1] + radius * s]
+        })
+        .collect())
+}
+
+/// `CYCLE801(SPCA, SPCO, STA, DIS1, DIS2, NUM1, NUM2)`: a grid of `NUM1` columns `DIS1` apart and `NUM2`
+/// rows `DIS2` apart from the reference point `SPCA`/`SPCO`, turned by `STA`.
+fn grid_of_holes(a: &Args, _at: [f64; 2]) -> Result<Vec<[f64; 2]>, String> {
+    let base = a.point(0, "reference point")?;
+    let sta = a.opt(2, "angle STA")?.unwrap_or(0.0);
+    let (columns, rows) = (
+        count(a, 5, "number of columns NUM1")?,
+        count(a, 6, "number of rows NUM2")?,
+    );
+    if (columns * rows) as f64 > MAX_HOLES {
+        return Err(format!(
+            "its {columns} × {rows} holes are more than a part has"
+        ));
+    }
+    let (dx, dy) = (
+        a.num(3, "distance between columns DIS1")?,
+        a.num(4, "distance between rows DIS2")?,
+    );
+    let (s, c) = sta.to_radians().sin_cos();
+    Ok((0..columns * rows)
+        .map(|k| {
+            let (u, v) = ((k % columns) as f64 * dx, (k / columns) as f64 * dy);
+            [base[0] + c * u - s * v, base[1] + s * u + c * v]
+        })
+        .collect())
+}
+
+/// `CYCLE802(mask, mask, X0, Y0, X1, Y1, … X8, Y8, …)`: up to nine positions given by pairs. What the two
+/// leading masks select (one digit per position) was not verified here: with every digit 1, the form the
+/// Operate screen writes for absolute positions, they are taken as absolute; otherwise both as absolute
+/// and as steps from where the tool stands.
+fn free_positions(a: &Args, at: [f64; 2]) -> Result<Vec<[f64; 2]>, String> {
+    let all_ones = |k: usize| matches!(a.0.get(k), Some(Arg::Num(v)) if *v > 0.0 && v.to_string().bytes().all(|b| b == b'1'));
+    let absolute = all_ones(0) && all_ones(1);
+    let mut points = Vec::new();
+    let mut walked = at;
+    for k in 0..9 {
+        let i = 2 + 2 * k;
+        let x = a.opt(i, &format!("X{k}"))?;
+        let y = a.opt(i + 1, &format!("Y{k}"))?;
+        match (x, y) {
+            (None, None) => continue,
+            (Some(x), Some(y)) => {
+                walked = [walked[0] + x, walked[1] + y];
+                points.push([x, y]);
+                if !absolute {
+                    points.push(walked);
+                }
+            }
+            _ => return Err(format!("its position {k} gives one coordinate only")),
+        }
+    }
+    if points.is_empty() {
+        return Err("it gives no position".into());
+    }
+    Ok(points)
 }
 
 /// Milling cycles whose region their arguments do not give.
@@ -464,12 +629,7 @@ mod tests {
             v[k] = Some(x);
         }
         let r = known("POCKET3", &v);
-        let near =
-            |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9;
-        assert!(
-            near(r.plane[0], [15.0, 25.0]) && near(r.plane[1], [0.0, 40.0]),
-            "{r:?}"
-        );
+        assert!(near(r.plane, [[15.0, 25.0], [0.0, 40.0]]), "{r:?}");
         assert_eq!(r.depth, [-8.0, 0.0]);
     }
 
@@ -520,6 +680,79 @@ mod tests {
             Some(Extent::Unknown(_))
         ));
         assert_eq!(extent("L100", &[], false, [0.0, 0.0]), None);
+    }
+
+    fn near(a: [[f64; 2]; 2], b: [[f64; 2]; 2]) -> bool {
+        (0..4).all(|k| (a[k / 2][k % 2] - b[k / 2][k % 2]).abs() < 1e-9)
+    }
+
+    #[test]
+    fn a_hole_pattern_takes_the_depth_of_the_modal_drilling_cycle() {
+        let drill = (
+            "CYCLE81".to_string(),
+            args(&[Some(50.), Some(0.), Some(2.), Some(-6.)]),
+        );
+        let holes = |name: &str, values: &[Option<f64>]| -> Vec<[f64; 2]> {
+            match pattern_extent(name, &args(values), [5.0, 5.0], Some(&drill)) {
+                Some(Extent::Holes(holes)) => holes
+                    .iter()
+                    .map(|h| {
+                        assert_eq!(h.depth, [-6.0, 0.0]);
+                        assert_eq!(h.plane.map(|r| r[0]), h.plane.map(|r| r[1]));
+                        [h.plane[0][0], h.plane[1][0]]
+                    })
+                    .collect(),
+                other => panic!("{name}: {other:?}"),
+            }
+        };
+        let close = |a: &[[f64; 2]], b: &[[f64; 2]]| {
+            a.len() == b.len()
+                && a.iter()
+                    .zip(b)
+                    .all(|(p, q)| (p[0] - q[0]).abs() < 1e-9 && (p[1] - q[1]).abs() < 1e-9)
+        };
+        let row = holes("HOLES1", &[10., 10., 90., 5., 20., 3.].map(Some));
+        assert!(
+            close(&row, &[[10., 15.], [10., 35.], [10., 55.]]),
+            "{row:?}"
+        );
+        // INDA 0: the full circle divided by the number of holes, from the start angle.
+        let circle = holes("HOLES2", &[0., 0., 10., 90., 0., 2.].map(Some));
+        assert!(close(&circle, &[[0., 10.], [0., -10.]]), "{circle:?}");
+        let grid = holes("CYCLE801", &[0., 0., 0., 10., 5., 2., 2.].map(Some));
+        assert!(
+            close(&grid, &[[0., 0.], [10., 0.], [0., 5.], [10., 5.]]),
+            "{grid:?}"
+        );
+        // Free positions: absolute under masks of ones, else also steps from X5 Y5.
+        let mut free = [None; 23];
+        free[2..6].copy_from_slice(&[Some(10.), Some(0.), Some(10.), Some(0.)]);
+        free[..2].copy_from_slice(&[Some(111111111.); 2]);
+        assert!(close(&holes("CYCLE802", &free), &[[10., 0.], [10., 0.]]));
+        free[0] = Some(101111111.);
+        let both = holes("CYCLE802", &free);
+        assert!(
+            close(&both, &[[10., 0.], [15., 5.], [10., 0.], [25., 5.]]),
+            "{both:?}"
+        );
+        // No modal call: the pattern only positions; a count that is none is unknown.
+        assert_eq!(
+            pattern_extent("HOLES1", &args(&[Some(0.); 6]), [0.0, 0.0], None),
+            None
+        );
+        assert!(matches!(
+            pattern_extent(
+                "HOLES2",
+                &args(&[0., 0., 10., 0., 0., 2.5].map(Some)),
+                [0.0, 0.0],
+                Some(&drill)
+            ),
+            Some(Extent::Unknown(_))
+        ));
+        assert_eq!(
+            pattern_extent("CYCLE81", &[], [0.0, 0.0], Some(&drill)),
+            None
+        );
     }
 
     #[test]

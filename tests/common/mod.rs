@@ -258,13 +258,9 @@ pub fn every_gate_transformed(profile: &str, files: &[(&str, &str)]) -> String {
     transformed_in(&all, "p.mpf", "every.toml")
 }
 
-/// The builtin profiles whose gates move the machine (all but the gauge's).
-pub const MOVING_PROFILES: [&str; 4] = [
-    "blum-tc50",
-    "siemens-cycle978",
-    "tool-setter",
-    "lathe-setter",
-];
+/// The builtin profiles whose gates move a milling machine (all but the gauge's, which moves nothing,
+/// and the lathe's, which refuses the milling plane).
+pub const MILLING_PROFILES: [&str; 3] = ["blum-tc50", "siemens-cycle978", "tool-setter"];
 
 /// The lines driftloop inserted right before the first line of `out` that starts with `at`: the gate there.
 pub fn gate_before<'a>(out: &'a str, at: &str) -> Vec<&'a str> {

@@ -62,6 +62,34 @@ pub struct Site {
     pub in_contour: bool,
 }
 
+impl Site {
+    /// A site as the fold finds it, before its pass and its flags (loop, frame, IF, part, contour) are
+    /// known: they are set once the whole program is read.
+    pub(in crate::omm::timeline) fn new(
+        block: usize,
+        kind: SiteKind,
+        time_min: f64,
+        before: Modal,
+        rpm_after: f64,
+        idle_min: f64,
+    ) -> Site {
+        Site {
+            block,
+            kind,
+            time_min,
+            pass: 0,
+            before,
+            idle_min,
+            rpm_after,
+            state_varies: false,
+            frame_traverse: false,
+            conditional: false,
+            in_part: false,
+            in_contour: false,
+        }
+    }
+}
+
 /// One technological pass.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Pass {

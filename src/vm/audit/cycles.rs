@@ -3,20 +3,23 @@
 
 use super::geometry::Machined;
 use crate::MM_PER_INCH;
-use crate::vm::cycle_extent::{Extent, Region, extent};
+use crate::vm::cycle_extent::{Extent, Region, extent, pattern_extent};
 use crate::vm::interp::SkippedCall;
 use crate::vm::motion::{IDENTITY, State};
 
-/// The region of a skipped call in the coordinates of the settable work offset (those of a `Movement`), or
-/// why it cannot be known; `None` for a call that is no milling cycle.
-pub(super) fn machined(call: &SkippedCall, st: &State) -> Option<Result<Machined, String>> {
+/// The regions of a skipped call (one, or a hole pattern's holes) in the coordinates of the settable work
+/// offset (those of a `Movement`), or why they cannot be known; `None` for a call that is no milling cycle
+/// (or a hole pattern that only positions).
+pub(super) fn machined(call: &SkippedCall, st: &State) -> Option<Result<Vec<Machined>, String>> {
     let at = st.modal.plane.map(|a| a.map_or(0.0, |a| st.local[a]));
-    Some(
-        match extent(&call.name, &call.args, call.modally, [at[0], at[1]])? {
-            Extent::Known(region) => in_work_coordinates(&region, st),
-            Extent::Unknown(why) => Err(why),
-        },
-    )
+    let at = [at[0], at[1]];
+    let region = pattern_extent(&call.name, &call.args, at, call.under.as_ref())
+        .or_else(|| extent(&call.name, &call.args, call.modally, at))?;
+    Some(match region {
+        Extent::Known(region) => in_work_coordinates(&region, st).map(|b| vec![b]),
+        Extent::Holes(holes) => holes.iter().map(|h| in_work_coordinates(h, st)).collect(),
+        Extent::Unknown(why) => Err(why),
+    })
 }
 
 /// The cycle's box (working plane, tool axis) through the programmable frame: the box holding its corners,

@@ -842,16 +842,17 @@ impl Runner<'_> {
         };
         let name = &call.name;
         match region {
-            Ok(b) => self.cut_near_probe(at, o, work, |s, work| {
-                geometry::box_touches(&b, work, s.axis, s.probe_margin_mm).then(|| {
-                    let extent: Vec<String> = (0..3)
-                        .map(|k| format!("{}{}…{}", AXES[k], num(b.lo[k]), num(b.hi[k])))
-                        .collect();
-                    format!(
-                        "{name} machines {} (its region as a box), which comes",
-                        extent.join(" ")
-                    )
-                })
+            Ok(boxes) => self.cut_near_probe(at, o, work, |s, work| {
+                let b = boxes
+                    .iter()
+                    .find(|b| geometry::box_touches(b, work, s.axis, s.probe_margin_mm))?;
+                let extent: Vec<String> = (0..3)
+                    .map(|k| format!("{}{}…{}", AXES[k], num(b.lo[k]), num(b.hi[k])))
+                    .collect();
+                Some(format!(
+                    "{name} machines {} (its region as a box), which comes",
+                    extent.join(" ")
+                ))
             }),
             Err(why) => {
                 if !self.settings.spindle_probe || !self.watch.unknown_cycles.insert(name.clone()) {

@@ -301,8 +301,14 @@ impl Interp<'_> {
                 }
                 Err(why) if self.cfg.skip_missing_calls => {
                     skipped = true;
-                    self.done.skipped =
-                        Some(SkippedCall::new(&name, &args, &w.call_unknown, false));
+                    let under = self.top().modal_call.clone();
+                    self.done.skipped = Some(SkippedCall::new(
+                        &name,
+                        &args,
+                        &w.call_unknown,
+                        false,
+                        under.as_ref(),
+                    ));
                     let at = self.at(u, i);
                     self.run.messages.push(Message {
                         at,
@@ -355,7 +361,7 @@ impl Interp<'_> {
                 modally: true,
             }),
             Err(why) if self.cfg.skip_missing_calls => {
-                self.done.skipped = Some(SkippedCall::new(name, &args, &[], true));
+                self.done.skipped = Some(SkippedCall::new(name, &args, &[], true, None));
                 self.note(
                     u,
                     i,

@@ -219,24 +219,35 @@ pub(in crate::vm) struct SkippedCall {
     pub args: Vec<Arg>,
     /// Called by `MCALL` after a move.
     pub modally: bool,
+    /// The call `MCALL` made modal where this one is no modal call itself: what a hole pattern calls at
+    /// each of its positions.
+    pub under: Option<(String, Vec<Arg>)>,
 }
 
 impl SkippedCall {
-    fn new(name: &str, args: &[Option<Value>], unknown: &[bool], modally: bool) -> SkippedCall {
-        let args = args
-            .iter()
-            .enumerate()
-            .map(|(k, v)| match v {
-                Some(Value::Num(n)) => Arg::Num(*n),
-                Some(Value::Str(_)) => Arg::Text,
-                None if unknown.get(k).copied().unwrap_or(false) => Arg::Unknown,
-                None => Arg::Omitted,
-            })
-            .collect();
+    fn new(
+        name: &str,
+        args: &[Option<Value>],
+        unknown: &[bool],
+        modally: bool,
+        under: Option<&(String, CallArgs)>,
+    ) -> SkippedCall {
+        let read = |args: &[Option<Value>], unknown: &[bool]| {
+            args.iter()
+                .enumerate()
+                .map(|(k, v)| match v {
+                    Some(Value::Num(n)) => Arg::Num(*n),
+                    Some(Value::Str(_)) => Arg::Text,
+                    None if unknown.get(k).copied().unwrap_or(false) => Arg::Unknown,
+                    None => Arg::Omitted,
+                })
+                .collect()
+        };
         SkippedCall {
             name: name.to_string(),
-            args,
+            args: read(args, unknown),
             modally,
+            under: under.map(|(n, a)| (n.clone(), read(a, &[]))),
         }
     }
 }

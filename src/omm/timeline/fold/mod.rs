@@ -1108,20 +1108,11 @@ impl<'p> Builder<'p> {
             self.note_site(i);
             let first_in_loop = self.loop_depth > 0 && self.loop_gate_pending;
             self.loop_gate_pending &= !first_in_loop;
-            self.t.sites.push(Site {
-                block: i,
-                kind: SiteKind::Retract { first_in_loop },
-                time_min: start,
-                pass: 0,
-                before: before.clone(),
-                rpm_after: rpm,
-                state_varies: false,
-                frame_traverse: false,
-                conditional: false,
-                in_part: false,
-                in_contour: false,
-                idle_min: self.idle_since_cut(start),
-            });
+            let idle = self.idle_since_cut(start);
+            let kind = SiteKind::Retract { first_in_loop };
+            self.t
+                .sites
+                .push(Site::new(i, kind, start, before.clone(), rpm, idle));
         }
         let from = self.pos;
         let mut to = self.pos;

@@ -41,20 +41,15 @@ impl Builder<'_> {
         if self.after_call {
             self.varies.insert(i);
         }
-        self.t.sites.push(Site {
-            block: i,
-            kind: SiteKind::SpeedChange,
+        let idle = self.idle_since_cut(time_min);
+        self.t.sites.push(Site::new(
+            i,
+            SiteKind::SpeedChange,
             time_min,
-            pass: 0,
             before,
-            rpm_after: rpm,
-            state_varies: false,
-            frame_traverse: false,
-            conditional: false,
-            in_part: false,
-            in_contour: false,
-            idle_min: self.idle_since_cut(time_min),
-        });
+            rpm,
+            idle,
+        ));
     }
 
     /// The speed-change site a subprogram's speed asks for, at the first block after its call.
@@ -70,20 +65,16 @@ impl Builder<'_> {
     pub(super) fn safe_site_after(&mut self, i: usize) {
         if let Some((_, kind)) = self.safe_after.take_if(|(at, _)| *at < i) {
             self.note_site(i);
-            self.t.sites.push(Site {
-                block: i,
+            let time = self.time();
+            let site = Site::new(
+                i,
                 kind,
-                time_min: self.time(),
-                pass: 0,
-                before: self.state.clone(),
-                rpm_after: self.rpm,
-                idle_min: self.idle_since_cut(self.time()),
-                state_varies: false,
-                frame_traverse: false,
-                conditional: false,
-                in_part: false,
-                in_contour: false,
-            });
+                time,
+                self.state.clone(),
+                self.rpm,
+                self.idle_since_cut(time),
+            );
+            self.t.sites.push(site);
         }
     }
 
@@ -118,20 +109,14 @@ impl Builder<'_> {
         if !self.merges.is_empty() || !self.call_unsure.is_empty() {
             self.site_changes.push((i, self.changed, self.written));
         }
-        self.start = Some(Site {
-            block: i,
-            kind: SiteKind::Start,
+        self.start = Some(Site::new(
+            i,
+            SiteKind::Start,
             time_min,
-            pass: 0,
-            before: BeforeCall::state(entry, &self.state),
-            rpm_after: self.rpm,
-            state_varies: false,
-            frame_traverse: false,
-            conditional: false,
-            in_part: false,
-            in_contour: false,
-            idle_min: self.idle_since_cut(time_min),
-        });
+            BeforeCall::state(entry, &self.state),
+            self.rpm,
+            self.idle_since_cut(time_min),
+        ));
     }
 
     /// A tool setter measures its zero with the tool that cuts, under the D number it cuts with: a tool
@@ -248,21 +233,12 @@ impl Builder<'_> {
                 tool: m.tool,
                 max_rpm: speed_max(&self.t.speeds, m.time, end),
             });
+            let kind = SiteKind::PassStart {
+                tool_change: m.tool_change,
+            };
             self.t.sites.push(Site {
-                block: m.block,
-                kind: SiteKind::PassStart {
-                    tool_change: m.tool_change,
-                },
-                time_min: m.time,
                 pass: k + 1,
-                before: m.before,
-                rpm_after: m.rpm,
-                state_varies: false,
-                frame_traverse: false,
-                conditional: false,
-                in_part: false,
-                in_contour: false,
-                idle_min: m.idle,
+                ..Site::new(m.block, kind, m.time, m.before, m.rpm, m.idle)
             });
         }
         // The start site only counts once it is known to come after the setup.
