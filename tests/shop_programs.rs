@@ -137,7 +137,20 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
             ("lathe-setter", 0),
         ],
     );
-    let sets = sets.into_iter().chain([shop11, shop12]).chain([(
+    // fixtures/shop13 (QA round 13: reductions of public programs; 02 is a grinder, which the spindle
+    // probes refuse rightly, 01 a milling program in G17, which the lathe setter refuses rightly).
+    let shop13 = (
+        "shop13",
+        2,
+        [
+            ("blum-tc50", 1),
+            ("siemens-cycle978", 1),
+            ("tool-setter", 2),
+            ("grinder-gauge", 2),
+            ("lathe-setter", 1),
+        ],
+    );
+    let sets = sets.into_iter().chain([shop11, shop12, shop13]).chain([(
         "cov10",
         4,
         [

@@ -218,6 +218,23 @@ fn g26_clamps_the_speed_and_its_axis_values_are_no_move() {
 }
 
 #[test]
+fn the_circle_constant_is_a_value() {
+    // A dresser macro's speed from the wheel's diameter (QA round 13: the dry run stopped at `$PI`).
+    let run = dry_run(
+        b"R1=60000/($PI*400)\nS=R1 M3\nG4 F1\nM30\n",
+        &Config::default(),
+    );
+    let rpm = run.spindle.steps[0].1;
+    assert!((rpm - 47.746_482_9).abs() < 1e-6, "{:?}", run.spindle);
+    finds(
+        "R9=$PI",
+        &["G91"],
+        Kind::ModalNotRestored,
+        "dimensions G91 here, G90 in the original",
+    );
+}
+
+#[test]
 fn indirect_g_codes_select_as_the_g_code_would() {
     finds(
         "G[8]=2",
@@ -782,6 +799,19 @@ fn axis_variables_indirect_axes_and_the_active_g_codes_run() {
             &Config::default()
         )
         .contains("Q is not an axis")
+    );
+}
+
+#[test]
+fn an_axis_variable_takes_an_axis_name_in_brackets() {
+    // A builder's axis-calibration macro writes `AXIVAR=(C)`; a declaration may set the axis at once
+    // (QA round 13: the dry run stopped, "axis C used as a value").
+    let src = "DEF AXIS AV, AW\nDEF AXIS AZ=(Z), AY=Y\nAV=(X)\nAW=((Y))\nG90 G1 AX[AV]=4 AX[AW]=5 F500\n\
+               AX[AZ]=-1\nAX[AY]=6\nM30\n";
+    let run = dry_run(src.as_bytes(), &Config::default());
+    assert_eq!(
+        &run.trace.last().unwrap().programmed[..3],
+        &[4.0, 6.0, -1.0]
     );
 }
 

@@ -957,6 +957,9 @@ pub fn plan(
     // Planned time of the last gate or refresh: continuous compensation refreshes once its interval passed.
     let mut last_update = runs.sites[start].1;
     let mut at_last_measurement = vec![0.0; models.len()];
+    // The pass of the last gate that could measure: a spindle start measures only in a pass where no
+    // gate before it could (one place at a tool change is enough).
+    let mut measurable_pass: Option<usize> = None;
     let mut max: f64 = 0.0;
     // Speeds the model was never characterised at: say so, with the law its gains follow there.
     let mut speeds: Vec<f64> = timeline.speeds.iter().map(|s| s.1).collect();
@@ -1040,10 +1043,21 @@ pub fn plan(
             SiteKind::Retract { .. } | SiteKind::Stop | SiteKind::Dressing => {
                 (GateKind::Extra, restorable)
             }
-            // Where the spindle stops the tool is out of the cut.
-            SiteKind::SpeedChange => (GateKind::Update, restorable && site.rpm_after == 0.0),
+            // Where the spindle stops the tool is out of the cut, and where it starts from standstill it
+            // has not cut since it stopped: the place after a tool change where `SUPA Z0 D0` before the
+            // change left the pass start unfit.
+            SiteKind::SpeedChange => {
+                let starts = site.before.rpm() == 0.0 && measurable_pass != Some(site.pass);
+                (
+                    GateKind::Update,
+                    restorable && (site.rpm_after == 0.0 || starts),
+                )
+            }
             SiteKind::Start => (GateKind::Update, false),
         };
+        if can_measure {
+            measurable_pass = Some(site.pass);
+        }
         if can_measure && !reference {
             watch.chance(format!("line {}", site.block + 1), time, drifts.clone());
         }

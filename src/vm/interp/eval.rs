@@ -284,6 +284,8 @@ impl Interp<'_> {
                     m.frames.offset(a)
                 }
             }
+            // The circle constant, which cycles and shop macros use for cutting speeds.
+            ("$PI", []) => std::f64::consts::PI,
             ("$AN_POWERON_TIME" | "$AN_SETUP_TIME", []) => self.time_min,
             ("$AC_CYCLE_TIME" | "$AC_OPERATING_TIME", []) => self.time_min * 60.0,
             ("$P_F", []) => m.modal.feed.unwrap_or(0.0),

@@ -116,15 +116,10 @@ impl Interp<'_> {
                 w.axes.push((a, dim, v));
                 return Ok(());
             }
-            // An AXIS variable takes an axis's name: `_X=X`.
             if self.variable(&name).is_some_and(|v| v.ty == VarType::Axis)
-                && value.kind == NodeKind::Var
-                && value.find(NodeKind::Index).is_none()
+                && let Some(axis) = self.axis_named(u, value)
             {
-                let axis = u.upper(value);
-                if self.axis_index(&axis).is_some() {
-                    return self.store(u, target, Value::Str(axis), w);
-                }
+                return self.store(u, target, Value::Str(axis), w);
             }
             if let (None, Some(a), None) =
                 (index, self.cfg.machine_axis(&name), self.variable(&name))
@@ -654,6 +649,26 @@ impl Interp<'_> {
         Ok((name, var))
     }
 
+    /// An initial value of a variable of type `ty`: an AXIS variable takes an axis's name.
+    fn initial(&self, u: &Unit, ty: VarType, value: &Node) -> Result<Value, String> {
+        match self.axis_named(u, value) {
+            Some(axis) if ty == VarType::Axis => Ok(Value::Str(axis)),
+            _ => self.eval(u, value),
+        }
+    }
+
+    /// The axis an AXIS variable takes: its name (`_X=X`), also in brackets as shop macros write it
+    /// (`AXIVAR=(C)`, `DEF AXIS A1=(Z)`).
+    fn axis_named(&self, u: &Unit, value: &Node) -> Option<String> {
+        let mut v = value;
+        while v.kind == NodeKind::Paren {
+            v = v.significant().find(|c| c.kind != NodeKind::Punct)?;
+        }
+        let axis =
+            (v.kind == NodeKind::Var && v.find(NodeKind::Index).is_none()).then(|| u.upper(v))?;
+        self.axis_index(&axis).is_some().then_some(axis)
+    }
+
     /// `= value`, `= SET(a, , c)`, `= (a, b)`, `= REP(v [, n])`.
     pub(super) fn initialise(
         &self,
@@ -691,12 +706,12 @@ impl Interp<'_> {
                 }
                 for (slot, item) in var.data.iter_mut().zip(items) {
                     if let Some(item) = item {
-                        *slot = var.ty.convert(self.eval(u, item)?)?;
+                        *slot = var.ty.convert(self.initial(u, var.ty, item)?)?;
                     }
                 }
                 Ok(())
             }
-            None if var.dims.is_empty() => var.set(&[], self.eval(u, init)?),
+            None if var.dims.is_empty() => var.set(&[], self.initial(u, var.ty, init)?),
             None => Err("an array is initialised with SET(…) or REP(…)".into()),
         }
     }

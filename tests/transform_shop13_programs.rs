@@ -1,0 +1,66 @@
+//! Lost measurements and needless refusals QA round 13 found in public Sinumerik programs driftloop had not
+//! seen (fixtures/shop13 holds reductions written for this repository; its README lists them). Each through
+//! the binary, which audits its output as planned and with every gate measuring.
+
+mod common;
+
+/// The text of `fixtures/shop13/NAME`.
+fn shop13(name: &str) -> String {
+    std::fs::read_to_string(common::fixture(&format!("shop13/{name}"))).unwrap()
+}
+
+#[test]
+fn after_a_retract_with_d0_the_spindle_start_of_the_next_tool_measures() {
+    // 01: the post retracts to machine zero with the length deselected (`G0 SUPA Z0 D0`) before every
+    // tool change. The pass start there is no place for a spindle probe (heights are the spindle's), and a
+    // spindle start measured only where the spindle stopped: no gate after the zero measured at any tool
+    // change, only after the first tool's cuts. The place after the change and its `D1`, before the
+    // spindle starts, measures now, with the new tool given back.
+    let src = shop13("01_supa_d0_retract_before_each_toolchange.mpf");
+    for profile in ["blum-tc50", "siemens-cycle978"] {
+        let out = common::every_gate_transformed(profile, &[("p.mpf", &src)]);
+        for (start, tool) in [("N200 S5000 M3", "T=2 M6"), ("N330 S3000 M3", "T=3 M6")] {
+            let gate = common::gate_before(&out, start);
+            assert!(common::gate_measures(&gate), "{profile} {start}:\n{out}");
+            assert!(
+                gate.iter().any(|l| l.starts_with(tool)),
+                "{profile} {start}"
+            );
+        }
+        // The pass start before the change, under D0, still does not measure.
+        assert!(!common::gate_measures(&common::gate_before(
+            &out,
+            "N180 T2 M6"
+        )));
+    }
+    // A gate that could measure at the tool change keeps the spindle start after it from measuring again.
+    let with_length = src.replace("SUPA Z0 D0", "SUPA Z0");
+    let out = common::every_gate_transformed("blum-tc50", &[("p.mpf", &with_length)]);
+    assert!(common::gate_measures(&common::gate_before(
+        &out,
+        "N180 T2 M6"
+    )));
+    assert!(!common::gate_measures(&common::gate_before(
+        &out,
+        "N200 S5000 M3"
+    )));
+}
+
+#[test]
+fn a_grinder_program_with_pi_and_an_axis_variable_is_audited_to_its_end() {
+    // 02: the wheel speed from the cutting speed with `$PI`, the oscillation axis held in an AXIS variable
+    // set as `PENDEL=(Z)` (both as grinder builders' macros write them). The dry run stopped at each, so
+    // the output was written "audit incomplete", without the safety audit from there on.
+    let src = shop13("02_grinder_pi_wheel_speed_axis_variable.mpf");
+    for profile in ["grinder-gauge", "lathe-setter"] {
+        let every = common::measuring_builtin(profile);
+        let (o, _dir) = common::transform_in(
+            &[("p.mpf", &src), ("every.toml", &every)],
+            "p.mpf",
+            "every.toml",
+        );
+        let err = common::stderr(&o);
+        assert!(o.status.success(), "{profile}: {err}");
+        assert!(!err.contains("audit incomplete"), "{profile}: {err}");
+    }
+}
