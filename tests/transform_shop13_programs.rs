@@ -64,3 +64,20 @@ fn a_grinder_program_with_pi_and_an_axis_variable_is_audited_to_its_end() {
         assert!(!err.contains("audit incomplete"), "{profile}: {err}");
     }
 }
+
+#[test]
+fn an_old_sinumerik_drilling_cycle_is_refused_by_what_it_is() {
+    // F5: `G81 … R2=… R3=…`, the drilling cycle of the Sinumerik 810/820 syntax, was refused as "a word of
+    // the ISO dialect (G291 mode)". The refusal is right (an 840D in Siemens mode refuses G81 too); the
+    // message names both readings now, and other ISO words keep theirs.
+    let prog =
+        "G17 G90 G54\nT1 M6\nS1000 M3\nG0 X10 Y10 Z5\nG81 X10 Y10 R2=5 R3=-10\nG0 Z50\nM30\n";
+    let (o, _dir) = common::transform_in(&[("p.mpf", prog)], "p.mpf", "blum-tc50");
+    assert_eq!(o.status.code(), Some(2));
+    let err = common::stderr(&o);
+    assert!(
+        err.contains("line 5: G81 is a drilling cycle of the ISO dialect")
+            && err.contains("older Sinumerik 810/820 syntax"),
+        "{err}"
+    );
+}

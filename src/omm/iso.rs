@@ -62,6 +62,17 @@ fn first_word(src: &[u8], word: &[u8]) -> Option<(usize, String)> {
     })
 }
 
+/// What an ISO-dialect word found in a program is, for the refusal: a drilling code G80 … G89 is also the
+/// older Sinumerik 810/820 cycle syntax (`G81 R2=… R3=…`), which an 840D in Siemens mode refuses too.
+pub(super) fn what_word_is(word: &str) -> &'static str {
+    match word.strip_prefix('G').and_then(|g| g.parse::<u32>().ok()) {
+        Some(80..=89) => {
+            "a drilling cycle of the ISO dialect (Fanuc-style, G291 mode) or of the older Sinumerik 810/820 syntax with R-parameters, neither of which the Siemens mode of an 840D runs (its cycles are CYCLE81 …)"
+        }
+        _ => "a word of the ISO dialect (Fanuc-style, G291 mode)",
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::iso_word;

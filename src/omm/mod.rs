@@ -86,7 +86,8 @@ pub enum TransformError {
     )]
     FrameInForceWrite(usize),
     #[error(
-        "line {line}: {word} is a word of the ISO dialect (Fanuc-style, G291 mode): driftloop inserts Siemens-mode blocks, which that mode reads otherwise, and a gate's tool change would drop a tool length compensation given with G43 H; driftloop transforms Siemens-mode programs only (run this one as it is)"
+        "line {line}: {word} is {}: driftloop inserts Siemens-mode blocks, which that mode reads otherwise, and a gate's tool change would drop a tool length compensation given with G43 H; driftloop transforms Siemens-mode programs only (run this one as it is)",
+        iso::what_word_is(word)
     )]
     IsoDialect { line: usize, word: String },
     #[error(
