@@ -81,3 +81,19 @@ fn an_old_sinumerik_drilling_cycle_is_refused_by_what_it_is() {
         "{err}"
     );
 }
+
+#[test]
+fn a_spindle_start_under_the_part_does_not_measure() {
+    // The spindle start that measures since F1 (a pass whose start is unfit under D0) must not be one where
+    // the tool went down without cutting since it last rose: a tool lowered into a bore or a pocket with
+    // its spindle stopped (a back-boring bar goes down through its bore so) starts it there, below what
+    // was cut. A gate there would retract along Z through the part.
+    let prog = "G17 G90 G94 G54\nT=\"FRAESER\" M6\nD1\nS4000 M3\nG0 X0 Y0 Z5\nG1 Z-2 F300\nG1 X40\n\
+                G0 Z50\nM5\nG0 SUPA Z0 D0\nT=\"RUECKWAERTS\" M6\nD1\nG0 X50 Y48 Z20\nG0 Z-35\nG0 Y50\n\
+                S600 M3\nG1 Z-30 F50\nM5\nG0 Y48\nG0 Z50\nM30\n";
+    for profile in ["blum-tc50", "tool-setter"] {
+        let out = common::every_gate_transformed(profile, &[("p.mpf", prog)]);
+        let gate = common::gate_before(&out, "S600 M3");
+        assert!(!common::gate_measures(&gate), "{profile}:\n{out}");
+    }
+}

@@ -1045,9 +1045,11 @@ pub fn plan(
             }
             // Where the spindle stops the tool is out of the cut, and where it starts from standstill it
             // has not cut since it stopped: the place after a tool change where `SUPA Z0 D0` before the
-            // change left the pass start unfit.
+            // change left the pass start unfit. Not where the tool went down since it last rose: a
+            // back-boring bar lowered through its bore with the spindle stopped stands under the part.
             SiteKind::SpeedChange => {
-                let starts = site.before.rpm() == 0.0 && measurable_pass != Some(site.pass);
+                let starts =
+                    site.before.rpm() == 0.0 && !site.lowered && measurable_pass != Some(site.pass);
                 (
                     GateKind::Update,
                     restorable && (site.rpm_after == 0.0 || starts),

@@ -64,6 +64,9 @@ pub(super) struct Run {
     /// After its last cut a rapid rose in Z (`Some(true)`), or it ends with a cut (`Some(false)`); `None`
     /// when it neither cuts nor rises: whether the tool is clear of the part after it (see the fold).
     pub(super) clear_after: Option<bool>,
+    /// Its last move along Z is a rapid down (`Some(true)`), or a rapid up or a cut (`Some(false)`);
+    /// `None` when it moves no Z: whether the tool went down without cutting since it last rose.
+    pub(super) lowered_after: Option<bool>,
     /// Its first block that moves is a feed move (`None`: none moves).
     pub(super) first_feed: Option<bool>,
     /// Its first feed move uses the feed in force before the run (`Some(false)`: a block of the run set
@@ -349,13 +352,7 @@ impl Mover {
         if motion == 1 && axes != 0 && axes & !self.known == 0 && feed_known && feed > 0.0 {
             let (from, to) = (self.pos, [self.vals[0], self.vals[1], self.vals[2]]);
             let minutes = move_length(1, from, to, [None; 3], None) / feed;
-            self.extend(
-                i,
-                Timed::Feed(minutes),
-                from[2] != to[2],
-                false,
-                to[2] > from[2],
-            );
+            self.extend(i, Timed::Feed(minutes), false, [from[2], to[2]]);
             (self.pos, self.motion, self.feed, self.retract) = (to, motion, feed, 0);
             self.feed_known = true;
         } else {
@@ -406,7 +403,7 @@ impl Mover {
             }
         };
         match value {
-            Some(v) => self.extend(i, v, from[2] != to[2], rapid_xy, to[2] > from[2]),
+            Some(v) => self.extend(i, v, rapid_xy, [from[2], to[2]]),
             None => self.close(),
         }
         (self.pos, self.known, self.motion) = (to, self.known | axes, motion);
@@ -415,7 +412,8 @@ impl Mover {
 
     /// Adds block `i` to the open run, or opens one with it.
     #[inline(always)]
-    fn extend(&mut self, i: usize, value: Timed, z_moves: bool, rapid_xy: bool, rises: bool) {
+    fn extend(&mut self, i: usize, value: Timed, rapid_xy: bool, [from_z, to_z]: [f64; 2]) {
+        let (z_moves, rises, falls) = (from_z != to_z, to_z > from_z, to_z < from_z);
         let written = self.written;
         let run = match &mut self.open {
             Some(run) => {
@@ -441,6 +439,7 @@ impl Mover {
                 end_pos: [None; 3],
                 end_retract: false,
                 clear_after: None,
+                lowered_after: None,
                 first_feed: None,
                 feed_read_first: None,
                 contour_after: None,
@@ -463,6 +462,9 @@ impl Mover {
                 run.rapids_after_cut += 1;
                 if rises {
                     run.clear_after = Some(true);
+                    run.lowered_after = Some(false);
+                } else if falls {
+                    run.lowered_after = Some(true);
                 }
                 run.first_feed.get_or_insert(false);
                 run.contour_after = Some(false);
@@ -472,6 +474,7 @@ impl Mover {
                 run.cuts = true;
                 run.rapids_after_cut = 0;
                 run.clear_after = Some(false);
+                run.lowered_after = Some(false);
                 run.first_feed.get_or_insert(true);
                 run.feed_read_first.get_or_insert(run.feed.first.is_none());
                 let contour = !(rises && written & 3 == 0);

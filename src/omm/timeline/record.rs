@@ -56,6 +56,10 @@ pub struct Site {
     /// The tool may stand in the part there (no rapid clear of what was cut since the last cut): a gate's
     /// retract along the tool axis could run through material.
     pub in_part: bool,
+    /// The tool went down its axis without cutting since it last rose or was changed: it may stand in a
+    /// bore or under the part with its spindle stopped (a back-boring bar), which a gate's retract along
+    /// the tool axis would pull through the part.
+    pub lowered: bool,
     /// The block lies between two feed moves of a contour under continuous path (G64 … G645, or no path
     /// mode written, as MD20150 may make G64 the default): a STOPRE there stops the path, and the tool
     /// dwells on the contour and marks it.
@@ -85,6 +89,7 @@ impl Site {
             frame_traverse: false,
             conditional: false,
             in_part: false,
+            lowered: false,
             in_contour: false,
         }
     }

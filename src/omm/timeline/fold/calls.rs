@@ -357,6 +357,7 @@ impl Builder<'_> {
         if sub.moves {
             let end = sub.end_standing;
             self.clear = end.clear && (cuts || self.clear);
+            self.lowered = !end.retracted;
             self.last_was_z_retract = end.retracted;
             self.contour = end.contour;
             self.position_doubt = true;

@@ -172,6 +172,11 @@ pub(super) struct Builder<'p> {
     position_doubt: bool,
     /// Sites noted where the tool was not clear: a gate there could retract through the part.
     in_part: BTreeSet<usize>,
+    /// The tool went down its axis without cutting since it last rose or was changed (into a bore, under
+    /// the part, as a back-boring bar does before its spindle starts).
+    lowered: bool,
+    /// Sites noted while the tool was lowered.
+    lowered_at: BTreeSet<usize>,
     /// The last move was a feed along a contour (not straight up the tool axis) under continuous path.
     contour: bool,
     /// Sites noted since that move: in the contour when the next move is a feed too.
@@ -259,6 +264,8 @@ impl<'p> Builder<'p> {
             clear: true,
             position_doubt: false,
             in_part: BTreeSet::new(),
+            lowered: false,
+            lowered_at: BTreeSet::new(),
             contour: false,
             contour_sites: Vec::new(),
             in_contour: BTreeSet::new(),
@@ -478,6 +485,9 @@ impl<'p> Builder<'p> {
         }
         if let Some(clear) = run.clear_after {
             self.clear = clear;
+        }
+        if let Some(lowered) = run.lowered_after {
+            self.lowered = lowered;
         }
         self.contour_run(run);
         for &length in after {
@@ -1147,6 +1157,7 @@ impl<'p> Builder<'p> {
         if tool_change {
             self.contour = false;
             self.contour_sites.clear();
+            self.lowered = false;
         }
         if moves_somehow && !g4 {
             let feed = self.state.motion != 0;
@@ -1171,6 +1182,12 @@ impl<'p> Builder<'p> {
                 self.clear = false;
             } else if rises || (z_rapid && self.position_doubt) || z_expression_rapid {
                 self.clear = true;
+            }
+            // A cut leaves the tool in the part (`clear`) until it rises: only a rapid down lowers it.
+            if rises || feed {
+                self.lowered = false;
+            } else if matches!((from[2], to[2]), (Some(a), Some(b)) if b < a) {
+                self.lowered = true;
             }
             if inexact {
                 self.position_doubt = true;

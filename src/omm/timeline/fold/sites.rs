@@ -178,6 +178,9 @@ impl Builder<'_> {
         if !self.clear {
             self.in_part.insert(i);
         }
+        if self.lowered {
+            self.lowered_at.insert(i);
+        }
         if self.contour {
             self.contour_sites.push(i);
         }
@@ -261,6 +264,7 @@ impl Builder<'_> {
             site.frame_traverse = traverses.contains(site.block);
             site.conditional = conditional.contains(site.block);
             site.in_part = self.in_part.contains(&site.block);
+            site.lowered = self.lowered_at.contains(&site.block);
             site.in_contour = self.in_contour.contains(&site.block);
             // Without M6 in the program, T loads the tool at once.
             if t_loads {
