@@ -187,6 +187,12 @@ fn a_subprogram_that_selects_the_work_offset_and_cuts_leaves_no_place_for_the_ze
         err.contains("the subprogram POCKET_A (line 2) selects the work offset"),
         "{err}"
     );
+    // QA round 13, F6: the message named a setup ending after the first cut ("between the program's setup
+    // (line 3) and its first cut (line 2)").
+    assert!(
+        err.contains("before the program's first cut (line 2), which its setup ends with"),
+        "{err}"
+    );
     assert!(!dir.path().join("out.mpf").exists());
 }
 

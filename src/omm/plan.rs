@@ -767,10 +767,16 @@ fn reference_site(
         .map_or("the program's end".to_string(), |b| {
             format!("line {}", b + 1)
         });
-    let mut message = format!(
-        "no place for the reference measurement between the program's setup (line {}) and its first cut ({cut})",
-        from + 1
-    );
+    let mut message = match timeline.first_cut {
+        // A call that sets up and cuts at once ends the setup after the first cut.
+        Some(first) if from > first => format!(
+            "no place for the reference measurement before the program's first cut ({cut}), which its setup ends with"
+        ),
+        _ => format!(
+            "no place for the reference measurement between the program's setup (line {}) and its first cut ({cut})",
+            from + 1
+        ),
+    };
     let setup_call = timeline
         .setup_call
         .as_ref()
