@@ -76,12 +76,8 @@ pub(in crate::vm) fn extent(
         return Some(Extent::Unknown((*why).to_string()));
     }
     if DRILLS.contains(&name) {
-        return Some(match depth(&Args(args), 1, 3, Some(4), false) {
-            Ok(depth) => Extent::Known(Region {
-                plane: [[at[0], at[0]], [at[1], at[1]]],
-                depth,
-                island: None,
-            }),
+        return Some(match drilled_depth(args) {
+            Ok(depth) => Extent::Known(hole(at, depth)),
             Err(why) => Extent::Unknown(why),
         });
     }
@@ -118,17 +114,8 @@ pub(in crate::vm) fn pattern_extent(
             "it calls {cycle}, made modal by MCALL, at each of its positions, where the dry run does not run it"
         )));
     }
-    Some(match depth(&Args(cycle_args), 1, 3, Some(4), false) {
-        Ok(depth) => Extent::Holes(
-            points
-                .into_iter()
-                .map(|[x, y]| Region {
-                    plane: [[x, x], [y, y]],
-                    depth,
-                    island: None,
-                })
-                .collect(),
-        ),
+    Some(match drilled_depth(cycle_args) {
+        Ok(depth) => Extent::Holes(points.into_iter().map(|p| hole(p, depth)).collect()),
         Err(why) => Extent::Unknown(format!("the {cycle} it calls at each position: {why}")),
     })
 }
@@ -293,6 +280,20 @@ const DRILLS: &[&str] = &[
     "CYCLE81", "CYCLE82", "CYCLE83", "CYCLE84", "CYCLE840", "CYCLE85", "CYCLE86", "CYCLE87",
     "CYCLE88", "CYCLE89",
 ];
+
+/// The depth range a drilling cycle's `RFP`, `DP` and `DPR` give.
+fn drilled_depth(args: &[Arg]) -> Result<[f64; 2], String> {
+    depth(&Args(args), 1, 3, Some(4), false)
+}
+
+/// A hole drilled at `at` over `depth`, as a box of no width.
+fn hole(at: [f64; 2], depth: [f64; 2]) -> Region {
+    Region {
+        plane: [[at[0], at[0]], [at[1], at[1]]],
+        depth,
+        island: None,
+    }
+}
 
 type Shape = fn(&Args) -> Result<Region, String>;
 

@@ -651,10 +651,12 @@ impl Interp<'_> {
 
     /// An initial value of a variable of type `ty`: an AXIS variable takes an axis's name.
     fn initial(&self, u: &Unit, ty: VarType, value: &Node) -> Result<Value, String> {
-        match self.axis_named(u, value) {
-            Some(axis) if ty == VarType::Axis => Ok(Value::Str(axis)),
-            _ => self.eval(u, value),
+        if ty == VarType::Axis
+            && let Some(axis) = self.axis_named(u, value)
+        {
+            return Ok(Value::Str(axis));
         }
+        self.eval(u, value)
     }
 
     /// The axis an AXIS variable takes: its name (`_X=X`), also in brackets as shop macros write it
