@@ -138,15 +138,17 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
         ],
     );
     // fixtures/shop13 (QA round 13: reductions of public programs; 02 is a grinder, which the spindle
-    // probes refuse rightly, 01 a milling program in G17, which the lathe setter refuses rightly).
+    // probes refuse rightly, 01 a milling program in G17, which the lathe setter refuses rightly; 03
+    // changes tools with the builder's M16, which needs `tool_change_m = 16`: every builtin but the gauge
+    // refuses it, naming the key).
     let shop13 = (
         "shop13",
-        2,
+        3,
         [
             ("blum-tc50", 1),
             ("siemens-cycle978", 1),
             ("tool-setter", 2),
-            ("grinder-gauge", 2),
+            ("grinder-gauge", 3),
             ("lathe-setter", 1),
         ],
     );

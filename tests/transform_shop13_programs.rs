@@ -97,3 +97,42 @@ fn a_spindle_start_under_the_part_does_not_measure() {
         assert!(!common::gate_measures(&gate), "{profile}:\n{out}");
     }
 }
+
+#[test]
+fn a_builder_tool_change_m_code_is_read_and_written_with_the_profile_key() {
+    // 03 (F4): the builder made M16 the tool change (MD22560 TOOL_CHANGE_M_CODE) and every change follows
+    // a retract with D0. Read with M6 as the change, `T1 M16` only preselects, D0 stays in force and every
+    // place is refused: the message now names the M-code and the key that reads it.
+    let src = shop13("03_builder_m16_toolchange.mpf");
+    let (o, _dir) = common::transform_in(&[("p.mpf", &src)], "p.mpf", "blum-tc50");
+    assert_eq!(o.status.code(), Some(2));
+    let err = common::stderr(&o);
+    assert!(
+        err.contains("if M16 (line 4, beside the T word) is this machine's tool change")
+            && err.contains("set tool_change_m = 16"),
+        "{err}"
+    );
+    // With `tool_change_m = 16` the change loads the tool and its default edge: the reference measures,
+    // the probe is swapped in and each tool given back with M16 (never M6, which this machine does not
+    // take as a change), and the audit, which reads M16 as the change too, passes.
+    let every = common::measuring_builtin("blum-tc50").replace(
+        "tool_change = \"m6\"",
+        "tool_change = \"m6\"\ntool_change_m = 16",
+    );
+    assert!(every.contains("tool_change_m = 16"));
+    let out = common::transformed_in(
+        &[("p.mpf", &src), ("m16.toml", &every)],
+        "p.mpf",
+        "m16.toml",
+    );
+    assert!(out.contains("T=\"BLUM_TC50\" M16 ;DL"), "{out}");
+    assert!(
+        !out.lines().any(|l| l.ends_with(";DL") && l.contains(" M6")),
+        "{out}"
+    );
+    for (start, tool) in [("N40 S12000", "T=1 M16"), ("N140 S8000", "T=2 M16")] {
+        let gate = common::gate_before(&out, start);
+        assert!(common::gate_measures(&gate), "{start}:\n{out}");
+        assert!(gate.iter().any(|l| l.starts_with(tool)), "{start}:\n{out}");
+    }
+}

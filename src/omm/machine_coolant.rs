@@ -14,6 +14,14 @@ pub fn is_control_m(m: u32) -> bool {
     matches!(m, 0..=9 | 17 | 19 | 30 | 40..=45 | 70)
 }
 
+/// Why `m` cannot be a machine's tool-change M-code (MD22560): M6, or a code the control leaves to the
+/// machine.
+pub fn tool_change_m_fault(m: u32) -> Option<String> {
+    (m != 6 && (is_control_m(m) || m > 99_999)).then(|| format!(
+        "M{m} cannot be the tool change (M0 … M9 but M6, M17, M19, M30, M40 … M45 and M70 have their own meaning on the control; at most M99999)"
+    ))
+}
+
 /// `[coolant]`: the machine's own coolant M-codes.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

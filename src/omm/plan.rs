@@ -821,6 +821,11 @@ fn reference_site(
     } else if unfit.is_none() {
         message.push_str("; mark a pass at a safe place ([passes] marker / lines)");
     }
+    if let Some((line, m)) = timeline.m_beside_t {
+        message.push_str(&format!(
+            "; if M{m} (line {line}, beside the T word) is this machine's tool change (MD22560 TOOL_CHANGE_M_CODE), set tool_change_m = {m} in the profile's [probe]"
+        ));
+    }
     Err(PlanError::NoReference(message))
 }
 

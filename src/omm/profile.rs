@@ -11,7 +11,7 @@ use crate::data::LARGEST_UM;
 
 use super::continuous::Continuous;
 use super::declared_calls::{self, DeclaredCall, Loads};
-use super::machine_coolant::MachineCoolant;
+use super::machine_coolant::{MachineCoolant, tool_change_m_fault};
 use super::warm::WarmStart;
 
 /// The profile shipped inside the binary (fixtures/omm/blum-tc50.toml), used when `--profile` is absent.
@@ -101,6 +101,10 @@ pub struct Probe {
     /// How the machine changes tools.
     #[serde(default)]
     pub tool_change: ToolChange,
+    /// The M-code that loads the preselected tool (MD22560 `$MC_TOOL_CHANGE_M_CODE`, 6 unless the builder
+    /// chose another, such as 16): the program's change is read by it, and a gate swaps with it.
+    #[serde(default = "six", skip_serializing_if = "is_six")]
+    pub tool_change_m: u32,
     /// The machine's own tool change a gate swaps the probe with, instead of `M6`: a call declared in
     /// `[calls]` with `loads`. `{tool}` stands for the tool where the call takes it as an argument;
     /// without it the gate selects the tool with `T=` first.
@@ -123,6 +127,14 @@ pub struct Probe {
 
 fn one() -> u32 {
     1
+}
+
+fn six() -> u32 {
+    6
+}
+
+fn is_six(m: &u32) -> bool {
+    *m == 6
 }
 
 impl Probe {
@@ -714,6 +726,7 @@ impl Profile {
             }
         }
         self.validate_calls()?;
+        self.validate_tool_change_m()?;
         self.continuous
             .validate(self.position.diameter || self.offset.diameter)?;
         if let Some(w) = &self.warm_start {
@@ -824,6 +837,31 @@ impl Profile {
             return Err(format!(
                 "probe.change: `{text}` is not a valid NC block: {}",
                 d.message
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl Profile {
+    /// `probe.tool_change_m`: a builder's code must be one the control leaves to the machine, loading a
+    /// tool the program preselected with `T`.
+    fn validate_tool_change_m(&self) -> Result<(), String> {
+        let m = self.probe.tool_change_m;
+        if m == 6 {
+            return Ok(());
+        }
+        if self.probe.tool_change != ToolChange::M6 {
+            return Err(format!(
+                "probe.tool_change_m = {m} names the M-code that loads a preselected tool: it needs tool_change = \"m6\" (with \"t\" the T word loads at once)"
+            ));
+        }
+        if let Some(fault) = tool_change_m_fault(m) {
+            return Err(format!("probe.tool_change_m: {fault}"));
+        }
+        if self.coolant.follows(m) {
+            return Err(format!(
+                "probe.tool_change_m: M{m} is also one of [coolant] codes"
             ));
         }
         Ok(())
@@ -1020,5 +1058,35 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("not a valid NC block"), "{err}");
+    }
+
+    #[test]
+    fn a_tool_change_m_code_the_control_reserves_or_a_turret_is_refused() {
+        let with = |change: &str, m: &str| {
+            DEFAULT_PROFILE.replace(
+                "tool_change = \"m6\"",
+                &format!("tool_change = \"{change}\"\ntool_change_m = {m}"),
+            )
+        };
+        let err = |text: String| Profile::from_toml(&text, "p.toml").unwrap_err().to_string();
+        for m in ["8", "30", "100000"] {
+            assert!(err(with("m6", m)).contains(&format!("M{m} cannot be the tool change")));
+        }
+        assert!(err(with("t", "16")).contains("needs tool_change = \"m6\""));
+        let both = with("m6", "16").replace(
+            "[limits]",
+            "[coolant]\ncodes = [[16, 61]]\nm9_ends = false\n[limits]",
+        );
+        let e = err(both);
+        assert!(e.contains("M16 is also one of [coolant] codes"), "{e}");
+        let m16 = Profile::from_toml(&with("m6", "16"), "p.toml").unwrap();
+        assert_eq!(m16.probe.tool_change_m, 16);
+        assert_eq!(
+            Profile::from_toml(DEFAULT_PROFILE, "p.toml")
+                .unwrap()
+                .probe
+                .tool_change_m,
+            6
+        );
     }
 }

@@ -27,6 +27,7 @@
 //! temp_comp_type = { Z = 1 }
 //! temp_comp_abs_value = { Z = 0.0 }
 //! sumcorr_default = 0       # MD20272: the sum offset DL a new cutting edge D brings (0: none)
+//! tool_change_m_code = 6    # MD22560: the M-code that loads the preselected tool
 //! [variables]               # values the dry run cannot know: tool data, inputs, outputs, machine data,
 //! "$TC_DP3[1,1]" = 120.5    # the measuring cycles' results; a read of one not listed is 0, with a note
 //! "$A_IN[1]" = 1
@@ -115,6 +116,9 @@ pub struct Config {
     pub passes: bool,
     /// `T` loads the tool at once (turrets; TOOL_CHANGE_MODE 0) instead of preselecting it for `M6`.
     pub tool_change_on_t: bool,
+    /// The M-code that loads the preselected tool (MD22560 `$MC_TOOL_CHANGE_M_CODE`; an audit takes it
+    /// from the profile's `probe.tool_change_m`).
+    pub tool_change_m: u32,
     /// Calls a machine profile declares to change tools (`[calls.NAME] loads`), by upper-cased name: `None`
     /// loads the preselected tool, `Some(k)` the tool in argument k (0-based). A subprogram of that name the
     /// run finds runs instead, as the transform reads it.
@@ -253,6 +257,7 @@ impl Default for Config {
             trace: true,
             passes: true,
             tool_change_on_t: false,
+            tool_change_m: 6,
             tool_change_calls: BTreeMap::new(),
             machine_coolant: Default::default(),
             temp_comp_type: BTreeMap::new(),
@@ -307,6 +312,8 @@ struct MachineData {
     temp_comp_abs_value: BTreeMap<String, f64>,
     /// MD20272 `$MC_SUMCORR_DEFAULT`.
     sumcorr_default: Option<f64>,
+    /// MD22560 `$MC_TOOL_CHANGE_M_CODE`.
+    tool_change_m_code: Option<u32>,
 }
 
 /// A measured quantity over time (ambient temperature …): feeds a truth model's declared input of the same
@@ -496,6 +503,12 @@ pub fn parse_machine_file(
         }
         cfg.sumcorr_default = dl;
     }
+    if let Some(m) = file.machine_data.tool_change_m_code {
+        if let Some(fault) = crate::omm::machine_coolant::tool_change_m_fault(m) {
+            return Err(format!("machine_data.tool_change_m_code: {fault}"));
+        }
+        cfg.tool_change_m = m;
+    }
     for (name, v) in file.variables {
         // `R10 = 1`: an R-parameter the program starts with (retentive on the control: what the operator
         // or an earlier program left).
@@ -650,6 +663,18 @@ pub fn offset_frame(g: &str) -> Option<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_builder_tool_change_code_is_machine_data() {
+        let read = |m: &str| {
+            let text = format!("[machine_data]\ntool_change_m_code = {m}\n");
+            parse_machine_file(&text, Path::new("."), Config::default()).map(|(cfg, _)| cfg)
+        };
+        assert_eq!(Config::default().tool_change_m, 6);
+        assert_eq!(read("16").unwrap().tool_change_m, 16);
+        let err = read("9").unwrap_err();
+        assert!(err.contains("M9 cannot be the tool change"), "{err}");
+    }
 
     #[test]
     fn machine_file_sets_timing_probe_offsets_and_drift() {

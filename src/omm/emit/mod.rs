@@ -901,15 +901,16 @@ impl Emitter<'_> {
         v
     }
 
-    /// `T=<tool>` with M6, with the program's tool-change subprogram, or alone (a turret), as the machine
-    /// changes tools; the profile's declared change ([`Profile::probe`] `change`) before all.
+    /// `T=<tool>` with M6 (or the builder's code), with the program's tool-change subprogram, or alone (a
+    /// turret), as the machine changes tools; the profile's declared change ([`Profile::probe`] `change`) before all.
     fn load(&self, tool: &str) -> Vec<String> {
         if let Some(swap) = self.profile.probe.swap(tool) {
             return swap;
         }
-        match (self.profile.probe.tool_change, &self.tool_change_call) {
+        let probe = &self.profile.probe;
+        match (probe.tool_change, &self.tool_change_call) {
             (ToolChange::M6, Some(call)) => vec![format!("T={tool}"), call.clone()],
-            (ToolChange::M6, None) => vec![format!("T={tool} M6")],
+            (ToolChange::M6, None) => vec![format!("T={tool} M{}", probe.tool_change_m)],
             (ToolChange::T, _) => vec![format!("T={tool}")],
         }
     }

@@ -148,6 +148,9 @@ pub struct Timeline {
     /// M-codes of the machine's own the program uses and the profile's `[coolant]` does not list (vice,
     /// air, through-spindle coolant …): a gate leaves them as they are.
     pub machine_m: BTreeSet<u32>,
+    /// In a program with no tool change the profile knows, the first machine M-code written beside a `T`
+    /// (line, 1-based; code): `T1 M16` on a machine whose builder made M16 the tool change (MD22560).
+    pub m_beside_t: Option<(usize, u32)>,
     /// The first tool change that loads a tool the program did not select (an `M6` with no `T` before
     /// it: the operator preselected it in MDA). A probe swap before it would replace that preselection.
     pub outside_load: Option<usize>,

@@ -81,6 +81,8 @@ pub struct AuditSettings {
     pub probe_result: Option<ProbeTarget>,
     /// `probe.tool_change = "t"`: T loads the tool at once (no M6).
     pub tool_change_on_t: bool,
+    /// `probe.tool_change_m`: the M-code that loads the preselected tool.
+    pub tool_change_m: u32,
     /// `[calls]` declared to change tools ([`Config::tool_change_calls`]): both runs load a tool there.
     pub tool_change_calls: BTreeMap<String, Option<usize>>,
     /// `registers.alarm_tool` where gates read the tool at run time: the alarm of their check that the tool
@@ -178,6 +180,7 @@ impl AuditSettings {
             probe_cycle: cycle.to_ascii_uppercase(),
             probe_result: ProbeTarget::parse(&probe.result),
             tool_change_on_t: probe.tool_change == ToolChange::T,
+            tool_change_m: probe.tool_change_m,
             tool_change_calls: profile
                 .calls
                 .iter()
@@ -267,6 +270,7 @@ impl AuditSettings {
         let axis = ["X", "Y", "Z"][self.axis];
         cfg.probe_axis = axis.to_string();
         cfg.tool_change_on_t = self.tool_change_on_t;
+        cfg.tool_change_m = self.tool_change_m;
         cfg.tool_change_calls
             .extend(self.tool_change_calls.iter().map(|(k, v)| (k.clone(), *v)));
         cfg.machine_coolant = self.machine_coolant.clone();

@@ -172,7 +172,7 @@ impl Interp<'_> {
                 }
                 // M19 positions the spindle at the angle of SD43240, which the dry run does not know.
                 19 => self.position_spindle(1, f64::NAN),
-                6 => self.change_tool(&w_tool_change),
+                m if m == self.cfg.tool_change_m => self.change_tool(&w_tool_change),
                 5 | 0 | 1 | 2 | 30 | 17 => {}
                 7..=9 => {
                     let st = &mut self.motion;

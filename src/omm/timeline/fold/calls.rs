@@ -274,7 +274,7 @@ impl Builder<'_> {
         whole[field::COOLANT] = s.m.contains(9);
         // G96/G97 or LIMS alone leave the speed value as it was.
         whole[field::S] = s.s.is_some() && !no_speed;
-        if s.m.contains(6) {
+        if s.m.contains(self.profile.probe.tool_change_m) {
             whole[field::TOOL] = true;
             whole[field::DIRECTION] = true;
         }
@@ -449,11 +449,12 @@ impl Builder<'_> {
         }
         // Rigid tapping takes the spindle into position control.
         t[field::DIRECTION] |= s.g.iter().any(|g| matches!(g, 331 | 332));
+        let change_m = self.profile.probe.tool_change_m;
         for m in s.m.iter() {
             t[field::MACHINE_COOLANT] |= self.profile.coolant.follows(m);
             let f = match m {
                 3..=5 | POSITIONED => field::DIRECTION,
-                6 => field::TOOL,
+                m if m == change_m => field::TOOL,
                 7..=9 => field::COOLANT,
                 _ => continue,
             };

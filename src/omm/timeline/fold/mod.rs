@@ -894,10 +894,11 @@ impl<'p> Builder<'p> {
             self.new_cutting_edge(s);
         }
         let mut direction = None;
+        let change_m = self.profile.probe.tool_change_m;
         for m in s.m.iter() {
             match m {
                 3..=5 | POSITIONED => direction = Some(m),
-                6 => {
+                m if m == change_m => {
                     self.m6_seen = true;
                     self.m6_always |= self.open_ifs.is_empty() && self.loop_depth == 0;
                 }
@@ -906,6 +907,9 @@ impl<'p> Builder<'p> {
                 7..=9 => self.state.coolant = coolant_after(self.state.coolant, m),
                 _ if !self.profile.coolant.follows(m) && !is_control_m(m) => {
                     self.t.machine_m.insert(m);
+                    if s.tool.is_some() {
+                        self.t.m_beside_t.get_or_insert((i + 1, m));
+                    }
                 }
                 _ => {}
             }
@@ -927,7 +931,7 @@ impl<'p> Builder<'p> {
         if speed.is_some() || direction.is_some() {
             self.t.spindle_words.push((start, speed, direction));
         }
-        let own_m6 = s.m.contains(6);
+        let own_m6 = s.m.contains(change_m);
         // A tool-change subprogram loads the selected tool as M6 does.
         let tool_change = own_m6 || call_loads.is_some();
         // One that may skip its change leaves the spindle turning on that way: the pass's gate is then
@@ -1347,6 +1351,9 @@ impl<'p> Builder<'p> {
         self.mark_unsure_after_calls();
         self.t.as_callee.touched = self.touched;
         self.t.as_callee.loads_tool |= self.m6_seen;
+        if self.m6_seen {
+            self.t.m_beside_t = None;
+        }
         self.t.as_callee.leaves_unknown |= self.after_call;
         let always = self.m6_always && !self.returns_from_several_places();
         let callee = &mut self.t.as_callee;
