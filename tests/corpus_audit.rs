@@ -114,7 +114,7 @@ fn the_readme_command_transforms_what_the_readme_says() {
         ("siemens-cycle978", 36),
         ("tool-setter", 37),
         ("grinder-gauge", 36),
-        ("lathe-setter", 35),
+        ("lathe-setter", 29),
     ] {
         let args = [
             "transform",

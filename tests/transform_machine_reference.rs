@@ -283,4 +283,25 @@ fn a_lathe_gate_does_not_go_where_the_program_mills() {
     let lathe = "G18 G90 G95 G54 DIAMON\nT1 D1\nG96 S180 LIMS=2500 M4 M8\nG0 X52 Z2\nG1 Z-40 F0.2\nG0 X60\nG0 Z2\nG17\nT2 D1\nG97 S1200 M3\nG0 X0 Z5\nG1 Z-20 F0.1\nG0 Z5\nG18\nT1 D1\nG96 S180 M4\nG0 X60 Z2\nG1 X48 F0.2\nG1 Z-40\nG0 X60\nM30\n";
     let out = transformed_in(&[("lathe.mpf", lathe)], "lathe.mpf", "lathe-setter");
     assert!(out.contains("driftloop gate"), "{out}");
+    // A lathe program that turns first in the plane it starts in (G18 on a lathe) and selects G17 only
+    // for a later milling step keeps its zero before the milling step.
+    let turns_first = lathe.replacen("G18 G90", "G90", 1);
+    let out = transformed_in(&[("lathe.mpf", &turns_first)], "lathe.mpf", "lathe-setter");
+    assert!(out.contains("stage 4: reference measurement"), "{out}");
+}
+
+#[test]
+fn a_lathe_gate_does_not_go_before_a_milling_programs_g17() {
+    // A milling program that selects G17 only after its first blocks (the warm-up routines of
+    // ../shared/corpus write `G70 G90 G17` after a declaration) left the places before it with no plane
+    // written, and the lathe profile put its zero there: X retracted to a clearance diameter on a mill. The plane the
+    // program selects before its first cut is the one it machines in from its start.
+    let mill = "G54 G90\nT=\"EM12\" M6\nD1\nS6000 M3 M8\nG17 G94\nG0 X-10 Y0 Z20\nG1 Z-2 F500\nX80 F1200\nG0 Z50\nM30\n";
+    let (o, _dir) = common::transform_in(&[("mill.mpf", mill)], "mill.mpf", "lathe-setter");
+    let err = common::stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("or selected before the program's first cut"),
+        "{err}"
+    );
 }

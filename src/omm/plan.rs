@@ -515,16 +515,16 @@ fn turning_reads_tool(site: &Site, profile: &Profile) -> Option<&'static str> {
     .then_some(TURNING_READS_TOOL)
 }
 
-const MILLING_UNDER_A_LATHE_GATE: &str = "the program mills there (the milling plane G17 in force, X in radius): the profile's gate retracts along X to a clearance diameter as on a lathe, which would drag a milling tool sideways through the part; choose a milling profile (blum-tc50, siemens-cycle978, tool-setter), or for a lathe's axial drilling under G17 select G18 again before the place";
+const MILLING_UNDER_A_LATHE_GATE: &str = "the program mills there (the milling plane G17 in force, or selected before the program's first cut, X in radius): the profile's gate retracts along X to a clearance diameter as on a lathe, which would drag a milling tool sideways through the part; choose a milling profile (blum-tc50, siemens-cycle978, tool-setter), or for a lathe's axial drilling under G17 select G18 again before the place";
 
 /// Why the profile's kind of gate does not suit the machining at `site`: a milling probe's swap where the
 /// program turns or grinds, or a lathe's gate, which retracts along X, where it mills (a gauge, which
 /// moves nothing, measures where it is).
-fn machine_unfit(site: &Site, profile: &Profile) -> Option<&'static str> {
+fn machine_unfit(timeline: &Timeline, site: &Site, profile: &Profile) -> Option<&'static str> {
     turning_reads_tool(site, profile).or_else(|| {
         (profile.position.retract_axis == Axis::X
             && profile.probe.kind != ProbeKind::Gauge
-            && site.before.plane == Some(17)
+            && site.before.plane.or(timeline.setup_plane) == Some(17)
             && !site.before.diameter.on())
         .then_some(MILLING_UNDER_A_LATHE_GATE)
     })
@@ -584,7 +584,7 @@ fn unfit_for_reference(
     }
     if let Some(why) = unfit_for_gate(site, profile, rule)
         .or_else(|| frame_blocks(site, profile))
-        .or_else(|| machine_unfit(site, profile))
+        .or_else(|| machine_unfit(timeline, site, profile))
     {
         return Some(why);
     }
@@ -1046,7 +1046,7 @@ pub fn plan(
         };
         let restorable = unfit_for_measuring(site, profile, rule, reference_tool.as_ref())
             .or_else(|| swap_unfit(timeline, site, profile))
-            .or_else(|| machine_unfit(site, profile))
+            .or_else(|| machine_unfit(timeline, site, profile))
             .is_none();
         let (kind, can_measure) = match site.kind {
             _ if reference => (GateKind::Reference, true),

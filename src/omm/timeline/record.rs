@@ -142,6 +142,10 @@ pub struct Timeline {
     /// Blocks of `ends` and `offset_selections` where inch dimensions are in force, with their G code (70,
     /// 700): what driftloop inserts there switches to metric and back.
     pub inch_at: BTreeMap<usize, u32>,
+    /// The plane (17, 18, 19) the program selects before its first cut: where none is written yet, the
+    /// machining the program starts with is in it (a milling program that writes `G17` after its first
+    /// blocks, though a lathe's plane at reset is G18).
+    pub setup_plane: Option<u32>,
     /// Lines (1-based) of `computed_r_lines` and `offsets` that call a subprogram from a folder in which the
     /// thing was found, with the subprogram's name.
     pub found_in_call: BTreeMap<usize, String>,

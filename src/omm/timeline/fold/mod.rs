@@ -833,7 +833,12 @@ impl<'p> Builder<'p> {
                     self.per_rev = g == 95;
                     self.state.feed_mode = Some(g);
                 }
-                17..=19 => self.state.plane = Some(g),
+                17..=19 => {
+                    self.state.plane = Some(g);
+                    if self.t.first_cut.is_none() {
+                        self.t.setup_plane.get_or_insert(g);
+                    }
+                }
                 40..=42 => self.state.comp = g,
                 60 | 64 | 641..=645 => self.state.path_mode = Some(g),
                 70 | 71 | 700 | 710 => {
