@@ -194,16 +194,16 @@ fn profile_values_that_would_break_or_misdirect_nc_are_refused_with_line_and_col
         log_file = "DRIFTLOG" | log_file = "DRIFT\nLOG" | p.toml: | registers.log_file
         timer = "$AN_SETUP_TIME" | timer = "$AN_SETUP_TIME\nM30" | p.toml: | registers.timer
         select = "G54" | select = "G54\nM30" | p.toml: | offset.select
-        clearance = 100.0 | clearance = -5.0 | p.toml:50:13 | position.clearance
-        tolerance_um = 20.0 | tolerance_um = 1e300 | p.toml:76:16 | limits.tolerance_um
-        tolerance_um = 20.0 | tolerance_um = nan | p.toml:76:16 | limits.tolerance_um
+        clearance = 100.0 | clearance = -5.0 | p.toml:52:13 | position.clearance
+        tolerance_um = 20.0 | tolerance_um = 1e300 | p.toml:78:16 | limits.tolerance_um
+        tolerance_um = 20.0 | tolerance_um = nan | p.toml:78:16 | limits.tolerance_um
         z = 10.0 | z = 1e308 | p.toml: | position.z
         measure_s = 3.0 | measure_s = 1e300 | p.toml: | probe.measure_s
         tool_offset = 1 | tool_offset = 0 | p.toml: | probe.tool_offset
         r_last = 99 | r_last = 4000000000 | p.toml: | registers.r_last
         max_attempts = 8 | max_attempts = 4000000000 | p.toml: | limits.max_attempts
-        tolerance_um = 20.0 | tolerance_um = 20.0.0 | p.toml:76: | not a valid machine profile
-        tolerance_um = 20.0 | tolerance_um = "x" | p.toml:76:16 | expected f64
+        tolerance_um = 20.0 | tolerance_um = 20.0.0 | p.toml:78: | not a valid machine profile
+        tolerance_um = 20.0 | tolerance_um = "x" | p.toml:78:16 | expected f64
         "#,
     );
     // The stored-offset method writes a frame that exists, the one of the offset it selects again.
@@ -216,7 +216,7 @@ fn profile_values_that_would_break_or_misdirect_nc_are_refused_with_line_and_col
             dir.path(),
             &default_model(),
             p.to_str().unwrap(),
-            &["p.toml:72:9", what],
+            &["p.toml:74:9", what],
         );
     }
 }
