@@ -50,9 +50,14 @@ pub struct Args {
     /// Default: the last third of the data's time.
     #[arg(long, value_name = "TIME|none")]
     pub holdout_from: Option<HoldoutArg>,
-    /// Also report the error when a probe re-zeroes the correction this often (`60min`, `2h`).
-    #[arg(long, value_name = "TIME", default_value = "60min")]
-    pub probe_every: Minutes,
+    /// Also report the error when a probe re-zeroes the correction this often (`60min`, `2h`). Default:
+    /// the `--profile`'s `limits.max_interval_min`, else 60 min.
+    #[arg(long, value_name = "TIME")]
+    pub probe_every: Option<Minutes>,
+    /// The machine profile the programs run with (a file or a builtin's name, `driftloop profiles`): its
+    /// `limits.max_interval_min` is the probing interval the report assumes unless `--probe-every` gives one.
+    #[arg(long, value_name = "PROFILE")]
+    pub profile: Option<PathBuf>,
     /// At most this many effects are added.
     #[arg(long, default_value_t = 3)]
     pub max_effects: usize,
@@ -83,10 +88,18 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     )?;
     let model = DriftModel::read(&args.model)?;
     let ds = super::log::read_merged(&args.data, &args.rename)?;
-    anyhow::ensure!(
-        args.probe_every.0 > 0.0,
-        "--probe-every must be a positive time"
-    );
+    let profile_interval = match &args.profile {
+        Some(path) => {
+            crate::omm::Profile::read_or_builtin(path)?
+                .limits
+                .max_interval_min
+        }
+        None => None,
+    };
+    let probe_every = args
+        .probe_every
+        .map_or(profile_interval.unwrap_or(60.0), |m| m.0);
+    anyhow::ensure!(probe_every > 0.0, "--probe-every must be a positive time");
     let channel = args
         .channel
         .clone()
@@ -98,7 +111,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         Some(HoldoutArg::From(m)) => Holdout::From(m.0),
     };
     opts.max_effects = args.max_effects;
-    opts.probe_every_min = Some(args.probe_every.0);
+    opts.probe_every_min = Some(probe_every);
     let d = diagnose(&model, &ds, &opts).map_err(|e| super::log::of_data(&ds, e))?;
     match args.format {
         Format::Human => super::output::print(&d.human())?,

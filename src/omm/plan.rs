@@ -968,6 +968,9 @@ pub fn plan(
     // Planned time of the last gate or refresh: continuous compensation refreshes once its interval passed.
     let mut last_update = runs.sites[start].1;
     let mut at_last_measurement = vec![0.0; models.len()];
+    // Planned time of the last measurement: where the profile bounds the time between measurements, a
+    // gate that can measure does once it ran out.
+    let mut last_measured = runs.sites[start].1;
     // The pass of the last gate that could measure: a spindle start measures only in a pass where no
     // gate before it could (one place at a tool change is enough).
     let mut measurable_pass: Option<usize> = None;
@@ -1074,9 +1077,14 @@ pub fn plan(
         if can_measure && !reference {
             watch.chance(format!("line {}", site.block + 1), time, drifts.clone());
         }
+        let overdue = profile
+            .limits
+            .max_interval_min
+            .is_some_and(|p| time + shift - last_measured >= p);
         let measure = kind == GateKind::Reference
             || (can_measure
                 && (profile.log.measure_every_gate
+                    || overdue
                     || largest_change(&drifts, &at_last_measurement) >= limit));
         let in_loop = matches!(
             site.kind,
@@ -1106,6 +1114,7 @@ pub fn plan(
         last_update = time;
         if measure {
             at_last_measurement = drifts;
+            last_measured = time + shift;
             pending = per_measurement;
         }
         rpm = site.rpm_after;

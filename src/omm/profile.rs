@@ -397,6 +397,11 @@ pub struct Limits {
     pub agree_count: u32,
     pub agree_band_um: f64,
     pub max_attempts: u32,
+    /// Optional: a gate that can measure does once this many minutes of the program's run passed since the
+    /// last measurement, even where the predicted change stayed below δ': a re-zero at least every P
+    /// minutes bounds what the model lacks (`diagnose --profile` reports the error with that P).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_interval_min: Option<f64>,
 }
 
 impl Limits {
@@ -593,6 +598,13 @@ impl Profile {
             if !(v.is_finite() && v > 0.0) {
                 return Err(format!("{name} must be a positive number, not {v}"));
             }
+        }
+        if let Some(p) = l.max_interval_min
+            && !(p.is_finite() && p > 0.0 && p <= LONGEST_S / 60.0)
+        {
+            return Err(format!(
+                "limits.max_interval_min must be a positive number of minutes, at most a day, not {p}"
+            ));
         }
         if !(self.timeline.tool_change_s.is_finite() && self.timeline.tool_change_s >= 0.0) {
             return Err("timeline.tool_change_s must be zero or positive".into());

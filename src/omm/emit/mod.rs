@@ -226,6 +226,9 @@ pub struct Registers {
     /// The T number and D number a gate reads where the program does not name the tool
     /// ([`crate::omm::profile::UnknownTool::Runtime`]).
     tool: Option<[u32; 2]>,
+    /// The timer at the last measurement, where the profile bounds the time between measurements
+    /// (`limits.max_interval_min`).
+    measured_at: Option<u32>,
 }
 
 /// Registers shared by every axis (not counting the saved position).
@@ -246,6 +249,7 @@ impl Registers {
         let axes = profile.position.axes.len();
         let continuous = profile.continuous.on();
         let warm = profile.warm_start.is_some();
+        let interval = profile.limits.max_interval_min.is_some();
         let needed = SHARED
             + axes
             + usize::from(save)
@@ -260,7 +264,8 @@ impl Registers {
             } else {
                 0
             }
-            + if read_tool { 2 } else { 0 };
+            + if read_tool { 2 } else { 0 }
+            + usize::from(interval);
         let free: Vec<u32> = (r.r_first..=r.r_last)
             .filter(|n| !used.contains(n) && Some(*n) != result_r)
             .take(needed)
@@ -297,6 +302,7 @@ impl Registers {
             temp_comp: continuous.then(|| TempCompRegisters::take(predictors.len(), &mut next)),
             warm: warm.then(|| WarmRegisters::take(predictors.len(), &mut next)),
             tool: read_tool.then(|| [next(), next()]),
+            measured_at: interval.then(&mut next),
         })
     }
 
@@ -329,6 +335,7 @@ impl Registers {
             v.extend(w.all());
         }
         v.extend(self.tool.iter().flatten());
+        v.extend(self.measured_at);
         v.sort_unstable();
         v
     }
@@ -609,6 +616,29 @@ impl Emitter<'_> {
     }
 
     /// Reads the timer into `dt` (minutes since the last update) and advances `t_last`.
+    /// Where the profile bounds the time between measurements: the timer now is the last measurement's.
+    fn note_measured(&self) -> Option<String> {
+        let at = self.regs.measured_at?;
+        Some(format!("{}={}", r(at), r(self.regs.t_last)))
+    }
+
+    /// Where the profile bounds the time between measurements: the condition that it has not run out
+    /// (the timer counts in its own unit).
+    fn interval_left(&self) -> Option<String> {
+        let at = self.regs.measured_at?;
+        let minutes = self.profile.limits.max_interval_min?;
+        let limit = match self.profile.registers.timer_unit {
+            TimerUnit::S => minutes * 60.0,
+            TimerUnit::Min => minutes,
+        };
+        Some(format!(
+            "{}-{}<{}",
+            r(self.regs.t_last),
+            r(at),
+            number(limit)
+        ))
+    }
+
     fn read_timer(&self) -> Vec<String> {
         let reg = &self.regs;
         let timer = &self.profile.registers.timer;
@@ -1403,6 +1433,7 @@ impl Emitter<'_> {
             format!("{}={}", r(reg.t_last), r(reg.t0)),
             format!("{}=0", r(reg.nbl)),
         ]);
+        v.extend(self.note_measured());
         for (k, axis) in self.axes.iter().enumerate() {
             let a = self.reg(k);
             let lags = a.lags.iter().flat_map(|l| [l.x, l.g]);
@@ -1495,9 +1526,10 @@ impl Emitter<'_> {
         v.extend(self.warm_store());
         if gate.can_measure {
             let skip = format!("{}SKIP{}", self.label_prefix, gate.number);
-            // Cycle_in: no axis's prediction changed by δ' since its last measurement.
+            // Cycle_in: no axis's prediction changed by δ' since its last measurement (nor, where the
+            // profile bounds it, did the time between measurements run out).
             let calm = (!self.profile.log.measure_every_gate).then(|| {
-                let calm: Vec<String> = (0..self.axes.len())
+                let mut calm: Vec<String> = (0..self.axes.len())
                     .map(|k| {
                         let a = self.reg(k);
                         format!(
@@ -1508,6 +1540,7 @@ impl Emitter<'_> {
                         )
                     })
                     .collect();
+                calm.extend(self.interval_left());
                 all_of(&calm)
             });
             // The zero was not measured (a block search started after it, no tool active or the
@@ -1554,6 +1587,7 @@ impl Emitter<'_> {
                 v.push(format!("{}={}-{}", r(a.eps), r(a.delta), r(a.pred)));
                 v.push(format!("{}={}", r(a.pred_at_measurement), r(a.pred)));
             }
+            v.extend(self.note_measured());
             // The speed the prediction runs on from here (the targets above), as the unmeasured rows log it.
             v.extend(self.log_checked(gate.rpm, gate.pass, true));
             v.extend(self.give_back(gate));
