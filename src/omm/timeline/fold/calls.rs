@@ -579,7 +579,7 @@ impl Builder<'_> {
 /// follows, see `frames`), the high-speed settings (CYCLE832, see `call`), and the blank (WORKPIECE) and
 /// contour (CYCLE62) descriptions of ShopMill/ShopTurn programs, which move nothing and set nothing modal.
 fn leaves_state_known(name: &str) -> bool {
-    matches!(name, "CYCLE800" | "CYCLE832" | "WORKPIECE" | "CYCLE62")
+    name == "CYCLE800" || moves_nothing(name)
 }
 
 /// Cycles that move no axis: the high-speed settings and the blank and contour descriptions.
