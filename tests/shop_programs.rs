@@ -152,18 +152,35 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
             ("lathe-setter", 1),
         ],
     );
-    let sets = sets.into_iter().chain([shop11, shop12, shop13]).chain([(
-        "cov10",
-        4,
+    // fixtures/shop14 (QA round 14: programs in the exact output forms of public CAM posts; 06 starts with
+    // the post's own probing under SPOS, which the milling probes refuse (open in its REPORT), and only 03,
+    // a mill-turn program, is one for the lathe setter).
+    let shop14 = (
+        "shop14",
+        6,
         [
-            ("blum-tc50", 3),
-            ("siemens-cycle978", 3),
-            ("tool-setter", 3),
-            // A gauge reads the part itself, not through the work offset the subprogram selects.
-            ("grinder-gauge", 4),
+            ("blum-tc50", 5),
+            ("siemens-cycle978", 5),
+            ("tool-setter", 5),
+            ("grinder-gauge", 6),
             ("lathe-setter", 1),
         ],
-    )]);
+    );
+    let sets = sets
+        .into_iter()
+        .chain([shop11, shop12, shop13, shop14])
+        .chain([(
+            "cov10",
+            4,
+            [
+                ("blum-tc50", 3),
+                ("siemens-cycle978", 3),
+                ("tool-setter", 3),
+                // A gauge reads the part itself, not through the work offset the subprogram selects.
+                ("grinder-gauge", 4),
+                ("lathe-setter", 1),
+            ],
+        )]);
     // lathe-setter: the lathes, grinders and mill-turn programs only, since its gate (a retract along X to
     // a clearance diameter) goes nowhere the milling plane G17 is in force with X in radius.
     for (set, total, expected) in sets {

@@ -235,6 +235,18 @@ fn the_circle_constant_is_a_value() {
 }
 
 #[test]
+fn a_measuring_cycles_parameters_are_data_of_the_cycle_package() {
+    // A CAM post's probing operation sets the measuring cycle's parameters (GUD of the cycle package) and
+    // calls the cycle without arguments (QA round 14: the dry run stopped at `_TSA`, "not defined").
+    finds(
+        "_TSA=1 _PRNUM=001 _VMS=0 _NMSP=1 _FA=5 _MVAR=100 _SETVAL=0 _SETV[0]=40 _KNUM=1 _TNAME=\"T1\"",
+        &["G91"],
+        Kind::ModalNotRestored,
+        "dimensions G91 here, G90 in the original",
+    );
+}
+
+#[test]
 fn indirect_g_codes_select_as_the_g_code_would() {
     finds(
         "G[8]=2",

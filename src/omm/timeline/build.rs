@@ -7,10 +7,12 @@ use std::path::PathBuf;
 use std::rc::Rc;
 
 use crate::omm::profile::Profile;
-use crate::syntax::Program;
+use crate::syntax::structure::Jump;
+use crate::syntax::{NodeKind, Program, flag};
 
 use super::fold::Callees;
 use super::moves::Moves;
+use super::read::section_call_labels;
 use super::record::Timeline;
 use super::unit::build_unit;
 
@@ -51,6 +53,13 @@ fn build_with(
         archive: HashMap::new(),
         folders,
         profile,
+        sections: Sections {
+            program,
+            moves,
+            jumps,
+            main: units[0].clone(),
+            open: BTreeSet::new(),
+        },
     };
     // Each subprogram on its own first, for the names it calls; then each again after those it calls (a
     // recursive call stays untimed), unless it calls none of the archive's subprograms.
@@ -170,19 +179,83 @@ fn subprogram_name(program: &Program, block: usize) -> Option<String> {
     matches!(kind.as_str(), "SPF" | "MPF").then_some(name)
 }
 
-/// The subprograms a unit's calls may run: the archive's units timed so far, and the profile's folders.
+/// The subprograms a unit's calls may run: the archive's units timed so far, the main program's sections
+/// a `CALL BLOCK` runs, and the profile's folders.
 struct Found<'f> {
     archive: HashMap<String, Rc<Timeline>>,
     folders: &'f mut Folders,
     profile: &'f Profile,
+    sections: Sections<'f>,
 }
 
 impl Callees for Found<'_> {
     fn timeline(&mut self, name: &str) -> Option<(Rc<Timeline>, bool)> {
-        match self.archive.get(name) {
-            Some(t) => Some((t.clone(), false)),
-            None => Some((self.folders.timeline(name, self.profile)?, true)),
+        if let Some(t) = self.archive.get(name) {
+            return Some((t.clone(), false));
         }
+        if let Some((start, end)) = section_call_labels(name) {
+            let t = self.section(name, start, end)?;
+            return Some((t, false));
+        }
+        Some((self.folders.timeline(name, self.profile)?, true))
+    }
+}
+
+/// What a `CALL BLOCK` section is read from: the main program's blocks.
+struct Sections<'f> {
+    program: &'f Program,
+    moves: Option<&'f Moves>,
+    jumps: &'f [Jump],
+    main: std::ops::Range<usize>,
+    /// Sections being read: one that calls itself stays untimed.
+    open: BTreeSet<String>,
+}
+
+impl Found<'_> {
+    /// The timeline of the main program's blocks from label `start` to label `end` (a CAM post's
+    /// operations, written after M30 and run with `CALL BLOCK`), read as a subprogram is: its time, its
+    /// cuts and the state it leaves. `None` (an untimed call, as before) when the start label is not
+    /// defined exactly once (which one runs would depend on where the call stands) or no end follows it.
+    fn section(&mut self, name: &str, start: &str, end: &str) -> Option<Rc<Timeline>> {
+        if self.sections.open.contains(name) {
+            return None;
+        }
+        let labelled = |label: &str| -> Vec<usize> {
+            let program = self.sections.program;
+            self.sections
+                .main
+                .clone()
+                .filter(|&i| program.block_flags(i) & flag::LABEL != 0)
+                .filter(|&i| {
+                    let block = program.block(i);
+                    block
+                        .root
+                        .find(NodeKind::Label)
+                        .and_then(|l| l.find(NodeKind::Name))
+                        .is_some_and(|n| block.text(n).eq_ignore_ascii_case(label.as_bytes()))
+                })
+                .collect()
+        };
+        let [first] = labelled(start)[..] else {
+            return None;
+        };
+        let last = if end == start {
+            first
+        } else {
+            labelled(end).into_iter().find(|&b| b > first)?
+        };
+        let Sections {
+            program,
+            moves,
+            jumps,
+            ..
+        } = self.sections;
+        self.sections.open.insert(name.to_string());
+        let t = build_unit(program, moves, first..last + 1, jumps, self.profile, self).0;
+        self.sections.open.remove(name);
+        let t = Rc::new(t);
+        self.archive.insert(name.to_string(), t.clone());
+        Some(t)
     }
 }
 

@@ -225,6 +225,10 @@ pub struct CalleeEffect {
     pub loads_tool: bool,
     /// A call inside it leaves a state the timeline does not know.
     pub leaves_unknown: bool,
+    /// It calls Siemens cycles (declared `SAVE`) and no other call it cannot read, and changes no tool
+    /// after the last of them: its caller's places until the next tool change are judged as after the
+    /// cycle itself.
+    pub after_cycle: bool,
     /// The state it ends in, from the default start: the values of the fields it sets (at its first
     /// return outside any IF or loop, where it has one).
     pub end: Modal,

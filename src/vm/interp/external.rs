@@ -25,9 +25,16 @@ const SYSTEM_FAMILIES: &[&str] = &[
     "$SN_",
 ];
 
-/// The measuring cycles' result arrays (GUD of the cycle package): read and written like the system
-/// variables above unless the program or the probe result configuration defines them.
-const CYCLE_RESULTS: &[&str] = &["_OVR", "_OVI"];
+/// The measuring cycles' data (GUD of the cycle package): their result arrays and the parameters a program
+/// sets before calling one without arguments (`_MVAR=100 _SETVAL=0 _KNUM=1` / `CYCLE978`, as CAM posts
+/// write a probing operation). Read and written like the system variables above unless the program or the
+/// probe result configuration defines them.
+const CYCLE_RESULTS: &[&str] = &[
+    "_OVR", "_OVI", "_CBIT", "_CHBIT", "_CM", "_CORA", "_CVAL", "_EVMVNUM", "_EVNUM", "_FA", "_ID",
+    "_INCA", "_K", "_KB", "_KNUM", "_MA", "_MD", "_MFS", "_MVAR", "_NMSP", "_PRNUM", "_RA",
+    "_SETV", "_SETVAL", "_SPEED", "_STA1", "_SZA", "_SZO", "_TDIF", "_TENV", "_TLL", "_TMV",
+    "_TNAME", "_TNUM", "_TP", "_TSA", "_TUL", "_TZL", "_VMS", "_WP",
+];
 
 /// Whether system variable `name` is one of [`SYSTEM_FAMILIES`].
 pub(super) fn is_system(name: &str) -> bool {

@@ -423,7 +423,10 @@ impl Interp<'_> {
                             .map(index_nodes)
                             .unwrap_or_default();
                         let key = self.external_key(u, &name, &nodes)?;
-                        self.written.insert(key, v.num()?);
+                        // A tool's name (`_TNAME="BALL6"`) is read by the cycle, never by the dry run.
+                        if !matches!(v, Value::Str(_)) {
+                            self.written.insert(key, v.num()?);
+                        }
                         Ok(())
                     }
                     (None, None) => Err(format!("variable {name} is not defined (alarm 12550)")),

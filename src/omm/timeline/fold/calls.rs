@@ -9,7 +9,7 @@ use super::Builder;
 use super::declared::ToolChangeCall;
 use crate::omm::declared_calls;
 use crate::omm::timeline::modal::{Modal, POSITIONED, coolant_after, field, is_thread, unknown};
-use crate::omm::timeline::read::{CallArg, Move, Scan};
+use crate::omm::timeline::read::{CallArg, Move, Scan, section_call_labels};
 use crate::omm::timeline::record::{ByExpression, CalleeEffect, Timeline};
 
 impl Builder<'_> {
@@ -48,6 +48,8 @@ impl Builder<'_> {
                     self.state_unknown_after(name);
                     self.unsure_after(i, name, None);
                 } else {
+                    // Its Siemens cycles leave here what they leave where the program calls them itself.
+                    self.after_call |= callee.after_cycle;
                     // Read to its end with no call it cannot read: each field it sets is followed, for this
                     // unit's callers too.
                     for (mine, its) in self.touched.iter_mut().zip(callee.left()) {
@@ -90,7 +92,11 @@ impl Builder<'_> {
                     self.replay_spindle(i, &sub, runs);
                 }
                 self.add_minutes(runs * sub.total_min);
-                self.t.inexact_blocks += sub.inexact_blocks;
+                // A `CALL BLOCK` section's blocks are this unit's own: it lists them itself.
+                let own_blocks = section_call_labels(name).is_some();
+                if !own_blocks {
+                    self.t.inexact_blocks += sub.inexact_blocks;
+                }
                 let line = |own: usize| if elsewhere { i + 1 } else { own };
                 if !sub.offset_selections.is_empty() && self.state.unfit().is_none() {
                     self.t.offset_selections.push(i);
@@ -98,6 +104,7 @@ impl Builder<'_> {
                 self.t.untimed_calls.extend(
                     sub.untimed_calls
                         .iter()
+                        .filter(|_| !own_blocks)
                         .map(|(own, name)| (line(*own), name.clone())),
                 );
                 // R-parameters are global: those a subprogram from a folder uses are taken, and what it
@@ -146,7 +153,10 @@ impl Builder<'_> {
     fn state_unknown_after(&mut self, name: &str) {
         if !leaves_state_known(name) {
             self.after_call = true;
-            self.t.as_callee.leaves_unknown = true;
+            if !is_siemens_cycle(&name.to_ascii_uppercase()) {
+                self.after_unknown_call = true;
+                self.t.as_callee.leaves_unknown = true;
+            }
         }
     }
 
@@ -570,7 +580,12 @@ impl Builder<'_> {
 /// follows, see `frames`), the high-speed settings (CYCLE832, see `call`), and the blank (WORKPIECE) and
 /// contour (CYCLE62) descriptions of ShopMill/ShopTurn programs, which move nothing and set nothing modal.
 fn leaves_state_known(name: &str) -> bool {
-    matches!(name, "CYCLE800" | "CYCLE832" | "WORKPIECE" | "CYCLE62")
+    name == "CYCLE800" || moves_nothing(name)
+}
+
+/// Cycles that move no axis: the high-speed settings and the blank and contour descriptions.
+pub(super) fn moves_nothing(name: &str) -> bool {
+    matches!(name, "CYCLE832" | "WORKPIECE" | "CYCLE62")
 }
 
 /// A Siemens standard cycle (`CYCLE81` … `CYCLE998`, the ShopMill pocket, slot and hole-pattern cycles),

@@ -91,6 +91,10 @@ pub(super) struct Builder<'p> {
     /// A subprogram or cycle ran since the last tool change: the modal state it left (tool, speed, feed,
     /// frame) is not known, so no gate measures, and restores a state, until the next tool change.
     after_call: bool,
+    /// Of [`Builder::after_call`]: a call other than a Siemens cycle ran since the last tool change. A
+    /// unit whose only such calls are Siemens cycles (declared `SAVE`) leaves its caller what the caller
+    /// would have after the cycles themselves (see [`CalleeEffect::after_cycle`]).
+    after_unknown_call: bool,
     /// The cycle or subprogram an `MCALL` made modal, and how the call lists name it (`MCALL NAME`): it
     /// runs after each block that moves.
     modal_call: Option<(String, String)>,
@@ -108,6 +112,8 @@ pub(super) struct Builder<'p> {
     /// The time so far, in [`TICKS_PER_MIN`] ticks.
     ticks: u64,
     last_was_z_retract: bool,
+    /// The block being folded moves in machine coordinates (G53, G153, SUPA).
+    machine_move: bool,
     header_done: bool,
     preamble_done: bool,
     pass_marks: Vec<PassMark>,
@@ -215,6 +221,7 @@ impl<'p> Builder<'p> {
             profile,
             callees,
             after_call: false,
+            after_unknown_call: false,
             modal_call: None,
             called: BTreeSet::new(),
             speed_site_after: None,
@@ -233,6 +240,7 @@ impl<'p> Builder<'p> {
             per_rev: false,
             ticks: 0,
             last_was_z_retract: false,
+            machine_move: false,
             header_done: false,
             preamble_done: false,
             pass_marks: Vec::new(),
@@ -833,6 +841,12 @@ impl<'p> Builder<'p> {
                     self.per_rev = g == 95;
                     self.state.feed_mode = Some(g);
                 }
+                // Constant cutting speed is feed per revolution (group 15, as G95), and G97 after it keeps
+                // that: a gate after `G96 … G97` in a program that began in G94 gives back G95.
+                96 => {
+                    self.per_rev = true;
+                    self.state.feed_mode = Some(95);
+                }
                 17..=19 => {
                     self.state.plane = Some(g);
                     if self.t.first_cut.is_none() {
@@ -1016,6 +1030,7 @@ impl<'p> Builder<'p> {
             self.varies.remove(&i);
         }
         self.after_call &= !tool_change;
+        self.after_unknown_call &= !tool_change;
         self.zero_after_tool_setup(s, tool_change);
         if s.tool.is_some() || (p.tool_change && tool_change) || marked || rpm != self.rpm {
             self.note_site(i);
@@ -1030,22 +1045,27 @@ impl<'p> Builder<'p> {
             self.state.modal_call = self.modal_call.is_some();
         }
         let mv = if limits { Move::default() } else { s.mv };
-        // A block that only switches (coolant, a stop, the spindle, a preselection, an assignment) leaves
-        // the tool where the retract put it: `M9` between the retract and the next rapid keeps that place.
+        // A block that only switches (coolant, a stop, the spindle, a preselection, an assignment, the
+        // high-speed settings a post calls at each operation) leaves the tool where the retract put it:
+        // `M9` between the retract and the next rapid keeps that place.
         // One that may move it some other way, or that a jump may reach from elsewhere, does not.
+        // A swivel back to the untilted plane (CYCLE800 with no angle) retracts along the tool axis, if at
+        // all, and turns the part home under the retracted tool: a post's return to the top plane.
+        let untilts = s.call.as_deref() == Some("CYCLE800") && s.frame_ops == frame_op::SWIVEL_OFF;
         let keeps_clear = self.last_was_z_retract
             && kind == BlockKind::Plain
             && !tool_change
             && !s.inexact
             && mv.axes.iter().all(Option::is_none)
             && !s.other_axes
-            && s.call.is_none()
+            && (s.call.as_deref().is_none_or(calls::moves_nothing) || untilts)
             && s.modal_call.is_none()
             && s.label.is_none()
-            && s.frame_ops == 0
+            && (s.frame_ops == 0 || untilts)
             && !s.writes_frame_in_force
             && !s.leaves
             && !s.g.iter().any(|g| matches!(g, 74 | 75));
+        self.machine_move = s.offsets.iter().any(|g| matches!(g, 53 | 153));
         self.movement(i, start, &before, &mv, dwell, s.s, s.inexact, own_m6);
         self.last_was_z_retract |= keeps_clear;
         // G9: this block's move ends in an exact stop.
@@ -1162,7 +1182,13 @@ impl<'p> Builder<'p> {
             (None, Some(_)) => z_rapid,
             _ => false,
         };
-        let z_retract = z_rapid && rises;
+        // A post's retract to the tool-change height in machine coordinates (`G0 SUPA Z0 D0`, `G53 Z0`):
+        // its height in work coordinates is not known, and it is where the post sends the tool clear of
+        // everything.
+        let z_retract = z_rapid && (rises || self.machine_move);
+        if z_retract && self.machine_move {
+            to[2] = None;
+        }
         if tool_change {
             self.contour = false;
             self.contour_sites.clear();
@@ -1359,7 +1385,8 @@ impl<'p> Builder<'p> {
         if self.m6_seen {
             self.t.m_beside_t = None;
         }
-        self.t.as_callee.leaves_unknown |= self.after_call;
+        self.t.as_callee.leaves_unknown |= self.after_unknown_call;
+        self.t.as_callee.after_cycle = self.after_call && !self.after_unknown_call;
         let always = self.m6_always && !self.returns_from_several_places();
         let callee = &mut self.t.as_callee;
         callee.end = exit.state;

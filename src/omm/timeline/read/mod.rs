@@ -8,6 +8,8 @@ use super::modal::Diameter;
 use crate::syntax::{BlockKind, Program};
 
 mod tree;
+
+pub(super) use tree::section_call_labels;
 mod words;
 
 pub(super) use tree::scan_tree;

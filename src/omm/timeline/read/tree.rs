@@ -154,8 +154,11 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
         s.frame_ops |= frame_op::TRANSLATE;
     }
     for w in &f.work_offsets {
-        if let WorkOffset::G(g) = w {
-            s.offsets.push(*g);
+        match w {
+            WorkOffset::G(g) => s.offsets.push(*g),
+            // SUPA moves in machine coordinates as G53 and G153 do.
+            WorkOffset::Frame(name) if name == "SUPA" => s.offsets.push(53),
+            _ => {}
         }
     }
     for node in block.root.children.iter() {
@@ -181,6 +184,9 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                 s.frame_ops |= transformation_op(&name);
                 if name == "CYCLE800" {
                     s.frame_ops |= swivel_op(&block, node);
+                    if turns_home(&block, node) {
+                        s.rotary_home |= 0b111;
+                    }
                 }
                 if name == "SETMS" && master_spindle(&block, node).is_some_and(|n| n != Some(1.0)) {
                     s.unknown |= unknown::OTHER_SPINDLE;
@@ -323,6 +329,20 @@ fn swivel_op(block: &Block<'_>, call: &Node) -> u8 {
     }
 }
 
+/// A CYCLE800 to the untilted plane that turns the rotary axes (`_DIR`, the fourteenth argument, -1 or 1;
+/// 0 computes the frames alone and leaves them where they stand): it sends them to the position of the
+/// untilted plane, as `G0 A0 C0` does. CAM posts return to the top plane so before its cuts.
+fn turns_home(block: &Block<'_>, call: &Node) -> bool {
+    let args = call.call_arguments();
+    swivel_op(block, call) == frame_op::SWIVEL_OFF
+        && args
+            .get(13)
+            .copied()
+            .flatten()
+            .and_then(|a| literal(block, a))
+            .is_some_and(|dir| dir == 1.0 || dir == -1.0)
+}
+
 /// A workpiece measuring cycle whose result number (S_KNUM, the second parameter) is not 0 writes the
 /// measured position into a work offset, as the program's own frame write would.
 fn corrects_work_offset(block: &Block<'_>, call: &Node, name: &str) -> bool {
@@ -370,6 +390,25 @@ fn program_call(block: &Block<'_>, node: &Node) -> Option<ProgramCall> {
     let Some(target) = parts.next() else {
         return (keyword == "MCALL").then_some(ProgramCall::Modal(None));
     };
+    // `CALL BLOCK start TO end` runs the program's own blocks between two labels: named for the section,
+    // which the timeline reads as it reads a subprogram (see [`crate::omm::timeline::build`]).
+    if keyword == "CALL"
+        && target.kind == NodeKind::Keyword
+        && block.text(target).eq_ignore_ascii_case(b"BLOCK")
+    {
+        let labels: Vec<String> = parts
+            .filter(|n| n.kind != NodeKind::Keyword)
+            .map(|n| String::from_utf8_lossy(block.text(n)).to_ascii_uppercase())
+            .collect();
+        let [start, end] = labels.as_slice() else {
+            return Some(ProgramCall::Once("CALL BLOCK".into(), None));
+        };
+        let name = section_call_name(start, end);
+        return Some(ProgramCall::Once(
+            name.clone(),
+            Some(format!("CALL {name}")),
+        ));
+    }
     // A cycle with its arguments (`MCALL CYCLE82(…)`) is named by its name.
     let target = match target.kind {
         NodeKind::FnCall => &target.children[0],
@@ -386,6 +425,16 @@ fn program_call(block: &Block<'_>, node: &Node) -> Option<ProgramCall> {
         }
         _ => ProgramCall::Once(format!("{keyword} {name}"), None),
     })
+}
+
+/// The name a `CALL BLOCK start TO end` is read under: `BLOCK START TO END`.
+pub(in crate::omm::timeline) fn section_call_name(start: &str, end: &str) -> String {
+    format!("BLOCK {start} TO {end}")
+}
+
+/// The labels of a call named by [`section_call_name`].
+pub(in crate::omm::timeline) fn section_call_labels(name: &str) -> Option<(&str, &str)> {
+    name.strip_prefix("BLOCK ")?.split_once(" TO ")
 }
 
 /// `FOR var = from TO to`: the bounds.
