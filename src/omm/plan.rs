@@ -473,6 +473,10 @@ fn skipped_zero_is_safe(profile: &Profile) -> bool {
 
 const SUM_OFFSET: &str = "a sum offset (DL=) is active, which the probe's tool change and the cutting tool's return would not give back";
 
+const TOOL_OFFSET: &str = "a programmed tool offset (TOFFL, TOFFR, TOFF[axis]) is in force, which the control keeps through the probe's tool change and a tool setter reads with the tool: a reading taken under another offset than the zero's would show the difference as drift";
+
+const TOOL_DATA: &str = "the program writes cutting-edge data ($TC_DP…) after the zero, which a tool setter reads with the tool: the change would read as drift";
+
 const IN_PART: &str = "the tool may stand in the part there (no rapid clear of what was cut since the last cut: inside a bore, under the part), and a gate retracts along the tool axis";
 
 const D0: &str =
@@ -520,6 +524,13 @@ const MILLING_UNDER_A_LATHE_GATE: &str = "the program mills there (the milling p
 /// Why the profile's kind of gate does not suit the machining at `site`: a milling probe's swap where the
 /// program turns or grinds, or a lathe's gate, which retracts along X, where it mills (a gauge, which
 /// moves nothing, measures where it is).
+/// A tool setter reads the tool's length with the cutting-edge data in force: once the program writes
+/// them after the zero (a wear it adds, wherever in the program, loops included), a reading would show
+/// the change as drift and the correction would undo it. No gate after the zero measures then.
+fn tool_data_unfit(profile: &Profile, tool_data_after_zero: bool) -> Option<&'static str> {
+    (profile.probe.kind == ProbeKind::ToolSetter && tool_data_after_zero).then_some(TOOL_DATA)
+}
+
 fn machine_unfit(site: &Site, profile: &Profile) -> Option<&'static str> {
     turning_reads_tool(site, profile).or_else(|| {
         (profile.position.retract_axis == Axis::X
@@ -610,6 +621,11 @@ fn unfit_for_reference(
         // The probe travels with its tip at the height the spindle stood at: a whole probe length
         // higher, beyond the top after the `SUPA Z0 D0` posts write before a tool change.
         ProbeKind::SpindleProbe if site.before.d == Some(0) => Some(D0),
+        ProbeKind::SpindleProbe | ProbeKind::ToolSetter
+            if site.before.unknown & timeline::unknown::TOOL_OFFSET != 0 =>
+        {
+            Some(TOOL_OFFSET)
+        }
         ProbeKind::SpindleProbe if tool_change_follows && site.before.machine_coolant != 0 => {
             Some(MACHINE_COOLANT_ON)
         }
@@ -868,6 +884,11 @@ fn unfit_for_measuring(
         return Some(why);
     }
     match profile.probe.kind {
+        ProbeKind::SpindleProbe | ProbeKind::ToolSetter
+            if site.before.unknown & timeline::unknown::TOOL_OFFSET != 0 =>
+        {
+            Some(TOOL_OFFSET)
+        }
         ProbeKind::SpindleProbe if tool_change_follows && site.before.machine_coolant != 0 => {
             Some(MACHINE_COOLANT_ON)
         }
@@ -943,6 +964,8 @@ pub fn plan(
     let rule = OffsetRule::of(timeline, profile);
     let first = reference_site(timeline, profile, rule)?;
     let reference_tool = timeline.sites[first].before.tool.clone();
+    let zero_block = timeline.sites[first].block;
+    let tool_data_after_zero = timeline.tool_data_writes.iter().any(|&w| w >= zero_block);
     // A zero in what a jump skips: from the jump's target on, the jump's path reaches the gates without
     // the zero, so no gate goes there.
     let skipped = skip_around(timeline, timeline.sites[first].block);
@@ -1040,6 +1063,7 @@ pub fn plan(
             site.block
         };
         let restorable = unfit_for_measuring(site, profile, rule, reference_tool.as_ref())
+            .or_else(|| tool_data_unfit(profile, tool_data_after_zero))
             .or_else(|| swap_unfit(timeline, site, profile))
             .or_else(|| machine_unfit(site, profile))
             .is_none();
