@@ -150,18 +150,35 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
             ("lathe-setter", 1),
         ],
     );
-    let sets = sets.into_iter().chain([shop11, shop12, shop13]).chain([(
-        "cov10",
-        4,
+    // fixtures/redteam (the red-team round on the modal state at gates; 07 and 08 are lathes, which the
+    // spindle probes refuse rightly, the others milling programs in G17, which the lathe setter refuses
+    // rightly).
+    let redteam = (
+        "redteam",
+        9,
         [
-            ("blum-tc50", 3),
-            ("siemens-cycle978", 3),
-            ("tool-setter", 3),
-            // A gauge reads the part itself, not through the work offset the subprogram selects.
-            ("grinder-gauge", 4),
-            ("lathe-setter", 1),
+            ("blum-tc50", 7),
+            ("siemens-cycle978", 7),
+            ("tool-setter", 9),
+            ("grinder-gauge", 9),
+            ("lathe-setter", 2),
         ],
-    )]);
+    );
+    let sets = sets
+        .into_iter()
+        .chain([shop11, shop12, shop13, redteam])
+        .chain([(
+            "cov10",
+            4,
+            [
+                ("blum-tc50", 3),
+                ("siemens-cycle978", 3),
+                ("tool-setter", 3),
+                // A gauge reads the part itself, not through the work offset the subprogram selects.
+                ("grinder-gauge", 4),
+                ("lathe-setter", 1),
+            ],
+        )]);
     // lathe-setter: the lathes, grinders and mill-turn programs only, since its gate (a retract along X to
     // a clearance diameter) goes nowhere the milling plane G17 is in force with X in radius.
     for (set, total, expected) in sets {

@@ -114,15 +114,13 @@ fn the_probing_runs_in_feed_per_minute_and_the_program_gets_its_feed_type_back()
 #[test]
 fn no_gate_measures_while_the_main_spindle_is_a_c_axis() {
     // R5: M70 switches the main spindle to axis mode for the driven tools. The timeline took it for a
-    // machine M code and kept the spindle turning: a gate after it measured and gave back `S1500 M4`, the
-    // chuck turning again under the cross drill that follows. The dry run ignored M70 alike.
+    // machine M code and kept the spindle turning: the gate at the driven tool's change measured and gave
+    // back `S1500 M4`, the chuck turning again under the cross drill that follows. The dry run ignored M70
+    // alike.
     let src = redteam("08_m70_c_axis_cross_drilling.mpf");
     for profile in ["lathe-setter", "tool-setter"] {
         let out = common::every_gate_transformed(profile, &[("p.mpf", &src)]);
-        assert!(
-            !measures_before(&out, "N110 G0 X100 Z110"),
-            "{profile}:\n{out}"
-        );
+        assert!(!measures_before(&out, "N130 T3 D1"), "{profile}:\n{out}");
     }
 }
 
