@@ -320,8 +320,8 @@ fn frame_command_op(name: &str, f: &crate::views::BlockFacts, block: &Block<'_>)
         // The frame turned to the tool's orientation or the part's: a rotation whose angles come from the
         // kinematics, not from the block. TOROTOF and PAROTOF end only their own share of the rotation,
         // which the timeline does not keep apart from a ROT's: the rotation counts until a bare ROT or TRANS.
-        "TOFRAME" | "TOFRAMEX" | "TOFRAMEY" | "TOFRAMEZ" | "TOROT" | "TOROTX" | "TOROTY" | "TOROTZ"
-        | "PAROT" => frame_op::ROTATE,
+        "TOFRAME" | "TOFRAMEX" | "TOFRAMEY" | "TOFRAMEZ" | "TOROT" | "TOROTX" | "TOROTY"
+        | "TOROTZ" | "PAROT" => frame_op::ROTATE,
         _ => 0,
     }
 }
