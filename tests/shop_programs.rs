@@ -166,9 +166,23 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
             ("lathe-setter", 1),
         ],
     );
+    // fixtures/redteam (the red-team round on the modal state at gates; 07 and 08 are lathes, which the
+    // spindle probes refuse rightly, the others milling programs in G17, which the lathe setter refuses
+    // rightly).
+    let redteam = (
+        "redteam",
+        9,
+        [
+            ("blum-tc50", 7),
+            ("siemens-cycle978", 7),
+            ("tool-setter", 9),
+            ("grinder-gauge", 9),
+            ("lathe-setter", 2),
+        ],
+    );
     let sets = sets
         .into_iter()
-        .chain([shop11, shop12, shop13, shop14])
+        .chain([shop11, shop12, shop13, shop14, redteam])
         .chain([(
             "cov10",
             4,

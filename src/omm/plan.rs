@@ -473,6 +473,10 @@ fn skipped_zero_is_safe(profile: &Profile) -> bool {
 
 const SUM_OFFSET: &str = "a sum offset (DL=) is active, which the probe's tool change and the cutting tool's return would not give back";
 
+const TOOL_OFFSET: &str = "a programmed tool offset (TOFFL, TOFFR, TOFF[axis]) is in force, which the control keeps through the probe's tool change and a tool setter reads with the tool: a reading taken under another offset than the zero's would show the difference as drift";
+
+const TOOL_DATA: &str = "the program writes cutting-edge data ($TC_DP…) after the zero, which a tool setter reads with the tool: the change would read as drift";
+
 const IN_PART: &str = "the tool may stand in the part there (no rapid clear of what was cut since the last cut: inside a bore, under the part), and a gate retracts along the tool axis";
 
 const D0: &str =
@@ -516,6 +520,13 @@ fn turning_reads_tool(site: &Site, profile: &Profile) -> Option<&'static str> {
 }
 
 const MILLING_UNDER_A_LATHE_GATE: &str = "the program mills there (the milling plane G17 in force, or selected before the program's first cut, X in radius): the profile's gate retracts along X to a clearance diameter as on a lathe, which would drag a milling tool sideways through the part; choose a milling profile (blum-tc50, siemens-cycle978, tool-setter), or for a lathe's axial drilling under G17 select G18 again before the place";
+
+/// A tool setter reads the tool's length with the cutting-edge data in force: once the program writes
+/// them after the zero (a wear it adds, wherever in the program, loops included), a reading would show
+/// the change as drift and the correction would undo it. No gate after the zero measures then.
+fn tool_data_unfit(profile: &Profile, tool_data_after_zero: bool) -> Option<&'static str> {
+    (profile.probe.kind == ProbeKind::ToolSetter && tool_data_after_zero).then_some(TOOL_DATA)
+}
 
 /// Why the profile's kind of gate does not suit the machining at `site`: a milling probe's swap where the
 /// program turns or grinds, or a lathe's gate, which retracts along X, where it mills (a gauge, which
@@ -610,6 +621,11 @@ fn unfit_for_reference(
         // The probe travels with its tip at the height the spindle stood at: a whole probe length
         // higher, beyond the top after the `SUPA Z0 D0` posts write before a tool change.
         ProbeKind::SpindleProbe if site.before.d == Some(0) => Some(D0),
+        ProbeKind::SpindleProbe | ProbeKind::ToolSetter
+            if site.before.unknown & timeline::unknown::TOOL_OFFSET != 0 =>
+        {
+            Some(TOOL_OFFSET)
+        }
         ProbeKind::SpindleProbe if tool_change_follows && site.before.machine_coolant != 0 => {
             Some(MACHINE_COOLANT_ON)
         }
@@ -873,6 +889,11 @@ fn unfit_for_measuring(
         return Some(why);
     }
     match profile.probe.kind {
+        ProbeKind::SpindleProbe | ProbeKind::ToolSetter
+            if site.before.unknown & timeline::unknown::TOOL_OFFSET != 0 =>
+        {
+            Some(TOOL_OFFSET)
+        }
         ProbeKind::SpindleProbe if tool_change_follows && site.before.machine_coolant != 0 => {
             Some(MACHINE_COOLANT_ON)
         }
@@ -948,6 +969,8 @@ pub fn plan(
     let rule = OffsetRule::of(timeline, profile);
     let first = reference_site(timeline, profile, rule)?;
     let reference_tool = timeline.sites[first].before.tool.clone();
+    let zero_block = timeline.sites[first].block;
+    let tool_data_after_zero = timeline.tool_data_writes.iter().any(|&w| w >= zero_block);
     // A zero in what a jump skips: from the jump's target on, the jump's path reaches the gates without
     // the zero, so no gate goes there.
     let skipped = skip_around(timeline, timeline.sites[first].block);
@@ -1048,6 +1071,7 @@ pub fn plan(
             site.block
         };
         let restorable = unfit_for_measuring(site, profile, rule, reference_tool.as_ref())
+            .or_else(|| tool_data_unfit(profile, tool_data_after_zero))
             .or_else(|| swap_unfit(timeline, site, profile))
             .or_else(|| machine_unfit(timeline, site, profile))
             .is_none();

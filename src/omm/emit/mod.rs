@@ -1088,6 +1088,12 @@ impl Emitter<'_> {
         if self.other_plane(&gate.before).is_some() {
             v.push("G17".into());
         }
+        // The cycle's probing feed is mm/min: under G93 it would be an inverse time (a probing stroke in a
+        // fraction of a second), under G95 or G96 a feed per revolution of the spindle the gate has just
+        // stopped. `modal_back` writes the program's feed type (and G96 with its cutting speed) again.
+        if matches!(gate.before.feed_mode, Some(93 | 95)) || gate.before.css_rpm.is_some() {
+            v.push("G94".into());
+        }
         if p.probe.kind == ProbeKind::SpindleProbe {
             v.extend(self.load(&p.probe.written_tool()));
             v.push(format!("D{}", p.probe.tool_offset));
@@ -1351,7 +1357,10 @@ impl Emitter<'_> {
                 v.push(across.join(" "));
             }
             if b.rpm() > 0.0 {
-                v.push(format!("S{} M{}", number(b.s), b.direction));
+                // The probing ran in G94 (`probe_in`): under constant cutting speed S is a speed again
+                // only with G96 in the block.
+                let css = if b.css_rpm.is_some() { "G96 " } else { "" };
+                v.push(format!("{css}S{} M{}", number(b.s), b.direction));
             }
             v.extend(coolant_on(b.coolant));
             v.extend(p.coolant.on_block(b.machine_coolant));

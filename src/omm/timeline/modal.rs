@@ -130,6 +130,10 @@ pub mod unknown {
     /// The program addressed a spindle other than the first (`S4=`, `M4=3`, `SETMS(4)`, `SPOS[2]=`): a gate
     /// stops and gives back the master spindle only, which may not be the one that turns.
     pub const OTHER_SPINDLE: u8 = 32;
+    /// A programmed tool offset (`TOFFL`, `TOFFR`, `TOFF[axis]`) is in force. The control keeps it through a
+    /// tool change, so a spindle probe carries it, and a tool setter reads it with the tool: a reading
+    /// taken with another offset in force than the zero's shows its difference as drift.
+    pub const TOOL_OFFSET: u8 = 64;
 }
 
 impl Modal {
@@ -214,7 +218,7 @@ impl Modal {
             Some("D0 is active: heights are the spindle's, not the tool tip's")
         } else if self.unknown & unknown::D != 0 {
             Some("the D number is set by an expression")
-        } else if self.unknown & unknown::S != 0 && self.rpm() > 0.0 {
+        } else if self.unknown & unknown::S != 0 && matches!(self.direction, 3 | 4) {
             Some("the spindle speed is set by an expression")
         } else if self.unknown & unknown::FEED != 0 {
             Some("the feed is set by an expression")

@@ -193,6 +193,9 @@ pub struct Timeline {
     pub frame_writes: Vec<usize>,
     /// Of those, the blocks that write `$P_IFRAME`, the frame in force.
     pub frame_in_force_writes: Vec<usize>,
+    /// Blocks that write cutting-edge data (`$TC_DP…[t,d]=`: a wear, a length), or call a subprogram that
+    /// does: a tool setter reads the tool with the new values.
+    pub tool_data_writes: Vec<usize>,
     /// Blocks (change, move): a frame change and the incremental move that first traverses it on an axis;
     /// a gate at a block after the change and up to the move could not give the traverse back.
     pub frame_traverses: Vec<(usize, usize)>,

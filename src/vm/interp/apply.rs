@@ -172,6 +172,9 @@ impl Interp<'_> {
                 }
                 // M19 positions the spindle at the angle of SD43240, which the dry run does not know.
                 19 => self.position_spindle(1, f64::NAN),
+                // M70 switches the spindle to axis mode (a C axis): stopped in position control, like
+                // SPOS, until M3 / M4 / M5 switch it back.
+                70 => self.position_spindle(1, f64::NAN),
                 m if m == self.cfg.tool_change_m => self.change_tool(&w_tool_change),
                 5 | 0 | 1 | 2 | 30 | 17 => {}
                 7..=9 => {

@@ -70,6 +70,9 @@ impl Builder<'_> {
                 // the coordinates the zero measures in: the zero goes after it, and where it cuts too there is
                 // no place for one (before it the probe would go to its point in a frame the program has not
                 // set yet).
+                if !sub.tool_data_writes.is_empty() {
+                    self.t.tool_data_writes.push(i);
+                }
                 let setup = sub.as_callee.touched[field::OFFSET] || !sub.frame_writes.is_empty();
                 if setup && self.t.first_cut.is_none() {
                     self.t.setup_end = i + 1;
@@ -463,7 +466,7 @@ impl Builder<'_> {
         for m in s.m.iter() {
             t[field::MACHINE_COOLANT] |= self.profile.coolant.follows(m);
             let f = match m {
-                3..=5 | POSITIONED => field::DIRECTION,
+                3..=5 | POSITIONED | 70 => field::DIRECTION,
                 m if m == change_m => field::TOOL,
                 7..=9 => field::COOLANT,
                 _ => continue,
@@ -506,7 +509,8 @@ impl Builder<'_> {
             .iter()
             .any(|g| matches!(g, 500 | 54..=57 | 505..=599));
         t[field::DIAMETER] |= s.diameter.is_some();
-        t[field::UNKNOWN] |= s.unknown != 0 || s.sum_offset.is_some();
+        t[field::UNKNOWN] |=
+            s.unknown != 0 || s.sum_offset.is_some() || s.tool_offset_on | s.tool_offset_off != 0;
         for (mine, now) in self.touched.iter_mut().zip(set) {
             *mine |= now;
         }

@@ -145,6 +145,9 @@ pub(super) struct Builder<'p> {
     call_unsure: Vec<(usize, String, [bool; field::COUNT])>,
     /// Blocks whose modal state differs between the runs of a loop around them.
     varies: BTreeSet<usize>,
+    /// The programmed tool offsets set to other than 0 (bits of the scan's `tool_offset_on`): the state's
+    /// [`unknown::TOOL_OFFSET`] ends only when each of them is 0 again.
+    tool_offsets: u8,
     /// End of the last run of timed moves folded (its blocks in later chunks are skipped).
     run_end: usize,
     /// Until the first cut: the first block after the setup so far, as a [`SiteKind::Start`] site.
@@ -259,6 +262,7 @@ impl<'p> Builder<'p> {
             site_changes: Vec::new(),
             call_unsure: Vec::new(),
             varies: BTreeSet::new(),
+            tool_offsets: 0,
             run_end: 0,
             start: None,
             lims: None,
@@ -815,6 +819,9 @@ impl<'p> Builder<'p> {
         if s.writes_frame_in_force {
             self.t.frame_in_force_writes.push(i);
         }
+        if s.writes_tool_data {
+            self.t.tool_data_writes.push(i);
+        }
         let frame_changes =
             frame_op::TRANSLATE | frame_op::ROTATE | frame_op::CLEAR | frame_op::WRITE;
         if setup && (s.frame_ops & frame_changes != 0 || !s.offsets.is_empty()) {
@@ -878,6 +885,14 @@ impl<'p> Builder<'p> {
             Some(false) => self.state.unknown &= !unknown::SUM_OFFSET,
             None => {}
         }
+        if s.tool_offset_on | s.tool_offset_off != 0 {
+            self.tool_offsets = (self.tool_offsets & !s.tool_offset_off) | s.tool_offset_on;
+            if self.tool_offsets == 0 {
+                self.state.unknown &= !unknown::TOOL_OFFSET;
+            } else {
+                self.state.unknown |= unknown::TOOL_OFFSET;
+            }
+        }
         match s.tool_carrier {
             Some(true) => self.state.frames |= frame::TOOL_CARRIER,
             Some(false) => self.state.frames &= !frame::TOOL_CARRIER,
@@ -917,6 +932,8 @@ impl<'p> Builder<'p> {
         for m in s.m.iter() {
             match m {
                 3..=5 | POSITIONED => direction = Some(m),
+                // M70: the spindle becomes a C axis, stopped in position control (SPOS's state).
+                70 => direction = Some(POSITIONED),
                 m if m == change_m => {
                     self.m6_seen = true;
                     self.m6_always |= self.open_ifs.is_empty() && self.loop_depth == 0;

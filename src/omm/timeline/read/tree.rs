@@ -280,6 +280,21 @@ fn is_tool_literal(text: &[u8]) -> bool {
     quoted || (!text.is_empty() && text.iter().all(u8::is_ascii_digit))
 }
 
+/// The programmed tool offset an assignment to `name` writes, as a bit: `TOFFL`, `TOFFR`, `TOFF[X]`,
+/// `TOFF[Y]`, `TOFF[Z]`, any other `TOFF[…]`; 0 for another name. One bit each, so that setting one of
+/// them to 0 leaves another in force.
+fn tool_offset_bit(name: &[u8]) -> u8 {
+    match name {
+        b"TOFFL" => 1,
+        b"TOFFR" => 2,
+        b"TOFF[X]" => 4,
+        b"TOFF[Y]" => 8,
+        b"TOFF[Z]" => 16,
+        _ if name.starts_with(b"TOFF[") => 32,
+        _ => 0,
+    }
+}
+
 /// TRAORI, TRANSMIT, TRACYL, TRAANG switch a transformation on, TRAFOOF off.
 fn transformation_op(name: &str) -> u8 {
     match name {
@@ -308,6 +323,11 @@ fn frame_command_op(name: &str, f: &crate::views::BlockFacts, block: &Block<'_>)
             frame_op::ROTATE
         }
         "TRANS" | "ROT" | "SCALE" | "MIRROR" => frame_op::CLEAR,
+        // The frame turned to the tool's orientation or the part's: a rotation whose angles come from the
+        // kinematics, not from the block. TOROTOF and PAROTOF end only their own share of the rotation,
+        // which the timeline does not keep apart from a ROT's: the rotation counts until a bare ROT or TRANS.
+        "TOFRAME" | "TOFRAMEX" | "TOFRAMEY" | "TOFRAMEZ" | "TOROT" | "TOROTX" | "TOROTY"
+        | "TOROTZ" | "PAROT" => frame_op::ROTATE,
         _ => 0,
     }
 }
@@ -553,6 +573,15 @@ fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
             }
         },
         b"DL" => s.sum_offset = Some(v != Some(0.0)),
+        _ if name.starts_with(b"$TC_DP") => s.writes_tool_data = true,
+        _ if tool_offset_bit(&name) != 0 => {
+            let bit = tool_offset_bit(&name);
+            if v == Some(0.0) {
+                s.tool_offset_off |= bit;
+            } else {
+                s.tool_offset_on |= bit;
+            }
+        }
         b"TCARR" => s.tool_carrier = Some(v != Some(0.0)),
         // The master spindle stops in position control.
         b"SPOS" | b"SPOSA" | b"SPOS[0]" | b"SPOSA[0]" | b"SPOS[1]" | b"SPOSA[1]" => {
