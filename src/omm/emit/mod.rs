@@ -615,7 +615,6 @@ impl Emitter<'_> {
         v
     }
 
-    /// Reads the timer into `dt` (minutes since the last update) and advances `t_last`.
     /// Where the profile bounds the time between measurements: the timer now is the last measurement's.
     fn note_measured(&self) -> Option<String> {
         let at = self.regs.measured_at?;
@@ -639,6 +638,7 @@ impl Emitter<'_> {
         ))
     }
 
+    /// Reads the timer into `dt` (minutes since the last update) and advances `t_last`.
     fn read_timer(&self) -> Vec<String> {
         let reg = &self.regs;
         let timer = &self.profile.registers.timer;

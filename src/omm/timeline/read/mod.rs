@@ -8,11 +8,9 @@ use super::modal::Diameter;
 use crate::syntax::{BlockKind, Program};
 
 mod tree;
-
-pub(super) use tree::section_call_labels;
 mod words;
 
-pub(super) use tree::scan_tree;
+pub(super) use tree::{scan_tree, section_call_labels};
 #[cfg(test)]
 pub(super) use words::decimal;
 pub(super) use words::{at_radius, radius_at, scan_words_into};
