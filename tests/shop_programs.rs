@@ -157,12 +157,12 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
     // a mill-turn program, is one for the lathe setter).
     let shop14 = (
         "shop14",
-        6,
+        7,
         [
-            ("blum-tc50", 5),
-            ("siemens-cycle978", 5),
-            ("tool-setter", 5),
-            ("grinder-gauge", 6),
+            ("blum-tc50", 6),
+            ("siemens-cycle978", 6),
+            ("tool-setter", 6),
+            ("grinder-gauge", 7),
             ("lathe-setter", 1),
         ],
     );

@@ -107,3 +107,30 @@ fn back_to_the_top_plane_with_the_rotary_axes_turned_home_is_a_place_again() {
         assert!(common::gate_before(&out, "N38 G90 G0 X20 Y10").is_empty());
     }
 }
+
+#[test]
+fn after_a_drilling_cycle_the_places_of_the_same_tool_measure_unless_the_cycle_left_the_spindle() {
+    // 07 (F8): two drilling operations with one drill (`MCALL CYCLE81`, then `MCALL CYCLE83`), two tapping
+    // operations with one tap (`MCALL CYCLE84`), then a pocket. Any Siemens cycle kept every place up to
+    // the next tool change from measuring. The drilling cycles are declared SAVE and leave only what they
+    // program themselves: CYCLE81 nothing, so the rapid to the second drilling operation measures; CYCLE84
+    // ends with the spindle as its SDAC says, so the rapid to the second row of taps does not (its gate
+    // would give back the speed and direction from before the cycle), while the gate before the pocket's
+    // tool change does: it gives the spindle nothing back, the change stops it.
+    let src = shop14("07_same_tool_drilling_operations_then_tapping.mpf");
+    for profile in ["blum-tc50", "siemens-cycle978"] {
+        let out = common::every_gate_transformed(profile, &[("p.mpf", &src)]);
+        let second_drilling = common::gate_before(&out, "N46 G0 X20 Y60");
+        assert!(common::gate_measures(&second_drilling), "{profile}:\n{out}");
+        let second_row = common::gate_before(&out, "N80 G0 X20 Y60");
+        assert!(!common::gate_measures(&second_row), "{profile}:\n{out}");
+        let pocket = common::gate_before(&out, "N94 M6");
+        assert!(common::gate_measures(&pocket), "{profile}:\n{out}");
+        assert!(
+            !pocket.iter().any(|l| l.split_whitespace().any(|w| w == "M3"
+                || w == "M4"
+                || w.starts_with('S') && w[1..].starts_with(|c: char| c.is_ascii_digit()))),
+            "{profile}: {pocket:#?}"
+        );
+    }
+}

@@ -154,7 +154,7 @@ impl Builder<'_> {
     /// After a call of `name` the modal state is not known until the next tool change, unless the cycle
     /// is one that leaves it known.
     fn state_unknown_after(&mut self, name: &str) {
-        if !leaves_state_known(name) {
+        if !leaves_state_known(name) && self.cycle_leaves(name).is_none() {
             self.after_call = true;
             if !is_siemens_cycle(&name.to_ascii_uppercase()) {
                 self.after_unknown_call = true;
@@ -176,9 +176,17 @@ impl Builder<'_> {
         name: &str,
         touched: Option<[bool; field::COUNT]>,
     ) {
-        if leaves_state_known(name) || is_siemens_cycle(name) {
-            return;
-        }
+        let touched = match self.cycle_leaves(name) {
+            Some(fields) => {
+                // A caller of this unit takes them as left by it too.
+                for (mine, its) in self.touched.iter_mut().zip(fields) {
+                    *mine |= its;
+                }
+                Some(fields)
+            }
+            None if leaves_state_known(name) || is_siemens_cycle(name) => return,
+            None => touched,
+        };
         let mut unsure = touched.unwrap_or([true; field::COUNT]);
         // The position a gate reads from the control; what is not known (expressions) the site's state
         // says itself.
@@ -256,7 +264,13 @@ impl Builder<'_> {
             if self.only_an_unused_feed(b, &fields) {
                 continue;
             }
-            self.varies.insert(b);
+            let spindle_only =
+                (0..field::COUNT).all(|f| !fields[f] || f == field::S || f == field::DIRECTION);
+            if spindle_only {
+                self.varies_but_spindle.insert(b);
+            } else {
+                self.varies.insert(b);
+            }
             let (call, name, _) = &calls[k];
             let words: Vec<&str> = (0..field::COUNT)
                 .filter(|&f| fields[f])
@@ -563,6 +577,19 @@ impl Builder<'_> {
         }
     }
 
+    /// What a drilling cycle, or a hole pattern running one under `MCALL`, may leave otherwise than the
+    /// program had it before the call (see [`drilling_cycle_leaves`]); `None` for any other call.
+    fn cycle_leaves(&self, name: &str) -> Option<[bool; field::COUNT]> {
+        if !matches!(name, "HOLES1" | "HOLES2" | "CYCLE801" | "CYCLE802") {
+            return drilling_cycle_leaves(name);
+        }
+        match &self.modal_call {
+            Some((modal, _)) => drilling_cycle_leaves(modal),
+            // With no modal call the pattern only positions the tool.
+            None => Some([false; field::COUNT]),
+        }
+    }
+
     /// After a block that moves, the cycle an `MCALL` made modal runs.
     #[inline]
     pub(super) fn modal_call_after(&mut self, i: usize, mv: &Move) {
@@ -578,6 +605,25 @@ impl Builder<'_> {
             self.modal_call = Some((name, shown));
         }
     }
+}
+
+/// The fields a Siemens drilling cycle may leave otherwise than the program had them before the call.
+/// The cycles are declared `SAVE`: their G codes and programmable frame come back, and they change no
+/// tool, offset or coolant; what they program themselves stays. CYCLE84 and CYCLE840 end with the spindle
+/// turning as their SDAC says (CYCLE84 at its own speeds SST/SST1, tapping under G331/G332), CYCLE86
+/// starts it again in SDIR after its oriented stop, CYCLE87 and CYCLE88 stop it (M5) for the operator;
+/// CYCLE840 taps at a feed it computes from the speed and pitch, CYCLE85 bores and retracts at its own
+/// FFR and RFF. CYCLE83's feed factor FRF holds for the first infeed only: it drills on and ends at the
+/// program's feed. Places after the others measure as after any block (QA round 14, F8).
+fn drilling_cycle_leaves(name: &str) -> Option<[bool; field::COUNT]> {
+    let fields: &[usize] = match name {
+        "CYCLE81" | "CYCLE82" | "CYCLE83" | "CYCLE89" => &[],
+        "CYCLE85" => &[field::FEED],
+        "CYCLE84" | "CYCLE840" => &[field::S, field::DIRECTION, field::FEED],
+        "CYCLE86" | "CYCLE87" | "CYCLE88" => &[field::S, field::DIRECTION],
+        _ => return None,
+    };
+    Some(field::only(fields))
 }
 
 /// Cycles after which the modal state is still known: the swivel (CYCLE800, whose frames the timeline

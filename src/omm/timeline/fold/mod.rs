@@ -145,6 +145,9 @@ pub(super) struct Builder<'p> {
     call_unsure: Vec<(usize, String, [bool; field::COUNT])>,
     /// Blocks whose modal state differs between the runs of a loop around them.
     varies: BTreeSet<usize>,
+    /// Blocks where a call left only the spindle (speed, direction) unsure: a spindle probe's gate before
+    /// the program's own M6 gives neither back (the change stops the spindle), so only other gates vary.
+    varies_but_spindle: BTreeSet<usize>,
     /// The programmed tool offsets set to other than 0 (bits of the scan's `tool_offset_on`): the state's
     /// [`unknown::TOOL_OFFSET`] ends only when each of them is 0 again.
     tool_offsets: u8,
@@ -262,6 +265,7 @@ impl<'p> Builder<'p> {
             site_changes: Vec::new(),
             call_unsure: Vec::new(),
             varies: BTreeSet::new(),
+            varies_but_spindle: BTreeSet::new(),
             tool_offsets: 0,
             run_end: 0,
             start: None,

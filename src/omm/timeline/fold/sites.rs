@@ -256,8 +256,13 @@ impl Builder<'_> {
         let mut pass = 0;
         let traverses = Spans::new(&self.t.frame_traverses);
         let conditional = Spans::new(&self.t.conditional);
+        let spindle_probe = self.profile.probe.kind == ProbeKind::SpindleProbe
+            && self.profile.probe.tool_change == ToolChange::M6;
         for site in &mut self.t.sites {
-            site.state_varies = self.varies.contains(&site.block);
+            let change_follows = matches!(site.kind, SiteKind::PassStart { tool_change: true });
+            site.state_varies = self.varies.contains(&site.block)
+                || (self.varies_but_spindle.contains(&site.block)
+                    && !(spindle_probe && change_follows));
             if !site.state_varies && self.feed_not_given.contains(&site.block) {
                 site.before.unset(field::FEED);
             }
