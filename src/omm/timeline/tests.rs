@@ -460,7 +460,7 @@ fn the_spindle_a_subprogram_programs_is_followed_through_the_call() {
 #[test]
 fn after_a_call_no_gate_restores_a_state_until_the_next_tool_change() {
     let t = timeline_of(
-        "T1 M6\nS2000 M3\nG0 X0 Y0 Z2\nG1 Z-1 F100\nG0 Z50\nG0 X10\nCYCLE81(10,0,2,-5)\nG1 Z-1\nG0 Z50\nG0 X20\nT2 M6\nG0 Z2\nG1 Z-1 F100\nG0 Z50\nG0 X30\nM30\n",
+        "T1 M6\nS2000 M3\nG0 X0 Y0 Z2\nG1 Z-1 F100\nG0 Z50\nG0 X10\nCYCLE61(10,0,2,-5)\nG1 Z-1\nG0 Z50\nG0 X20\nT2 M6\nG0 Z2\nG1 Z-1 F100\nG0 Z50\nG0 X30\nM30\n",
     );
     let retracts: Vec<(usize, bool)> = t
         .sites
@@ -470,6 +470,30 @@ fn after_a_call_no_gate_restores_a_state_until_the_next_tool_change() {
         .collect();
     // The cycle may have left another speed, feed or frame: the retract after it cannot measure.
     assert_eq!(retracts, [(6, false), (10, true), (15, false)]);
+}
+
+#[test]
+fn a_drilling_cycle_leaves_unsure_only_what_it_programs_itself() {
+    let retracts_after = |cycle: &str| -> Vec<(usize, bool)> {
+        let t = timeline_of(&format!(
+            "T1 M6\nS2000 M3\nG0 X0 Y0 Z2\nG1 Z-1 F100\nG0 Z50\nG0 X10\n{cycle}\nG1 Z-1\nG0 Z50\nG0 X20\nS2000 M3\nG1 Z-1 F100\nG0 Z50\nG0 X30\nM30\n"
+        ));
+        t.sites
+            .iter()
+            .filter(|s| matches!(s.kind, SiteKind::Retract { .. }))
+            .map(|s| (s.block + 1, s.state_varies))
+            .collect()
+    };
+    // CYCLE81 programs nothing that stays: every place after it is sure.
+    assert_eq!(
+        retracts_after("CYCLE81(10,0,2,-5)"),
+        [(6, false), (10, false), (14, false)]
+    );
+    // CYCLE84 ends with the spindle as its SDAC says: unsure until the program writes S, M3 and F again.
+    assert_eq!(
+        retracts_after("CYCLE84(10,0,2,-5,,0,4,,1.5,0,500,500)"),
+        [(6, false), (10, true), (14, false)]
+    );
 }
 
 #[test]
