@@ -134,3 +134,41 @@ fn after_a_drilling_cycle_the_places_of_the_same_tool_measure_unless_the_cycle_l
         );
     }
 }
+
+#[test]
+fn plan_says_why_a_gate_cannot_measure_and_names_the_call() {
+    // fixtures/shop/04 taps a bolt circle under `MCALL CYCLE84` and stops the spindle after it: the gate
+    // there cannot measure, the tap may have left another speed. `plan` says so beside the table, naming
+    // the cycle and the field, and the JSON carries the same reason; gates that can measure carry none.
+    let path = common::fixture("shop/04_mastercam_drill_g55.mpf");
+    let model = common::fixture("omm/model.toml");
+    let plan = |format: &str| {
+        common::stdout(&common::run(&[
+            "plan", &path, "--model", &model, "--format", format,
+        ]))
+    };
+    let human = plan("human");
+    let why = human
+        .lines()
+        .skip_while(|l| *l != "gates that cannot measure:")
+        .find(|l| l.contains("(line 37)"))
+        .unwrap_or_else(|| panic!("{human}"));
+    assert!(
+        why.contains("the call CYCLE84 (line 34) may leave the spindle speed (S)"),
+        "{why}"
+    );
+    let json: serde_json::Value = serde_json::from_str(&plan("json")).unwrap();
+    let gates = json["gates"].as_array().unwrap();
+    for gate in gates {
+        assert_eq!(
+            gate.get("cannot_measure").is_some(),
+            gate["can_measure"] == false,
+            "{gate}"
+        );
+    }
+    assert!(gates.iter().any(|g| {
+        g["cannot_measure"]
+            .as_str()
+            .is_some_and(|w| w.contains("CYCLE84 (line 34)"))
+    }));
+}

@@ -109,6 +109,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
             omm::report::write_passes(&mut out, &omm::report::pass_rows(&program, &timeline))?;
             writeln!(out)?;
             omm::report::write_table(&mut out, &program, &plan)?;
+            omm::report::write_unfit(&mut out, &program, &plan)?;
             omm::report::write_loops(&mut out, &program, &plan)?;
             omm::report::write_untimed(&mut out, &omm::report::untimed_calls(&timeline))?;
             omm::report::write_timed(&mut out, &omm::report::timed_calls(&timeline))?;

@@ -52,6 +52,9 @@ pub struct Gate {
     pub measure: bool,
     /// Whether the gate can measure at all (tool clear of the part, modal state restorable).
     pub can_measure: bool,
+    /// Why it cannot, where it cannot: what `plan` tells the user beside the table.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cannot_measure: Option<String>,
     /// Whether the block after the gate changes the tool itself (no re-load needed).
     pub tool_change_follows: bool,
     /// How often the gate runs (more than once in the body of a counted loop); time and prediction above
@@ -488,6 +491,41 @@ const MACHINE_COOLANT_ON: &str = "a machine coolant of the profile's [coolant] c
 
 const SETUP_CALL: &str = "no tool of the program's is known there and its first cut is a call driftloop cannot read: a builder's or shop's cycle at the program's start (a tool change such as TC(1), L706 or WZW, a datum cycle such as NPL or NEWCOORD, a table or clamp cycle) sets up the tool, the work offset and the part more often than it cuts, so a zero before it would measure with what the previous program left";
 
+const REFRESH_ONLY: &str = "it only refreshes the continuous compensation between gates";
+const BEFORE_THE_ZERO: &str =
+    "it is the program's start, where only the reference gate measures (the zero is taken once)";
+const SPEED_CHANGE_TURNING: &str = "the spindle changes speed while it turns there, so the tool may be in the cut: a speed change measures only where the spindle stops or starts from standstill";
+const PASS_MEASURES: &str = "the spindle starts there, but the start of its pass can measure already and nothing has cut since";
+const LOWERED: &str = "the spindle starts there after the tool went down with the spindle stopped: it may stand under the part (a back-boring bar lowered through its bore)";
+
+/// `why`, with the call that left the state unsure where that is the reason.
+fn unsure_call_named(timeline: &Timeline, block: usize, why: &str) -> String {
+    match timeline.unsure_after_call.get(&block) {
+        Some((line, name, fields)) if why == STATE_VARIES => format!(
+            "{why}: the call {name} (line {line}) may leave {fields} otherwise than the program had them before it"
+        ),
+        _ => why.to_string(),
+    }
+}
+
+/// Why a speed change cannot measure, the place itself being fit: only where the spindle stops, or starts
+/// from standstill, is the tool out of the cut. Where it starts, not where the tool went down since it
+/// last rose (a back-boring bar lowered through its bore with the spindle stopped stands under the part),
+/// and not where the pass's start (`measurable_pass`) could measure already: that place serves, after a
+/// tool change whose `SUPA Z0 D0` left the pass start unfit.
+fn speed_change_unfit(site: &Site, measurable_pass: Option<usize>) -> Option<&'static str> {
+    if site.rpm_after == 0.0 {
+        None
+    } else if site.before.rpm() != 0.0 {
+        Some(SPEED_CHANGE_TURNING)
+    } else if site.lowered {
+        Some(LOWERED)
+    } else if measurable_pass == Some(site.pass) {
+        Some(PASS_MEASURES)
+    } else {
+        None
+    }
+}
 const STATE_VARIES: &str = "its modal state is not known for sure (later runs of a loop reach it in another state, or a subprogram or cycle ran before it)";
 
 const TOOL_UNKNOWN: &str = "the tool in the spindle is not known there (no tool change before it), so the probe could not be swapped for it again";
@@ -1070,29 +1108,21 @@ pub fn plan(
         } else {
             site.block
         };
-        let restorable = unfit_for_measuring(site, profile, rule, reference_tool.as_ref())
+        let unfit = unfit_for_measuring(site, profile, rule, reference_tool.as_ref())
             .or_else(|| tool_data_unfit(profile, tool_data_after_zero))
             .or_else(|| swap_unfit(timeline, site, profile))
-            .or_else(|| machine_unfit(timeline, site, profile))
-            .is_none();
+            .or_else(|| machine_unfit(timeline, site, profile));
+        let restorable = unfit.is_none();
         let (kind, can_measure) = match site.kind {
             _ if reference => (GateKind::Reference, true),
             SiteKind::PassStart { .. } => (GateKind::PassStart, restorable),
             SiteKind::Retract { .. } | SiteKind::Stop | SiteKind::Dressing => {
                 (GateKind::Extra, restorable)
             }
-            // Where the spindle stops the tool is out of the cut, and where it starts from standstill it
-            // has not cut since it stopped: the place after a tool change where `SUPA Z0 D0` before the
-            // change left the pass start unfit. Not where the tool went down since it last rose: a
-            // back-boring bar lowered through its bore with the spindle stopped stands under the part.
-            SiteKind::SpeedChange => {
-                let starts =
-                    site.before.rpm() == 0.0 && !site.lowered && measurable_pass != Some(site.pass);
-                (
-                    GateKind::Update,
-                    restorable && (site.rpm_after == 0.0 || starts),
-                )
-            }
+            SiteKind::SpeedChange => (
+                GateKind::Update,
+                restorable && speed_change_unfit(site, measurable_pass).is_none(),
+            ),
             SiteKind::Start => (GateKind::Update, false),
         };
         if can_measure {
@@ -1135,6 +1165,14 @@ pub fn plan(
             GateKind::Refresh => (false, false),
             _ => (measure, can_measure),
         };
+        let cannot_measure = match (can_measure, kind, site.kind) {
+            (true, ..) => None,
+            (_, GateKind::Refresh, _) => Some(REFRESH_ONLY),
+            _ if unfit.is_some() => unfit,
+            (_, _, SiteKind::Start) => Some(BEFORE_THE_ZERO),
+            _ => speed_change_unfit(site, measurable_pass),
+        }
+        .map(|why| unsure_call_named(timeline, site.block, why));
         last_update = time;
         if measure {
             at_last_measurement = drifts;
@@ -1154,6 +1192,7 @@ pub fn plan(
             predicted_um: predicted,
             measure: false,
             can_measure,
+            cannot_measure: cannot_measure.clone(),
             tool_change_follows,
             runs: 0,
             measurements: 0,
@@ -1165,6 +1204,7 @@ pub fn plan(
         if gate.kind == GateKind::Refresh && measure {
             gate.kind = kind;
             gate.can_measure = can_measure;
+            gate.cannot_measure = cannot_measure;
         }
         gate.measure |= measure;
         gate.measurements += usize::from(measure);

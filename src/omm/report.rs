@@ -98,6 +98,25 @@ pub fn write_table(out: &mut impl Write, program: &Program, plan: &Plan) -> io::
     )
 }
 
+/// Why each gate that cannot measure cannot, so that a user sees what to change in the program.
+pub fn write_unfit(out: &mut impl Write, program: &Program, plan: &Plan) -> io::Result<()> {
+    let lines = LineIndex::new(program.source());
+    let mut unfit = plan
+        .gates
+        .iter()
+        .filter_map(|g| g.cannot_measure.as_ref().map(|why| (g, why)))
+        .peekable();
+    if unfit.peek().is_none() {
+        return Ok(());
+    }
+    writeln!(out, "gates that cannot measure:")?;
+    for (g, why) in unfit {
+        let (line, _) = lines.line_col(program.block_span(g.block).start);
+        writeln!(out, "  gate {} (line {line}): {why}", g.number)?;
+    }
+    Ok(())
+}
+
 /// How the plan counts the program's loops: a counted loop's runs, or why one is counted once.
 pub fn write_loops(out: &mut impl Write, program: &Program, plan: &Plan) -> io::Result<()> {
     if plan.loops.is_empty() {
