@@ -579,4 +579,7 @@ fn strokes_under_spos_are_cuts_unless_the_tool_calls_a_measuring_cycle() {
     assert_eq!(turned.first_cut, Some(3));
     let tap = timeline_of("T1 M6\nSPOS=0\nG0 X0 Y0 Z2\nG331 Z-18 K1.5 S400\nCYCLE978\nM30\n");
     assert_eq!(tap.first_cut, Some(3));
+    // A driven tool on a mill-turn machine cuts with the main spindle positioned.
+    let driven = timeline_of("T1 M6\nS2=2000 M2=3\nSPOS=0\nG0 Z5\nG1 Z-1 F100\nCYCLE978\nM30\n");
+    assert_eq!(driven.first_cut, Some(4));
 }

@@ -321,9 +321,14 @@ impl<'p> Builder<'p> {
 
     /// A feed move at block `i` before the first cut: the first cut, or a stroke that may be a probe's (see
     /// [`Builder::stroke`]). Only straight and circular feeds count as strokes: a thread or tapping move
-    /// also runs with the spindle in position control, and cuts.
+    /// also runs with the spindle in position control, and cuts. Nor where the program addresses another
+    /// spindle: on a mill-turn machine a driven tool cuts while the main spindle stands positioned.
     fn feed_move_before_cut(&mut self, i: usize) {
-        if self.state.direction == POSITIONED && matches!(self.state.motion, 1..=3) {
+        let other_spindle = self.state.unknown & unknown::OTHER_SPINDLE != 0;
+        if self.state.direction == POSITIONED
+            && matches!(self.state.motion, 1..=3)
+            && !other_spindle
+        {
             if !self.probing {
                 self.stroke.get_or_insert(i);
             }
