@@ -338,14 +338,7 @@ impl Cx {
             }
         };
         let span = Span::new(start, start + utf8_len(at));
-        if let Some(help) = empty_assignment_help(&i[..i.len() - at.len()], at) {
-            diags.push(
-                Diagnostic::error(span, format!("expected {expected}, found {found}"))
-                    .with_help(help),
-            );
-            return;
-        }
-        let help = if at.first() == Some(&b'(') && i.first() == Some(&b'(') {
+        let general = if at.first() == Some(&b'(') && i.first() == Some(&b'(') {
             "`( … )` is not a comment in Sinumerik programs; start comments with `;`"
         } else if at.first() == Some(&b'"') {
             "strings are closed by `\"` on the same line"
@@ -358,6 +351,8 @@ impl Cx {
         } else {
             "the accepted forms are listed in grammar/sinumerik.ebnf"
         };
+        let help = empty_assignment_help(&i[..i.len() - at.len()], at)
+            .unwrap_or_else(|| general.to_string());
         diags.push(
             Diagnostic::error(span, format!("expected {expected}, found {found}")).with_help(help),
         );
