@@ -153,16 +153,31 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
         ],
     );
     // fixtures/shop14 (QA round 14: programs in the exact output forms of public CAM posts; 06 starts with
-    // the post's own probing under SPOS, which the milling probes refuse (open in its REPORT), and only 03,
-    // a mill-turn program, is one for the lathe setter).
+    // the post's own probing under SPOS, which the milling probes refused until QA round 15 read its strokes
+    // as a probe's, and only 03, a mill-turn program, is one for the lathe setter).
     let shop14 = (
         "shop14",
         7,
         [
-            ("blum-tc50", 6),
-            ("siemens-cycle978", 6),
-            ("tool-setter", 6),
+            ("blum-tc50", 7),
+            ("siemens-cycle978", 7),
+            ("tool-setter", 7),
             ("grinder-gauge", 7),
+            ("lathe-setter", 1),
+        ],
+    );
+    // fixtures/shop15 (QA round 15: 01 a mill-turn program's CYCLE95 with its contour after the call, one
+    // for the lathe setter; 02 a milling program that starts with its own probing under SPOS, which the lathe
+    // setter refuses rightly; 03 probes mid-program into the work offset (`_KNUM=1` before a bare
+    // `CYCLE978`), after the zero: refused by every profile).
+    let shop15 = (
+        "shop15",
+        3,
+        [
+            ("blum-tc50", 2),
+            ("siemens-cycle978", 2),
+            ("tool-setter", 2),
+            ("grinder-gauge", 2),
             ("lathe-setter", 1),
         ],
     );
@@ -182,7 +197,7 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
     );
     let sets = sets
         .into_iter()
-        .chain([shop11, shop12, shop13, shop14, redteam])
+        .chain([shop11, shop12, shop13, shop14, shop15, redteam])
         .chain([(
             "cov10",
             4,

@@ -103,6 +103,31 @@ fn error_line_diagnostic_has_expected_found_and_help() {
 }
 
 #[test]
+fn an_assignment_with_no_value_says_which_word_and_what_to_do() {
+    // QA round 15 (F10): a CAM post's probing output writes a measuring cycle's parameter with nothing after
+    // its `=`. The error names the line; the help names the word and the two ways to mend it.
+    let p = parse(b"N10 _TSA=1 _PRNUM=1 _VMS=0 _NMSP=1 _FA=5 _K=\nN20 CYCLE978\n");
+    assert_eq!(
+        errors(&p),
+        vec!["1:45 expected an operand, found end of line"]
+    );
+    let help = p.diagnostics()[0].help.as_deref().unwrap();
+    assert!(
+        help.contains("`_K=` assigns no value") && help.contains("`_K=1`"),
+        "{help}"
+    );
+    // Another error at the end of a line keeps its general help.
+    let p = parse(b"G1 X10 +\n");
+    assert!(
+        !p.diagnostics()[0]
+            .help
+            .as_deref()
+            .unwrap()
+            .contains("assigns no value")
+    );
+}
+
+#[test]
 fn diagnostics_are_sorted_by_position() {
     let p = parse(&fixture("errors.mpf"));
     let starts: Vec<usize> = p.diagnostics().iter().map(|d| d.span.start).collect();

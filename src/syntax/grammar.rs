@@ -338,7 +338,7 @@ impl Cx {
             }
         };
         let span = Span::new(start, start + utf8_len(at));
-        let help = if at.first() == Some(&b'(') && i.first() == Some(&b'(') {
+        let general = if at.first() == Some(&b'(') && i.first() == Some(&b'(') {
             "`( … )` is not a comment in Sinumerik programs; start comments with `;`"
         } else if at.first() == Some(&b'"') {
             "strings are closed by `\"` on the same line"
@@ -351,6 +351,8 @@ impl Cx {
         } else {
             "the accepted forms are listed in grammar/sinumerik.ebnf"
         };
+        let help = empty_assignment_help(&i[..i.len() - at.len()], at)
+            .unwrap_or_else(|| general.to_string());
         diags.push(
             Diagnostic::error(span, format!("expected {expected}, found {found}")).with_help(help),
         );
@@ -1178,4 +1180,25 @@ fn comment_start(i: &[u8]) -> usize {
         }
     }
     i.len()
+}
+
+/// The help for an assignment that ends the line with nothing after its `=` (`_K=`, as one CAM post writes a
+/// measuring cycle's parameter it has no value for): the control stops there too, so the line needs a value
+/// or the word taken out. `before` is the line up to where parsing stopped, `at` the rest.
+fn empty_assignment_help(before: &[u8], at: &[u8]) -> Option<String> {
+    let rest = at.iter().position(|&b| b == b';').map_or(at, |c| &at[..c]);
+    if !rest.iter().all(u8::is_ascii_whitespace) {
+        return None;
+    }
+    let before = before.trim_ascii_end().strip_suffix(b"=")?.trim_ascii_end();
+    let name_start = before
+        .iter()
+        .rposition(|&b| !(b.is_ascii_alphanumeric() || b == b'_' || b == b'$'))
+        .map_or(0, |p| p + 1);
+    let name = std::str::from_utf8(&before[name_start..]).ok()?;
+    (!name.is_empty()).then(|| {
+        format!(
+            "`{name}=` assigns no value (the control stops at this line too): write the value, e.g. `{name}=1`, or delete `{name}=` if the cycle does not need it; a post that writes it leaves out a parameter it has no value for"
+        )
+    })
 }

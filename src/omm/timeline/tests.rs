@@ -585,3 +585,25 @@ fn threads_and_taps_are_cuts_timed_by_their_lead_and_unfit_for_gates() {
     let thread = timeline_of("T1 M6\nS900 M3\nG0 X24 Z5\nG33 Z-30 K1.5\nG0 X30\nM30\n");
     assert_eq!(thread.first_cut, Some(3));
 }
+
+/// QA round 15 (F9 of round 14): feed moves with the spindle positioned are a probe's strokes, no cut, when
+/// the tool calls a workpiece measuring cycle before it is changed or the spindle turns; otherwise
+/// (broaching, shaping, a spindle started before the cycle, a tap) the first of them is the first cut.
+#[test]
+fn strokes_under_spos_are_cuts_unless_the_tool_calls_a_measuring_cycle() {
+    let probe = timeline_of(
+        "T31 M6\nSPOS=0\nG54\nG0 X0 Y0 Z20\nG1 Z5 F1000\nCYCLE978\nG1 Z20\nT32 M6\nS6000 M3\nG0 X10\nG1 Z-2 F300\nM30\n",
+    );
+    assert_eq!(probe.first_cut, Some(10));
+    let broach = timeline_of(
+        "T7 M6\nSPOS=90\nG0 X0 Y20 Z5\nG1 Z-12 F800\nG0 Z50\nT8 M6\nS3000 M3\nG1 Z-2 F300\nM30\n",
+    );
+    assert_eq!(broach.first_cut, Some(3));
+    let turned = timeline_of("T1 M6\nSPOS=0\nG0 Z5\nG1 Z-1 F100\nS1000 M3\nCYCLE978\nM30\n");
+    assert_eq!(turned.first_cut, Some(3));
+    let tap = timeline_of("T1 M6\nSPOS=0\nG0 X0 Y0 Z2\nG331 Z-18 K1.5 S400\nCYCLE978\nM30\n");
+    assert_eq!(tap.first_cut, Some(3));
+    // A driven tool on a mill-turn machine cuts with the main spindle positioned.
+    let driven = timeline_of("T1 M6\nS2=2000 M2=3\nSPOS=0\nG0 Z5\nG1 Z-1 F100\nCYCLE978\nM30\n");
+    assert_eq!(driven.first_cut, Some(4));
+}

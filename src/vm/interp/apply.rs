@@ -106,12 +106,7 @@ impl Interp<'_> {
             }
         }
         if let Some(f) = w.feed.filter(|_| !dwell) {
-            let unit = if self.motion.modal.inch_feed {
-                MM_PER_INCH
-            } else {
-                1.0
-            };
-            self.motion.modal.feed = Some(f * unit);
+            self.program_feed(f);
         }
         if let Some(l) = w.lims {
             self.motion.modal.lims = Some(l);
@@ -312,6 +307,9 @@ impl Interp<'_> {
                         false,
                         under.as_ref(),
                     ));
+                    if let Some(f) = feed_left_by_cycle(&name, &args) {
+                        self.program_feed(f);
+                    }
                     let at = self.at(u, i);
                     self.run.messages.push(Message {
                         at,
@@ -374,6 +372,16 @@ impl Interp<'_> {
             }
             Err(why) => Err(format!("MCALL {name}: {why}")),
         }
+    }
+
+    /// F in the program's units (G700: inch per minute) made the modal feed, in mm.
+    fn program_feed(&mut self, f: f64) {
+        let unit = if self.motion.modal.inch_feed {
+            MM_PER_INCH
+        } else {
+            1.0
+        };
+        self.motion.modal.feed = Some(f * unit);
     }
 
     /// Notes the name of a tool selected by name, for `$TC_TP2`.
@@ -875,4 +883,21 @@ impl Interp<'_> {
             }
         }
     }
+}
+
+/// The feed a skipped stock-removal cycle leaves in force. The Siemens cycles are declared SAVE, which gives
+/// back the G functions and the frame at their end but not F: the blocks after `CYCLE95` run at the feed it
+/// programmed last (Fusion's mill-turn post writes the contour there again, with no F of its own). That is
+/// the finishing feed FF3 (8th parameter) when the cycle finishes (VARI 5 … 12: finishing or complete), else
+/// the roughing feed FF1 (6th). `None` where the call does not give it: F stays as it was.
+fn feed_left_by_cycle(name: &str, args: &[Option<Value>]) -> Option<f64> {
+    if name != "CYCLE95" {
+        return None;
+    }
+    let num = |k: usize| match args.get(k) {
+        Some(Some(v)) => v.num().ok(),
+        _ => None,
+    };
+    let finishes = num(8)? >= 5.0;
+    num(if finishes { 7 } else { 5 }).filter(|f| *f > 0.0)
 }

@@ -9,7 +9,7 @@ use super::Builder;
 use super::declared::ToolChangeCall;
 use crate::omm::declared_calls;
 use crate::omm::timeline::modal::{Modal, POSITIONED, coolant_after, field, is_thread, unknown};
-use crate::omm::timeline::read::{CallArg, Move, Scan, section_call_labels};
+use crate::omm::timeline::read::{CallArg, Move, Scan, measures_workpiece, section_call_labels};
 use crate::omm::timeline::record::{ByExpression, CalleeEffect, Timeline};
 
 impl Builder<'_> {
@@ -131,6 +131,12 @@ impl Builder<'_> {
                 .declared(i, shown, decl, args)
                 .map(ToolChangeCall::Declared),
             None => {
+                // The tool that measures a workpiece or calibrates on one (CYCLE976) is a probe.
+                if measures_workpiece(name) || name == "CYCLE976" {
+                    self.strokes_measured();
+                } else if !cuts_nothing(name) {
+                    self.strokes_cut();
+                }
                 self.state_unknown_after(name);
                 self.unsure_after(i, name, None);
                 // A cycle or subprogram driftloop cannot see into may cut (a drilling or pocket cycle):

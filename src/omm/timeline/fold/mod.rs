@@ -13,7 +13,7 @@ use crate::syntax::BlockKind;
 
 use super::modal::{Modal, POSITIONED, coolant_after, field, frame, is_thread, unknown};
 use super::moves::{Run, RunRef};
-use super::read::{Chunk, Move, Scan, frame_op, head};
+use super::read::{Chunk, Move, Scan, frame_op, head, measures_workpiece};
 use super::record::{Site, SiteKind, Standing, Timeline};
 use super::timing::{TICKS_PER_MIN, move_length, ticks};
 
@@ -219,6 +219,16 @@ pub(super) struct Builder<'p> {
     feed_uses: Vec<(usize, liveness::FeedUse)>,
     /// Sites whose feed is not known but not used either: their gates give no feed back.
     feed_not_given: BTreeSet<usize>,
+    /// Before the first cut, the first feed move made with the spindle positioned (SPOS, M19): a probe's
+    /// measuring stroke if the tool calls a workpiece measuring cycle before it is changed or the spindle
+    /// turns, else a cut (broaching, shaping with a standing spindle), counted as the first cut then.
+    stroke: Option<usize>,
+    /// The tool in the spindle called a workpiece measuring cycle, and it has not been changed nor the
+    /// spindle turned since: a probe, whose feed moves are no cuts.
+    probing: bool,
+    /// The measuring cycles' result number `_KNUM` was last set to 0 by a literal: a cycle called without
+    /// arguments writes no work offset.
+    knum_zero: bool,
 }
 
 impl<'p> Builder<'p> {
@@ -296,15 +306,74 @@ impl<'p> Builder<'p> {
             exits_early: false,
             m6_always: false,
             swivel_turned: false,
+            stroke: None,
+            probing: false,
+            knum_zero: false,
         }
     }
 
     /// Block `i` is the first cut; `by_hand`: it cuts at the spindle it finds (a subprogram that sets the
     /// spindle before its first cut does not), so before the program sets the spindle, the operator's.
     pub(super) fn cuts(&mut self, i: usize, by_hand: bool) {
+        // A stroke not yet known to be a probe's came first.
+        let i = self.stroke.take().map_or(i, |stroke| stroke.min(i));
         self.t.first_cut.get_or_insert(i);
         if by_hand && !self.spindle_set {
             self.t.hand_spindle.get_or_insert(usize::MAX);
+        }
+    }
+
+    /// A feed move at block `i` before the first cut: the first cut, or a stroke that may be a probe's (see
+    /// [`Builder::stroke`]). Only straight and circular feeds count as strokes: a thread or tapping move
+    /// also runs with the spindle in position control, and cuts. Nor where the program addresses another
+    /// spindle: on a mill-turn machine a driven tool cuts while the main spindle stands positioned.
+    fn feed_move_before_cut(&mut self, i: usize) {
+        let other_spindle = self.state.unknown & unknown::OTHER_SPINDLE != 0;
+        if self.state.direction == POSITIONED
+            && matches!(self.state.motion, 1..=3)
+            && !other_spindle
+        {
+            if !self.probing {
+                self.stroke.get_or_insert(i);
+            }
+        } else {
+            self.cuts(i, true);
+        }
+    }
+
+    /// The strokes so far were a probe's, and so are the next ones: the tool calls a workpiece measuring
+    /// cycle.
+    fn strokes_measured(&mut self) {
+        self.stroke = None;
+        self.probing = true;
+    }
+
+    /// The tool is changed, the spindle turns, a call may cut or the unit ends: the strokes since the last
+    /// measuring cycle were cuts, and the next ones are strokes to be judged again.
+    fn strokes_cut(&mut self) {
+        self.probing = false;
+        if let Some(stroke) = self.stroke {
+            self.cuts(stroke, true);
+        }
+    }
+
+    /// [`frame_op::WRITE`] where the block calls a workpiece measuring cycle without arguments (CAM posts
+    /// set its parameters before: `_MVAR=100 _KNUM=1`, `CYCLE978`) and `_KNUM`, which says into which work
+    /// offset the result goes, is not known to be 0; the block's own assignments come first.
+    fn parameter_measuring_write(&mut self, s: &Scan) -> u8 {
+        if let Some((_, v)) = s
+            .var_set
+            .iter()
+            .rev()
+            .find(|(n, _)| n.eq_ignore_ascii_case("_KNUM"))
+        {
+            self.knum_zero = *v == Some(0.0);
+        }
+        let bare = s.call_args.is_empty();
+        if bare && s.call.as_deref().is_some_and(measures_workpiece) && !self.knum_zero {
+            frame_op::WRITE
+        } else {
+            0
         }
     }
 
@@ -800,9 +869,10 @@ impl<'p> Builder<'p> {
         {
             self.t.offset_selections.push(i);
         }
+        let frame_ops = s.frame_ops | self.parameter_measuring_write(s);
         // A kinematic transformation (TRAORI, TRANSMIT …) is no setup of the work coordinates the zero
         // measures in: the zero goes before it.
-        let setup = s.frame_ops & !(frame_op::TRANSFORM_ON | frame_op::TRANSFORM_OFF) != 0
+        let setup = frame_ops & !(frame_op::TRANSFORM_ON | frame_op::TRANSFORM_OFF) != 0
             || s.offsets
                 .iter()
                 .any(|g| matches!(g, 500 | 54..=57 | 505..=599));
@@ -817,7 +887,7 @@ impl<'p> Builder<'p> {
         {
             self.state.offset = Some(g);
         }
-        if s.frame_ops & frame_op::WRITE != 0 {
+        if frame_ops & frame_op::WRITE != 0 {
             self.t.frame_writes.push(i);
         }
         if s.writes_frame_in_force {
@@ -828,12 +898,12 @@ impl<'p> Builder<'p> {
         }
         let frame_changes =
             frame_op::TRANSLATE | frame_op::ROTATE | frame_op::CLEAR | frame_op::WRITE;
-        if setup && (s.frame_ops & frame_changes != 0 || !s.offsets.is_empty()) {
+        if setup && (frame_ops & frame_changes != 0 || !s.offsets.is_empty()) {
             for pending in &mut self.frame_pending {
                 pending.get_or_insert(i);
             }
         }
-        self.frames(s.frame_ops);
+        self.frames(frame_ops);
         self.rotary_axes(s);
         self.t.moves |= s.other_axes;
         if let Some(on) = s.diameter {
@@ -962,6 +1032,9 @@ impl<'p> Builder<'p> {
             direction = Some(POSITIONED);
         }
         if let Some(d) = direction {
+            if d != POSITIONED {
+                self.strokes_cut();
+            }
             self.state.direction = d;
             self.spindle_set_at(i);
         }
@@ -1011,6 +1084,7 @@ impl<'p> Builder<'p> {
             self.state.unknown |= unknown::TOOL;
         }
         if tool_change {
+            self.strokes_cut();
             self.spindle_set_at(i);
             if self.state.selected.is_none() && self.state.unknown & unknown::TOOL == 0 {
                 self.t.outside_load.get_or_insert(i);
@@ -1252,7 +1326,7 @@ impl<'p> Builder<'p> {
             }
         }
         if self.t.first_cut.is_none() && moves_somehow && !g4 && self.state.motion != 0 {
-            self.cuts(i, true);
+            self.feed_move_before_cut(i);
         }
         let mut minutes = 0.0;
         if g4 {
@@ -1395,6 +1469,7 @@ impl<'p> Builder<'p> {
 
     /// The timeline, with the names the unit calls.
     pub(super) fn finish(mut self) -> (Timeline, BTreeSet<String>) {
+        self.strokes_cut();
         let total = self.time();
         self.t.total_min = total;
         self.t.last_cut_min = self.last_cut as f64 / TICKS_PER_MIN;

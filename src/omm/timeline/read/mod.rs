@@ -10,7 +10,7 @@ use crate::syntax::{BlockKind, Program};
 mod tree;
 mod words;
 
-pub(super) use tree::{scan_tree, section_call_labels};
+pub(super) use tree::{measures_workpiece, scan_tree, section_call_labels};
 #[cfg(test)]
 pub(super) use words::decimal;
 pub(super) use words::{at_radius, radius_at, scan_words_into};

@@ -363,13 +363,19 @@ fn turns_home(block: &Block<'_>, call: &Node) -> bool {
             .is_some_and(|dir| dir == 1.0 || dir == -1.0)
 }
 
+/// The workpiece measuring cycles that can write what they measure into a work offset (S_KNUM, their
+/// second parameter, or the `_KNUM` the program sets before calling one without arguments).
+pub(in crate::omm::timeline) fn measures_workpiece(name: &str) -> bool {
+    matches!(
+        name,
+        "CYCLE961" | "CYCLE977" | "CYCLE978" | "CYCLE979" | "CYCLE997" | "CYCLE998"
+    )
+}
+
 /// A workpiece measuring cycle whose result number (S_KNUM, the second parameter) is not 0 writes the
 /// measured position into a work offset, as the program's own frame write would.
 fn corrects_work_offset(block: &Block<'_>, call: &Node, name: &str) -> bool {
-    if !matches!(
-        name,
-        "CYCLE961" | "CYCLE977" | "CYCLE978" | "CYCLE979" | "CYCLE997" | "CYCLE998"
-    ) {
+    if !measures_workpiece(name) {
         return false;
     }
     let args = call.call_arguments();
