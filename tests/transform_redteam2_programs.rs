@@ -108,3 +108,31 @@ fn under_g18_or_g19_on_a_mill_the_gate_travels_across_only_after_a_rise_in_g17()
         }
     }
 }
+
+#[test]
+fn no_gate_that_moves_goes_before_an_arc_tangent_to_the_move_before_it() {
+    // T3: `CT` takes its arc's tangent from the move before it. A measuring gate before it ended with its
+    // own descent to the saved height, straight down the tool axis: the control would start the arc
+    // tangent to that (or refuse an arc with no tangent in the plane), not to the program's rapid. The
+    // audit passed it. Such a gate now only updates the prediction and corrects, which moves nothing.
+    let src = redteam2("05_ct_after_optional_stop.mpf");
+    for profile in common::MILLING_PROFILES {
+        let out = common::every_gate_transformed(profile, &[("p.mpf", &src)]);
+        let gate = common::gate_before(&out, "N160 CT X40 Y60");
+        assert!(!gate.is_empty(), "{profile}: the pass marker's gate\n{out}");
+        assert!(
+            !common::gate_measures(&gate),
+            "{profile}:\n{}",
+            gate.join("\n")
+        );
+        assert!(
+            !gate.iter().any(|l| moves(l, &['X', 'Y', 'Z'])),
+            "{profile}:\n{}",
+            gate.join("\n")
+        );
+        assert!(
+            common::gate_before(&out, "N130 CT X80 Y60").is_empty(),
+            "{profile}"
+        );
+    }
+}

@@ -91,6 +91,8 @@ pub(super) struct Scan {
     pub(super) tool_offset_off: u8,
     /// A write to cutting-edge data, `$TC_DP…[t,d]=`.
     pub(super) writes_tool_data: bool,
+    /// `CT`: the block's arc starts tangent to the move before it.
+    pub(super) tangent_start: bool,
     /// `TCARR=`: an orientable toolholder selected (`true`) or deselected with `TCARR=0` (`false`).
     pub(super) tool_carrier: Option<bool>,
     /// Plain variables the block assigns, with the value when it is a literal.
@@ -278,6 +280,7 @@ impl Scan {
             && self.sum_offset.is_none()
             && self.tool_offset_on | self.tool_offset_off == 0
             && !self.writes_tool_data
+            && !self.tangent_start
             && self.tool_carrier.is_none()
             // The head has no room for IC(…): such a block keeps its whole scan.
             && !self.mv.incremental.contains(&true);

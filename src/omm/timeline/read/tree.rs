@@ -211,6 +211,7 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                     "DIAMON" => s.diameter = Some(Diameter::On),
                     "DIAM90" => s.diameter = Some(Diameter::Absolute),
                     "DIAMOF" => s.diameter = Some(Diameter::Off),
+                    "CT" => s.tangent_start = true,
                     _ => {}
                 }
                 if !is_predefined_command(&name) {
