@@ -37,8 +37,17 @@ fn a_tool_setter_gate_under_a_programmable_translation_travels_at_the_clearance_
 {
     // T1: under `TRANS Z-40` (or `G58 Z-10` with `ATRANS Z-20`) the gate travelled to the setter at the
     // clearance Z100 of the translated frame, 40 (30) mm below the clearance of the work offset. The
-    // audit refused the whole program (`xy-below-clearance`). The travel height now counts the
-    // programmable translation, and the program is written with its gates measuring.
+    // audit refused the whole program (`xy-below-clearance`). As shipped only the zero measures, after
+    // the translation, and it travelled as low: that output passed the audit. The travel height now counts
+    // the programmable translation, and the program is written with its gates measuring.
+    let src = redteam2("01_trans_z_tool_setter.mpf");
+    let shipped = common::transformed_in(&[("p.mpf", &src)], "p.mpf", "tool-setter");
+    let zero = gate(&shipped, "N80 G0 X10 Y10 Z5");
+    assert!(
+        zero.iter()
+            .any(|l| l == "R62=100-($P_PFRAME[Z,TR]+$P_PFRAME[Z,FI])"),
+        "{shipped}"
+    );
     for (file, at) in [
         ("01_trans_z_tool_setter.mpf", "N120 G0 X10 Y30"),
         ("02_g58_atrans_tool_setter.mpf", "N130 G0 X10 Y30"),
