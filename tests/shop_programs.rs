@@ -181,16 +181,16 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
         ],
     );
     // fixtures/redteam2 (the red-team round on the route of a gate; every program is a mill: the lathe
-    // setter refuses the three in G17 and writes the two that select G18 or G19 before their first cut,
+    // setter refuses the four in G17 and writes the two that select G18 or G19 before their first cut,
     // which it cannot tell from a lathe's plane: choose the profile for the machine).
     let redteam2 = (
         "redteam2",
-        5,
+        6,
         [
-            ("blum-tc50", 5),
-            ("siemens-cycle978", 5),
-            ("tool-setter", 5),
-            ("grinder-gauge", 5),
+            ("blum-tc50", 6),
+            ("siemens-cycle978", 6),
+            ("tool-setter", 6),
+            ("grinder-gauge", 6),
             ("lathe-setter", 2),
         ],
     );

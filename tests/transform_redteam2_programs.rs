@@ -145,3 +145,37 @@ fn no_gate_that_moves_goes_before_an_arc_tangent_to_the_move_before_it() {
         );
     }
 }
+
+#[test]
+fn no_gate_that_moves_measures_under_modal_rounding() {
+    // T4: `RNDM=2` rounds the corner between every two moves in the plane until `RNDM=0`, a gate's
+    // included: its rise, travel across and descent (to the probe point, and back to the saved height)
+    // would be rounded off the route they are written on, and the probe cycle's moves with them. The
+    // timeline did not read RNDM: a gate measured there. A gauge, which moves nothing, still does.
+    let src = redteam2("06_rndm_across_retract.mpf");
+    let probing = |l: &&str| {
+        ["BL9700(", "CYCLE978(", "DL_SETTER("]
+            .iter()
+            .any(|c| l.starts_with(c))
+    };
+    for profile in common::MILLING_PROFILES {
+        let out = common::every_gate_transformed(profile, &[("p.mpf", &src)]);
+        let lines: Vec<&str> = out.lines().collect();
+        let on = lines
+            .iter()
+            .position(|l| l.starts_with("N70 RNDM=2"))
+            .unwrap();
+        let off = lines
+            .iter()
+            .position(|l| l.starts_with("N170 RNDM=0"))
+            .unwrap();
+        assert!(!lines[on..off].iter().any(probing), "{profile}:\n{out}");
+        assert!(
+            lines[..on].iter().any(probing),
+            "{profile}: the zero\n{out}"
+        );
+    }
+    let out = common::every_gate_transformed("grinder-gauge", &[("p.mpf", &src)]);
+    let gate = common::gate_before(&out, "N130 G0 X10 Y60");
+    assert!(common::gate_measures(&gate), "{out}");
+}

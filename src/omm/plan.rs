@@ -623,6 +623,13 @@ fn unfit_for_reference(
     if site.state_varies {
         return Some(STATE_VARIES);
     }
+    // Before a tool change of the program's own the zero checks less of the state it gives back, but it
+    // moves as every gate does (a gauge moves nothing).
+    if let Some(why) = site.before.rounds_corners() {
+        if profile.probe.kind != ProbeKind::Gauge {
+            return Some(why);
+        }
+    }
     match profile.probe.kind {
         // The probe travels with its tip at the height the spindle stood at: a whole probe length
         // higher, beyond the top after the `SUPA Z0 D0` posts write before a tool change.

@@ -891,6 +891,11 @@ impl<'p> Builder<'p> {
             Some(false) => self.state.unknown &= !unknown::SUM_OFFSET,
             None => {}
         }
+        match s.rounding {
+            Some(true) => self.state.unknown |= unknown::ROUNDING,
+            Some(false) => self.state.unknown &= !unknown::ROUNDING,
+            None => {}
+        }
         if s.tool_offset_on | s.tool_offset_off != 0 {
             self.tool_offsets = (self.tool_offsets & !s.tool_offset_off) | s.tool_offset_on;
             if self.tool_offsets == 0 {

@@ -85,6 +85,8 @@ pub(super) struct Scan {
     pub(super) orients: bool,
     /// `DL=`: a sum offset selected (`true`) or deselected with `DL=0` (`false`).
     pub(super) sum_offset: Option<bool>,
+    /// `RNDM=`: modal rounding switched on (`true`, also by an expression) or off with `RNDM=0` (`false`).
+    pub(super) rounding: Option<bool>,
     /// Programmed tool offsets (`TOFFL=`, `TOFFR=`, `TOFF[axis]=`, one bit each) the block sets
     /// to something other than 0, and those it sets to 0.
     pub(super) tool_offset_on: u8,
@@ -278,6 +280,7 @@ impl Scan {
             && !self.statement
             && self.rotary_away | self.rotary_home == 0
             && self.sum_offset.is_none()
+            && self.rounding.is_none()
             && self.tool_offset_on | self.tool_offset_off == 0
             && !self.writes_tool_data
             && !self.tangent_start

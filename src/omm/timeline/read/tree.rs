@@ -574,6 +574,7 @@ fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
             }
         },
         b"DL" => s.sum_offset = Some(v != Some(0.0)),
+        b"RNDM" => s.rounding = Some(v != Some(0.0)),
         _ if name.starts_with(b"$TC_DP") => s.writes_tool_data = true,
         _ if tool_offset_bit(&name) != 0 => {
             let bit = tool_offset_bit(&name);
