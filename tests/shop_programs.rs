@@ -195,9 +195,23 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
             ("lathe-setter", 2),
         ],
     );
+    // fixtures/redteam2 (the red-team round on the route of a gate; every program is a mill: the lathe
+    // setter refuses the four in G17 and writes the two that select G18 or G19 before their first cut,
+    // which it cannot tell from a lathe's plane: choose the profile for the machine).
+    let redteam2 = (
+        "redteam2",
+        6,
+        [
+            ("blum-tc50", 6),
+            ("siemens-cycle978", 6),
+            ("tool-setter", 6),
+            ("grinder-gauge", 6),
+            ("lathe-setter", 2),
+        ],
+    );
     let sets = sets
         .into_iter()
-        .chain([shop11, shop12, shop13, shop14, shop15, redteam])
+        .chain([shop11, shop12, shop13, shop14, shop15, redteam, redteam2])
         .chain([(
             "cov10",
             4,

@@ -269,9 +269,13 @@ M5
 M30
 ";
     let out = transformed(&[("p.mpf", prog)], "p.mpf", "lathe-setter");
-    // The profile's start point Ø120 and clearance Ø200, moved under DIAMOF.
+    // The profile's start point Ø120 and clearance Ø200, moved under DIAMOF (the clearance under the work
+    // offset, not under a programmable translation: red-team round 2, T1).
     assert!(out.contains("SUPA X60 ;DL"), "{out}");
-    assert!(out.contains("IF R62<100 ;DL"), "{out}");
+    assert!(
+        out.contains("IF R62<100-($P_PFRAME[X,TR]+$P_PFRAME[X,FI]) ;DL"),
+        "{out}"
+    );
 }
 
 #[test]

@@ -481,6 +481,9 @@ const TOOL_OFFSET: &str = "a programmed tool offset (TOFFL, TOFFR, TOFF[axis]) i
 const TOOL_DATA: &str = "the program writes cutting-edge data ($TC_DP…) after the zero, which a tool setter reads with the tool: the change would read as drift";
 
 const IN_PART: &str = "the tool may stand in the part there (no rapid clear of what was cut since the last cut: inside a bore, under the part), and a gate retracts along the tool axis";
+/// `CT` takes its arc's tangent from the move before it, which a gate that moves replaces with its own
+/// descent to the saved height: the arc would leave the contour.
+const TANGENT_START: &str = "the block after it starts its arc tangent to the move before it (CT): a gate's last move would change that tangent";
 
 const D0: &str =
     "D0 is active: heights are the spindle's, and the probe would travel a probe length above it";
@@ -652,8 +655,18 @@ fn unfit_for_reference(
     if site.in_part {
         return Some(IN_PART);
     }
+    if site.tangent_start {
+        return Some(TANGENT_START);
+    }
     if site.state_varies {
         return Some(STATE_VARIES);
+    }
+    // Before a tool change of the program's own the zero checks less of the state it gives back, but it
+    // moves as every gate does (a gauge moves nothing).
+    if let Some(why) = site.before.rounds_corners() {
+        if profile.probe.kind != ProbeKind::Gauge {
+            return Some(why);
+        }
     }
     match profile.probe.kind {
         // The probe travels with its tip at the height the spindle stood at: a whole probe length
@@ -918,6 +931,9 @@ fn unfit_for_measuring(
     }
     if site.in_part {
         return Some(IN_PART);
+    }
+    if site.tangent_start {
+        return Some(TANGENT_START);
     }
     if let Some(why) = site
         .before

@@ -833,8 +833,14 @@ impl Emitter<'_> {
                 format!("{h}={}", r(self.regs.saved[self.retract_index()])),
             ])
             .collect();
-        v.extend(at_least(&h, &clearance));
         if p.frame == MeasureFrame::Machine {
+            // The clearance is a height over the part in the work offset's coordinates, the saved
+            // position one in the program's, which a programmable translation on the retract axis
+            // (`TRANS Z-40`, `G58`, `ATRANS`, `G59`) moves: the gate travels at the clearance under the
+            // work offset, not under the program's translation. A gate in work coordinates never moves
+            // under a programmable translation (it does not measure there).
+            let clearance = format!("{clearance}-{}", self.frame_shift("$P_PFRAME"));
+            v.extend(at_least(&h, &clearance));
             // The start point is in machine coordinates, the clearance in work coordinates: under a work
             // offset on the retract axis the clearance can lie below the start point, and the way to it and
             // back would run down towards the part. The highest start point, in work coordinates here.
@@ -843,19 +849,22 @@ impl Emitter<'_> {
                 .iter()
                 .map(|a| a.at.start_in_radius(p.retract_axis))
                 .fold(f64::NEG_INFINITY, f64::max);
-            let start = format!("{}-{}", number(start), self.frame_shift());
+            let start = format!("{}-{}", number(start), self.frame_shift("$P_ACTFRAME"));
             v.extend(at_least(&h, &start));
+        } else {
+            v.extend(at_least(&h, &clearance));
         }
         v.extend(self.within_retract_max());
         v
     }
 
-    /// The translation of the frames in force on the retract axis (NC expression, radius on X): what
-    /// `SUPA` leaves out. A gate moves under no rotation, scale or mirror, so a coordinate of the work
-    /// offset plus this is where `SUPA` would put it. The offsets of an X kept in diameter count half.
-    fn frame_shift(&self) -> String {
+    /// The translation of `frame` (`$P_ACTFRAME`: every frame in force, what `SUPA` leaves out;
+    /// `$P_PFRAME`: the programmable one) on the retract axis (NC expression, radius on X). A gate moves
+    /// under no rotation, scale or mirror, so a coordinate plus this is where the frame puts it. The offsets
+    /// of an X kept in diameter count half.
+    fn frame_shift(&self, frame: &str) -> String {
         let a = self.profile.position.retract_axis;
-        let sum = format!("$P_ACTFRAME[{n},TR]+$P_ACTFRAME[{n},FI]", n = a.name());
+        let sum = format!("{frame}[{n},TR]+{frame}[{n},FI]", n = a.name());
         if a == Axis::X && self.profile.offset.diameter {
             format!("({sum})/2")
         } else {
@@ -881,7 +890,7 @@ impl Emitter<'_> {
                 format!("{h}>{here}"),
                 format!(
                     "{h}+{}>{}",
-                    self.frame_shift(),
+                    self.frame_shift("$P_ACTFRAME"),
                     number(p.in_radius(axis, max))
                 ),
             ])
@@ -1075,6 +1084,15 @@ impl Emitter<'_> {
         if p.probe.kind == ProbeKind::Gauge {
             return v;
         }
+        // The probe and its cycle work in G17, and so does every move of the gate until the way back:
+        // with SD42940 TOOL_LENGTH_CONST = 0 the tool length acts along the axis perpendicular to the
+        // plane, Y under G18 and X under G19, so a height along Z there is the spindle's, the tool's tip
+        // a tool length lower, and the retract and the travel across would run that much below the
+        // clearance. In G17 the retract (to at least the height saved in the program's plane) rises by
+        // the length or more. `give_back` writes the program's plane again after its last move along Z.
+        if self.other_plane(&gate.before).is_some() {
+            v.push("G17".into());
+        }
         v.push(self.clear());
         v.push("M5".into());
         if matches!(gate.before.coolant, Some(7 | 8 | 78)) {
@@ -1082,12 +1100,6 @@ impl Emitter<'_> {
         }
         // Through-spindle coolant or air must not go through the probe, nor onto the setter.
         v.extend(p.coolant.off_block(gate.before.machine_coolant));
-        // The probe and its cycle work in G17: under G18/G19 the tool length may act along Y or X
-        // (SD42940 = 0) and the cycle's measuring axis is the plane's. `give_back` writes the program's
-        // plane again before any move back.
-        if self.other_plane(&gate.before).is_some() {
-            v.push("G17".into());
-        }
         // The cycle's probing feed is mm/min: under G93 it would be an inverse time (a probing stroke in a
         // fraction of a second), under G95 or G96 a feed per revolution of the spindle the gate has just
         // stopped. `modal_back` writes the program's feed type (and G96 with its cutting speed) again.
@@ -1343,8 +1355,10 @@ impl Emitter<'_> {
             if let Some(read) = read {
                 v.extend(self.tool_back(gate, read));
             }
-            v.extend(self.other_plane(b));
+            // Up in G17 (the tool tip at the travel height), then the program's plane: its length
+            // acts on Z again only with the descent to the saved height, after the travel across.
             v.push(self.clear());
+            v.extend(self.other_plane(b));
         } else if p.probe.kind != ProbeKind::Gauge {
             v.extend(self.other_plane(b));
         }
@@ -1378,8 +1392,9 @@ impl Emitter<'_> {
     }
 
     /// On a milling machine (gates that move Y), the program's plane when it is G18 or G19, which the
-    /// probing section leaves for G17: the way back runs in the program's plane, its tool length acting as
-    /// it did. A lathe works in G18 and its setter with it.
+    /// gate leaves for G17 before its first move: the travel back to the saved position and the descent
+    /// run in the program's plane, its tool length acting as it did. A lathe works in G18 and its setter
+    /// with it.
     fn other_plane(&self, b: &Modal) -> Option<String> {
         let milling = self.profile.position.axes.contains(&Axis::Y);
         b.plane

@@ -134,6 +134,9 @@ pub mod unknown {
     /// tool change, so a spindle probe carries it, and a tool setter reads it with the tool: a reading
     /// taken with another offset in force than the zero's shows its difference as drift.
     pub const TOOL_OFFSET: u8 = 64;
+    /// Modal rounding (`RNDM=` other than 0) is on: the control rounds the corner between every two moves
+    /// in the plane, a gate's included.
+    pub const ROUNDING: u8 = 128;
 }
 
 impl Modal {
@@ -141,6 +144,15 @@ impl Modal {
     /// and back.
     pub fn inch(&self) -> bool {
         matches!(self.units, Some(70 | 700))
+    }
+
+    /// Modal rounding is on (`RNDM=2`): the corners of a gate's route (the rise, the travel across, the
+    /// descent to the probe point or the saved height) would be rounded, the tool leaving the route it
+    /// is written on, and the probe cycle's moves too.
+    pub fn rounds_corners(&self) -> Option<&'static str> {
+        (self.unknown & unknown::ROUNDING != 0).then_some(
+            "modal rounding (RNDM) is on: the control would round the corners of a gate's route and of the probe cycle's moves",
+        )
     }
 
     /// Moves blend into each other at their ends: G64 … G645, or no G60 written (MD20150 may make G64
@@ -226,6 +238,8 @@ impl Modal {
             Some(
                 "a modal call (MCALL) is active: every move of a gate would run its cycle or subprogram (a drilling cycle at the probe point)",
             )
+        } else if let Some(why) = self.rounds_corners() {
+            Some(why)
         } else if self.unknown & unknown::OTHER_SPINDLE != 0 {
             Some(
                 "the program addresses a spindle other than spindle 1 (S4=, M4=3, SETMS(4), SPOS[2]): a gate's M5 and the speed it gives back act on the master spindle only",

@@ -64,6 +64,9 @@ pub struct Site {
     /// mode written, as MD20150 may make G64 the default): a STOPRE there stops the path, and the tool
     /// dwells on the contour and marks it.
     pub in_contour: bool,
+    /// The block's arc starts tangent to the move before it (`CT`): a gate's last move (the descent to
+    /// the saved height) would give it another tangent, and another arc.
+    pub tangent_start: bool,
 }
 
 impl Site {
@@ -91,6 +94,7 @@ impl Site {
             in_part: false,
             lowered: false,
             in_contour: false,
+            tangent_start: false,
         }
     }
 }

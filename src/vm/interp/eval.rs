@@ -284,6 +284,16 @@ impl Interp<'_> {
                     m.frames.offset(a)
                 }
             }
+            // The programmable frame's translation: TRANS and G58 write the coarse part, ATRANS and G59
+            // the fine one.
+            ("$P_PFRAME", [axis, part]) => {
+                let (a, t) = (self.axis_arg(u, axis)?, &m.frames);
+                if Interp::fine_part(u, part)? {
+                    t.trans_fine[a]
+                } else {
+                    t.trans[a] - t.trans_fine[a]
+                }
+            }
             // The circle constant, which cycles and shop macros use for cutting speeds.
             ("$PI", []) => std::f64::consts::PI,
             ("$AN_POWERON_TIME" | "$AN_SETUP_TIME", []) => self.time_min,

@@ -529,8 +529,10 @@ impl Builder<'_> {
             .iter()
             .any(|g| matches!(g, 500 | 54..=57 | 505..=599));
         t[field::DIAMETER] |= s.diameter.is_some();
-        t[field::UNKNOWN] |=
-            s.unknown != 0 || s.sum_offset.is_some() || s.tool_offset_on | s.tool_offset_off != 0;
+        t[field::UNKNOWN] |= s.unknown != 0
+            || s.sum_offset.is_some()
+            || s.rounding.is_some()
+            || s.tool_offset_on | s.tool_offset_off != 0;
         for (mine, now) in self.touched.iter_mut().zip(set) {
             *mine |= now;
         }

@@ -189,6 +189,8 @@ pub(super) struct Builder<'p> {
     lowered: bool,
     /// Sites noted while the tool was lowered.
     lowered_at: BTreeSet<usize>,
+    /// Blocks whose arc starts tangent to the move before them (`CT`).
+    tangent_starts: BTreeSet<usize>,
     /// The last move was a feed along a contour (not straight up the tool axis) under continuous path.
     contour: bool,
     /// Sites noted since that move: in the contour when the next move is a feed too.
@@ -292,6 +294,7 @@ impl<'p> Builder<'p> {
             in_part: BTreeSet::new(),
             lowered: false,
             lowered_at: BTreeSet::new(),
+            tangent_starts: BTreeSet::new(),
             contour: false,
             contour_sites: Vec::new(),
             in_contour: BTreeSet::new(),
@@ -896,6 +899,9 @@ impl<'p> Builder<'p> {
         if s.writes_tool_data {
             self.t.tool_data_writes.push(i);
         }
+        if s.tangent_start {
+            self.tangent_starts.insert(i);
+        }
         let frame_changes =
             frame_op::TRANSLATE | frame_op::ROTATE | frame_op::CLEAR | frame_op::WRITE;
         if setup && (frame_ops & frame_changes != 0 || !s.offsets.is_empty()) {
@@ -957,6 +963,11 @@ impl<'p> Builder<'p> {
         match s.sum_offset {
             Some(true) => self.state.unknown |= unknown::SUM_OFFSET,
             Some(false) => self.state.unknown &= !unknown::SUM_OFFSET,
+            None => {}
+        }
+        match s.rounding {
+            Some(true) => self.state.unknown |= unknown::ROUNDING,
+            Some(false) => self.state.unknown &= !unknown::ROUNDING,
             None => {}
         }
         if s.tool_offset_on | s.tool_offset_off != 0 {

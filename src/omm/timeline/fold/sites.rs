@@ -271,6 +271,7 @@ impl Builder<'_> {
             site.in_part = self.in_part.contains(&site.block);
             site.lowered = self.lowered_at.contains(&site.block);
             site.in_contour = self.in_contour.contains(&site.block);
+            site.tangent_start = self.tangent_starts.contains(&site.block);
             // Without M6 in the program, T loads the tool at once.
             if t_loads {
                 site.before.tool = site.before.selected.clone();

@@ -85,12 +85,16 @@ pub(super) struct Scan {
     pub(super) orients: bool,
     /// `DL=`: a sum offset selected (`true`) or deselected with `DL=0` (`false`).
     pub(super) sum_offset: Option<bool>,
+    /// `RNDM=`: modal rounding switched on (`true`, also by an expression) or off with `RNDM=0` (`false`).
+    pub(super) rounding: Option<bool>,
     /// Programmed tool offsets (`TOFFL=`, `TOFFR=`, `TOFF[axis]=`, one bit each) the block sets
     /// to something other than 0, and those it sets to 0.
     pub(super) tool_offset_on: u8,
     pub(super) tool_offset_off: u8,
     /// A write to cutting-edge data, `$TC_DP…[t,d]=`.
     pub(super) writes_tool_data: bool,
+    /// `CT`: the block's arc starts tangent to the move before it.
+    pub(super) tangent_start: bool,
     /// `TCARR=`: an orientable toolholder selected (`true`) or deselected with `TCARR=0` (`false`).
     pub(super) tool_carrier: Option<bool>,
     /// Plain variables the block assigns, with the value when it is a literal.
@@ -276,8 +280,10 @@ impl Scan {
             && !self.statement
             && self.rotary_away | self.rotary_home == 0
             && self.sum_offset.is_none()
+            && self.rounding.is_none()
             && self.tool_offset_on | self.tool_offset_off == 0
             && !self.writes_tool_data
+            && !self.tangent_start
             && self.tool_carrier.is_none()
             // The head has no room for IC(…): such a block keeps its whole scan.
             && !self.mv.incremental.contains(&true);

@@ -211,6 +211,7 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                     "DIAMON" => s.diameter = Some(Diameter::On),
                     "DIAM90" => s.diameter = Some(Diameter::Absolute),
                     "DIAMOF" => s.diameter = Some(Diameter::Off),
+                    "CT" => s.tangent_start = true,
                     _ => {}
                 }
                 if !is_predefined_command(&name) {
@@ -579,6 +580,7 @@ fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
             }
         },
         b"DL" => s.sum_offset = Some(v != Some(0.0)),
+        b"RNDM" => s.rounding = Some(v != Some(0.0)),
         _ if name.starts_with(b"$TC_DP") => s.writes_tool_data = true,
         _ if tool_offset_bit(&name) != 0 => {
             let bit = tool_offset_bit(&name);
