@@ -607,3 +607,19 @@ fn strokes_under_spos_are_cuts_unless_the_tool_calls_a_measuring_cycle() {
     let driven = timeline_of("T1 M6\nS2=2000 M2=3\nSPOS=0\nG0 Z5\nG1 Z-1 F100\nCYCLE978\nM30\n");
     assert_eq!(driven.first_cut, Some(4));
 }
+
+#[test]
+fn no_site_lies_inside_a_table_definition() {
+    // A contour for CYCLE95 between CONTPRON and EXECUTE, and a curve table, each with a stop and speed
+    // word the fold would take for places: their blocks are stored by the control, and a gate's blocks
+    // among them would go into the table. The places before the opening call and after the closing one
+    // stay.
+    let t = timeline_of(
+        "T1 M6\nS1000 M3\nG0 X0 Y0 Z50\nCONTPRON(TAB,3,NUM)\nG1 X10 F100\nM5\nS2000 M3\nG0 Z60\nG0 X20\nEXECUTE(ERR)\nS1500 M3\nCTABDEF(Y,X,1,0)\nX0 Y0\nS900\nM1\nX20 Y20\nCTABEND\nM5\nM30\n",
+    );
+    let blocks: Vec<usize> = t.sites.iter().map(|s| s.block + 1).collect();
+    for inside in [5, 6, 7, 8, 9, 10, 13, 14, 15, 16, 17] {
+        assert!(!blocks.contains(&inside), "{inside}: {blocks:?}");
+    }
+    assert!(blocks.contains(&11) && blocks.contains(&18), "{blocks:?}");
+}
