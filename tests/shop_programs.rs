@@ -213,19 +213,19 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
     // mill in G17, which the lathe setter refuses rightly).
     let redteam3 = (
         "redteam3",
-        12,
+        13,
         [
-            ("blum-tc50", 12),
-            ("siemens-cycle978", 12),
-            ("tool-setter", 12),
-            ("grinder-gauge", 12),
+            ("blum-tc50", 13),
+            ("siemens-cycle978", 13),
+            ("tool-setter", 13),
+            ("grinder-gauge", 13),
             ("lathe-setter", 0),
         ],
     );
     let sets = sets
         .into_iter()
         .chain([
-            shop12, shop12, shop13, shop14, shop15, redteam, redteam2, redteam3,
+            shop13, shop12, shop13, shop14, shop15, redteam, redteam2, redteam3,
         ])
         .chain([(
             "cov10",

@@ -79,7 +79,7 @@ fn after_a_drilling_cycle_a_gate_measures_only_where_what_it_gives_back_is_sure(
         let zero = first_place(profile);
         // 08 and 09 set R-parameters (a string) before their first tool change.
         let later_zero = if spindle_probe(profile) { "N40" } else { "N60" };
-        let cases: [(&str, &[&str], Vec<&str>); 10] = [
+        let cases: [(&str, &[&str], Vec<&str>); 11] = [
             // CYCLE86 ends with the spindle started again in SDIR after SPOS: the same-tool rapids after
             // it do not measure; the place before the next M6 does with a spindle probe.
             (
@@ -144,6 +144,17 @@ fn after_a_drilling_cycle_a_gate_measures_only_where_what_it_gives_back_is_sure(
                 "10_cycle81_spindle_stopped.mpf",
                 &[],
                 vec![zero, "N100", "N110"],
+            ),
+            // After CYCLE86 the next tool is preselected while the bar still cuts: the spindle probe
+            // measures at the M6 block, not at the preselection (the cut between runs with its spindle).
+            (
+                "13_cycle86_then_preselection_and_a_cut.mpf",
+                &[],
+                if spindle_probe(profile) {
+                    vec![zero, "N150"]
+                } else {
+                    vec![zero]
+                },
             ),
         ];
         for (file, subs, expected) in cases {
