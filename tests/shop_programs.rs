@@ -213,19 +213,19 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
     // mill in G17, which the lathe setter refuses rightly).
     let redteam3 = (
         "redteam3",
-        13,
+        14,
         [
-            ("blum-tc50", 13),
-            ("siemens-cycle978", 13),
-            ("tool-setter", 13),
-            ("grinder-gauge", 13),
+            ("blum-tc50", 14),
+            ("siemens-cycle978", 14),
+            ("tool-setter", 14),
+            ("grinder-gauge", 14),
             ("lathe-setter", 0),
         ],
     );
     let sets = sets
         .into_iter()
         .chain([
-            shop13, shop12, shop13, shop14, shop15, redteam, redteam2, redteam3,
+            shop14, shop12, shop13, shop14, shop15, redteam, redteam2, redteam3,
         ])
         .chain([(
             "cov10",

@@ -59,6 +59,30 @@ fn a_hole_pattern_under_mcall_of_the_programs_own_subprogram_leaves_what_it_leav
     }
 }
 
+#[test]
+fn a_gate_before_the_programs_m6_of_the_tool_in_the_spindle_gives_the_spindle_back() {
+    // R2: `T="BORE20" M6` with BORE20 in the spindle, the cut after it with no S or M3. The machine's change
+    // macro skips a change to the tool already in the spindle and leaves it turning; after a probe's swap
+    // it is a real change, which stops the spindle. The gate there was one before a tool change and gave
+    // the spindle nothing back (a spindle probe's gate measured there even after CYCLE86 had left the
+    // spindle unsure): the bar fed into the part with its spindle stopped. Such an M6 is no tool change
+    // for the gate before it now: the gate gives the spindle back, and measures only where it is sure.
+    for profile in common::MILLING_PROFILES {
+        let out = every_gate(profile, "14_same_tool_m6_without_spindle_words.mpf", &[]);
+        assert_eq!(
+            measured_before(&out),
+            [first_place(profile), "N100"],
+            "{profile}:\n{out}"
+        );
+        let gate = common::gate_before(&out, "N100");
+        assert!(
+            gate.iter().any(|l| l.starts_with("S900 M3")),
+            "{profile}:\n{}",
+            gate.join("\n")
+        );
+    }
+}
+
 /// Where a profile's zero goes in these programs: before the first tool change with a spindle probe,
 /// before the spindle's start with a tool setter.
 fn first_place(profile: &str) -> &'static str {
