@@ -23,18 +23,20 @@ fn every_gate(profile: &str, file: &str, subs: &[&str]) -> String {
     common::every_gate_transformed(profile, &files)
 }
 
-/// The blocks of the program (its own `N…` lines, the first starting with `at`) before which a gate
-/// measures.
+/// The program's own blocks (by their first word, `N…`) right before which a gate measures.
 fn measured_before(out: &str) -> Vec<String> {
     let lines: Vec<&str> = out.lines().collect();
-    lines
-        .iter()
-        .enumerate()
-        .filter(|(k, l)| {
-            !l.ends_with(";DL") && common::gate_measures(&common::gate_before(out, &lines[*k][..]))
-        })
-        .map(|(_, l)| l.split_whitespace().next().unwrap_or("").to_string())
-        .collect()
+    let (mut gate_start, mut found) = (0, Vec::new());
+    for (k, line) in lines.iter().enumerate() {
+        if line.ends_with(";DL") {
+            continue;
+        }
+        if common::gate_measures(&lines[gate_start..k]) {
+            found.push(line.split_whitespace().next().unwrap_or("").to_string());
+        }
+        gate_start = k + 1;
+    }
+    found
 }
 
 #[test]
