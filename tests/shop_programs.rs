@@ -225,7 +225,7 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
     let sets = sets
         .into_iter()
         .chain([
-            shop14, shop12, shop13, shop14, shop15, redteam, redteam2, redteam3,
+            shop11, shop12, shop13, shop14, shop15, redteam, redteam2, redteam3,
         ])
         .chain([(
             "cov10",
