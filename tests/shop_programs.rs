@@ -209,9 +209,24 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
             ("lathe-setter", 2),
         ],
     );
+    // fixtures/redteam3 (the red-team round on the places after a drilling cycle; every program is a
+    // mill in G17, which the lathe setter refuses rightly).
+    let redteam3 = (
+        "redteam3",
+        14,
+        [
+            ("blum-tc50", 14),
+            ("siemens-cycle978", 14),
+            ("tool-setter", 14),
+            ("grinder-gauge", 14),
+            ("lathe-setter", 0),
+        ],
+    );
     let sets = sets
         .into_iter()
-        .chain([shop11, shop12, shop13, shop14, shop15, redteam, redteam2])
+        .chain([
+            shop11, shop12, shop13, shop14, shop15, redteam, redteam2, redteam3,
+        ])
         .chain([(
             "cov10",
             4,

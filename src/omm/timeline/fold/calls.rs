@@ -162,7 +162,7 @@ impl Builder<'_> {
     fn state_unknown_after(&mut self, name: &str) {
         if !leaves_state_known(name) && self.cycle_leaves(name).is_none() {
             self.after_call = true;
-            if !is_siemens_cycle(&name.to_ascii_uppercase()) {
+            if !is_siemens_cycle(&self.runs(name).to_ascii_uppercase()) {
                 self.after_unknown_call = true;
                 self.t.as_callee.leaves_unknown = true;
             }
@@ -190,7 +190,7 @@ impl Builder<'_> {
                 }
                 Some(fields)
             }
-            None if leaves_state_known(name) || is_siemens_cycle(name) => return,
+            None if leaves_state_known(name) || is_siemens_cycle(self.runs(name)) => return,
             None => touched,
         };
         let mut unsure = touched.unwrap_or([true; field::COUNT]);
@@ -588,13 +588,21 @@ impl Builder<'_> {
     /// What a drilling cycle, or a hole pattern running one under `MCALL`, may leave otherwise than the
     /// program had it before the call (see [`drilling_cycle_leaves`]); `None` for any other call.
     fn cycle_leaves(&self, name: &str) -> Option<[bool; field::COUNT]> {
-        if !matches!(name, "HOLES1" | "HOLES2" | "CYCLE801" | "CYCLE802") {
-            return drilling_cycle_leaves(name);
-        }
-        match &self.modal_call {
-            Some((modal, _)) => drilling_cycle_leaves(modal),
+        let runs = self.runs(name);
+        if is_hole_pattern(runs) {
             // With no modal call the pattern only positions the tool.
-            None => Some([false; field::COUNT]),
+            return Some([false; field::COUNT]);
+        }
+        drilling_cycle_leaves(runs)
+    }
+
+    /// What a call of `name` runs: a hole pattern under `MCALL` runs the modal call at every hole, and
+    /// leaves what that leaves (the program's own subprogram there may leave G1, its feed and speed: red
+    /// team 3, R1); anything else, itself.
+    fn runs<'a>(&'a self, name: &'a str) -> &'a str {
+        match &self.modal_call {
+            Some((modal, _)) if is_hole_pattern(name) => modal,
+            _ => name,
         }
     }
 
@@ -613,6 +621,11 @@ impl Builder<'_> {
             self.modal_call = Some((name, shown));
         }
     }
+}
+
+/// The Siemens hole patterns (a row, a circle, a grid, a frame), which run the modal call at each hole.
+fn is_hole_pattern(name: &str) -> bool {
+    matches!(name, "HOLES1" | "HOLES2" | "CYCLE801" | "CYCLE802")
 }
 
 /// The fields a Siemens drilling cycle may leave otherwise than the program had them before the call.

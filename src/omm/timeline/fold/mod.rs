@@ -1112,6 +1112,9 @@ impl<'p> Builder<'p> {
             self.state.selected = None;
             self.state.unknown |= unknown::TOOL;
         }
+        // The tool already in the spindle loaded again by the program's own M6: the machine's change macro
+        // may skip it and leave the spindle turning, as a guarded subprogram does (red team 3, R2).
+        let reloads = own_m6 && self.state.tool.is_some() && self.state.tool == self.state.selected;
         if tool_change {
             self.strokes_cut();
             self.spindle_set_at(i);
@@ -1141,7 +1144,7 @@ impl<'p> Builder<'p> {
         let p = &self.profile.passes;
         let marked = s.marker || p.lines.contains(&(i + 1));
         if (p.tool_change && tool_change) || marked {
-            let mark = self.mark(i, certain_change, start, &before);
+            let mark = self.mark(i, certain_change && !reloads, start, &before);
             self.pass_marks.push(mark);
             if self.after_call && !tool_change {
                 self.varies.insert(i);
