@@ -1128,19 +1128,20 @@ pub fn plan(
             .or_else(|| tool_data_unfit(profile, tool_data_after_zero))
             .or_else(|| swap_unfit(timeline, site, profile))
             .or_else(|| machine_unfit(timeline, site, profile));
-        let restorable = unfit.is_none();
-        let (kind, can_measure) = match site.kind {
-            _ if reference => (GateKind::Reference, true),
-            SiteKind::PassStart { .. } => (GateKind::PassStart, restorable),
+        // Why the gate cannot measure, if it cannot.
+        let (kind, why_not) = match site.kind {
+            _ if reference => (GateKind::Reference, None),
+            SiteKind::PassStart { .. } => (GateKind::PassStart, unfit),
             SiteKind::Retract { .. } | SiteKind::Stop | SiteKind::Dressing => {
-                (GateKind::Extra, restorable)
+                (GateKind::Extra, unfit)
             }
             SiteKind::SpeedChange => (
                 GateKind::Update,
-                restorable && speed_change_unfit(site, measurable_pass).is_none(),
+                unfit.or_else(|| speed_change_unfit(site, measurable_pass)),
             ),
-            SiteKind::Start => (GateKind::Update, false),
+            SiteKind::Start => (GateKind::Update, unfit.or(Some(BEFORE_THE_ZERO))),
         };
+        let can_measure = why_not.is_none();
         if can_measure {
             measurable_pass = Some(site.pass);
         }
@@ -1177,18 +1178,11 @@ pub fn plan(
         } else {
             kind
         };
-        let (measure, can_measure) = match kind {
-            GateKind::Refresh => (false, false),
-            _ => (measure, can_measure),
+        let (measure, can_measure, why_not) = match kind {
+            GateKind::Refresh => (false, false, Some(REFRESH_ONLY)),
+            _ => (measure, can_measure, why_not),
         };
-        let cannot_measure = match (can_measure, kind, site.kind) {
-            (true, ..) => None,
-            (_, GateKind::Refresh, _) => Some(REFRESH_ONLY),
-            _ if unfit.is_some() => unfit,
-            (_, _, SiteKind::Start) => Some(BEFORE_THE_ZERO),
-            _ => speed_change_unfit(site, measurable_pass),
-        }
-        .map(|why| unsure_call_named(timeline, site.block, why));
+        let cannot_measure = why_not.map(|why| unsure_call_named(timeline, site.block, why));
         last_update = time;
         if measure {
             at_last_measurement = drifts;

@@ -98,13 +98,14 @@ pub(super) struct Builder<'p> {
     /// The cycle or subprogram an `MCALL` made modal, and how the call lists name it (`MCALL NAME`): it
     /// runs after each block that moves.
     modal_call: Option<(String, String)>,
-    /// Inside a table definition (`CTABDEF` … `CTABEND`, `CONTPRON`/`CONTDCON` … `EXECUTE`): its blocks
-    /// describe a curve or contour for the control to store, and a gate's blocks among them would go into
-    /// the table. They are folded as any (the opening call, which driftloop cannot read, leaves the state
-    /// unsure after it), but no gate goes before them.
-    in_table: bool,
-    /// The blocks of table definitions, the closing one included.
-    table_blocks: BTreeSet<usize>,
+    /// The block of the call that opened the table definition the fold is in (`CTABDEF` … `CTABEND`,
+    /// `CONTPRON`/`CONTDCON` … `EXECUTE`): its blocks describe a curve or contour for the control to
+    /// store, and a gate's blocks among them would go into the table. They are folded as any (the opening
+    /// call, which driftloop cannot read, leaves the state unsure after it), but no gate goes before them.
+    table_open: Option<usize>,
+    /// The table definitions: the opening call's block and the closing one's, spans as the IFs' are (a
+    /// gate may go before the opening call, not before the others).
+    tables: Vec<(usize, usize)>,
     /// Names the unit calls (archive subprograms or not), for the order in which an archive's units are timed.
     called: BTreeSet<String>,
     /// A subprogram called at this block changed the spindle speed: the next block gets a speed-change site,
@@ -248,8 +249,8 @@ impl<'p> Builder<'p> {
             after_call: false,
             after_unknown_call: false,
             modal_call: None,
-            in_table: false,
-            table_blocks: BTreeSet::new(),
+            table_open: None,
+            tables: Vec::new(),
             called: BTreeSet::new(),
             speed_site_after: None,
             safe_after: None,
@@ -416,9 +417,6 @@ impl<'p> Builder<'p> {
             if h & head::RUN != 0 {
                 let blocks = covered.next().expect("one range per run head");
                 // A run begun in an earlier chunk was folded there.
-                if self.in_table {
-                    self.table_blocks.extend(blocks.clone());
-                }
                 if blocks.start >= self.run_end {
                     let run = runs
                         .next()
@@ -435,9 +433,6 @@ impl<'p> Builder<'p> {
                 let (kind, scan) = others.next().expect("one scan per other block");
                 self.block(i, scan, *kind);
             } else {
-                if self.in_table {
-                    self.table_blocks.insert(i);
-                }
                 let motion =
                     (h & head::MOTION != 0).then_some(u32::from(h >> head::MOTION_CODE & 3));
                 self.plain_move(i, motion, &Move::decode(h, &mut numbers));
@@ -764,9 +759,7 @@ impl<'p> Builder<'p> {
     }
 
     pub(super) fn block(&mut self, i: usize, s: &Scan, kind: BlockKind) {
-        if self.table_definition(s) {
-            self.table_blocks.insert(i);
-        }
+        self.table_definition(i, s);
         self.speed_site_after_call(i);
         self.safe_site_after(i);
         let mut call_loads = None;
@@ -1468,19 +1461,16 @@ impl<'p> Builder<'p> {
         }
     }
 
-    /// Whether block `s` lies in or closes a table definition (see [`Builder::in_table`]): no place for a
-    /// gate. The opening call is one: a gate may go before it.
-    fn table_definition(&mut self, s: &Scan) -> bool {
-        let call = s.call.as_deref().unwrap_or("");
-        if matches!(call, "CTABDEF" | "CONTPRON" | "CONTDCON") {
-            self.in_table = true;
-            return false;
+    /// Notes where block `i` opens or closes a table definition (see [`Builder::table_open`]).
+    fn table_definition(&mut self, i: usize, s: &Scan) {
+        match (s.call.as_deref(), self.table_open) {
+            (Some("CTABDEF" | "CONTPRON" | "CONTDCON"), None) => self.table_open = Some(i),
+            (Some("CTABEND" | "EXECUTE"), Some(open)) => {
+                self.tables.push((open, i));
+                self.table_open = None;
+            }
+            _ => {}
         }
-        if self.in_table && matches!(call, "CTABEND" | "EXECUTE") {
-            self.in_table = false;
-            return true;
-        }
-        self.in_table
     }
 
     /// The unit jumps, or returns from inside an IF or loop: what it leaves a caller is one of several

@@ -248,10 +248,12 @@ impl Builder<'_> {
         if let Some(site) = self.start.take().filter(|s| s.block >= self.t.setup_end) {
             self.t.sites.push(site);
         }
-        // Nothing goes into a table definition.
-        self.t
-            .sites
-            .retain(|s| !self.table_blocks.contains(&s.block));
+        // Nothing goes into a table definition, one the program leaves open included.
+        if let Some(open) = self.table_open.take() {
+            self.tables.push((open, usize::MAX));
+        }
+        let tables = Spans::new(&self.tables);
+        self.t.sites.retain(|s| !tables.contains(s.block));
         // One site per block: a pass start wins over a speed change or retract at the same block.
         self.t
             .sites
