@@ -161,14 +161,8 @@ fn no_gate_that_moves_measures_under_modal_rounding() {
     for profile in common::MILLING_PROFILES {
         let out = common::every_gate_transformed(profile, &[("p.mpf", &src)]);
         let lines: Vec<&str> = out.lines().collect();
-        let on = lines
-            .iter()
-            .position(|l| l.starts_with("N70 RNDM=2"))
-            .unwrap();
-        let off = lines
-            .iter()
-            .position(|l| l.starts_with("N170 RNDM=0"))
-            .unwrap();
+        let on = common::line_starting(&lines, "N70 RNDM=2");
+        let off = common::line_starting(&lines, "N170 RNDM=0");
         assert!(!lines[on..off].iter().any(probing), "{profile}:\n{out}");
         assert!(
             lines[..on].iter().any(probing),

@@ -200,14 +200,8 @@ fn no_gate_moves_while_a_modal_call_is_in_force() {
         let every = common::every_gate_transformed(profile, &[("p.mpf", &src)]);
         for out in [shipped, every] {
             let lines: Vec<&str> = out.lines().collect();
-            let on = lines
-                .iter()
-                .position(|l| l.starts_with("N110 MCALL"))
-                .unwrap();
-            let off = lines
-                .iter()
-                .position(|l| l.starts_with("N170 MCALL"))
-                .unwrap();
+            let on = common::line_starting(&lines, "N110 MCALL");
+            let off = common::line_starting(&lines, "N170 MCALL");
             let inserted_moves = lines[on..off].iter().filter(|l| {
                 l.ends_with(";DL")
                     && l.split_whitespace()

@@ -262,13 +262,18 @@ pub fn every_gate_transformed(profile: &str, files: &[(&str, &str)]) -> String {
 /// and the lathe's, which refuses the milling plane).
 pub const MILLING_PROFILES: [&str; 3] = ["blum-tc50", "siemens-cycle978", "tool-setter"];
 
+/// The index of the first of `lines` that starts with `at`.
+pub fn line_starting(lines: &[&str], at: &str) -> usize {
+    lines
+        .iter()
+        .position(|l| l.starts_with(at))
+        .unwrap_or_else(|| panic!("no `{at}` in\n{}", lines.join("\n")))
+}
+
 /// The lines driftloop inserted right before the first line of `out` that starts with `at`: the gate there.
 pub fn gate_before<'a>(out: &'a str, at: &str) -> Vec<&'a str> {
     let lines: Vec<&str> = out.lines().collect();
-    let end = lines
-        .iter()
-        .position(|l| l.starts_with(at))
-        .unwrap_or_else(|| panic!("no `{at}` in\n{out}"));
+    let end = line_starting(&lines, at);
     let start = lines[..end]
         .iter()
         .rposition(|l| !l.ends_with(";DL"))
