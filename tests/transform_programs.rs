@@ -101,6 +101,38 @@ fn program_block_markers_and_waits_move_nothing() {
     }
 }
 
+/// A feed group of the geometry axes (`FGROUP(X,Y,Z)`, `FGROUP()`, which 5-axis posts write) and a
+/// workpiece counted for tool monitoring (`SETPIECE`) leave nothing a gate gives back otherwise: they were
+/// read as calls of unknown subprograms, and no place after them measured until the next tool change. Now
+/// the gates are where the plain program's are, and the audit runs to the end.
+#[test]
+fn feed_groups_of_the_geometry_axes_and_a_workpiece_count_keep_the_places_after_them() {
+    let program = |first: &str, last: &str| {
+        format!(
+            "G54\nT1 M6\nD1\nS2000 M3\n{first}\nG0 X30 Y30 Z5\nG1 Z-1 F100\nG1 X80 F500\nG0 Z50\nG0 X0\nG1 Z-1 F100\nG1 X-40\nG0 Z50\n{last}\nM30\n"
+        )
+    };
+    let plain = program("", "");
+    let with = program("FGROUP(X,Y,Z)", "FGROUP()\nSETPIECE(1)");
+    for profile in ["blum-tc50", "tool-setter"] {
+        let every = common::measuring_builtin(profile);
+        let measuring = |src: &str| {
+            let files = [("p.mpf", src), ("every.toml", every.as_str())];
+            let (o, dir) = common::transform_in(&files, "p.mpf", "every.toml");
+            let err = common::stderr(&o);
+            assert!(o.status.success(), "{err}");
+            assert!(!err.contains("audit incomplete"), "{err}");
+            let out = std::fs::read_to_string(dir.path().join("out.mpf")).unwrap();
+            out.lines()
+                .filter(|l| l.contains("stage 4") || l.contains("planned: measure"))
+                .count()
+        };
+        let plain_measuring = measuring(&plain);
+        assert!(plain_measuring > 1, "{profile}");
+        assert_eq!(measuring(&with), plain_measuring, "{profile}");
+    }
+}
+
 /// An archive saved from the control may open with a definition file or a subprogram (sections in
 /// the order of their folders). The gates, the zero and the initial data belong in its main program: they
 /// went into the first section, so a subprogram the main calls mid-cut measured with a tool swap, and the

@@ -497,6 +497,46 @@ fn a_drilling_cycle_leaves_unsure_only_what_it_programs_itself() {
 }
 
 #[test]
+fn predefined_procedures_that_leave_what_a_gate_gives_back_are_no_calls() {
+    let after = |procedure: &str| -> (Vec<(usize, bool)>, Vec<String>) {
+        let t = timeline_of(&format!(
+            "T1 M6\nS2000 M3\nG0 X0 Y0 Z2\nG1 Z-1 F100\nG0 Z50\nG0 X10\n{procedure}\nG1 Z-1\nG0 Z50\nG0 X20\nM30\n"
+        ));
+        let retracts = t
+            .sites
+            .iter()
+            .filter(|s| matches!(s.kind, SiteKind::Retract { .. }))
+            .map(|s| (s.block + 1, s.state_varies))
+            .collect();
+        (
+            retracts,
+            t.untimed_calls.into_iter().map(|(_, n)| n).collect(),
+        )
+    };
+    // The feed group of the geometry axes, a workpiece counted: the retract after them measures.
+    for procedure in [
+        "FGROUP(X,Y,Z)",
+        "FGROUP()",
+        "FGROUP(X,Y,Z,A)",
+        "SETPIECE(1)",
+    ] {
+        assert_eq!(
+            after(procedure),
+            (vec![(6, false), (10, false)], vec![]),
+            "{procedure}"
+        );
+    }
+    // A group without Z moves Z as a synchronous axis: a gate's feed along Z would mean another speed.
+    let (retracts, calls) = after("FGROUP(X,Y)");
+    assert_eq!(calls, ["FGROUP"]);
+    assert_eq!(retracts, [(6, false), (10, true)]);
+    // A transformation selected by its data set is the transformation, not a subprogram.
+    for procedure in ["TRAORI(1)", "TRACYL(40)"] {
+        assert_eq!(after(procedure).1, Vec::<String>::new(), "{procedure}");
+    }
+}
+
+#[test]
 fn decimals_match_the_standard_parser() {
     for t in [
         "0",

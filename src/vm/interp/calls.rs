@@ -57,8 +57,9 @@ impl Interp<'_> {
                 self.store(u, status, Value::Num(0.0), w)?;
             }
             // The dry run positions a spindle at once: nothing to wait for. The blank description and the
-            // editor's program-block markers act only on the panel.
-            "WAITS" | "WORKPIECE" | "GROUP_BEGIN" | "GROUP_END" => {}
+            // editor's program-block markers act only on the panel; SETPIECE counts a workpiece for the
+            // tool monitoring.
+            "WAITS" | "WORKPIECE" | "GROUP_BEGIN" | "GROUP_END" | "SETPIECE" => {}
             // The master spindle, whose speed a feed per revolution, a dwell in revolutions and a thread
             // follow; SETMS alone gives it back to spindle 1.
             "SETMS" => {
@@ -309,6 +310,7 @@ impl Interp<'_> {
                 | "WORKPIECE"
                 | "GROUP_BEGIN"
                 | "GROUP_END"
+                | "SETPIECE"
                 | "CYCLE800"
                 | "TRAORI"
                 | "TRANSMIT"

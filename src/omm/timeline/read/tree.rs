@@ -194,7 +194,12 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                 if corrects_work_offset(&block, node, &name) {
                     s.frame_ops |= frame_op::WRITE;
                 }
-                if !TIMELESS_PROCEDURES.contains(&name.as_str()) {
+                // A transformation selected by its data set (`TRAORI(1)`, `TRACYL(40)`) is the
+                // transformation the bare word selects, which the frame operations above follow.
+                let known = TIMELESS_PROCEDURES.contains(&name.as_str())
+                    || transformation_op(&name) != 0
+                    || (name == "FGROUP" && feed_group_keeps_geometry_axes(&block, node));
+                if !known {
                     s.call = Some(name);
                     s.call_args = node
                         .call_arguments()
@@ -387,9 +392,11 @@ fn corrects_work_offset(block: &Block<'_>, call: &Node, name: &str) -> bool {
 
 /// Built-in procedures called like cycles that take no machine time: no note that they are not timed.
 /// `WAITS` waits for a positioning spindle to reach its position: it moves nothing itself. The operator
-/// panel's editor marks program blocks with `GROUP_BEGIN`/`GROUP_END`, cycles that do nothing.
+/// panel's editor marks program blocks with `GROUP_BEGIN`/`GROUP_END`, cycles that do nothing. `SETPIECE`
+/// counts a finished workpiece for the tool monitoring of the tools in use.
 const TIMELESS_PROCEDURES: &[&str] = &[
     "MSG",
+    "SETPIECE",
     "SETAL",
     "WRITE",
     "SETMS",
@@ -400,6 +407,20 @@ const TIMELESS_PROCEDURES: &[&str] = &[
     "GROUP_BEGIN",
     "GROUP_END",
 ];
+
+/// `FGROUP()` (the machine data's feed axes, the geometry axes) or an `FGROUP` that names X, Y and Z
+/// among others: a gate moves only those, so its feeds mean what they meant before (an axis outside the
+/// group follows as a synchronous axis and would move at another speed than its F). Any other group is
+/// read as a call the timeline cannot see into.
+fn feed_group_keeps_geometry_axes(block: &Block<'_>, call: &Node) -> bool {
+    let axes: Vec<String> = call
+        .call_arguments()
+        .iter()
+        .flatten()
+        .map(|a| String::from_utf8_lossy(block.text(a).trim_ascii()).to_ascii_uppercase())
+        .collect();
+    axes.is_empty() || ["X", "Y", "Z"].iter().all(|g| axes.iter().any(|a| a == g))
+}
 
 /// What a `CALL`, `PCALL`, `EXTCALL`, `ISOCALL` or `MCALL` statement does.
 enum ProgramCall {
