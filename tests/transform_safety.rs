@@ -49,33 +49,18 @@ fn inserted(line: &str) -> bool {
     line.ends_with(MARK)
 }
 
-/// The lines of the program's own between which (exclusive) the output has inserted blocks, by the first
-/// words of the original lines.
+/// How many blocks the output inserted between the original lines starting with `from` and `to`.
 fn gates_between(out: &str, from: &str, to: &str) -> usize {
-    let lines: Vec<&str> = out.lines().collect();
-    let a = lines.iter().position(|l| l.starts_with(from)).expect(from);
-    let b = a
-        + 1
-        + lines[a + 1..]
-            .iter()
-            .position(|l| l.starts_with(to))
-            .expect(to);
-    lines[a + 1..b].iter().filter(|l| inserted(l)).count()
+    common::lines_between(out, from, to)
+        .into_iter()
+        .filter(|l| inserted(l))
+        .count()
 }
 
-/// The inserted blocks right before the original line starting with `before`.
+/// The inserted blocks right before the original line starting with `before`, without their mark.
 fn gate_before<'a>(out: &'a str, before: &str) -> Vec<&'a str> {
-    let lines: Vec<&str> = out.lines().collect();
-    let at = lines
-        .iter()
-        .position(|l| l.starts_with(before))
-        .expect(before);
-    let start = lines[..at]
-        .iter()
-        .rposition(|l| !inserted(l))
-        .map_or(0, |k| k + 1);
-    lines[start..at]
-        .iter()
+    common::gate_before(out, before)
+        .into_iter()
         .map(|l| l.trim_end_matches(MARK).trim_end())
         .collect()
 }

@@ -6,18 +6,6 @@
 
 mod common;
 
-/// The inserted lines between the original lines starting with `from` and `to`.
-fn inserted_between<'a>(out: &'a str, from: &str, to: &str) -> Vec<&'a str> {
-    let lines: Vec<&str> = out.lines().collect();
-    let a = lines.iter().position(|l| l.starts_with(from)).expect(from);
-    let b = a + lines[a..].iter().position(|l| l.starts_with(to)).expect(to);
-    lines[a..b]
-        .iter()
-        .copied()
-        .filter(|l| l.ends_with(";DL"))
-        .collect()
-}
-
 /// `prog` transformed with each of `tool-setter` and `blum-tc50` measuring at every gate: the profile, the
 /// output and the inserted lines between the original lines starting with `from` and `to`.
 fn every_gate_between(
@@ -33,8 +21,9 @@ fn every_gate_between(
                 ("every.toml", &common::measuring_builtin(profile)),
             ];
             let out = common::transformed_in(&files, "p.mpf", "every.toml");
-            let gate = inserted_between(&out, from, to)
+            let gate = common::lines_between(&out, from, to)
                 .into_iter()
+                .filter(|l| l.ends_with(";DL"))
                 .map(String::from)
                 .collect();
             (profile, out, gate)

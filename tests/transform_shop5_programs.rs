@@ -8,22 +8,6 @@ mod common;
 /// This machine's through-spindle coolant: M50 on, M51 off; M9 leaves it on.
 const TSC: &str = "[coolant]\ncodes = [[50, 51]]\nm9_ends = false\n";
 
-/// The lines of `out` from the first starting with `from` to the next starting with `to` (excluded).
-fn between<'a>(out: &'a str, from: &str, to: &str) -> Vec<&'a str> {
-    let lines: Vec<&str> = out.lines().collect();
-    let a = lines.iter().position(|l| l.starts_with(from)).expect(from);
-    let b = a + lines[a..].iter().position(|l| l.starts_with(to)).expect(to);
-    lines[a..b].to_vec()
-}
-
-/// Where in `lines` the first line starting with `start` is.
-fn at(lines: &[&str], start: &str) -> usize {
-    lines
-        .iter()
-        .position(|l| l.starts_with(start))
-        .unwrap_or_else(|| panic!("no `{start}` in {lines:#?}"))
-}
-
 /// A roughing end mill with through-spindle coolant, two pockets with a retract between (a gate there),
 /// then a drill.
 const TSC_PART: &str = "\
@@ -65,12 +49,12 @@ fn a_gate_switches_through_spindle_coolant_off_before_the_probe_and_gives_it_bac
         "p.mpf",
         "tsc.toml",
     );
-    let gate = between(&out, "G0 Z30", "G0 X70 Y20");
-    let off = at(&gate, "M51");
-    let probe = at(&gate, "T=\"BLUM_TC50\"");
-    let back = at(&gate, "T=\"EM_D20_TSC\"");
-    let on = at(&gate, "M50");
-    let down = at(&gate, "Z=R");
+    let gate = common::lines_between(&out, "G0 Z30", "G0 X70 Y20");
+    let off = common::line_starting(&gate, "M51");
+    let probe = common::line_starting(&gate, "T=\"BLUM_TC50\"");
+    let back = common::line_starting(&gate, "T=\"EM_D20_TSC\"");
+    let on = common::line_starting(&gate, "M50");
+    let down = common::line_starting(&gate, "Z=R");
     assert!(off < probe && back < on && on < down, "{gate:#?}");
     assert!(gate.iter().all(|l| l.ends_with(";DL") || *l == "G0 Z30"));
 }
@@ -83,8 +67,12 @@ fn a_tool_setter_gate_switches_through_spindle_coolant_off_before_it_travels_to_
         "p.mpf",
         "tsc.toml",
     );
-    let gate = between(&out, "G0 Z30", "G0 X70 Y20");
-    let (off, setter, on) = (at(&gate, "M51"), at(&gate, "SUPA X"), at(&gate, "M50"));
+    let gate = common::lines_between(&out, "G0 Z30", "G0 X70 Y20");
+    let (off, setter, on) = (
+        common::line_starting(&gate, "M51"),
+        common::line_starting(&gate, "SUPA X"),
+        common::line_starting(&gate, "M50"),
+    );
     assert!(off < setter && setter < on, "{gate:#?}");
 }
 
@@ -99,7 +87,7 @@ fn no_probe_swap_right_before_the_programs_tool_change_while_through_spindle_coo
         "p.mpf",
         "tsc.toml",
     );
-    let before_change = between(&out, "G1 X90", "T=\"DR_D8\" M6");
+    let before_change = common::lines_between(&out, "G1 X90", "T=\"DR_D8\" M6");
     assert!(
         before_change
             .iter()
@@ -194,7 +182,7 @@ M30
 ";
     for profile in ["tool-setter", "blum-tc50"] {
         let out = common::every_gate_transformed(profile, &[("p.mpf", prog)]);
-        let after = between(&out, "REPEATB", "M5");
+        let after = common::lines_between(&out, "REPEATB", "M5");
         assert!(
             !after.iter().any(|l| l.contains("G90 F800")),
             "{profile}: {after:#?}"
@@ -211,7 +199,7 @@ fn a_lathe_gate_before_a_block_that_moves_nothing_is_not_taken_for_a_lost_diamet
     let prog =
         std::fs::read_to_string(common::fixture("shop5/24_lathe_barfeed_part_loop.mpf")).unwrap();
     let out = common::transformed_in(&[("p.mpf", &prog)], "p.mpf", "lathe-setter");
-    let gate = between(&out, "N250 T2 D1", "N260");
+    let gate = common::lines_between(&out, "N250 T2 D1", "N260");
     assert!(gate.iter().any(|l| l.starts_with("X=R")), "{gate:#?}");
 }
 
@@ -287,9 +275,9 @@ fn no_gate_after_a_subprogram_gives_back_the_motion_and_feed_from_before_it() {
         for profile in ["tool-setter", "blum-tc50"] {
             let out = common::every_gate_transformed(profile, &[("p.mpf", &prog), sub]);
             let lines: Vec<&str> = out.lines().collect();
-            let from = at(&lines, call);
-            let down = from + at(&lines[from..], "Z-2");
-            let xy = from + at(&lines[from..], "X30 Y30");
+            let from = common::line_starting(&lines, call);
+            let down = from + common::line_starting(&lines[from..], "Z-2");
+            let xy = from + common::line_starting(&lines[from..], "X30 Y30");
             for end in [xy, down] {
                 let (g, f) = motion_and_feed(&lines[from + 1..end]);
                 assert!(
@@ -365,7 +353,7 @@ M30
             profile,
             &[("p.mpf", prog), ("POCKET_A.SPF", LEAVES_G1)],
         );
-        let body = between(&out, "FOR R1", "POCKET_A");
+        let body = common::lines_between(&out, "FOR R1", "POCKET_A");
         let (g, f) = motion_and_feed(&body);
         assert!(g.is_none() && f.is_none(), "{profile}: {body:#?}");
     }

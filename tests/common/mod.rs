@@ -270,6 +270,15 @@ pub fn line_starting(lines: &[&str], at: &str) -> usize {
         .unwrap_or_else(|| panic!("no `{at}` in\n{}", lines.join("\n")))
 }
 
+/// The lines of `out` from the first that starts with `from` up to the next after it that starts with `to`
+/// (excluded).
+pub fn lines_between<'a>(out: &'a str, from: &str, to: &str) -> Vec<&'a str> {
+    let lines: Vec<&str> = out.lines().collect();
+    let a = line_starting(&lines, from);
+    let b = a + 1 + line_starting(&lines[a + 1..], to);
+    lines[a..b].to_vec()
+}
+
 /// The lines driftloop inserted right before the first line of `out` that starts with `at`: the gate there.
 pub fn gate_before<'a>(out: &'a str, at: &str) -> Vec<&'a str> {
     let lines: Vec<&str> = out.lines().collect();
