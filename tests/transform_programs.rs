@@ -101,8 +101,9 @@ fn program_block_markers_and_waits_move_nothing() {
     }
 }
 
-/// A feed group of the geometry axes (`FGROUP(X,Y,Z)`, `FGROUP()`, which 5-axis posts write) and a
-/// workpiece counted for tool monitoring (`SETPIECE`) leave nothing a gate gives back otherwise: they were
+/// A feed group of the geometry axes (`FGROUP(X,Y,Z)`, `FGROUP()`, which 5-axis posts write), the rapid
+/// interpolated axis by axis (`RTLIOF`) and a workpiece counted for tool monitoring (`SETPIECE`) leave
+/// nothing a gate gives back otherwise: they were
 /// read as calls of unknown subprograms, and no place after them measured until the next tool change. Now
 /// the gates are where the plain program's are, and the audit runs to the end.
 #[test]
@@ -113,7 +114,7 @@ fn feed_groups_of_the_geometry_axes_and_a_workpiece_count_keep_the_places_after_
         )
     };
     let plain = program("", "");
-    let with = program("FGROUP(X,Y,Z)", "FGROUP()\nSETPIECE(1)");
+    let with = program("FGROUP(X,Y,Z)\nRTLIOF", "RTLION\nFGROUP()\nSETPIECE(1)");
     for profile in ["blum-tc50", "tool-setter"] {
         let every = common::measuring_builtin(profile);
         let measuring = |src: &str| {

@@ -513,12 +513,15 @@ fn predefined_procedures_that_leave_what_a_gate_gives_back_are_no_calls() {
             t.untimed_calls.into_iter().map(|(_, n)| n).collect(),
         )
     };
-    // The feed group of the geometry axes, a workpiece counted: the retract after them measures.
+    // The feed group of the geometry axes, a workpiece counted, the rapid's interpolation, an orientation
+    // interpolation: the retract after them measures.
     for procedure in [
         "FGROUP(X,Y,Z)",
         "FGROUP()",
         "FGROUP(X,Y,Z,A)",
         "SETPIECE(1)",
+        "RTLIOF",
+        "ORIPATH",
     ] {
         assert_eq!(
             after(procedure),
