@@ -134,6 +134,40 @@ fn feed_groups_of_the_geometry_axes_and_a_workpiece_count_keep_the_places_after_
     }
 }
 
+/// A block the operator's skip switch may leave out (`/T="DR5" M6`, `/S3000 M3`: an optional operation)
+/// runs or not. The gate before the skippable change took it for certain and left the probe in the
+/// spindle for it to change (with the switch on the program went on cutting with the probe), and the gate
+/// after it gave back `T="DR5" M6` and `S3000 M3`, a tool and speed the program with the switch on never
+/// had. Now the gate before gives the cutting tool back, and no later gate gives back what the skippable
+/// blocks set until the program sets it again.
+#[test]
+fn a_block_the_skip_switch_may_leave_out_is_no_certain_tool_change_or_speed() {
+    let prog = "G54\nT=\"EM10\" M6\nD1\nS2000 M3\nG0 X0 Y0 Z50\nG0 X10 Y10 Z5\nG1 Z-1 F100\nG1 X50\nG0 Z50\n/T=\"DR5\" M6\n/S3000 M3\nG0 X0\nG0 Z5\nG1 Z-1\nG1 X-30\nG0 Z50\nG0 X20\nT=\"FM50\" M6\nD1\nS2500 M3\nG0 X40 Z5\nG1 Z-1\nG1 X80\nG0 Z50\nM30\n";
+    for profile in common::MILLING_PROFILES {
+        let out = common::every_gate_transformed(profile, &[("p.mpf", prog)]);
+        let inserted: Vec<&str> = out.lines().filter(|l| l.ends_with(";DL")).collect();
+        assert!(
+            !inserted
+                .iter()
+                .any(|l| l.starts_with("T=\"DR5\"") || l.starts_with("S3000")),
+            "{profile}:\n{out}"
+        );
+        // The gate before the skippable change measures and gives back the cutting tool turning.
+        let gate = common::gate_before(&out, "/T=\"DR5\" M6");
+        assert!(common::gate_measures(&gate), "{profile}:\n{out}");
+        assert!(
+            gate.iter().any(|l| l.starts_with("S2000 M3")),
+            "{profile}:\n{gate:#?}"
+        );
+        if profile != "tool-setter" {
+            assert!(
+                gate.iter().any(|l| l.starts_with("T=\"EM10\" M6")),
+                "{profile}: the cutting tool back before a change that may not run\n{gate:#?}"
+            );
+        }
+    }
+}
+
 /// An archive saved from the control may open with a definition file or a subprogram (sections in
 /// the order of their folders). The gates, the zero and the initial data belong in its main program: they
 /// went into the first section, so a subprogram the main calls mid-cut measured with a tool swap, and the

@@ -758,7 +758,21 @@ impl<'p> Builder<'p> {
         }
     }
 
+    /// Block `i`. One the operator's skip switch may leave out (`/T2 M6`, `/M8`) runs or not: after it the
+    /// state is either way's (fields it sets are unsure until the program sets them again, a tool it
+    /// loads is not known), a tool change in it is not certain (the gate before it gives the cutting
+    /// tool back) and a retract in it may not have happened.
     pub(super) fn block(&mut self, i: usize, s: &Scan, kind: BlockKind) {
+        if !s.skippable {
+            return self.block_words(i, s, kind);
+        }
+        let (entry, clear) = (self.state.clone(), self.last_was_z_retract);
+        self.block_words(i, s, kind);
+        self.merge(i, i + 1, &[entry]);
+        self.last_was_z_retract &= clear;
+    }
+
+    fn block_words(&mut self, i: usize, s: &Scan, kind: BlockKind) {
         self.table_definition(i, s);
         self.speed_site_after_call(i);
         self.safe_site_after(i);
@@ -1137,7 +1151,12 @@ impl<'p> Builder<'p> {
         let p = &self.profile.passes;
         let marked = s.marker || p.lines.contains(&(i + 1));
         if (p.tool_change && tool_change) || marked {
-            let mark = self.mark(i, certain_change && !reloads, start, &before);
+            let mark = self.mark(
+                i,
+                certain_change && !reloads && !s.skippable,
+                start,
+                &before,
+            );
             self.pass_marks.push(mark);
             if self.after_call && !tool_change {
                 self.varies.insert(i);

@@ -18,6 +18,8 @@ pub(super) use words::{at_radius, radius_at, scan_words_into};
 /// What one block says, reduced to what the timeline needs (built in parallel).
 #[derive(Debug, Default, Clone, PartialEq)]
 pub(super) struct Scan {
+    /// A skip level (`/`, `/0` … `/9`): the operator's skip switch may leave the block out.
+    pub(super) skippable: bool,
     pub(super) g: Codes,
     pub(super) mv: Move,
     pub(super) inexact: bool,

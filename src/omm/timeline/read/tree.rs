@@ -26,6 +26,7 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
     }
     let f = facts(&block);
     let mut s = Scan {
+        skippable: block.root.significant().any(|n| n.kind == NodeKind::Skip),
         kind_header: block.kind == BlockKind::Header,
         label: f.label.clone(),
         statement: block.root.significant().any(|n| match n.kind {
