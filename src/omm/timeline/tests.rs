@@ -550,6 +550,19 @@ fn a_machining_cycle_leaves_unsure_only_what_it_programs_itself() {
     };
     assert!(in_part_after(pocket3));
     assert!(!in_part_after("CYCLE81(50,0,2,-5)"));
+    // The program's own tool change right after CYCLE61: its macro takes the tool out along its axis as
+    // the gate does, and the spindle probe's gate before the M6 gives back neither the spindle (the change
+    // stops it) nor the feed (the next tool writes F300 before its first cut), so it measures.
+    let t = timeline_of(&format!(
+        "T1 M6\nS2000 M3 F500\nG0 X0 Y0 Z50\nG0 Z5\n{face}\nT2 M6\nS3000 M3\nG0 X10 Y10\nG1 Z-1 F300\nM30\n"
+    ));
+    let change = t
+        .sites
+        .iter()
+        .find(|s| s.block + 1 == 6 && matches!(s.kind, SiteKind::PassStart { .. }))
+        .unwrap();
+    assert!(!change.state_varies && !change.in_part, "{change:?}");
+    assert!(change.before.feed.is_none(), "{change:?}");
 }
 
 #[test]
