@@ -550,6 +550,14 @@ fn a_machining_cycle_leaves_unsure_only_what_it_programs_itself() {
     };
     assert!(in_part_after(pocket3));
     assert!(!in_part_after("CYCLE81(50,0,2,-5)"));
+    // So after a subprogram whose last cut is such a cycle.
+    let t = timeline_of(&format!(
+        "%_N_MAIN_MPF\n;$PATH=/_N_MPF_DIR\nT1 M6\nS2000 M3\nG0 X0 Y0 Z50\nG0 Z5\nPOCK\nM0\nG0 X20\nM30\n\
+         %_N_POCK_SPF\n{pocket3}\nM17\n"
+    ));
+    let stop = t.sites.iter().find(|s| s.kind == SiteKind::Stop).unwrap();
+    assert_eq!(stop.block + 1, 9);
+    assert!(stop.in_part, "{stop:?}");
     // The program's own tool change right after CYCLE61: its macro takes the tool out along its axis as
     // the gate does, and the spindle probe's gate before the M6 gives back neither the spindle (the change
     // stops it) nor the feed (the next tool writes F300 before its first cut), so it measures.

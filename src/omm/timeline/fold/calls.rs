@@ -409,6 +409,8 @@ impl Builder<'_> {
         if sub.moves {
             let end = sub.end_standing;
             self.clear = end.clear && (cuts || self.clear);
+            // A milling or turning cycle it ran last leaves the tool where no rule says, as in this unit.
+            self.cycle_position |= end.after_cycle;
             self.lowered = !end.retracted;
             self.last_was_z_retract = end.retracted;
             self.contour = end.contour;

@@ -1467,6 +1467,7 @@ impl<'p> Builder<'p> {
                     clear: self.clear,
                     retracted: self.last_was_z_retract,
                     contour: self.contour,
+                    after_cycle: self.cycle_position,
                 }
             },
         }
