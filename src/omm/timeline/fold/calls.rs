@@ -692,7 +692,8 @@ fn drilling_cycle_leaves(name: &str) -> Option<[bool; field::COUNT]> {
 /// CYCLE950/CYCLE952, which run a program they generate from the contours (programming guide cycles
 /// 11.02, CYCLE950; operating manual turning 06/2019, CYCLE952 "PRG"), and every cycle not named here.
 /// The position after them is no rule's: [`Builder::call`] takes the tool as standing in the part until
-/// a rapid rises (docs/safety.md, "What a machining cycle leaves").
+/// a rapid rises or the tool is changed, except at the program's own tool change, whose macro leaves
+/// along the tool axis from there as a gate does (docs/safety.md, "What a machining cycle leaves").
 fn machining_cycle_leaves(name: &str) -> Option<[bool; field::COUNT]> {
     let fields: &[usize] = match name {
         "POCKET3" | "POCKET4" | "CYCLE71" | "CYCLE77" | "CYCLE95" => &[field::FEED],
