@@ -222,10 +222,23 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
             ("lathe-setter", 0),
         ],
     );
+    // fixtures/shop16 (the places after a milling or turning cycle: 03 is a lathe, which the spindle
+    // probes refuse rightly, the others mills in G17, which the lathe setter refuses rightly).
+    let shop16 = (
+        "shop16",
+        5,
+        [
+            ("blum-tc50", 4),
+            ("siemens-cycle978", 4),
+            ("tool-setter", 5),
+            ("grinder-gauge", 5),
+            ("lathe-setter", 1),
+        ],
+    );
     let sets = sets
         .into_iter()
         .chain([
-            shop11, shop12, shop13, shop14, shop15, redteam, redteam2, redteam3,
+            shop11, shop12, shop13, shop14, shop15, shop16, redteam, redteam2, redteam3,
         ])
         .chain([(
             "cov10",

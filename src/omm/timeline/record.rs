@@ -343,6 +343,9 @@ pub struct Standing {
     pub retracted: bool,
     /// Its last move a feed along a contour under continuous path.
     pub contour: bool,
+    /// A milling or turning cycle ran after its last rapid up and tool change: where that left the tool
+    /// is not known (see `machining_cycle_leaves`).
+    pub after_cycle: bool,
 }
 
 impl Standing {
@@ -351,6 +354,7 @@ impl Standing {
         clear: false,
         retracted: false,
         contour: true,
+        after_cycle: false,
     };
 }
 

@@ -460,7 +460,7 @@ fn the_spindle_a_subprogram_programs_is_followed_through_the_call() {
 #[test]
 fn after_a_call_no_gate_restores_a_state_until_the_next_tool_change() {
     let t = timeline_of(
-        "T1 M6\nS2000 M3\nG0 X0 Y0 Z2\nG1 Z-1 F100\nG0 Z50\nG0 X10\nCYCLE61(10,0,2,-5)\nG1 Z-1\nG0 Z50\nG0 X20\nT2 M6\nG0 Z2\nG1 Z-1 F100\nG0 Z50\nG0 X30\nM30\n",
+        "T1 M6\nS2000 M3\nG0 X0 Y0 Z2\nG1 Z-1 F100\nG0 Z50\nG0 X10\nCYCLE952(\"PIN\",,\"\",2101311,0.25)\nG1 Z-1\nG0 Z50\nG0 X20\nT2 M6\nG0 Z2\nG1 Z-1 F100\nG0 Z50\nG0 X30\nM30\n",
     );
     let retracts: Vec<(usize, bool)> = t
         .sites
@@ -468,7 +468,8 @@ fn after_a_call_no_gate_restores_a_state_until_the_next_tool_change() {
         .filter(|s| matches!(s.kind, SiteKind::Retract { .. }))
         .map(|s| (s.block + 1, s.state_varies))
         .collect();
-    // The cycle may have left another speed, feed or frame: the retract after it cannot measure.
+    // The cycle (contour turning, which runs a program it generates) may have left another speed, feed
+    // or frame: the retract after it cannot measure.
     assert_eq!(retracts, [(6, false), (10, true), (15, false)]);
 }
 
@@ -494,6 +495,82 @@ fn a_drilling_cycle_leaves_unsure_only_what_it_programs_itself() {
         retracts_after("CYCLE84(10,0,2,-5,,0,4,,1.5,0,500,500)"),
         [(6, false), (10, true), (14, false)]
     );
+}
+
+/// The milling and turning cycles whose end state the manuals establish leave unsure only the feed,
+/// speed or direction they program themselves (see `machining_cycle_leaves`); the others keep every
+/// place up to the next tool change from measuring. Before this rule every one of them did.
+#[test]
+fn a_machining_cycle_leaves_unsure_only_what_it_programs_itself() {
+    let program = |cycle: &str| {
+        format!(
+            "T1 M6\nS2000 M3\nG0 X0 Y0 Z2\nG1 Z-1 F100\nG0 Z50\nG0 X10 Y10\nG0 Z5\n{cycle}\nG0 Z50\nG0 X20\nG1 Z-1\nG0 Z50\nG0 X30\nS2000 M3\nG1 Z-1 F100\nG0 Z50\nG0 X40\nM30\n"
+        )
+    };
+    let retracts_after = |cycle: &str| -> Vec<(usize, bool)> {
+        timeline_of(&program(cycle))
+            .sites
+            .iter()
+            .filter(|s| matches!(s.kind, SiteKind::Retract { .. }))
+            .map(|s| (s.block + 1, s.state_varies))
+            .collect()
+    };
+    // POCKET3 mills at its own feeds: the rapid before `G1 Z-1` without F (line 10) does not measure,
+    // the one before `G1 Z-1 F100` (line 13) does, the feed is not used there.
+    let pocket3 = "POCKET3(50,0,1,-8,50,30,6,30,15,0,4,0.2,0.2,600,600,0,11,12,8,3,15,5,2)";
+    assert_eq!(
+        retracts_after(pocket3),
+        [(6, false), (10, true), (13, false), (17, false)]
+    );
+    // SLOT1 finishes at its own speed SSF, and CYCLE61 is taken to leave the spindle as a tap does: the
+    // place at line 13 waits for the program's `S2000 M3`.
+    let slot1 = "SLOT1(50,0,1,-5,,3,20,8,60,40,28,45,90,600,600,2.5,2,0.2,1,,,)";
+    let face = "CYCLE61(50,1,2,0,-10,-10,130,90,3,40,0.2,1000,31,0,1,10100)";
+    for cycle in [slot1, face] {
+        assert_eq!(
+            retracts_after(cycle),
+            [(6, false), (10, true), (13, true), (17, false)],
+            "{cycle}"
+        );
+    }
+    // The contour pocket runs a program it generates: nothing measures until the next tool change.
+    assert_eq!(
+        retracts_after("CYCLE63(\"POCKET_C\",1,50,0,2,-8)"),
+        [(6, false), (10, true), (13, true), (17, true)]
+    );
+    // Where the cycle leaves the tool no rule says: a stop right after it, with no rapid up, is a place
+    // in the part; after a drilling cycle it is not (unchanged).
+    let in_part_after = |cycle: &str| {
+        let t = timeline_of(&format!(
+            "T1 M6\nS2000 M3\nG0 X0 Y0 Z2\nG1 Z-1 F100\nG0 Z50\nG0 X10 Y10\nG0 Z5\n{cycle}\nM0\nG0 X20\nM30\n"
+        ));
+        let stop = t.sites.iter().find(|s| s.kind == SiteKind::Stop).unwrap();
+        assert_eq!(stop.block + 1, 10);
+        stop.in_part
+    };
+    assert!(in_part_after(pocket3));
+    assert!(!in_part_after("CYCLE81(50,0,2,-5)"));
+    // So after a subprogram whose last cut is such a cycle.
+    let t = timeline_of(&format!(
+        "%_N_MAIN_MPF\n;$PATH=/_N_MPF_DIR\nT1 M6\nS2000 M3\nG0 X0 Y0 Z50\nG0 Z5\nPOCK\nM0\nG0 X20\nM30\n\
+         %_N_POCK_SPF\n{pocket3}\nM17\n"
+    ));
+    let stop = t.sites.iter().find(|s| s.kind == SiteKind::Stop).unwrap();
+    assert_eq!(stop.block + 1, 9);
+    assert!(stop.in_part, "{stop:?}");
+    // The program's own tool change right after CYCLE61: its macro takes the tool out along its axis as
+    // the gate does, and the spindle probe's gate before the M6 gives back neither the spindle (the change
+    // stops it) nor the feed (the next tool writes F300 before its first cut), so it measures.
+    let t = timeline_of(&format!(
+        "T1 M6\nS2000 M3 F500\nG0 X0 Y0 Z50\nG0 Z5\n{face}\nT2 M6\nS3000 M3\nG0 X10 Y10\nG1 Z-1 F300\nM30\n"
+    ));
+    let change = t
+        .sites
+        .iter()
+        .find(|s| s.block + 1 == 6 && matches!(s.kind, SiteKind::PassStart { .. }))
+        .unwrap();
+    assert!(!change.state_varies && !change.in_part, "{change:?}");
+    assert!(change.before.feed.is_none(), "{change:?}");
 }
 
 #[test]

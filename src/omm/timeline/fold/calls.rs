@@ -151,6 +151,14 @@ impl Builder<'_> {
                     }
                     self.cuts(i, true);
                 }
+                // A milling or turning cycle whose state after it is followed: where it leaves the tool
+                // no source read here says, so it may stand in the part (a slot, a groove) until a rapid
+                // rises or the tool is changed, and the height the fold holds is no longer the tool's (a
+                // rapid of the tool axis alone then counts as rising, as after a subprogram that moves).
+                if machining_cycle_leaves(self.runs(name)).is_some() {
+                    self.cycle_position = true;
+                    self.position_doubt = true;
+                }
                 self.t.untimed_calls.push((i + 1, shown.to_string()));
                 None
             }
@@ -270,10 +278,21 @@ impl Builder<'_> {
             if self.only_an_unused_feed(b, &fields) {
                 continue;
             }
-            let spindle_only =
-                (0..field::COUNT).all(|f| !fields[f] || f == field::S || f == field::DIRECTION);
+            // A feed the program sets again before it uses one is no gate's to give back: what stays
+            // unsure beside it decides (a milling cycle leaves its speed and feed, the next tool's block
+            // writes F before its first cut).
+            let feed_unused = fields[field::FEED] && self.feed_unused_from(b);
+            let spindle_only = (0..field::COUNT).all(|f| {
+                !fields[f]
+                    || f == field::S
+                    || f == field::DIRECTION
+                    || (f == field::FEED && feed_unused)
+            });
             if spindle_only {
                 self.varies_but_spindle.insert(b);
+                if feed_unused {
+                    self.feed_not_given.insert(b);
+                }
             } else {
                 self.varies.insert(b);
             }
@@ -390,6 +409,8 @@ impl Builder<'_> {
         if sub.moves {
             let end = sub.end_standing;
             self.clear = end.clear && (cuts || self.clear);
+            // A milling or turning cycle it ran last leaves the tool where no rule says, as in this unit.
+            self.cycle_position |= end.after_cycle;
             self.lowered = !end.retracted;
             self.last_was_z_retract = end.retracted;
             self.contour = end.contour;
@@ -585,15 +606,16 @@ impl Builder<'_> {
         }
     }
 
-    /// What a drilling cycle, or a hole pattern running one under `MCALL`, may leave otherwise than the
-    /// program had it before the call (see [`drilling_cycle_leaves`]); `None` for any other call.
+    /// What a drilling or machining cycle, or a hole pattern running one under `MCALL`, may leave
+    /// otherwise than the program had it before the call (see [`drilling_cycle_leaves`] and
+    /// [`machining_cycle_leaves`]); `None` for any other call.
     fn cycle_leaves(&self, name: &str) -> Option<[bool; field::COUNT]> {
         let runs = self.runs(name);
         if is_hole_pattern(runs) {
             // With no modal call the pattern only positions the tool.
             return Some([false; field::COUNT]);
         }
-        drilling_cycle_leaves(runs)
+        drilling_cycle_leaves(runs).or_else(|| machining_cycle_leaves(runs))
     }
 
     /// What a call of `name` runs: a hole pattern under `MCALL` runs the modal call at every hole, and
@@ -642,6 +664,43 @@ fn drilling_cycle_leaves(name: &str) -> Option<[bool; field::COUNT]> {
         "CYCLE85" => &[field::FEED],
         "CYCLE84" | "CYCLE840" => &[field::S, field::DIRECTION, field::FEED],
         "CYCLE86" | "CYCLE87" | "CYCLE88" => &[field::S, field::DIRECTION],
+        _ => return None,
+    };
+    Some(field::only(fields))
+}
+
+/// The fields a Siemens milling or turning cycle may leave otherwise than the program had them before
+/// the call, for the cycles whose end state the manuals establish; `None` for the others, after which no
+/// place measures until the next tool change (the old rule).
+///
+/// Like the drilling cycles they are declared `SAVE` (function manual K2, "Subroutine return with
+/// SAVE": the G codes — motion, plane, G90/G91, G94/G95/G96, G40/G41, G60/G64, DIAMON — and the
+/// programmable frame come back), and they cut with the tool and edge in force (a call without an
+/// active tool offset stops with alarm 61000): no tool, edge, offset or coolant of their own. What they
+/// program themselves stays:
+/// - every one programs its own feeds (POCKET3/POCKET4 `_FFP1`/`_FFD`, CYCLE71 `_FFP1`/`_FDP`,
+///   CYCLE77 `_FFP1`/`_FFD`, CYCLE95 `FF1`…`FF3`, the Operate cycles' `F` "in the unit programmed
+///   before the call"): the feed;
+/// - POCKET1, POCKET2, SLOT1 and SLOT2 also finish at their own speed `SSF`: the feed and the speed;
+/// - those whose parameter list was not read (CYCLE61, CYCLE72, CYCLE76, CYCLE79, CYCLE899, LONGHOLE,
+///   engraving CYCLE60, thread milling CYCLE70/CYCLE90), the grooves and undercuts (CYCLE93, CYCLE94,
+///   CYCLE96, CYCLE930, CYCLE940), the stock removal CYCLE951 (its ShopTurn form carries its own speed
+///   `S`/`V`) and the thread cutting under G33 (CYCLE97, CYCLE98, with the spindle the axes follow):
+///   the feed, the speed and the direction, as after a tap.
+///
+/// Left out, so conservative: the contour pocket and predrilling CYCLE63/CYCLE64 and the contour turning
+/// CYCLE950/CYCLE952, which run a program they generate from the contours (programming guide cycles
+/// 11.02, CYCLE950; operating manual turning 06/2019, CYCLE952 "PRG"), and every cycle not named here.
+/// The position after them is no rule's: [`Builder::call`] takes the tool as standing in the part until
+/// a rapid rises or the tool is changed, except at the program's own tool change, whose macro leaves
+/// along the tool axis from there as a gate does (docs/safety.md, "What a machining cycle leaves").
+fn machining_cycle_leaves(name: &str) -> Option<[bool; field::COUNT]> {
+    let fields: &[usize] = match name {
+        "POCKET3" | "POCKET4" | "CYCLE71" | "CYCLE77" | "CYCLE95" => &[field::FEED],
+        "POCKET1" | "POCKET2" | "SLOT1" | "SLOT2" => &[field::FEED, field::S],
+        "CYCLE61" | "CYCLE72" | "CYCLE76" | "CYCLE79" | "CYCLE899" | "LONGHOLE" | "CYCLE60"
+        | "CYCLE70" | "CYCLE90" | "CYCLE93" | "CYCLE94" | "CYCLE96" | "CYCLE930" | "CYCLE940"
+        | "CYCLE951" | "CYCLE97" | "CYCLE98" => &[field::FEED, field::S, field::DIRECTION],
         _ => return None,
     };
     Some(field::only(fields))

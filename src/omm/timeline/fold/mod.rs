@@ -192,6 +192,12 @@ pub(super) struct Builder<'p> {
     position_doubt: bool,
     /// Sites noted where the tool was not clear: a gate there could retract through the part.
     in_part: BTreeSet<usize>,
+    /// A milling or turning cycle ran since the last rapid that rose and the last tool change: where it
+    /// left the tool no rule says (see `machining_cycle_leaves`), so it may stand in the part.
+    cycle_position: bool,
+    /// Sites noted while [`Builder::cycle_position`] held: in the part unless the program's own tool
+    /// change follows there (its change macro leaves along the tool axis from the same place).
+    in_part_after_cycle: BTreeSet<usize>,
     /// The tool went down its axis without cutting since it last rose or was changed (into a bore, under
     /// the part, as a back-boring bar does before its spindle starts).
     lowered: bool,
@@ -302,6 +308,8 @@ impl<'p> Builder<'p> {
             clear: true,
             position_doubt: false,
             in_part: BTreeSet::new(),
+            cycle_position: false,
+            in_part_after_cycle: BTreeSet::new(),
             lowered: false,
             lowered_at: BTreeSet::new(),
             tangent_starts: BTreeSet::new(),
@@ -1332,6 +1340,8 @@ impl<'p> Builder<'p> {
             self.contour = false;
             self.contour_sites.clear();
             self.lowered = false;
+            // The change macro took the tool out of wherever a cycle left it.
+            self.cycle_position = false;
         }
         if moves_somehow && !g4 {
             let feed = self.state.motion != 0;
@@ -1356,6 +1366,7 @@ impl<'p> Builder<'p> {
                 self.clear = false;
             } else if rises || (z_rapid && self.position_doubt) || z_expression_rapid {
                 self.clear = true;
+                self.cycle_position = false;
             }
             // A cut leaves the tool in the part (`clear`) until it rises: only a rapid down lowers it.
             if rises || feed {
@@ -1475,6 +1486,7 @@ impl<'p> Builder<'p> {
                     clear: self.clear,
                     retracted: self.last_was_z_retract,
                     contour: self.contour,
+                    after_cycle: self.cycle_position,
                 }
             },
         }

@@ -178,6 +178,9 @@ impl Builder<'_> {
         if !self.clear {
             self.in_part.insert(i);
         }
+        if self.cycle_position {
+            self.in_part_after_cycle.insert(i);
+        }
         if self.lowered {
             self.lowered_at.insert(i);
         }
@@ -274,7 +277,10 @@ impl Builder<'_> {
             }
             site.frame_traverse = traverses.contains(site.block);
             site.conditional = conditional.contains(site.block);
-            site.in_part = self.in_part.contains(&site.block);
+            // Where a milling or turning cycle left the tool is not known: no gate there, but at the
+            // program's own tool change, whose macro retracts along the tool axis from that place too.
+            site.in_part = self.in_part.contains(&site.block)
+                || (self.in_part_after_cycle.contains(&site.block) && !change_follows);
             site.lowered = self.lowered_at.contains(&site.block);
             site.in_contour = self.in_contour.contains(&site.block);
             site.tangent_start = self.tangent_starts.contains(&site.block);
