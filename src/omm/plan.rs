@@ -365,6 +365,15 @@ pub enum PlanError {
     Model(String),
 }
 
+/// Why a gate that moves cannot measure here (see [`Modal::route_unfit`]); a gauge moves nothing. Gates
+/// that move Y (a milling machine's) run in G17 and give a G18/G19 back after their moves.
+fn route_unfit(site: &Site, profile: &Profile) -> Option<&'static str> {
+    let switches_plane = profile.position.axes.contains(&Axis::Y);
+    (profile.probe.kind != ProbeKind::Gauge)
+        .then(|| site.before.route_unfit(switches_plane))
+        .flatten()
+}
+
 /// Why the probe cannot measure in this state: a programmable translation would move a probe point given
 /// in work coordinates, and the zero and later readings would not compare.
 fn frame_blocks(site: &Site, profile: &Profile) -> Option<&'static str> {
@@ -663,10 +672,8 @@ fn unfit_for_reference(
     }
     // Before a tool change of the program's own the zero checks less of the state it gives back, but it
     // moves as every gate does (a gauge moves nothing).
-    if let Some(why) = site.before.rounds_corners() {
-        if profile.probe.kind != ProbeKind::Gauge {
-            return Some(why);
-        }
+    if let Some(why) = route_unfit(site, profile) {
+        return Some(why);
     }
     match profile.probe.kind {
         // The probe travels with its tip at the height the spindle stood at: a whole probe length
@@ -938,6 +945,7 @@ fn unfit_for_measuring(
     if let Some(why) = site
         .before
         .not_restorable()
+        .or_else(|| route_unfit(site, profile))
         .or_else(|| frame_blocks(site, profile))
     {
         return Some(why);

@@ -212,6 +212,8 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                     "DIAM90" => s.diameter = Some(Diameter::Absolute),
                     "DIAMOF" => s.diameter = Some(Diameter::Off),
                     "CT" => s.tangent_start = true,
+                    "WALIMON" => s.work_area_monitor = Some(true),
+                    "WALIMOF" => s.work_area_monitor = Some(false),
                     _ => {}
                 }
                 if !is_predefined_command(&name) {
@@ -581,6 +583,7 @@ fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
         },
         b"DL" => s.sum_offset = Some(v != Some(0.0)),
         b"RNDM" => s.rounding = Some(v != Some(0.0)),
+        b"AP" | b"RP" => s.polar = true,
         _ if name.starts_with(b"$TC_DP") => s.writes_tool_data = true,
         _ if tool_offset_bit(&name) != 0 => {
             let bit = tool_offset_bit(&name);
