@@ -103,3 +103,21 @@ fn no_gate_that_moves_measures_where_its_plane_switch_would_drop_the_polar_coord
         );
     }
 }
+
+#[test]
+fn no_gate_that_moves_measures_after_a_rapid_that_rounds_or_chamfers_into_the_next_move() {
+    // S3 (open since round 2; round 3 let the gate measure): `G0 Z5 RND=2`, `CHF=1`, `CHR=1` join the
+    // rapid's end to the next move, which after a gate's STOPRE and its blocks without motion is the
+    // gate's rise; whether the control rounds across them, stops with an alarm or leaves the corner was
+    // not settled. No gate that moves measures there now (a block without motion between, `M9`, changes
+    // nothing); after a plain retract (N240) the gate measures.
+    for profile in common::MILLING_PROFILES {
+        let out = every_gate(profile, "04_rnd_chf_on_the_rapid_before_a_gate.mpf");
+        let zero = if profile == "tool-setter" {
+            "N50"
+        } else {
+            "N30"
+        };
+        assert_eq!(measured_before(&out), [zero, "N240"], "{profile}:\n{out}");
+    }
+}

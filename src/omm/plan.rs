@@ -494,6 +494,23 @@ const IN_PART: &str = "the tool may stand in the part there (no rapid clear of w
 /// descent to the saved height: the arc would leave the contour.
 const TANGENT_START: &str = "the block after it starts its arc tangent to the move before it (CT): a gate's last move would change that tangent";
 
+/// `RND`/`CHF`/`CHR` join a move's end to the next move, which after a STOPRE and the blocks without
+/// motion a gate begins with would be the gate's rise: how the control joins across them is a machine
+/// matter (red team 4, S3).
+const ROUNDED_INTO: &str = "the move before it rounds or chamfers its end into the next move (RND, CHF, CHR), which would be a gate's first move";
+
+/// Why a gate that moves cannot go between the moves around the site: the block after it takes its
+/// tangent from the move before it, or the move before it is joined to the next.
+fn joined(site: &Site) -> Option<&'static str> {
+    if site.tangent_start {
+        Some(TANGENT_START)
+    } else if site.rounded_into {
+        Some(ROUNDED_INTO)
+    } else {
+        None
+    }
+}
+
 const D0: &str =
     "D0 is active: heights are the spindle's, and the probe would travel a probe length above it";
 
@@ -664,8 +681,8 @@ fn unfit_for_reference(
     if site.in_part {
         return Some(IN_PART);
     }
-    if site.tangent_start {
-        return Some(TANGENT_START);
+    if let Some(why) = joined(site) {
+        return Some(why);
     }
     if site.state_varies {
         return Some(STATE_VARIES);
@@ -939,8 +956,8 @@ fn unfit_for_measuring(
     if site.in_part {
         return Some(IN_PART);
     }
-    if site.tangent_start {
-        return Some(TANGENT_START);
+    if let Some(why) = joined(site) {
+        return Some(why);
     }
     if let Some(why) = site
         .before

@@ -205,6 +205,10 @@ pub(super) struct Builder<'p> {
     lowered_at: BTreeSet<usize>,
     /// Blocks whose arc starts tangent to the move before them (`CT`).
     tangent_starts: BTreeSet<usize>,
+    /// The last move rounds or chamfers its end into the next (`RND`, `CHF`, `CHR`), and the sites noted
+    /// since.
+    rounds_into: bool,
+    rounded_into: BTreeSet<usize>,
     /// The last move was a feed along a contour (not straight up the tool axis) under continuous path.
     contour: bool,
     /// Sites noted since that move: in the contour when the next move is a feed too.
@@ -312,6 +316,8 @@ impl<'p> Builder<'p> {
             lowered: false,
             lowered_at: BTreeSet::new(),
             tangent_starts: BTreeSet::new(),
+            rounds_into: false,
+            rounded_into: BTreeSet::new(),
             contour: false,
             contour_sites: Vec::new(),
             in_contour: BTreeSet::new(),
@@ -540,6 +546,7 @@ impl<'p> Builder<'p> {
             return false;
         }
         self.note_run_feed_use(run);
+        self.rounds_into = false;
         if let Some((b, g)) = run.motion.first
             && g != self.state.motion
         {
@@ -1221,6 +1228,7 @@ impl<'p> Builder<'p> {
             && !s.g.iter().any(|g| matches!(g, 74 | 75));
         self.machine_move = s.offsets.iter().any(|g| matches!(g, 53 | 153));
         self.movement(i, start, &before, &mv, dwell, s.s, s.inexact, own_m6);
+        self.rounds_into |= s.joins_next;
         self.last_was_z_retract |= keeps_clear;
         // G9: this block's move ends in an exact stop.
         self.contour &= !s.g.contains(9);
@@ -1287,6 +1295,7 @@ impl<'p> Builder<'p> {
         let moved = mv.axes.iter().any(Option::is_some);
         // Axes written as expressions move too, by an amount the timeline does not know.
         let moves_somehow = moved || inexact;
+        self.rounds_into &= !moves_somehow;
         // A dwell right after the retract is as clear of the part as the next rapid, and a gate before it is
         // the only one a long dwell can have.
         let dwell = g4 && !moved;

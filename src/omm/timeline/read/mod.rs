@@ -95,6 +95,8 @@ pub(super) struct Scan {
     pub(super) writes_tool_data: bool,
     /// `CT`: the block's arc starts tangent to the move before it.
     pub(super) tangent_start: bool,
+    /// `RND=`, `CHF=`, `CHR=`: the block's end is rounded or chamfered into the next move.
+    pub(super) joins_next: bool,
     /// `AP=` or `RP=`: the block programs in polar coordinates.
     pub(super) polar: bool,
     /// `WALIMON` (`true`) or `WALIMOF` (`false`): working-area limits monitored or not.
@@ -289,6 +291,7 @@ impl Scan {
             && !self.writes_tool_data
             && !self.tangent_start
             && !self.polar
+            && !self.joins_next
             && self.work_area_monitor.is_none()
             && self.tool_carrier.is_none()
             // The head has no room for IC(…): such a block keeps its whole scan.

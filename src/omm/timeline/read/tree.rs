@@ -584,6 +584,7 @@ fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
         b"DL" => s.sum_offset = Some(v != Some(0.0)),
         b"RNDM" => s.rounding = Some(v != Some(0.0)),
         b"AP" | b"RP" => s.polar = true,
+        b"RND" | b"CHF" | b"CHR" => s.joins_next = true,
         _ if name.starts_with(b"$TC_DP") => s.writes_tool_data = true,
         _ if tool_offset_bit(&name) != 0 => {
             let bit = tool_offset_bit(&name);
