@@ -121,3 +121,20 @@ fn no_gate_that_moves_measures_after_a_rapid_that_rounds_or_chamfers_into_the_ne
         assert_eq!(measured_before(&out), [zero, "N240"], "{profile}:\n{out}");
     }
 }
+
+#[test]
+fn no_gate_that_moves_measures_while_a_modal_synchronized_action_is_active() {
+    // S5: `ID=1 WHENEVER $AA_IW[Z]<2 DO $AC_OVR=20` stays active through the gates after it and acts on
+    // their moves and the probe cycle's (the override drops to 20 % below Z2). The retract's gate (N120)
+    // measured. No gate that moves measures until `CANCEL`; `CANCEL` itself is a procedure that leaves the
+    // modal state alone (it was read as a call that may leave anything, and nothing measured after it).
+    for profile in common::MILLING_PROFILES {
+        let out = every_gate(profile, "05_modal_synchronized_action.mpf");
+        let expected: &[&str] = if profile == "tool-setter" {
+            &["N50", "N170"]
+        } else {
+            &["N30", "N170", "N230"]
+        };
+        assert_eq!(measured_before(&out), expected, "{profile}:\n{out}");
+    }
+}

@@ -144,6 +144,9 @@ pub mod unknown {
     /// Polar coordinates in use (`AP=`, `RP=`, a pole by `G110`/`G111`/`G112`) since the program last
     /// changed the plane: the control keeps the polar angle and radius only until the plane changes.
     pub const POLAR: u16 = 512;
+    /// A modal synchronized action (`ID=`/`IDS=` … `WHENEVER … DO …`) is active until `CANCEL`: it acts on
+    /// a gate's moves and the probe cycle's as on the program's (an override, an output, an offset).
+    pub const SYNC_ACTION: u16 = 1024;
 }
 
 impl Modal {
@@ -167,6 +170,10 @@ impl Modal {
         } else if self.unknown & unknown::WORK_AREA != 0 {
             Some(
                 "the program limits the working area (G25/G26 with WALIMON): a gate's rise and its travel to the probe point or the tool setter may leave it and stop in the control's working-area alarm (WALIMOF before the gate lifts it)",
+            )
+        } else if self.unknown & unknown::SYNC_ACTION != 0 {
+            Some(
+                "a modal synchronized action (ID=/IDS= … DO …) is active: it would act on a gate's moves and on the probe cycle's (CANCEL ends it)",
             )
         } else if self.unknown & unknown::POLAR != 0
             && switches_plane

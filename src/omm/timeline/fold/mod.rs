@@ -1005,6 +1005,9 @@ impl<'p> Builder<'p> {
             Some(false) => self.state.unknown &= !unknown::ROUNDING,
             None => {}
         }
+        if s.cancels_sync_actions {
+            self.state.unknown &= !unknown::SYNC_ACTION;
+        }
         if s.polar || s.g.iter().any(|g| matches!(g, 110..=112)) {
             self.state.unknown |= unknown::POLAR;
         }

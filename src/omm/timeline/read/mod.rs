@@ -97,6 +97,8 @@ pub(super) struct Scan {
     pub(super) tangent_start: bool,
     /// `RND=`, `CHF=`, `CHR=`: the block's end is rounded or chamfered into the next move.
     pub(super) joins_next: bool,
+    /// `CANCEL` with no argument: every modal synchronized action ends.
+    pub(super) cancels_sync_actions: bool,
     /// `AP=` or `RP=`: the block programs in polar coordinates.
     pub(super) polar: bool,
     /// `WALIMON` (`true`) or `WALIMOF` (`false`): working-area limits monitored or not.
@@ -291,6 +293,7 @@ impl Scan {
             && !self.writes_tool_data
             && !self.tangent_start
             && !self.polar
+            && !self.cancels_sync_actions
             && !self.joins_next
             && self.work_area_monitor.is_none()
             && self.tool_carrier.is_none()

@@ -18,9 +18,18 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
         .significant()
         .any(|n| n.kind == NodeKind::SyncCondition)
     {
+        // One with an `ID=`/`IDS=` stays active after the block, until `CANCEL`.
+        let modal = block.root.significant().any(|n| {
+            n.kind == NodeKind::Assign
+                && n.children.first().is_some_and(|t| {
+                    let name = block.text(t);
+                    name.eq_ignore_ascii_case(b"ID") || name.eq_ignore_ascii_case(b"IDS")
+                })
+        });
         return Scan {
             statement: true,
             label: facts(&block).label,
+            unknown: if modal { unknown::SYNC_ACTION } else { 0 },
             ..Scan::default()
         };
     }
@@ -194,6 +203,8 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                 if corrects_work_offset(&block, node, &name) {
                     s.frame_ops |= frame_op::WRITE;
                 }
+                // With no argument it ends every modal synchronized action; with numbers it may leave others.
+                s.cancels_sync_actions |= name == "CANCEL" && node.call_arguments().is_empty();
                 if !TIMELESS_PROCEDURES.contains(&name.as_str()) {
                     s.call = Some(name);
                     s.call_args = node
@@ -214,9 +225,10 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                     "CT" => s.tangent_start = true,
                     "WALIMON" => s.work_area_monitor = Some(true),
                     "WALIMOF" => s.work_area_monitor = Some(false),
+                    "CANCEL" => s.cancels_sync_actions = true,
                     _ => {}
                 }
-                if !is_predefined_command(&name) {
+                if !is_predefined_command(&name) && !TIMELESS_PROCEDURES.contains(&name.as_str()) {
                     s.call = Some(name);
                 }
             }
@@ -389,8 +401,10 @@ fn corrects_work_offset(block: &Block<'_>, call: &Node, name: &str) -> bool {
 
 /// Built-in procedures called like cycles that take no machine time: no note that they are not timed.
 /// `WAITS` waits for a positioning spindle to reach its position: it moves nothing itself. The operator
-/// panel's editor marks program blocks with `GROUP_BEGIN`/`GROUP_END`, cycles that do nothing.
+/// panel's editor marks program blocks with `GROUP_BEGIN`/`GROUP_END`, cycles that do nothing. `CANCEL`
+/// ends modal synchronized actions and leaves the modal state alone.
 const TIMELESS_PROCEDURES: &[&str] = &[
+    "CANCEL",
     "MSG",
     "SETAL",
     "WRITE",
