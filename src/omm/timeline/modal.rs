@@ -44,8 +44,8 @@ pub struct Modal {
     pub css_rpm: Option<f64>,
     /// Frames and transformations active ([`frame`] bits).
     pub frames: u8,
-    /// Fields the program set by an expression the timeline cannot evaluate ([`unknown`] bits): a gate
-    /// cannot write them back.
+    /// Fields the program set by an expression the timeline cannot evaluate, and states a gate cannot give
+    /// back or move under ([`unknown`] bits).
     pub unknown: u16,
     /// A modal call (`MCALL NAME`) is active: it runs after every block that moves, a gate's too.
     pub modal_call: bool,
@@ -159,7 +159,8 @@ impl Modal {
     /// Why a gate's moves would not run as written here (a gauge, which moves nothing, is not concerned).
     /// Modal rounding (`RNDM=2`) rounds the corners of its route (the rise, the travel across, the
     /// descent to the probe point or the saved height) and the probe cycle's moves; working-area limits
-    /// the program set stop a route that leaves them; and a gate that `switches_plane` (G17 for its moves
+    /// the program set stop a route that leaves them; a modal synchronized action acts on its moves; and
+    /// a gate that `switches_plane` (G17 for its moves
     /// under G18/G19, the program's plane after them) makes the control forget the polar angle and
     /// radius the program's next polar block may rely on.
     pub fn route_unfit(&self, switches_plane: bool) -> Option<&'static str> {

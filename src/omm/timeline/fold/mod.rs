@@ -24,11 +24,11 @@ mod loops;
 mod sites;
 
 use declared::{DeclaredTool, ToolChangeCall};
+use loops::{Label, OpenLoop};
+use sites::PassMark;
 
 /// How the plan names the program's M6 of the tool already in the spindle where it left the spindle unsure.
 const RELOAD: &str = "M6 of the tool already in the spindle";
-use loops::{Label, OpenLoop};
-use sites::PassMark;
 
 /// What a call runs, as the fold asks for it.
 pub(super) trait Callees {
