@@ -235,10 +235,24 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
             ("lathe-setter", 1),
         ],
     );
+    // fixtures/redteam4 (red-team round 4: the spindle after an M6 of the same tool, working-area limits,
+    // polar coordinates under G18, RND/CHF/CHR before a gate, a modal synchronized action); the lathe
+    // setter takes only the program that selects G18 before its first cut.
+    let redteam4 = (
+        "redteam4",
+        5,
+        [
+            ("blum-tc50", 5),
+            ("siemens-cycle978", 5),
+            ("tool-setter", 5),
+            ("grinder-gauge", 5),
+            ("lathe-setter", 1),
+        ],
+    );
     let sets = sets
         .into_iter()
         .chain([
-            shop11, shop12, shop13, shop14, shop15, shop16, redteam, redteam2, redteam3,
+            shop11, shop12, shop13, shop14, shop15, shop16, redteam, redteam2, redteam3, redteam4,
         ])
         .chain([(
             "cov10",

@@ -365,6 +365,15 @@ pub enum PlanError {
     Model(String),
 }
 
+/// Why a gate that moves cannot measure here (see [`Modal::route_unfit`]); a gauge moves nothing. Gates
+/// that move Y (a milling machine's) run in G17 and give a G18/G19 back after their moves.
+fn route_unfit(site: &Site, profile: &Profile) -> Option<&'static str> {
+    let switches_plane = profile.position.axes.contains(&Axis::Y);
+    (profile.probe.kind != ProbeKind::Gauge)
+        .then(|| site.before.route_unfit(switches_plane))
+        .flatten()
+}
+
 /// Why the probe cannot measure in this state: a programmable translation would move a probe point given
 /// in work coordinates, and the zero and later readings would not compare.
 fn frame_blocks(site: &Site, profile: &Profile) -> Option<&'static str> {
@@ -484,6 +493,23 @@ const IN_PART: &str = "the tool may stand in the part there (no rapid clear of w
 /// `CT` takes its arc's tangent from the move before it, which a gate that moves replaces with its own
 /// descent to the saved height: the arc would leave the contour.
 const TANGENT_START: &str = "the block after it starts its arc tangent to the move before it (CT): a gate's last move would change that tangent";
+
+/// `RND`/`CHF`/`CHR` join a move's end to the next move, which after a STOPRE and the blocks without
+/// motion a gate begins with would be the gate's rise: how the control joins across them is a machine
+/// matter (red team 4, S3).
+const ROUNDED_INTO: &str = "the move before it rounds or chamfers its end into the next move (RND, CHF, CHR), which would be a gate's first move";
+
+/// Why a gate that moves cannot go between the moves around the site: the block after it takes its
+/// tangent from the move before it, or the move before it is joined to the next.
+fn joined(site: &Site) -> Option<&'static str> {
+    if site.tangent_start {
+        Some(TANGENT_START)
+    } else if site.rounded_into {
+        Some(ROUNDED_INTO)
+    } else {
+        None
+    }
+}
 
 const D0: &str =
     "D0 is active: heights are the spindle's, and the probe would travel a probe length above it";
@@ -655,18 +681,16 @@ fn unfit_for_reference(
     if site.in_part {
         return Some(IN_PART);
     }
-    if site.tangent_start {
-        return Some(TANGENT_START);
+    if let Some(why) = joined(site) {
+        return Some(why);
     }
     if site.state_varies {
         return Some(STATE_VARIES);
     }
     // Before a tool change of the program's own the zero checks less of the state it gives back, but it
     // moves as every gate does (a gauge moves nothing).
-    if let Some(why) = site.before.rounds_corners() {
-        if profile.probe.kind != ProbeKind::Gauge {
-            return Some(why);
-        }
+    if let Some(why) = route_unfit(site, profile) {
+        return Some(why);
     }
     match profile.probe.kind {
         // The probe travels with its tip at the height the spindle stood at: a whole probe length
@@ -932,12 +956,13 @@ fn unfit_for_measuring(
     if site.in_part {
         return Some(IN_PART);
     }
-    if site.tangent_start {
-        return Some(TANGENT_START);
+    if let Some(why) = joined(site) {
+        return Some(why);
     }
     if let Some(why) = site
         .before
         .not_restorable()
+        .or_else(|| route_unfit(site, profile))
         .or_else(|| frame_blocks(site, profile))
     {
         return Some(why);

@@ -44,9 +44,9 @@ pub struct Modal {
     pub css_rpm: Option<f64>,
     /// Frames and transformations active ([`frame`] bits).
     pub frames: u8,
-    /// Fields the program set by an expression the timeline cannot evaluate ([`unknown`] bits): a gate
-    /// cannot write them back.
-    pub unknown: u8,
+    /// Fields the program set by an expression the timeline cannot evaluate, and states a gate cannot give
+    /// back or move under ([`unknown`] bits).
+    pub unknown: u16,
     /// A modal call (`MCALL NAME`) is active: it runs after every block that moves, a gate's too.
     pub modal_call: bool,
 }
@@ -121,22 +121,32 @@ pub fn is_thread(g: u32) -> bool {
 
 /// Bits of [`Modal::unknown`].
 pub mod unknown {
-    pub const TOOL: u8 = 1;
-    pub const D: u8 = 2;
-    pub const S: u8 = 4;
-    pub const FEED: u8 = 8;
+    pub const TOOL: u16 = 1;
+    pub const D: u16 = 2;
+    pub const S: u16 = 4;
+    pub const FEED: u16 = 8;
     /// A sum offset (`DL=` other than 0) is active: a gate that changes tools does not give it back.
-    pub const SUM_OFFSET: u8 = 16;
+    pub const SUM_OFFSET: u16 = 16;
     /// The program addressed a spindle other than the first (`S4=`, `M4=3`, `SETMS(4)`, `SPOS[2]=`): a gate
     /// stops and gives back the master spindle only, which may not be the one that turns.
-    pub const OTHER_SPINDLE: u8 = 32;
+    pub const OTHER_SPINDLE: u16 = 32;
     /// A programmed tool offset (`TOFFL`, `TOFFR`, `TOFF[axis]`) is in force. The control keeps it through a
     /// tool change, so a spindle probe carries it, and a tool setter reads it with the tool: a reading
     /// taken with another offset in force than the zero's shows its difference as drift.
-    pub const TOOL_OFFSET: u8 = 64;
+    pub const TOOL_OFFSET: u16 = 64;
     /// Modal rounding (`RNDM=` other than 0) is on: the control rounds the corner between every two moves
     /// in the plane, a gate's included.
-    pub const ROUNDING: u8 = 128;
+    pub const ROUNDING: u16 = 128;
+    /// Working-area limits the program set (`G25`/`G26` with axis values) are monitored (`WALIMON`, the
+    /// control's default, until `WALIMOF`): a gate's route (the rise, the travel to the probe point or
+    /// the setter) may leave the area and stop in the control's working-area alarm.
+    pub const WORK_AREA: u16 = 256;
+    /// Polar coordinates in use (`AP=`, `RP=`, a pole by `G110`/`G111`/`G112`) since the program last
+    /// changed the plane: the control keeps the polar angle and radius only until the plane changes.
+    pub const POLAR: u16 = 512;
+    /// A modal synchronized action (`ID=`/`IDS=` … `WHENEVER … DO …`) is active until `CANCEL`: it acts on
+    /// a gate's moves and the probe cycle's as on the program's (an override, an output, an offset).
+    pub const SYNC_ACTION: u16 = 1024;
 }
 
 impl Modal {
@@ -146,13 +156,36 @@ impl Modal {
         matches!(self.units, Some(70 | 700))
     }
 
-    /// Modal rounding is on (`RNDM=2`): the corners of a gate's route (the rise, the travel across, the
-    /// descent to the probe point or the saved height) would be rounded, the tool leaving the route it
-    /// is written on, and the probe cycle's moves too.
-    pub fn rounds_corners(&self) -> Option<&'static str> {
-        (self.unknown & unknown::ROUNDING != 0).then_some(
-            "modal rounding (RNDM) is on: the control would round the corners of a gate's route and of the probe cycle's moves",
-        )
+    /// Why a gate's moves would not run as written here (a gauge, which moves nothing, is not concerned).
+    /// Modal rounding (`RNDM=2`) rounds the corners of its route (the rise, the travel across, the
+    /// descent to the probe point or the saved height) and the probe cycle's moves; working-area limits
+    /// the program set stop a route that leaves them; a modal synchronized action acts on its moves; and
+    /// a gate that `switches_plane` (G17 for its moves
+    /// under G18/G19, the program's plane after them) makes the control forget the polar angle and
+    /// radius the program's next polar block may rely on.
+    pub fn route_unfit(&self, switches_plane: bool) -> Option<&'static str> {
+        if self.unknown & unknown::ROUNDING != 0 {
+            Some(
+                "modal rounding (RNDM) is on: the control would round the corners of a gate's route and of the probe cycle's moves",
+            )
+        } else if self.unknown & unknown::WORK_AREA != 0 {
+            Some(
+                "the program limits the working area (G25/G26 with WALIMON): a gate's rise and its travel to the probe point or the tool setter may leave it and stop in the control's working-area alarm (WALIMOF before the gate lifts it)",
+            )
+        } else if self.unknown & unknown::SYNC_ACTION != 0 {
+            Some(
+                "a modal synchronized action (ID=/IDS= … DO …) is active: it would act on a gate's moves and on the probe cycle's (CANCEL ends it)",
+            )
+        } else if self.unknown & unknown::POLAR != 0
+            && switches_plane
+            && matches!(self.plane, Some(18 | 19))
+        {
+            Some(
+                "polar coordinates (AP, RP, G110 … G112) are in use under G18/G19: a gate's moves run in G17 and the plane change back makes the control forget the polar angle and radius the program's next polar block may rely on",
+            )
+        } else {
+            None
+        }
     }
 
     /// Moves blend into each other at their ends: G64 … G645, or no G60 written (MD20150 may make G64
@@ -238,8 +271,6 @@ impl Modal {
             Some(
                 "a modal call (MCALL) is active: every move of a gate would run its cycle or subprogram (a drilling cycle at the probe point)",
             )
-        } else if let Some(why) = self.rounds_corners() {
-            Some(why)
         } else if self.unknown & unknown::OTHER_SPINDLE != 0 {
             Some(
                 "the program addresses a spindle other than spindle 1 (S4=, M4=3, SETMS(4), SPOS[2]): a gate's M5 and the speed it gives back act on the master spindle only",

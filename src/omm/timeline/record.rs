@@ -67,6 +67,9 @@ pub struct Site {
     /// The block's arc starts tangent to the move before it (`CT`): a gate's last move (the descent to
     /// the saved height) would give it another tangent, and another arc.
     pub tangent_start: bool,
+    /// The move before the block (no move between) rounds or chamfers its end into the next move (`RND`,
+    /// `CHF`, `CHR`): that would be a gate's first move.
+    pub rounded_into: bool,
 }
 
 impl Site {
@@ -95,6 +98,7 @@ impl Site {
             lowered: false,
             in_contour: false,
             tangent_start: false,
+            rounded_into: false,
         }
     }
 }

@@ -212,6 +212,12 @@ impl Builder<'_> {
         for f in field::SET_ONLY {
             unsure[f] &= !self.state.is_unset(f);
         }
+        self.leaves_unsure(i, name, unsure);
+    }
+
+    /// Block `i` (`name` says what it is) may leave the fields `unsure` otherwise than the timeline has
+    /// them, until the program's words set them again (see [`Builder::mark_unsure_after_calls`]).
+    pub(super) fn leaves_unsure(&mut self, i: usize, name: &str, unsure: [bool; field::COUNT]) {
         if !unsure.contains(&true) {
             return;
         }
@@ -311,13 +317,15 @@ impl Builder<'_> {
     /// on the state before them. Not a frame (ATRANS, AROT … add to the one in force; TRANS leaves a
     /// transformation or swivel), not M7 or M8 (each adds to the other; M9 ends both), not a machine
     /// coolant code (a pair of the profile's), not an expression. A tool change (M6) sets the tool and
-    /// stops the spindle, as the timeline has it.
+    /// stops the spindle, as the timeline has it; one that `reloads` the tool in the spindle may leave it
+    /// turning (a macro that skips it), so it sets the spindle only with the block's own M3/M4/M5.
     pub(super) fn note_written(
         &mut self,
         i: usize,
         s: &Scan,
         set: [bool; field::COUNT],
         no_speed: bool,
+        reloads: bool,
     ) {
         let mut whole = set;
         whole[field::FRAMES] = false;
@@ -328,7 +336,7 @@ impl Builder<'_> {
         whole[field::S] = s.s.is_some() && !no_speed;
         if s.m.contains(self.profile.probe.tool_change_m) {
             whole[field::TOOL] = true;
-            whole[field::DIRECTION] = true;
+            whole[field::DIRECTION] |= !reloads;
         }
         self.mark_written(i + 1, whole);
     }

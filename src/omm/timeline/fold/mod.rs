@@ -27,6 +27,9 @@ use declared::{DeclaredTool, ToolChangeCall};
 use loops::{Label, OpenLoop};
 use sites::PassMark;
 
+/// How the plan names the program's M6 of the tool already in the spindle where it left the spindle unsure.
+const RELOAD: &str = "M6 of the tool already in the spindle";
+
 /// What a call runs, as the fold asks for it.
 pub(super) trait Callees {
     /// The timeline of subprogram `name`, and whether it is in another file (a folder's) rather than in
@@ -159,6 +162,9 @@ pub(super) struct Builder<'p> {
     /// The programmed tool offsets set to other than 0 (bits of the scan's `tool_offset_on`): the state's
     /// [`unknown::TOOL_OFFSET`] ends only when each of them is 0 again.
     tool_offsets: u8,
+    /// The program set working-area limits (`G25`/`G26` with axis values), and `WALIMOF` does not switch
+    /// their monitoring off: the state's [`unknown::WORK_AREA`] holds while both do.
+    work_area: (bool, bool),
     /// End of the last run of timed moves folded (its blocks in later chunks are skipped).
     run_end: usize,
     /// Until the first cut: the first block after the setup so far, as a [`SiteKind::Start`] site.
@@ -205,6 +211,10 @@ pub(super) struct Builder<'p> {
     lowered_at: BTreeSet<usize>,
     /// Blocks whose arc starts tangent to the move before them (`CT`).
     tangent_starts: BTreeSet<usize>,
+    /// The last move rounds or chamfers its end into the next (`RND`, `CHF`, `CHR`), and the sites noted
+    /// since.
+    rounds_into: bool,
+    rounded_into: BTreeSet<usize>,
     /// The last move was a feed along a contour (not straight up the tool axis) under continuous path.
     contour: bool,
     /// Sites noted since that move: in the contour when the next move is a feed too.
@@ -295,6 +305,7 @@ impl<'p> Builder<'p> {
             varies: BTreeSet::new(),
             varies_but_spindle: BTreeSet::new(),
             tool_offsets: 0,
+            work_area: (false, true),
             run_end: 0,
             start: None,
             lims: None,
@@ -313,6 +324,8 @@ impl<'p> Builder<'p> {
             lowered: false,
             lowered_at: BTreeSet::new(),
             tangent_starts: BTreeSet::new(),
+            rounds_into: false,
+            rounded_into: BTreeSet::new(),
             contour: false,
             contour_sites: Vec::new(),
             in_contour: BTreeSet::new(),
@@ -541,6 +554,7 @@ impl<'p> Builder<'p> {
             return false;
         }
         self.note_run_feed_use(run);
+        self.rounds_into = false;
         if let Some((b, g)) = run.motion.first
             && g != self.state.motion
         {
@@ -968,6 +982,10 @@ impl<'p> Builder<'p> {
                     self.state.feed_mode = Some(95);
                 }
                 17..=19 => {
+                    // The control keeps the polar angle and radius only until the plane changes.
+                    if self.state.plane != Some(g) {
+                        self.state.unknown &= !unknown::POLAR;
+                    }
                     self.state.plane = Some(g);
                     if self.t.first_cut.is_none() {
                         self.t.setup_plane.get_or_insert(g);
@@ -990,8 +1008,14 @@ impl<'p> Builder<'p> {
         let limits = s.g.contains(25) || s.g.contains(26);
         // S is then no speed: a dwell's revolutions or a speed limit.
         let no_speed = dwell || limits;
+        let own_m6 = s.m.contains(self.profile.probe.tool_change_m);
+        // The tool already in the spindle loaded again by the program's own M6: the machine's change macro
+        // may skip it and leave the spindle turning, as a guarded subprogram does (red team 3, R2).
+        let reloads = own_m6
+            && self.state.tool.is_some()
+            && s.tool.as_ref().or(self.state.selected.as_ref()) == self.state.tool.as_ref();
         let set = self.touch(s, dwell, no_speed);
-        self.note_written(i, s, set, no_speed);
+        self.note_written(i, s, set, no_speed, reloads);
         self.state.unknown |= s.unknown;
         match s.sum_offset {
             Some(true) => self.state.unknown |= unknown::SUM_OFFSET,
@@ -1002,6 +1026,23 @@ impl<'p> Builder<'p> {
             Some(true) => self.state.unknown |= unknown::ROUNDING,
             Some(false) => self.state.unknown &= !unknown::ROUNDING,
             None => {}
+        }
+        if s.cancels_sync_actions {
+            self.state.unknown &= !unknown::SYNC_ACTION;
+        }
+        if s.polar || s.g.iter().any(|g| matches!(g, 110..=112)) {
+            self.state.unknown |= unknown::POLAR;
+        }
+        if limits && (s.mv.axes.iter().any(Option::is_some) || s.other_axes) {
+            self.work_area.0 = true;
+        }
+        if let Some(on) = s.work_area_monitor {
+            self.work_area.1 = on;
+        }
+        if self.work_area == (true, true) {
+            self.state.unknown |= unknown::WORK_AREA;
+        } else {
+            self.state.unknown &= !unknown::WORK_AREA;
         }
         if s.tool_offset_on | s.tool_offset_off != 0 {
             self.tool_offsets = (self.tool_offsets & !s.tool_offset_off) | s.tool_offset_on;
@@ -1088,7 +1129,6 @@ impl<'p> Builder<'p> {
         if speed.is_some() || direction.is_some() {
             self.t.spindle_words.push((start, speed, direction));
         }
-        let own_m6 = s.m.contains(change_m);
         // A tool-change subprogram loads the selected tool as M6 does.
         let tool_change = own_m6 || call_loads.is_some();
         // One that may skip its change leaves the spindle turning on that way: the pass's gate is then
@@ -1127,9 +1167,6 @@ impl<'p> Builder<'p> {
             self.state.selected = None;
             self.state.unknown |= unknown::TOOL;
         }
-        // The tool already in the spindle loaded again by the program's own M6: the machine's change macro
-        // may skip it and leave the spindle turning, as a guarded subprogram does (red team 3, R2).
-        let reloads = own_m6 && self.state.tool.is_some() && self.state.tool == self.state.selected;
         if tool_change {
             self.strokes_cut();
             self.spindle_set_at(i);
@@ -1182,6 +1219,13 @@ impl<'p> Builder<'p> {
         if s.tool.is_some() || (p.tool_change && tool_change) || marked || rpm != self.rpm {
             self.note_site(i);
         }
+        // Or the change leaves the spindle turning: a macro that skips the change to the tool in the
+        // spindle (red team 4, S1). Which one the machine does is unsure until the program writes M3/M4/M5
+        // again: a gate between would give back a stopped spindle where the program's next cut relies on
+        // the turning one. Noted after this block's own site, which lies before the change.
+        if reloads && direction.is_none() {
+            self.leaves_unsure(i, RELOAD, field::only(&[field::DIRECTION]));
+        }
         if rpm != self.rpm {
             self.rpm = rpm;
             self.t.speeds.push((start, rpm));
@@ -1214,6 +1258,7 @@ impl<'p> Builder<'p> {
             && !s.g.iter().any(|g| matches!(g, 74 | 75));
         self.machine_move = s.offsets.iter().any(|g| matches!(g, 53 | 153));
         self.movement(i, start, &before, &mv, dwell, s.s, s.inexact, own_m6);
+        self.rounds_into |= s.joins_next;
         self.last_was_z_retract |= keeps_clear;
         // G9: this block's move ends in an exact stop.
         self.contour &= !s.g.contains(9);
@@ -1280,6 +1325,7 @@ impl<'p> Builder<'p> {
         let moved = mv.axes.iter().any(Option::is_some);
         // Axes written as expressions move too, by an amount the timeline does not know.
         let moves_somehow = moved || inexact;
+        self.rounds_into &= !moves_somehow;
         // A dwell right after the retract is as clear of the part as the next rapid, and a gate before it is
         // the only one a long dwell can have.
         let dwell = g4 && !moved;

@@ -184,6 +184,9 @@ impl Builder<'_> {
         if self.lowered {
             self.lowered_at.insert(i);
         }
+        if self.rounds_into {
+            self.rounded_into.insert(i);
+        }
         if self.contour {
             self.contour_sites.push(i);
         }
@@ -284,6 +287,7 @@ impl Builder<'_> {
             site.lowered = self.lowered_at.contains(&site.block);
             site.in_contour = self.in_contour.contains(&site.block);
             site.tangent_start = self.tangent_starts.contains(&site.block);
+            site.rounded_into = self.rounded_into.contains(&site.block);
             // Without M6 in the program, T loads the tool at once.
             if t_loads {
                 site.before.tool = site.before.selected.clone();

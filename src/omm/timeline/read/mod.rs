@@ -61,7 +61,7 @@ pub(super) struct Scan {
     /// What the block does to frames and transformations ([`frame_op`] bits).
     pub(super) frame_ops: u8,
     /// Fields the block sets by an expression ([`super::unknown`] bits).
-    pub(super) unknown: u8,
+    pub(super) unknown: u16,
     /// The block holds a statement the timeline does not read (a variable assignment, a control
     /// statement, a call): it ends the declarations at the top.
     pub(super) statement: bool,
@@ -97,6 +97,14 @@ pub(super) struct Scan {
     pub(super) writes_tool_data: bool,
     /// `CT`: the block's arc starts tangent to the move before it.
     pub(super) tangent_start: bool,
+    /// `RND=`, `CHF=`, `CHR=`: the block's end is rounded or chamfered into the next move.
+    pub(super) joins_next: bool,
+    /// `CANCEL` with no argument: every modal synchronized action ends.
+    pub(super) cancels_sync_actions: bool,
+    /// `AP=` or `RP=`: the block programs in polar coordinates.
+    pub(super) polar: bool,
+    /// `WALIMON` (`true`) or `WALIMOF` (`false`): working-area limits monitored or not.
+    pub(super) work_area_monitor: Option<bool>,
     /// `TCARR=`: an orientable toolholder selected (`true`) or deselected with `TCARR=0` (`false`).
     pub(super) tool_carrier: Option<bool>,
     /// Plain variables the block assigns, with the value when it is a literal.
@@ -286,6 +294,10 @@ impl Scan {
             && self.tool_offset_on | self.tool_offset_off == 0
             && !self.writes_tool_data
             && !self.tangent_start
+            && !self.polar
+            && !self.cancels_sync_actions
+            && !self.joins_next
+            && self.work_area_monitor.is_none()
             && self.tool_carrier.is_none()
             // The head has no room for IC(…): such a block keeps its whole scan.
             && !self.mv.incremental.contains(&true);

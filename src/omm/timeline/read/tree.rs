@@ -18,9 +18,18 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
         .significant()
         .any(|n| n.kind == NodeKind::SyncCondition)
     {
+        // One with an `ID=`/`IDS=` stays active after the block, until `CANCEL`.
+        let modal = block.root.significant().any(|n| {
+            n.kind == NodeKind::Assign
+                && n.children.first().is_some_and(|t| {
+                    let name = block.text(t);
+                    name.eq_ignore_ascii_case(b"ID") || name.eq_ignore_ascii_case(b"IDS")
+                })
+        });
         return Scan {
             statement: true,
             label: facts(&block).label,
+            unknown: if modal { unknown::SYNC_ACTION } else { 0 },
             ..Scan::default()
         };
     }
@@ -195,6 +204,8 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                 if corrects_work_offset(&block, node, &name) {
                     s.frame_ops |= frame_op::WRITE;
                 }
+                // With no argument it ends every modal synchronized action; with numbers it may leave others.
+                s.cancels_sync_actions |= name == "CANCEL" && node.call_arguments().is_empty();
                 // A transformation selected by its data set (`TRAORI(1)`, `TRACYL(40)`) is the
                 // transformation the bare word selects, which the frame operations above follow.
                 let known = TIMELESS_PROCEDURES.contains(&name.as_str())
@@ -218,9 +229,12 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                     "DIAM90" => s.diameter = Some(Diameter::Absolute),
                     "DIAMOF" => s.diameter = Some(Diameter::Off),
                     "CT" => s.tangent_start = true,
+                    "WALIMON" => s.work_area_monitor = Some(true),
+                    "WALIMOF" => s.work_area_monitor = Some(false),
+                    "CANCEL" => s.cancels_sync_actions = true,
                     _ => {}
                 }
-                if !is_predefined_command(&name) {
+                if !is_predefined_command(&name) && !TIMELESS_PROCEDURES.contains(&name.as_str()) {
                     s.call = Some(name);
                 }
             }
@@ -394,8 +408,10 @@ fn corrects_work_offset(block: &Block<'_>, call: &Node, name: &str) -> bool {
 /// Built-in procedures called like cycles that take no machine time: no note that they are not timed.
 /// `WAITS` waits for a positioning spindle to reach its position: it moves nothing itself. The operator
 /// panel's editor marks program blocks with `GROUP_BEGIN`/`GROUP_END`, cycles that do nothing. `SETPIECE`
-/// counts a finished workpiece for the tool monitoring of the tools in use.
+/// counts a finished workpiece for the tool monitoring of the tools in use. `CANCEL` ends modal
+/// synchronized actions and leaves the modal state alone.
 const TIMELESS_PROCEDURES: &[&str] = &[
+    "CANCEL",
     "MSG",
     "SETPIECE",
     "SETAL",
@@ -603,6 +619,8 @@ fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
         },
         b"DL" => s.sum_offset = Some(v != Some(0.0)),
         b"RNDM" => s.rounding = Some(v != Some(0.0)),
+        b"AP" | b"RP" => s.polar = true,
+        b"RND" | b"CHF" | b"CHR" => s.joins_next = true,
         _ if name.starts_with(b"$TC_DP") => s.writes_tool_data = true,
         _ if tool_offset_bit(&name) != 0 => {
             let bit = tool_offset_bit(&name);
