@@ -205,20 +205,11 @@ const PREDEFINED_COMMANDS: &[&str] = &[
     "TRANSMIT",
     "ORIWKS",
     "ORIMKS",
-    "ORIAXES",
-    "ORIVECT",
     "ORIEULER",
     "ORIRPY",
     "ORIC",
     "ORID",
-    "ORIPATH",
     "ORIPATHS",
-    "ORIPLANE",
-    "ORICONCW",
-    "ORICONCCW",
-    "ORICONIO",
-    "ORICONTO",
-    "ORICURVE",
     "ORIAXPOS",
     "ORIROTA",
     "ORIROTR",
@@ -301,9 +292,23 @@ pub fn is_numbered_cycle(name: &str) -> bool {
         .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
 }
 
+/// The orientation interpolations (G group 51) under an orientation transformation.
+pub const ORIENTATION_INTERPOLATIONS: &[&str] = &[
+    "ORIVECT",
+    "ORIAXES",
+    "ORIPATH",
+    "ORIPLANE",
+    "ORICONCW",
+    "ORICONCCW",
+    "ORICONIO",
+    "ORICONTO",
+    "ORICURVE",
+];
+
 /// A bare name in a block is a subprogram call unless the control predefines it (upper-case `name`).
 pub fn is_predefined_command(name: &str) -> bool {
     PREDEFINED_COMMANDS.contains(&name)
+        || ORIENTATION_INTERPOLATIONS.contains(&name)
         || NEUTRAL_COMMANDS.contains(&name)
         || FRAME_COMMANDS.contains(&name)
 }

@@ -13,30 +13,7 @@ fn redteam3(name: &str) -> String {
 /// `fixtures/redteam3/FILE` as `p.mpf` with the subprograms `subs` beside it, transformed with the builtin
 /// `profile` measuring at every gate that can.
 fn every_gate(profile: &str, file: &str, subs: &[&str]) -> String {
-    let texts: Vec<(String, String)> = subs
-        .iter()
-        .map(|s| (s.to_string(), redteam3(&format!("subs/{s}"))))
-        .collect();
-    let src = redteam3(file);
-    let mut files = vec![("p.mpf", src.as_str())];
-    files.extend(texts.iter().map(|(n, t)| (n.as_str(), t.as_str())));
-    common::every_gate_transformed(profile, &files)
-}
-
-/// The program's own blocks (by their first word, `N…`) right before which a gate measures.
-fn measured_before(out: &str) -> Vec<String> {
-    let lines: Vec<&str> = out.lines().collect();
-    let (mut gate_start, mut found) = (0, Vec::new());
-    for (k, line) in lines.iter().enumerate() {
-        if line.ends_with(";DL") {
-            continue;
-        }
-        if common::gate_measures(&lines[gate_start..k]) {
-            found.push(line.split_whitespace().next().unwrap_or("").to_string());
-        }
-        gate_start = k + 1;
-    }
-    found
+    common::set_every_gate("redteam3", profile, file, subs)
 }
 
 #[test]
@@ -54,7 +31,7 @@ fn a_hole_pattern_under_mcall_of_the_programs_own_subprogram_leaves_what_it_leav
             &["SPOTFACE.SPF"],
         );
         assert_eq!(
-            measured_before(&out),
+            common::measured_before(&out),
             [first_place(profile)],
             "{profile}:\n{out}"
         );
@@ -72,7 +49,7 @@ fn a_gate_before_the_programs_m6_of_the_tool_in_the_spindle_gives_the_spindle_ba
     for profile in common::MILLING_PROFILES {
         let out = every_gate(profile, "14_same_tool_m6_without_spindle_words.mpf", &[]);
         assert_eq!(
-            measured_before(&out),
+            common::measured_before(&out),
             [first_place(profile), "N100"],
             "{profile}:\n{out}"
         );
@@ -185,7 +162,11 @@ fn after_a_drilling_cycle_a_gate_measures_only_where_what_it_gives_back_is_sure(
         ];
         for (file, subs, expected) in cases {
             let out = every_gate(profile, file, subs);
-            assert_eq!(measured_before(&out), expected, "{file} {profile}:\n{out}");
+            assert_eq!(
+                common::measured_before(&out),
+                expected,
+                "{file} {profile}:\n{out}"
+            );
         }
     }
 }
@@ -219,7 +200,7 @@ fn after_a_feed_move_with_a_rounding_or_chamfer_no_gate_measures() {
     for profile in common::MILLING_PROFILES {
         let fed = every_gate(profile, "12_rnd_chf_before_a_gate.mpf", &[]);
         assert_eq!(
-            measured_before(&fed),
+            common::measured_before(&fed),
             [first_place(profile)],
             "{profile}:\n{fed}"
         );

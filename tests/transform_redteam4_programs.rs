@@ -14,24 +14,7 @@ fn redteam4(name: &str) -> String {
 /// `fixtures/redteam4/FILE` as `p.mpf`, transformed with the builtin `profile` measuring at every gate
 /// that can.
 fn every_gate(profile: &str, file: &str) -> String {
-    let src = redteam4(file);
-    common::every_gate_transformed(profile, &[("p.mpf", &src)])
-}
-
-/// The program's own blocks (by their first word, `N…`) right before which a gate measures.
-fn measured_before(out: &str) -> Vec<String> {
-    let lines: Vec<&str> = out.lines().collect();
-    let (mut gate_start, mut found) = (0, Vec::new());
-    for (k, line) in lines.iter().enumerate() {
-        if line.ends_with(";DL") {
-            continue;
-        }
-        if common::gate_measures(&lines[gate_start..k]) {
-            found.push(line.split_whitespace().next().unwrap_or("").to_string());
-        }
-        gate_start = k + 1;
-    }
-    found
+    common::set_every_gate("redteam4", profile, file, &[])
 }
 
 #[test]
@@ -49,7 +32,7 @@ fn after_the_programs_m6_of_the_tool_in_the_spindle_the_spindle_is_unsure_until_
         } else {
             &["N30", "N110", "N240", "N290", "N330", "N390"]
         };
-        assert_eq!(measured_before(&out), expected, "{profile}:\n{out}");
+        assert_eq!(common::measured_before(&out), expected, "{profile}:\n{out}");
     }
 }
 
@@ -67,11 +50,11 @@ fn no_gate_that_moves_measures_while_the_programs_working_area_limits_are_monito
         } else {
             &["N30", "N190", "N230"]
         };
-        assert_eq!(measured_before(&out), expected, "{profile}:\n{out}");
+        assert_eq!(common::measured_before(&out), expected, "{profile}:\n{out}");
     }
     let gauge = every_gate("grinder-gauge", "02_walimon_work_area.mpf");
     assert!(
-        measured_before(&gauge).contains(&"N140".to_string()),
+        common::measured_before(&gauge).contains(&"N140".to_string()),
         "{gauge}"
     );
 }
@@ -93,12 +76,12 @@ fn no_gate_that_moves_measures_where_its_plane_switch_would_drop_the_polar_coord
     for profile in common::MILLING_PROFILES {
         let out = every_gate(profile, "03_polar_under_g18_across_a_gate.mpf");
         assert!(
-            !measured_before(&out).contains(&"N130".to_string()),
+            !common::measured_before(&out).contains(&"N130".to_string()),
             "{profile}:\n{out}"
         );
         let out = common::every_gate_transformed(profile, &[("p.mpf", &in_g17)]);
         assert!(
-            measured_before(&out).contains(&"N130".to_string()),
+            common::measured_before(&out).contains(&"N130".to_string()),
             "{profile}:\n{out}"
         );
     }
@@ -118,7 +101,11 @@ fn no_gate_that_moves_measures_after_a_rapid_that_rounds_or_chamfers_into_the_ne
         } else {
             "N30"
         };
-        assert_eq!(measured_before(&out), [zero, "N240"], "{profile}:\n{out}");
+        assert_eq!(
+            common::measured_before(&out),
+            [zero, "N240"],
+            "{profile}:\n{out}"
+        );
     }
 }
 
@@ -135,6 +122,6 @@ fn no_gate_that_moves_measures_while_a_modal_synchronized_action_is_active() {
         } else {
             &["N30", "N170", "N230"]
         };
-        assert_eq!(measured_before(&out), expected, "{profile}:\n{out}");
+        assert_eq!(common::measured_before(&out), expected, "{profile}:\n{out}");
     }
 }

@@ -7,38 +7,10 @@
 
 mod common;
 
-/// The text of `fixtures/shop16/NAME`.
-fn shop16(name: &str) -> String {
-    std::fs::read_to_string(common::fixture(&format!("shop16/{name}"))).unwrap()
-}
-
 /// `fixtures/shop16/FILE` as `p.mpf` with the subprograms `subs` beside it, transformed with the builtin
 /// `profile` measuring at every gate that can.
 fn every_gate(profile: &str, file: &str, subs: &[&str]) -> String {
-    let texts: Vec<(String, String)> = subs
-        .iter()
-        .map(|s| (s.to_string(), shop16(&format!("subs/{s}"))))
-        .collect();
-    let src = shop16(file);
-    let mut files = vec![("p.mpf", src.as_str())];
-    files.extend(texts.iter().map(|(n, t)| (n.as_str(), t.as_str())));
-    common::every_gate_transformed(profile, &files)
-}
-
-/// The program's own blocks (by their first word, `N…`) right before which a gate measures.
-fn measured_before(out: &str) -> Vec<String> {
-    let lines: Vec<&str> = out.lines().collect();
-    let (mut gate_start, mut found) = (0, Vec::new());
-    for (k, line) in lines.iter().enumerate() {
-        if line.ends_with(";DL") {
-            continue;
-        }
-        if common::gate_measures(&lines[gate_start..k]) {
-            found.push(line.split_whitespace().next().unwrap_or("").to_string());
-        }
-        gate_start = k + 1;
-    }
-    found
+    common::set_every_gate("shop16", profile, file, subs)
 }
 
 /// Whether the gate `lines` writes the word `word` (`S4200`, `M8`, `F900`) in one of its blocks.
@@ -78,7 +50,7 @@ fn one_tool_across_face_pocket_and_contour_measures_where_the_cycles_left_nothin
         } else {
             &["N18", "N34", "N42", "N70"]
         };
-        assert_eq!(measured_before(&out), expected, "{profile}:\n{out}");
+        assert_eq!(common::measured_before(&out), expected, "{profile}:\n{out}");
         for at in ["N34 G0 X60 Y40", "N42 G0 X-15 Y-15"] {
             let gate = common::gate_before(&out, at);
             assert!(
@@ -104,7 +76,7 @@ fn a_pocket_then_slots_with_one_tool_measure_until_the_slots_finishing_speed() {
             "N25"
         };
         assert_eq!(
-            measured_before(&out),
+            common::measured_before(&out),
             [zero, "N60", "N115"],
             "{profile}:\n{out}"
         );
@@ -132,7 +104,7 @@ fn a_lathe_roughing_then_finishing_with_cycle95_measures_at_the_next_turret_inde
             "03_lathe_cycle95_rough_then_finish.mpf",
             &["CONT_SHAFT.SPF"],
         );
-        assert_eq!(measured_before(&out), expected, "{profile}:\n{out}");
+        assert_eq!(common::measured_before(&out), expected, "{profile}:\n{out}");
         let index = common::gate_before(&out, "N120 T=\"GROOVE_W3\"");
         assert!(
             writes(&index, "S280") && writes(&index, "M4") && writes(&index, "M8"),
@@ -154,7 +126,11 @@ fn thread_milling_measures_only_where_the_program_writes_the_spindle_again() {
         } else {
             "N16"
         };
-        assert_eq!(measured_before(&out), [zero, "N32"], "{profile}:\n{out}");
+        assert_eq!(
+            common::measured_before(&out),
+            [zero, "N32"],
+            "{profile}:\n{out}"
+        );
     }
 }
 
@@ -175,6 +151,6 @@ fn a_contour_pocket_keeps_the_old_rule_while_the_circular_pocket_before_it_does_
         } else {
             &["N40", "N120", "N240", "N320"]
         };
-        assert_eq!(measured_before(&out), expected, "{profile}:\n{out}");
+        assert_eq!(common::measured_before(&out), expected, "{profile}:\n{out}");
     }
 }

@@ -261,17 +261,7 @@ pub const SETTING_GROUPS: [(&str, &[&str]); 9] = [
     ("path reference (G group 45)", &["SPATH", "UPATH"]),
     (
         "orientation interpolation (G group 51)",
-        &[
-            "ORIVECT",
-            "ORIAXES",
-            "ORIPATH",
-            "ORIPLANE",
-            "ORICONCW",
-            "ORICONCCW",
-            "ORICONIO",
-            "ORICONTO",
-            "ORICURVE",
-        ],
+        crate::views::ORIENTATION_INTERPOLATIONS,
     ),
     (
         "compressor (G group 59)",

@@ -270,6 +270,36 @@ pub fn line_starting(lines: &[&str], at: &str) -> usize {
         .unwrap_or_else(|| panic!("no `{at}` in\n{}", lines.join("\n")))
 }
 
+/// `fixtures/SET/FILE` as `p.mpf`, with the subprograms `subs` of `fixtures/SET/subs` beside it, transformed
+/// with the builtin `profile` measuring at every gate that can: the output.
+pub fn set_every_gate(set: &str, profile: &str, file: &str, subs: &[&str]) -> String {
+    let read = |name: &str| std::fs::read_to_string(fixture(&format!("{set}/{name}"))).unwrap();
+    let texts: Vec<(String, String)> = subs
+        .iter()
+        .map(|s| (s.to_string(), read(&format!("subs/{s}"))))
+        .collect();
+    let src = read(file);
+    let mut files = vec![("p.mpf", src.as_str())];
+    files.extend(texts.iter().map(|(n, t)| (n.as_str(), t.as_str())));
+    every_gate_transformed(profile, &files)
+}
+
+/// The program's own blocks (by their first word, `N…`) right before which a gate measures.
+pub fn measured_before(out: &str) -> Vec<String> {
+    let lines: Vec<&str> = out.lines().collect();
+    let (mut gate_start, mut found) = (0, Vec::new());
+    for (k, line) in lines.iter().enumerate() {
+        if line.ends_with(";DL") {
+            continue;
+        }
+        if gate_measures(&lines[gate_start..k]) {
+            found.push(line.split_whitespace().next().unwrap_or("").to_string());
+        }
+        gate_start = k + 1;
+    }
+    found
+}
+
 /// The lines of `out` from the first that starts with `from` up to the next after it that starts with `to`
 /// (excluded).
 pub fn lines_between<'a>(out: &'a str, from: &str, to: &str) -> Vec<&'a str> {
