@@ -2,6 +2,11 @@
 
 use super::*;
 
+/// Procedures the dry run carries out as nothing: it positions a spindle at once (`WAITS`: nothing to wait
+/// for), the blank description and the editor's program-block markers act only on the panel, and
+/// `SETPIECE` counts a workpiece for the tool monitoring.
+const MOVE_NOTHING: &[&str] = &["WAITS", "WORKPIECE", "GROUP_BEGIN", "GROUP_END", "SETPIECE"];
+
 impl Interp<'_> {
     pub(super) fn call(
         &mut self,
@@ -56,10 +61,7 @@ impl Interp<'_> {
                 content.push('\n');
                 self.store(u, status, Value::Num(0.0), w)?;
             }
-            // The dry run positions a spindle at once: nothing to wait for. The blank description and the
-            // editor's program-block markers act only on the panel; SETPIECE counts a workpiece for the
-            // tool monitoring.
-            "WAITS" | "WORKPIECE" | "GROUP_BEGIN" | "GROUP_END" | "SETPIECE" => {}
+            _ if MOVE_NOTHING.contains(&name.as_str()) => {}
             // The master spindle, whose speed a feed per revolution, a dwell in revolutions and a thread
             // follow; SETMS alone gives it back to spindle 1.
             "SETMS" => {
@@ -306,11 +308,6 @@ impl Interp<'_> {
                 | "SETAL"
                 | "WRITE"
                 | "SETMS"
-                | "WAITS"
-                | "WORKPIECE"
-                | "GROUP_BEGIN"
-                | "GROUP_END"
-                | "SETPIECE"
                 | "CYCLE800"
                 | "TRAORI"
                 | "TRANSMIT"
@@ -319,7 +316,8 @@ impl Interp<'_> {
                 | "CANCEL"
                 | "ORIRESET"
                 | "POLYPATH"
-        ) || self.cfg.probe_cycles.iter().any(|c| c == name)
+        ) || MOVE_NOTHING.contains(&name)
+            || self.cfg.probe_cycles.iter().any(|c| c == name)
     }
 
     /// Finds `NAME.SPF` / `NAME.MPF` (any case, or `_N_NAME_SPF`) beside the calling program, then in the

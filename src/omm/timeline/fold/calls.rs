@@ -281,24 +281,23 @@ impl Builder<'_> {
             }
         }
         for (b, (k, fields)) in unsure_at {
-            if self.only_an_unused_feed(b, &fields) {
+            // A feed the program sets again before it uses one is no gate's to give back: what stays
+            // unsure beside it decides (nothing: the place measures; the spindle alone: as after a call
+            // that leaves only the spindle — a milling cycle leaves its speed and feed, the next tool's
+            // block writes F before its first cut).
+            let feed_unused = fields[field::FEED] && self.feed_unused_from(b);
+            let mut rest = fields;
+            rest[field::FEED] &= !feed_unused;
+            let spindle_only =
+                (0..field::COUNT).all(|f| !rest[f] || f == field::S || f == field::DIRECTION);
+            if spindle_only && feed_unused {
+                self.feed_not_given.insert(b);
+            }
+            if !rest.contains(&true) {
                 continue;
             }
-            // A feed the program sets again before it uses one is no gate's to give back: what stays
-            // unsure beside it decides (a milling cycle leaves its speed and feed, the next tool's block
-            // writes F before its first cut).
-            let feed_unused = fields[field::FEED] && self.feed_unused_from(b);
-            let spindle_only = (0..field::COUNT).all(|f| {
-                !fields[f]
-                    || f == field::S
-                    || f == field::DIRECTION
-                    || (f == field::FEED && feed_unused)
-            });
             if spindle_only {
                 self.varies_but_spindle.insert(b);
-                if feed_unused {
-                    self.feed_not_given.insert(b);
-                }
             } else {
                 self.varies.insert(b);
             }
