@@ -168,6 +168,44 @@ fn a_block_the_skip_switch_may_leave_out_is_no_certain_tool_change_or_speed() {
     }
 }
 
+/// A field a skippable block sets is unsure after it until the program sets it again. Setting it again to
+/// the value the timeline already held (the skippable `/S3000 M3`, then `S3000 M3`) changed nothing and
+/// left it unsure: no gate after it measured until the next tool change. A write settles it on every way.
+#[test]
+fn a_speed_written_again_after_a_skippable_block_is_certain_even_at_the_same_value() {
+    let prog = "G54\nT=\"EM10\" M6\nD1\nS2000 M3\nG0 X0 Y0 Z50\nG0 X10 Y10 Z5\nG1 Z-1 F100\nG1 X50\nG0 Z50\n/S3000 M3\nG0 X0\nS3000 M3\nG0 Z5\nG1 Z-1\nG1 X-30\nG0 Z50\nG0 X20\nT=\"FM50\" M6\nD1\nS2500 M3\nG0 X40 Z5\nG1 Z-1\nG1 X80\nG0 Z50\nM30\n";
+    for profile in common::MILLING_PROFILES {
+        let out = common::every_gate_transformed(profile, &[("p.mpf", prog)]);
+        let after = common::lines_between(&out, "G1 X-30", "T=\"FM50\" M6");
+        let after = after.join("\n");
+        assert!(
+            common::measured_before(&after).iter().any(|b| b == "G0"),
+            "{profile}: no gate measures after the speed is written again\n{out}"
+        );
+    }
+}
+
+/// What a cycle may leave (CYCLE61's speed, direction, feed) is settled only by a write that runs on
+/// every way: one inside an IF, or in a block the skip switch may leave out, may not run. Such a write
+/// settled it, and the gate after gave back `S3000 M3` where the program, with the IF not taken, turned
+/// at the cycle's speed.
+#[test]
+fn a_write_that_may_not_run_does_not_settle_what_a_cycle_left() {
+    let head = "G54\nT=\"EM10\" M6\nD1\nS3000 M3\nG0 X0 Y0 Z50\nG0 X10 Y10 Z5\nG1 Z-1 F100\nG1 X50\nG0 Z50\nCYCLE61(50,1,1,0,0,0,100,100,1,80,0,800,11,0,2,5000,0,0)\nG0 Z50\n";
+    let tail = "; PASS 2\nG0 X0 Y0 Z5\nG1 Z-1 F100\nG1 X-30\nG0 Z50\nT=\"FM50\" M6\nD1\nS2500 M3\nG0 X40 Z5\nG1 Z-1\nG1 X80\nG0 Z50\nM30\n";
+    for write in ["IF R1==1\nS3000 M3\nENDIF\n", "/S3000 M3\n"] {
+        let prog = format!("{head}{write}{tail}");
+        for profile in common::MILLING_PROFILES {
+            let out = common::every_gate_transformed(profile, &[("p.mpf", &prog)]);
+            let gate = common::gate_before(&out, "; PASS 2");
+            assert!(
+                !common::gate_measures(&gate),
+                "{profile}, {write:?}: the gate after the cycle measured\n{gate:#?}"
+            );
+        }
+    }
+}
+
 /// An archive saved from the control may open with a definition file or a subprogram (sections in
 /// the order of their folders). The gates, the zero and the initial data belong in its main program: they
 /// went into the first section, so a subprogram the main calls mid-cut measured with a tool swap, and the

@@ -356,6 +356,24 @@ pub(super) mod field {
         std::array::from_fn(|f| fields[f] && last[f] <= since)
     }
 
+    /// Where each field was last set by the program, as a place after block `t` whose ways differ sees
+    /// it: the later of where its value last changed and where the program's words last wrote it whole,
+    /// where that write runs on every way through `t`. A write that repeats the value the fold holds
+    /// changes nothing, yet makes the value certain on every way (`/S3000 M3`, later `S3000 M3`); one in
+    /// an IF, a loop, a skippable block or a stretch a jump passes over, begun after `t`, may not run
+    /// (`written_in`: one past the block that began the innermost of them at the write, 0 for none).
+    pub fn set_as_seen_from(
+        t: usize,
+        changed: &[usize; COUNT],
+        written: &[usize; COUNT],
+        written_in: &[usize; COUNT],
+    ) -> [usize; COUNT] {
+        std::array::from_fn(|f| {
+            let write = if written_in[f] <= t { written[f] } else { 0 };
+            changed[f].max(write)
+        })
+    }
+
     /// The motion and feed fields, as a plain move or a run of them sets them.
     pub fn motion_feed(motion: bool, feed: bool) -> [bool; COUNT] {
         let mut set = [false; COUNT];

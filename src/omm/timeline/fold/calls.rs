@@ -32,7 +32,7 @@ impl Builder<'_> {
             self.state.path_mode = None;
             self.touched[field::PATH_MODE] = true;
             // A gate writes no path mode back where it is the cycle's.
-            self.written[field::PATH_MODE] = i + 1;
+            self.mark_written(i + 1, field::only(&[field::PATH_MODE]));
         }
         self.t.moves = true;
         if !self.called.contains(name) {
@@ -253,14 +253,16 @@ impl Builder<'_> {
         // Site block → the last call (by index) that leaves it unsure, and the fields.
         let mut unsure_at: BTreeMap<usize, (usize, [bool; field::COUNT])> = BTreeMap::new();
         for (k, (call, _, unsure)) in calls.iter().enumerate() {
-            let open = |written: &[usize; field::COUNT], since: usize| {
-                let open = field::not_set_since(unsure, since, written);
+            let open = |(written, written_in), since: usize| {
+                let seen =
+                    field::set_as_seen_from(since - 1, &[0; field::COUNT], written, written_in);
+                let open = field::not_set_since(unsure, since, &seen);
                 open.contains(&true).then_some(open)
             };
             let after = self.site_changes.partition_point(|(b, ..)| *b <= *call);
-            for (b, _, written) in &self.site_changes[after..] {
+            for (b, _, written, written_in) in &self.site_changes[after..] {
                 // Every unsure field set again: so it stays at every later site.
-                let Some(fields) = open(written, call + 1) else {
+                let Some(fields) = open((written, written_in), call + 1) else {
                     break;
                 };
                 unsure_at.insert(*b, (k, fields));
@@ -270,8 +272,8 @@ impl Builder<'_> {
                 let before_call = self.site_changes[from..]
                     .iter()
                     .take_while(|(b, ..)| b <= call);
-                for (b, _, written) in before_call {
-                    if let Some(fields) = open(written, first) {
+                for (b, _, written, written_in) in before_call {
+                    if let Some(fields) = open((written, written_in), first) {
                         let e = unsure_at.entry(*b).or_insert((k, fields));
                         for (mine, its) in e.1.iter_mut().zip(fields) {
                             *mine |= its;
@@ -343,10 +345,10 @@ impl Builder<'_> {
     /// Notes that the program's words set `fields` wholly, by block `at` (one past the block): a call's
     /// unsureness of them ends there.
     pub(super) fn mark_written(&mut self, at: usize, fields: [bool; field::COUNT]) {
-        for (w, now) in self.written.iter_mut().zip(fields) {
-            if now {
-                *w = at;
-            }
+        let within = self.conditional_region(at - 1).map_or(0, |b| b + 1);
+        for f in (0..field::COUNT).filter(|&f| fields[f]) {
+            self.written[f] = at;
+            self.written_in[f] = within;
         }
     }
 

@@ -134,6 +134,7 @@ impl Builder<'_> {
     /// CYCLE832), so they are not unsure.
     fn leave_to_call(&mut self, i: usize, unsure: &mut [bool; field::COUNT]) {
         let st = &mut self.state;
+        let mut left = [false; field::COUNT];
         for (f, value) in [
             (field::PLANE, &mut st.plane),
             (field::FEED_MODE, &mut st.feed_mode),
@@ -144,9 +145,10 @@ impl Builder<'_> {
                 if value.take().is_some() {
                     self.changed[f] = i + 1;
                 }
-                self.written[f] = i + 1;
+                left[f] = true;
             }
         }
+        self.mark_written(i + 1, left);
     }
 
     /// The block after a declared tool change at block `i`: the tool (and with `Named` its selection) set

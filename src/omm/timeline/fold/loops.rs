@@ -198,7 +198,7 @@ impl Builder<'_> {
             return;
         }
         let from = self.site_changes.partition_point(|(b, ..)| *b < body.0);
-        for (b, changed, _) in &self.site_changes[from..] {
+        for (b, changed, ..) in &self.site_changes[from..] {
             if *b > body.1 {
                 break;
             }
@@ -244,6 +244,25 @@ impl Builder<'_> {
         }
     }
 
+    /// The first block of the innermost stretch block `i` may not run in: an IF or a loop open at it, the
+    /// block itself where the skip switch may leave it out, a forward jump passing over it.
+    pub(super) fn conditional_region(&self, i: usize) -> Option<usize> {
+        let jumped = self
+            .t
+            .skips
+            .iter()
+            .filter(|(from, to)| *from < i && i < *to);
+        [
+            self.open_ifs.last().map(|o| o.block),
+            self.open_loops.last().map(|l| l.block),
+            self.skippable,
+            jumped.map(|(from, _)| *from).max(),
+        ]
+        .into_iter()
+        .flatten()
+        .max()
+    }
+
     /// The sites after a label that a jump reaches in another state: a field in which the states differ and
     /// which the program has not set again since the label. (A site at the label's own block runs before
     /// the label, on the fall-through path only.)
@@ -251,8 +270,9 @@ impl Builder<'_> {
         for (t, set_from, differ) in std::mem::take(&mut self.merges) {
             let from = self.site_changes.partition_point(|(b, ..)| *b <= t);
             for k in from..self.site_changes.len() {
-                let (b, changed, _) = self.site_changes[k];
-                let unsure = field::not_set_since(&differ, set_from, &changed);
+                let (b, changed, written, written_in) = self.site_changes[k];
+                let set = field::set_as_seen_from(t, &changed, &written, &written_in);
+                let unsure = field::not_set_since(&differ, set_from, &set);
                 if !unsure.contains(&true) {
                     // Every differing field is set again: so it stays at every later site.
                     break;

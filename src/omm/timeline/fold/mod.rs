@@ -149,8 +149,18 @@ pub(super) struct Builder<'p> {
     /// state before them (G1, F100, M9; not M8, which adds to an M7, nor a frame, which combines): what
     /// makes a field sure again after a call (see [`Builder::unsure_after`]).
     written: [usize; field::COUNT],
+    /// Per field, where its last write in `written` ran: one past the block that began the innermost IF,
+    /// loop, skippable block or jumped-over stretch open at it (0: none), see [`field::set_as_seen_from`].
+    written_in: [usize; field::COUNT],
+    /// The block being read, when the operator's skip switch may leave it out.
+    skippable: Option<usize>,
     /// Blocks that may get a site or pass mark, with `changed` and `written` there.
-    site_changes: Vec<(usize, [usize; field::COUNT], [usize; field::COUNT])>,
+    site_changes: Vec<(
+        usize,
+        [usize; field::COUNT],
+        [usize; field::COUNT],
+        [usize; field::COUNT],
+    )>,
     /// Calls after which fields may hold otherwise than the timeline has them: (call block, name called,
     /// the fields).
     call_unsure: Vec<(usize, String, [bool; field::COUNT])>,
@@ -300,6 +310,8 @@ impl<'p> Builder<'p> {
             label_times: HashMap::new(),
             changed: [0; field::COUNT],
             written: [0; field::COUNT],
+            written_in: [0; field::COUNT],
+            skippable: None,
             site_changes: Vec::new(),
             call_unsure: Vec::new(),
             varies: BTreeSet::new(),
@@ -789,7 +801,9 @@ impl<'p> Builder<'p> {
             return self.block_words(i, s, kind);
         }
         let (entry, clear) = (self.state.clone(), self.last_was_z_retract);
+        self.skippable = Some(i);
         self.block_words(i, s, kind);
+        self.skippable = None;
         self.merge(i, i + 1, &[entry]);
         self.last_was_z_retract &= clear;
     }
@@ -1564,14 +1578,15 @@ impl<'p> Builder<'p> {
         if self.returns_from_several_places() {
             return [true; field::COUNT];
         }
-        let merges = self
-            .merges
-            .iter()
-            .map(|(_, set_from, differ)| field::not_set_since(differ, *set_from, &self.changed));
-        let calls = self
-            .call_unsure
-            .iter()
-            .map(|(call, _, unsure)| field::not_set_since(unsure, call + 1, &self.written));
+        let seen = |t: usize, changed: &[usize; field::COUNT]| {
+            field::set_as_seen_from(t, changed, &self.written, &self.written_in)
+        };
+        let merges = self.merges.iter().map(|(t, set_from, differ)| {
+            field::not_set_since(differ, *set_from, &seen(*t, &self.changed))
+        });
+        let calls = self.call_unsure.iter().map(|(call, _, unsure)| {
+            field::not_set_since(unsure, call + 1, &seen(*call, &[0; field::COUNT]))
+        });
         let mut open = [false; field::COUNT];
         for fields in merges.chain(calls) {
             for (o, f) in open.iter_mut().zip(fields) {

@@ -107,7 +107,8 @@ impl Builder<'_> {
             self.varies.insert(i);
         }
         if !self.merges.is_empty() || !self.call_unsure.is_empty() {
-            self.site_changes.push((i, self.changed, self.written));
+            self.site_changes
+                .push((i, self.changed, self.written, self.written_in));
         }
         self.start = Some(Site::new(
             i,
@@ -195,7 +196,8 @@ impl Builder<'_> {
             || !self.merges.is_empty()
             || !self.call_unsure.is_empty()
         {
-            self.site_changes.push((i, self.changed, self.written));
+            self.site_changes
+                .push((i, self.changed, self.written, self.written_in));
         }
         // What a subprogram or cycle left (feed, motion, …) is not known until the next tool change.
         if self.after_call {
