@@ -50,6 +50,9 @@ struct OpenIf {
     ended: bool,
 }
 
+/// Per field, a block (one past it) where the fold last saw it set, or 0.
+type SetMarks = [usize; field::COUNT];
+
 /// The spindle and path mode before a block's call: the call's own (its spindle words replayed, CYCLE832's
 /// path mode) come after a gate before it, which must give back the program's.
 #[derive(Clone, Copy)]
@@ -154,13 +157,8 @@ pub(super) struct Builder<'p> {
     written_in: [usize; field::COUNT],
     /// The block being read, when the operator's skip switch may leave it out.
     skippable: Option<usize>,
-    /// Blocks that may get a site or pass mark, with `changed` and `written` there.
-    site_changes: Vec<(
-        usize,
-        [usize; field::COUNT],
-        [usize; field::COUNT],
-        [usize; field::COUNT],
-    )>,
+    /// Blocks that may get a site or pass mark, with `changed`, `written` and `written_in` there.
+    site_changes: Vec<(usize, SetMarks, SetMarks, SetMarks)>,
     /// Calls after which fields may hold otherwise than the timeline has them: (call block, name called,
     /// the fields).
     call_unsure: Vec<(usize, String, [bool; field::COUNT])>,
