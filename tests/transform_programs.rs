@@ -206,6 +206,46 @@ fn a_write_that_may_not_run_does_not_settle_what_a_cycle_left() {
     }
 }
 
+/// A long cut at `S=R1` after `R1=4000`: the prediction ran at 0 rpm (the speed before the block), so the
+/// plan predicted no drift over hours of cutting and the gates measured nothing. The speed of a variable
+/// last assigned a number now drives the prediction; a speed driftloop cannot evaluate is named in a
+/// warning.
+#[test]
+fn a_speed_from_a_variable_assigned_a_number_drives_the_prediction() {
+    let cut: String = (0..40).map(|_| "G1 X500\nG1 X0\n").collect();
+    let prog = format!(
+        "G54\nR1=4000\nT=\"EM10\" M6\nD1\nS=R1 M3\nG0 X0 Y0 Z50\nG0 Z5\nG1 Z-1 F100\n{cut}G0 Z50\nT=\"EM12\" M6\nD1\nS=R1*1.5 M3\nG0 X0 Y0 Z5\nG1 Z-1 F100\n{cut}G0 Z50\nM30\n"
+    );
+    let model = common::fixture("omm/model.toml");
+    let (o, _dir) = common::run_in(&[("p.mpf", &prog)], &["plan", "p.mpf", "--model", &model]);
+    let (out, err) = (common::stdout(&o), common::stderr(&o));
+    assert!(o.status.success(), "{err}");
+    let pass_one = out.lines().find(|l| l.contains("\"EM10\"")).unwrap();
+    assert!(pass_one.trim_end().ends_with("4000"), "{out}");
+    assert!(
+        err.contains(
+            "line 92: the spindle speed is set by an expression driftloop cannot evaluate"
+        ),
+        "{err}"
+    );
+}
+
+/// The timeline reads the program in order, so a variable's last number is the value on one way only:
+/// after `IF` / `R1=4000` / `ELSE` / `R1=6000` / `ENDIF`, `S=R1` turns at 4000 or 6000. A gate after it
+/// must not give back either number.
+#[test]
+fn a_gate_gives_back_no_speed_taken_from_a_variable_that_branches_set() {
+    let prog = "G54\nIF R10==1\nR1=4000\nELSE\nR1=6000\nENDIF\nT=\"EM10\" M6\nD1\nS=R1 M3\nG0 X0 Y0 Z50\nG0 X10 Y10 Z5\nG1 Z-1 F100\nG1 X50\nG0 Z50\nG0 X0\nG0 Z5\nG1 Z-1\nG1 X-30\nG0 Z50\nG0 X20\nT=\"FM50\" M6\nD1\nS2500 M3\nG0 X40 Z5\nG1 Z-1\nG1 X80\nG0 Z50\nM30\n";
+    for profile in common::MILLING_PROFILES {
+        let out = common::every_gate_transformed(profile, &[("p.mpf", prog)]);
+        assert!(
+            !out.lines()
+                .any(|l| l.ends_with(";DL") && (l.starts_with("S4000") || l.starts_with("S6000"))),
+            "{profile}:\n{out}"
+        );
+    }
+}
+
 /// An archive saved from the control may open with a definition file or a subprogram (sections in
 /// the order of their folders). The gates, the zero and the initial data belong in its main program: they
 /// went into the first section, so a subprogram the main calls mid-cut measured with a tool swap, and the

@@ -993,6 +993,22 @@ fn unfit_for_measuring(
     }
 }
 
+/// A speed the timeline cannot evaluate: the prediction, in the plan and in the program's gates, runs on
+/// with the speed before it, so the drift there may be larger than planned.
+fn unknown_speed_warning(timeline: &Timeline) -> Option<String> {
+    let mut lines = timeline.unknown_speed_lines.clone();
+    lines.sort_unstable();
+    lines.dedup();
+    let first = *lines.first()?;
+    let more = match lines.len() {
+        1 => String::new(),
+        n => format!(" (and {} more line(s))", n - 1),
+    };
+    Some(format!(
+        "line {first}{more}: the spindle speed is set by an expression driftloop cannot evaluate; the prediction runs on with the speed before it, so the drift there may be larger than planned: write the speed as a number or a variable assigned a number, or bound the time between measurements with `[limits] max_interval_min`"
+    ))
+}
+
 /// The predictors of every measured axis, stepped together.
 struct Axes(Vec<Predictor>);
 
@@ -1100,6 +1116,9 @@ pub fn plan(
         tolerance: profile.limits.tolerance_um,
         warnings: speed_warnings,
     };
+    if let Some(warning) = unknown_speed_warning(timeline) {
+        watch.warnings.push(warning);
+    }
     if let Some((jump, target)) = skipped {
         watch.warnings.push(format!(
             "the zero at line {} lies in what the jump at line {} skips: no gate from line {} on (on the jump's path they would run without the zero); the correction in force there is the last one before",

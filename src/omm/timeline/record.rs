@@ -133,6 +133,10 @@ pub struct Timeline {
     pub used_r: BTreeSet<u32>,
     /// Lines (1-based) that index R-parameters by an expression.
     pub computed_r_lines: Vec<usize>,
+    /// Lines (1-based) that set the spindle speed by an expression the timeline cannot evaluate (`S=R1*1.5`,
+    /// `S=_RPM` of a PROC), or call a subprogram from a folder that does: the prediction runs on with the
+    /// speed before it.
+    pub unknown_speed_lines: Vec<usize>,
     pub labels: BTreeSet<String>,
     /// Settable work offsets the program selects, with the first line selecting each.
     pub offsets: Vec<(u32, usize)>,

@@ -104,6 +104,12 @@ impl Builder<'_> {
                 if !sub.offset_selections.is_empty() && self.state.unfit().is_none() {
                     self.t.offset_selections.push(i);
                 }
+                self.t.unknown_speed_lines.extend(
+                    sub.unknown_speed_lines
+                        .iter()
+                        .filter(|_| !own_blocks)
+                        .map(|l| line(*l)),
+                );
                 self.t.untimed_calls.extend(
                     sub.untimed_calls
                         .iter()

@@ -795,6 +795,8 @@ impl<'p> Builder<'p> {
     /// loads is not known), a tool change in it is not certain (the gate before it gives the cutting
     /// tool back) and a retract in it may not have happened.
     pub(super) fn block(&mut self, i: usize, s: &Scan, kind: BlockKind) {
+        let known = self.speed_from_variable(s);
+        let s = known.as_ref().unwrap_or(s);
         if !s.skippable {
             return self.block_words(i, s, kind);
         }
@@ -1028,6 +1030,9 @@ impl<'p> Builder<'p> {
             && s.tool.as_ref().or(self.state.selected.as_ref()) == self.state.tool.as_ref();
         let set = self.touch(s, dwell, no_speed);
         self.note_written(i, s, set, no_speed, reloads);
+        if s.unknown & unknown::S != 0 && s.s.is_none() && !no_speed {
+            self.t.unknown_speed_lines.push(i + 1);
+        }
         self.state.unknown |= s.unknown;
         match s.sum_offset {
             Some(true) => self.state.unknown |= unknown::SUM_OFFSET,
@@ -1080,7 +1085,7 @@ impl<'p> Builder<'p> {
         let speed = s.s.filter(|_| !no_speed);
         if let Some(v) = speed {
             self.state.s = v;
-            self.state.unknown &= !unknown::S;
+            self.state.unknown = (self.state.unknown & !unknown::S) | (s.unknown & unknown::S);
         }
         if let Some(l) = s.lims {
             self.lims = Some(l);

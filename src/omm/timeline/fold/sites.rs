@@ -135,16 +135,33 @@ impl Builder<'_> {
         }
     }
 
+    /// The value of a variable or R-parameter (`_A_HOME`, `R5`, upper case) where the fold knows it: last
+    /// assigned a literal.
+    pub(super) fn literal_value(&self, name: &str) -> Option<f64> {
+        match name.strip_prefix('R').and_then(|n| n.parse::<u32>().ok()) {
+            Some(n) => self.r_values.get(&n).copied(),
+            None => self.var_values.get(name).copied(),
+        }
+    }
+
+    /// The block with its spindle speed taken from a variable or R-parameter last assigned a literal
+    /// (`R1=4000` … `S=R1`), for the prediction. It stays a speed set by an expression: the fold reads the
+    /// program in order, and on another way (an IF's other branch) the variable may hold another value, so
+    /// a gate gives back no speed there. `None` where the block's speed is no such name, or its value is
+    /// not known.
+    pub(super) fn speed_from_variable(&self, s: &Scan) -> Option<Scan> {
+        let v = self.literal_value(s.speed_var.as_deref()?)?;
+        let mut known = s.clone();
+        known.s = Some(v);
+        Some(known)
+    }
+
     /// Rotary axes the block positions: away from 0 they turn the part ([`frame::ROTARY`]); a variable or
     /// R-parameter last assigned a literal counts as that literal, any other as away.
     pub(super) fn rotary_axes(&mut self, s: &Scan) {
         let (mut away, mut home) = (s.rotary_away, s.rotary_home);
         for (bit, name) in &s.rotary_vars {
-            let value = match name.strip_prefix('R').and_then(|n| n.parse::<u32>().ok()) {
-                Some(n) => self.r_values.get(&n),
-                None => self.var_values.get(name),
-            };
-            if value == Some(&0.0) {
+            if self.literal_value(name) == Some(0.0) {
                 home |= bit;
             } else {
                 away |= bit;

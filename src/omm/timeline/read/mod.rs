@@ -82,6 +82,9 @@ pub(super) struct Scan {
     /// Rotary axes given a variable (`A=_A_HOME`, `C=R5`): its bit and the name, for the value the fold
     /// knows.
     pub(super) rotary_vars: Vec<(u8, String)>,
+    /// The spindle speed given by a variable or R-parameter (`S=R1`, `S=_DREHZAHL`): its name, for the
+    /// value the fold knows.
+    pub(super) speed_var: Option<String>,
     /// The block programs the tool's orientation (`A3=`, `B2=`, `LEAD=` … under TRAORI): the rotary axes
     /// the kinematics turn for it stay turned after TRAFOOF.
     pub(super) orients: bool,

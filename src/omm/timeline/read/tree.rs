@@ -124,6 +124,10 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
     s.s = speed.and_then(|a| num(&a.value));
     if speed.is_some() && s.s.is_none() {
         s.unknown |= unknown::S;
+        if let Some(Value::Expr(span)) = speed.map(|a| &a.value) {
+            let text = &program.source()[span.start..span.end];
+            s.speed_var = is_name(text).then(|| upper_text(text));
+        }
     }
     for v in f
         .m_codes
