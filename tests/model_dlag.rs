@@ -284,6 +284,53 @@ fn p_signals(model: &DriftModel, lagged: bool) -> Vec<&str> {
     out
 }
 
+/// `fit` without `--kind` makes spindle modes, but where the data log temperatures that vary it scores
+/// both kinds' whole fits on later time and names the better: on this machine, whose drift follows the
+/// hall temperature (which no spindle mode sees), the distributed-lag model. Data without temperatures
+/// get no comparison (and no extra fits).
+#[test]
+fn fit_without_a_kind_compares_both_kinds_on_later_time() {
+    let (dir, _) = machine_csv(7);
+    let out = common::driftloop(dir.path(), &["fit", "m.csv", "-o", "m.toml"], b"");
+    assert_eq!(out.status.code(), Some(0), "{}", common::stderr(&out));
+    let summary = String::from_utf8_lossy(&out.stdout).into_owned();
+    let line = summary
+        .lines()
+        .find(|l| l.contains("forward RMS (each kind fitted before every forward origin"))
+        .unwrap_or_else(|| panic!("no comparison:\n{summary}"));
+    let rms = |after: &str| -> f64 {
+        let at = line.find(after).unwrap() + after.len();
+        line[at..]
+            .split_whitespace()
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    let (modes, dlag) = (rms("spindle modes "), rms("2 temperature(s) "));
+    assert!(dlag < modes, "{line}");
+    assert!(
+        line.contains("`--kind dlag` predicts later time better"),
+        "{line}"
+    );
+    assert!(
+        DriftModel::read(&dir.path().join("m.toml"))
+            .unwrap()
+            .fit
+            .unwrap()
+            .forward
+            .is_none()
+    );
+    let chars = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/data/characterisation.csv");
+    let out = common::driftloop(
+        dir.path(),
+        &["fit", chars.to_str().unwrap(), "-o", "c.toml"],
+        b"",
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", common::stderr(&out));
+    assert!(!String::from_utf8_lossy(&out.stdout).contains("forward RMS (each kind"));
+}
+
 #[test]
 fn fit_predict_and_transform_through_the_binary() {
     let (dir, _) = machine_csv(7);

@@ -49,9 +49,10 @@ pub struct Args {
     #[arg(long)]
     pub channel: Option<String>,
     /// The model to fit: `modes` (spindle modes) or `dlag` (every temperature at several lags plus a
-    /// power-law spindle term, chosen by forward validation).
-    #[arg(long, value_enum, default_value_t = Kind::Modes)]
-    pub kind: Kind,
+    /// power-law spindle term, chosen by forward validation). Without it: `modes`, and where the data
+    /// log temperatures that vary, the report compares both kinds on later time.
+    #[arg(long, value_enum)]
+    pub kind: Option<Kind>,
     /// Declared inputs of `--kind modes`, comma separated: spindle_rpm gives the spindle modes, any other
     /// column a lagged linear term (e.g. spindle_rpm,ambient_c).
     #[arg(long, value_delimiter = ',', default_value = "spindle_rpm")]
@@ -99,7 +100,7 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
     let ds = super::log::read_data(&args.data, Require::Displacement)?;
     let channel = only_channel(&ds, args.channel.as_deref())?;
     let until_min = args.until.map(|u| u.0);
-    let model = match args.kind {
+    let model = match args.kind.unwrap_or(Kind::Modes) {
         Kind::Modes => fit(
             &ds,
             &FitOptions {
@@ -147,11 +148,50 @@ pub fn run(args: Args, _global: &Global) -> anyhow::Result<ExitCode> {
         }
     };
     let report = match args.format {
+        Format::Human if args.kind.is_none() => {
+            summary(&model) + &kind_comparison(&ds, &model, &args).unwrap_or_default()
+        }
         Format::Human => summary(&model),
         Format::Json => serde_json::to_string_pretty(&model)? + "\n",
     };
     super::write_model(args.output.as_deref(), &model, &report)?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// Where the data log temperatures that vary and no `--kind` was asked for: both kinds' whole fits, scored
+/// on later time (each fitted on the rows before every forward origin and predicting the rows after it),
+/// and which predicts better. A `dlag` model reads the sensors in the NC program, so it is named, not
+/// chosen.
+fn kind_comparison(ds: &Dataset, model: &DriftModel, args: &Args) -> Option<String> {
+    let window = ds.until_opt(args.until.map(|u| u.0));
+    let sensors = DlagOptions::new(model.channel.clone());
+    let modes_at = |until: f64| {
+        let mut o = FitOptions::new(model.channel.clone());
+        (o.inputs, o.modes, o.until_min) = (args.inputs.clone(), args.modes, Some(until));
+        fit(&window, &o).ok()
+    };
+    let dlag_at = |until: f64| {
+        let mut o = sensors.clone();
+        o.until_min = Some(until);
+        fit_dlag(&window, &o).ok()
+    };
+    let usable = crate::data::measured(window.values(&model.channel)?);
+    let temperatures = crate::model::dlag::varying_temperatures(&window, &usable).len();
+    if temperatures == 0 {
+        return None;
+    }
+    let modes = crate::model::forward::procedure_rms(&window, &model.channel, modes_at)?;
+    let dlag = crate::model::forward::procedure_rms(&window, &model.channel, dlag_at)?;
+    let verdict = if dlag < modes {
+        format!(
+            "`--kind dlag` predicts later time better; it reads the {temperatures} temperature(s) in the NC program, through analog inputs the profile maps ([log] inputs)"
+        )
+    } else {
+        "the spindle modes predict later time as well or better".to_string()
+    };
+    Some(format!(
+        "  forward RMS (each kind fitted before every forward origin, scored after it): spindle modes {modes:.2} µm, distributed-lag over {temperatures} temperature(s) {dlag:.2} µm: {verdict}\n"
+    ))
 }
 
 /// The channel asked for, or the data's only displacement channel.

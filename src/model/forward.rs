@@ -8,6 +8,7 @@
 //! window offers and count in every fold that reaches them.
 
 use crate::data::Dataset;
+use crate::model::DriftModel;
 
 /// One fold: rows (indices into the data) to fit on and rows to score.
 #[derive(Debug, Clone, PartialEq)]
@@ -101,6 +102,37 @@ impl Origins {
         }
         out
     }
+}
+
+/// The forward RMS (µm) of a whole fitting procedure on the default folds of `ds`'s rows of `channel`: each
+/// fold runs `fit` on the rows before its origin (a time on the data's own clock, as `--until`) and
+/// predicts the rows from it on; the RMS pools every fold's test rows. Two procedures (two model kinds)
+/// compared this way are each judged as they are used: fitted on the past, scored on the future. `None`
+/// where the rows are several runs (their clock starts again), a fold's fit fails, or no fold fits.
+pub fn procedure_rms(
+    ds: &Dataset,
+    channel: &str,
+    fit: impl Fn(f64) -> Option<DriftModel>,
+) -> Option<f64> {
+    let y = ds.values(channel)?;
+    let el = elapsed(ds);
+    let t0 = *ds.time_min.first()?;
+    if el
+        .iter()
+        .zip(&ds.time_min)
+        .any(|(e, t)| (e + t0 - t).abs() > 1e-6)
+    {
+        return None;
+    }
+    let (mut sse, mut n) = (0.0, 0usize);
+    for fold in Origins::default().folds(&el, &crate::data::measured(y)) {
+        let predicted = fit(fold.origin_min + t0)?.predict(ds).ok()?;
+        for &i in &fold.test {
+            sse += (y[i] - predicted[i]).powi(2);
+            n += 1;
+        }
+    }
+    (n > 0).then(|| (sse / n as f64).sqrt())
 }
 
 #[cfg(test)]

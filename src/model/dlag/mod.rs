@@ -573,15 +573,25 @@ fn validate(parts: &[Moments], penalties: &[f64]) -> Option<(f64, f64)> {
     Some((penalties[best], (s / scored).sqrt()))
 }
 
+/// The temperature columns that vary over the rows marked `usable`: the sensors a dlag model takes
+/// without `--signals`.
+pub fn varying_temperatures(ds: &Dataset, usable: &[bool]) -> Vec<String> {
+    let varies = |v: &[f64]| {
+        let mut it = (0..v.len()).filter(|&i| usable[i]).map(|i| v[i]);
+        it.next()
+            .is_some_and(|first| it.any(|x| (x - first).abs() > 1e-12))
+    };
+    ds.columns
+        .iter()
+        .filter(|c| c.kind == ColumnKind::Temperature && varies(&c.values))
+        .map(|c| c.name.clone())
+        .collect()
+}
+
 impl<'a> Prepared<'a> {
     fn new(ds: &'a Dataset, opts: &DlagOptions) -> Result<Prepared<'a>, FitError> {
         let y = channel_values(ds, &opts.channel)?.to_vec();
         let usable = crate::data::measured(&y);
-        let varies = |v: &[f64]| {
-            let mut it = (0..v.len()).filter(|&i| usable[i]).map(|i| v[i]);
-            it.next()
-                .is_some_and(|first| it.any(|x| (x - first).abs() > 1e-12))
-        };
         let signals: Vec<String> = match &opts.signals {
             Some(names) => names
                 .iter()
@@ -596,12 +606,7 @@ impl<'a> Prepared<'a> {
                     }
                 })
                 .collect::<Result<_, _>>()?,
-            None => ds
-                .columns
-                .iter()
-                .filter(|c| c.kind == ColumnKind::Temperature && varies(&c.values))
-                .map(|c| c.name.clone())
-                .collect(),
+            None => varying_temperatures(ds, &usable),
         };
         let characterised = ds
             .values(SPINDLE)
