@@ -230,6 +230,30 @@ fn a_speed_from_a_variable_assigned_a_number_drives_the_prediction() {
     );
 }
 
+/// A subprogram that takes its speed as a parameter (`PROC OP_BOHREN(REAL _RPM, …)`, `S=_RPM M3`) turns
+/// at the number its call passes: the prediction runs at it. A call that passes an expression is named in
+/// the warning, by its own line.
+#[test]
+fn a_subprograms_speed_parameter_takes_the_number_its_call_passes() {
+    let sub =
+        "PROC OP_BOHREN(REAL _RPM, REAL _F)\nS=_RPM M3\nG0 X10 Y10 Z5\nG1 Z-20 F=_F\nG0 Z5\nM17\n";
+    let main = "G54\nT=\"DR5\" M6\nD1\nG0 X0 Y0 Z50\nOP_BOHREN(4000, 100)\nG0 Z50\nOP_BOHREN(R5, 100)\nG0 Z50\nM30\n";
+    let model = common::fixture("omm/model.toml");
+    let (o, _dir) = common::run_in(
+        &[("p.mpf", main), ("OP_BOHREN.SPF", sub)],
+        &["plan", "p.mpf", "--model", &model],
+    );
+    let (out, err) = (common::stdout(&o), common::stderr(&o));
+    assert!(o.status.success(), "{err}");
+    let pass = out.lines().find(|l| l.contains("\"DR5\"")).unwrap();
+    assert!(pass.trim_end().ends_with("4000"), "{out}");
+    assert!(
+        err.contains("line 7: the spindle speed is set by an expression"),
+        "{err}"
+    );
+    assert!(!err.contains("line 5"), "{err}");
+}
+
 /// The timeline reads the program in order, so a variable's last number is the value on one way only:
 /// after `IF` / `R1=4000` / `ELSE` / `R1=6000` / `ENDIF`, `S=R1` turns at 4000 or 6000. A gate after it
 /// must not give back either number.

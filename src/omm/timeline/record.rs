@@ -178,9 +178,9 @@ pub struct Timeline {
     pub untimed_calls: Vec<(usize, String)>,
     /// Calls of subprograms the timeline timed (the archive's, or a folder's): (line, name, min per run).
     pub timed_calls: Vec<(usize, String, f64)>,
-    /// Where the unit programs the spindle: (min from its start, S, M3/M4/M5). A call of the unit replays
-    /// them onto the caller's spindle (a subprogram may set only S, or only M3, and inherit the rest).
-    pub spindle_words: Vec<(f64, Option<f64>, Option<u32>)>,
+    /// Where the unit programs the spindle. A call of the unit replays them onto the caller's spindle (a
+    /// subprogram may set only S, or only M3, and inherit the rest).
+    pub spindle_words: Vec<SpindleWord>,
     /// First block after the unit the timeline covers (the block count, unless the file is an archive).
     pub unit_end: usize,
     /// First block that moves at feed (G1, G2, G3): the first cut.
@@ -266,6 +266,16 @@ pub struct CalleeEffect {
     pub selects: ByExpression,
     /// How it sets the cutting edge by an expression (`D=_SCHN`).
     pub sets_d: ByExpression,
+}
+
+/// A unit's spindle words in one block: (min from its start, S, M3/M4/M5), and the place of the `PROC`
+/// parameter its S is (`S=_RPM`), whose value a call that passes a number there gives.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SpindleWord {
+    pub at_min: f64,
+    pub s: Option<f64>,
+    pub direction: Option<u32>,
+    pub s_parameter: Option<usize>,
 }
 
 /// How a unit sets a field by an expression: never, always by the same one of its `PROC` parameters

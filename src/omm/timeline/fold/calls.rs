@@ -10,7 +10,7 @@ use super::declared::ToolChangeCall;
 use crate::omm::declared_calls;
 use crate::omm::timeline::modal::{Modal, POSITIONED, coolant_after, field, is_thread, unknown};
 use crate::omm::timeline::read::{CallArg, Move, Scan, measures_workpiece, section_call_labels};
-use crate::omm::timeline::record::{ByExpression, CalleeEffect, Timeline};
+use crate::omm::timeline::record::{ByExpression, CalleeEffect, SpindleWord, Timeline};
 
 impl Builder<'_> {
     /// A subprogram or cycle runs at block `i`, `repeats` times, with the arguments `args`: an archive
@@ -92,7 +92,7 @@ impl Builder<'_> {
                     .push((i + 1, shown.to_string(), sub.total_min));
                 let runs = repeats.filter(|p| *p >= 1.0).unwrap_or(1.0).floor();
                 if !sub.spindle_words.is_empty() {
-                    self.replay_spindle(i, &sub, runs);
+                    self.replay_spindle(i, &sub, runs, args);
                 }
                 self.add_minutes(runs * sub.total_min);
                 // A `CALL BLOCK` section's blocks are this unit's own: it lists them itself.
@@ -458,7 +458,7 @@ impl Builder<'_> {
     }
 
     /// The place of the unit's `PROC` parameter `variable`, where the unit has not assigned it.
-    fn parameter(&self, variable: &Option<String>) -> Option<usize> {
+    pub(super) fn parameter(&self, variable: &Option<String>) -> Option<usize> {
         let v = variable.as_ref()?;
         self.params.iter().position(|p| p == v)
     }
@@ -579,26 +579,50 @@ impl Builder<'_> {
     /// program's spindle as they come: the speeds follow, and the state after the call is the one it left.
     /// The program's prediction holds one speed from gate to gate and the subprogram has no gates: a gate
     /// before the call takes the call's time-weighted mean speed, the block after it the speed it left.
-    fn replay_spindle(&mut self, i: usize, sub: &Timeline, runs: f64) {
+    fn replay_spindle(&mut self, i: usize, sub: &Timeline, runs: f64, args: &[CallArg]) {
         let (at, rpm_before, state_before) = (self.time(), self.rpm, self.state.clone());
         let first_change = self.t.speeds.len();
+        // A speed the subprogram takes from its parameter is the number the call passes there; without
+        // one the prediction runs on with the speed before it, as for any speed it cannot evaluate.
+        let passed = |k: usize| match args.get(k) {
+            Some(CallArg::Literal(v)) => v.parse::<f64>().ok(),
+            _ => None,
+        };
+        let words: Vec<SpindleWord> = sub
+            .spindle_words
+            .iter()
+            .map(|w| SpindleWord {
+                s: w.s.or_else(|| passed(w.s_parameter?)),
+                ..*w
+            })
+            .collect();
+        if words
+            .iter()
+            .any(|w| w.s.is_none() && w.s_parameter.is_some())
+        {
+            self.t.unknown_speed_lines.push(i + 1);
+        }
         // A bound on the speed changes one call adds, for absurd repeat counts.
-        let most = 1_000_000 / sub.spindle_words.len() as u64;
+        let most = 1_000_000 / words.len() as u64;
         for run in 0..(runs as u64).min(most) {
             let offset = at + run as f64 * sub.total_min;
-            for &(t, s, direction) in &sub.spindle_words {
-                if let Some(s) = s {
+            for w in &words {
+                if let Some(s) = w.s {
                     self.state.s = s;
                 }
-                if let Some(d) = direction {
+                if let Some(d) = w.direction {
                     self.state.direction = d;
                     self.spindle_set_at(i);
                 }
-                self.t.spindle_words.push((offset + t, s, direction));
+                self.t.spindle_words.push(SpindleWord {
+                    at_min: offset + w.at_min,
+                    s_parameter: None,
+                    ..*w
+                });
                 let rpm = self.state.rpm();
                 if rpm != self.rpm {
                     self.rpm = rpm;
-                    self.t.speeds.push((offset + t, rpm));
+                    self.t.speeds.push((offset + w.at_min, rpm));
                 }
             }
         }

@@ -14,7 +14,7 @@ use crate::syntax::BlockKind;
 use super::modal::{Modal, POSITIONED, coolant_after, field, frame, is_thread, unknown};
 use super::moves::{Run, RunRef};
 use super::read::{Chunk, Move, Scan, frame_op, head, measures_workpiece};
-use super::record::{Site, SiteKind, Standing, Timeline};
+use super::record::{Site, SiteKind, SpindleWord, Standing, Timeline};
 use super::timing::{TICKS_PER_MIN, move_length, ticks};
 
 mod calls;
@@ -1030,7 +1030,9 @@ impl<'p> Builder<'p> {
             && s.tool.as_ref().or(self.state.selected.as_ref()) == self.state.tool.as_ref();
         let set = self.touch(s, dwell, no_speed);
         self.note_written(i, s, set, no_speed, reloads);
-        if s.unknown & unknown::S != 0 && s.s.is_none() && !no_speed {
+        // A PROC's speed parameter (`S=_RPM`) is its caller's to give (see `replay_spindle`).
+        let by_parameter = self.parameter(&s.speed_var).is_some();
+        if s.unknown & unknown::S != 0 && s.s.is_none() && !no_speed && !by_parameter {
             self.t.unknown_speed_lines.push(i + 1);
         }
         self.state.unknown |= s.unknown;
@@ -1143,8 +1145,17 @@ impl<'p> Builder<'p> {
         if s.leaves {
             self.program_end(i);
         }
-        if speed.is_some() || direction.is_some() {
-            self.t.spindle_words.push((start, speed, direction));
+        let s_parameter = speed
+            .is_none()
+            .then(|| self.parameter(&s.speed_var))
+            .flatten();
+        if speed.is_some() || direction.is_some() || s_parameter.is_some() {
+            self.t.spindle_words.push(SpindleWord {
+                at_min: start,
+                s: speed,
+                direction,
+                s_parameter,
+            });
         }
         // A tool-change subprogram loads the selected tool as M6 does.
         let tool_change = own_m6 || call_loads.is_some();
