@@ -147,6 +147,17 @@ pub mod unknown {
     /// A modal synchronized action (`ID=`/`IDS=` … `WHENEVER … DO …`) is active until `CANCEL`: it acts on
     /// a gate's moves and the probe cycle's as on the program's (an override, an output, an offset).
     pub const SYNC_ACTION: u16 = 1024;
+    /// A spline or polynomial (`ASPLINE`, `BSPLINE`, `CSPLINE`, `POLY`) is the modal motion: the control
+    /// joins the blocks under it into one curve, which a gate's `STOPRE`, frame write and moves would
+    /// break, and a gate gives back only G0 … G3 (red team 5).
+    pub const SPLINE: u16 = 2048;
+    /// Travel to fixed stop is selected on an axis (`FXS[axis]=1` until `FXS[axis]=0`): the axis stands
+    /// clamped against a stop at reduced torque, and moving it raises alarm 20092 (red team 5).
+    pub const FIXED_STOP: u16 = 4096;
+    /// `GEOAX(…)` assigned other channel axes to the geometry axes: a gate's X, Y, Z and its frame write
+    /// would act on them. The switch also deletes every frame: after `GEOAX()` the state counts as lost
+    /// until the program selects a work offset again (red team 5).
+    pub const GEOMETRY_AXES: u16 = 8192;
 }
 
 impl Modal {
@@ -171,6 +182,10 @@ impl Modal {
         } else if self.unknown & unknown::WORK_AREA != 0 {
             Some(
                 "the program limits the working area (G25/G26 with WALIMON): a gate's rise and its travel to the probe point or the tool setter may leave it and stop in the control's working-area alarm (WALIMOF before the gate lifts it)",
+            )
+        } else if self.unknown & unknown::FIXED_STOP != 0 {
+            Some(
+                "travel to fixed stop (FXS) is selected: the axis stands clamped against its stop, a gate's moves would raise alarm 20092 or pull it off (FXS[axis]=0 ends it)",
             )
         } else if self.unknown & unknown::SYNC_ACTION != 0 {
             Some(
@@ -220,6 +235,14 @@ impl Modal {
             Some("a rotated, scaled or mirrored frame is active")
         } else if self.frames & frame::TOOL_CARRIER != 0 {
             Some("an orientable toolholder (TCARR) is active")
+        } else if self.unknown & unknown::GEOMETRY_AXES != 0 {
+            Some(
+                "geometry axes are reassigned (GEOAX) or their frames deleted by the switch: a gate's X, Y, Z and its frame write would act on other axes or frames than the program's (GEOAX() and a work offset selected after it end this)",
+            )
+        } else if self.unknown & unknown::SPLINE != 0 {
+            Some(
+                "a spline or polynomial (ASPLINE, BSPLINE, CSPLINE, POLY) is the modal motion: a gate's STOPRE and moves would break the curve the next blocks continue, and it would give back a straight motion",
+            )
         } else {
             None
         }
