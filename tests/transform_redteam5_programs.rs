@@ -58,7 +58,11 @@ fn after_a_cycle_kept_on_the_old_rule_the_next_change_does_not_give_back_the_fee
         let written = redteam5(file)
             .replace("N110 M8", "N110 S6300 M3 M8")
             .replace("N140 G1 Z-1", "N140 G1 Z-1 F1200");
-        assert_eq!(every_gate_of(profile, &written), [zero, "N180"], "{profile}");
+        assert_eq!(
+            every_gate_of(profile, &written),
+            [zero, "N180"],
+            "{profile}"
+        );
     }
 }
 
