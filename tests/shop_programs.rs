@@ -249,10 +249,26 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
             ("lathe-setter", 1),
         ],
     );
+    // fixtures/redteam5 (red-team round 5: a swivel left at a tool change, the feed after CYCLE63, a
+    // spline at a gate, CANCEL(n), G96 on a mill, SPOS in a subprogram, a tailstock under FXS, GEOAX): 07
+    // and 08 are a lathe and a grinder in G18, which the spindle probes refuse rightly; the lathe setter
+    // takes only those two.
+    let redteam5 = (
+        "redteam5",
+        8,
+        [
+            ("blum-tc50", 6),
+            ("siemens-cycle978", 6),
+            ("tool-setter", 8),
+            ("grinder-gauge", 8),
+            ("lathe-setter", 2),
+        ],
+    );
     let sets = sets
         .into_iter()
         .chain([
             shop11, shop12, shop13, shop14, shop15, shop16, redteam, redteam2, redteam3, redteam4,
+            redteam5,
         ])
         .chain([(
             "cov10",

@@ -434,6 +434,9 @@ fn unfit_for_gate(site: &Site, profile: &Profile, rule: OffsetRule) -> Option<&'
             "a rotary axis (A, B or C) stands away from 0, so the part is turned or tilted under the probe point in work coordinates",
         );
     }
+    if let Some(why) = tilted_over_the_setter(site, profile) {
+        return Some(why);
+    }
     if site.in_contour {
         return Some(IN_CONTOUR);
     }
@@ -458,6 +461,20 @@ fn unfit_for_gate(site: &Site, profile: &Profile, rule: OffsetRule) -> Option<&'
             )
         }
     }
+}
+
+/// A reference in machine coordinates (a tool setter, a lathe's setter arm) is not turned with the part,
+/// but an A or B axis away from 0 may tilt the tool itself (a swivel head, a turn-mill's B axis; driftloop
+/// does not know the kinematics): the setter would touch the tilted tool off its axis, and the gate give
+/// the reading as drift or carry the tool over the setter tilted. CYCLE800() deletes the swivel's frames
+/// and leaves its axes turned (red team 5). A turned C axis (a table or the lathe's spindle) tilts nothing.
+fn tilted_over_the_setter(site: &Site, profile: &Profile) -> Option<&'static str> {
+    const A_OR_B: u8 = 0b11 << timeline::frame::ROTARY_SHIFT;
+    let setter =
+        profile.position.frame != MeasureFrame::Work && profile.probe.kind != ProbeKind::Gauge;
+    (setter && site.before.frames & A_OR_B != 0).then_some(
+        "a rotary axis A or B stands away from 0 (after a swivel or a rotary move): on a swivel head it tilts the tool the setter in machine coordinates would measure",
+    )
 }
 
 const IN_CONTOUR: &str = "it lies between two feed moves of a contour under continuous path (G64 … G645, or no G60 written): a gate's STOPRE would stop the path there and the tool would dwell on the contour";

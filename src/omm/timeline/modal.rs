@@ -147,6 +147,58 @@ pub mod unknown {
     /// A modal synchronized action (`ID=`/`IDS=` … `WHENEVER … DO …`) is active until `CANCEL`: it acts on
     /// a gate's moves and the probe cycle's as on the program's (an override, an output, an offset).
     pub const SYNC_ACTION: u16 = 1024;
+    /// A spline or polynomial (`ASPLINE`, `BSPLINE`, `CSPLINE`, `POLY`) is the modal motion: the control
+    /// joins the blocks under it into one curve, which a gate's `STOPRE`, frame write and moves would
+    /// break, and a gate gives back only G0 … G3 (red team 5).
+    pub const SPLINE: u16 = 2048;
+    /// Travel to fixed stop is selected on an axis (`FXS[axis]=1` until `FXS[axis]=0`): the axis stands
+    /// clamped against a stop at reduced torque, and moving it raises alarm 20092 (red team 5).
+    pub const FIXED_STOP: u16 = 4096;
+    /// `GEOAX(…)` assigned other channel axes to the geometry axes: a gate's X, Y, Z and its frame write
+    /// would act on them. The switch also deletes every frame: after `GEOAX()` the state counts as lost
+    /// until the program selects a work offset again (red team 5).
+    pub const GEOMETRY_AXES: u16 = 8192;
+}
+
+/// The states of [`Modal::unknown`] a gate that moves cannot run its route under, with why, in the order
+/// they are told (see [`Modal::route_unfit`]).
+const ROUTE_STATES: &[(u16, &str)] = &[
+    (
+        unknown::ROUNDING,
+        "modal rounding (RNDM) is on: the control would round the corners of a gate's route and of the probe cycle's moves",
+    ),
+    (
+        unknown::WORK_AREA,
+        "the program limits the working area (G25/G26 with WALIMON): a gate's rise and its travel to the probe point or the tool setter may leave it and stop in the control's working-area alarm (WALIMOF before the gate lifts it)",
+    ),
+    (
+        unknown::FIXED_STOP,
+        "travel to fixed stop (FXS) is selected: the axis stands clamped against its stop, a gate's moves would raise alarm 20092 or pull it off (FXS[axis]=0 ends it)",
+    ),
+    (
+        unknown::SYNC_ACTION,
+        "a modal synchronized action (ID=/IDS= … DO …) is active: it would act on a gate's moves and on the probe cycle's (CANCEL ends it)",
+    ),
+];
+
+/// The states of [`Modal::unknown`] no gate may run in (see [`Modal::unfit`]), with why.
+const UNFIT_STATES: &[(u16, &str)] = &[
+    (
+        unknown::GEOMETRY_AXES,
+        "geometry axes are reassigned (GEOAX) or their frames deleted by the switch: a gate's X, Y, Z and its frame write would act on other axes or frames than the program's (GEOAX() and a work offset selected after it end this)",
+    ),
+    (
+        unknown::SPLINE,
+        "a spline or polynomial (ASPLINE, BSPLINE, CSPLINE, POLY) is the modal motion: a gate's STOPRE and moves would break the curve the next blocks continue, and it would give back a straight motion",
+    ),
+];
+
+/// Why of the first of `states` set in `unknown`.
+fn first_state(unknown: u16, states: &[(u16, &'static str)]) -> Option<&'static str> {
+    states
+        .iter()
+        .find(|(bit, _)| unknown & bit != 0)
+        .map(|(_, why)| *why)
 }
 
 impl Modal {
@@ -164,28 +216,14 @@ impl Modal {
     /// under G18/G19, the program's plane after them) makes the control forget the polar angle and
     /// radius the program's next polar block may rely on.
     pub fn route_unfit(&self, switches_plane: bool) -> Option<&'static str> {
-        if self.unknown & unknown::ROUNDING != 0 {
-            Some(
-                "modal rounding (RNDM) is on: the control would round the corners of a gate's route and of the probe cycle's moves",
-            )
-        } else if self.unknown & unknown::WORK_AREA != 0 {
-            Some(
-                "the program limits the working area (G25/G26 with WALIMON): a gate's rise and its travel to the probe point or the tool setter may leave it and stop in the control's working-area alarm (WALIMOF before the gate lifts it)",
-            )
-        } else if self.unknown & unknown::SYNC_ACTION != 0 {
-            Some(
-                "a modal synchronized action (ID=/IDS= … DO …) is active: it would act on a gate's moves and on the probe cycle's (CANCEL ends it)",
-            )
-        } else if self.unknown & unknown::POLAR != 0
+        let drops_polar = self.unknown & unknown::POLAR != 0
             && switches_plane
-            && matches!(self.plane, Some(18 | 19))
-        {
-            Some(
+            && matches!(self.plane, Some(18 | 19));
+        first_state(self.unknown, ROUTE_STATES).or_else(|| {
+            drops_polar.then_some(
                 "polar coordinates (AP, RP, G110 … G112) are in use under G18/G19: a gate's moves run in G17 and the plane change back makes the control forget the polar angle and radius the program's next polar block may rely on",
             )
-        } else {
-            None
-        }
+        })
     }
 
     /// Moves blend into each other at their ends: G64 … G645, or no G60 written (MD20150 may make G64
@@ -221,7 +259,7 @@ impl Modal {
         } else if self.frames & frame::TOOL_CARRIER != 0 {
             Some("an orientable toolholder (TCARR) is active")
         } else {
-            None
+            first_state(self.unknown, UNFIT_STATES)
         }
     }
 

@@ -196,7 +196,10 @@ impl Builder<'_> {
         name: &str,
         touched: Option<[bool; field::COUNT]>,
     ) {
-        let touched = match self.cycle_leaves(name) {
+        let touched = match self
+            .cycle_leaves(name)
+            .or_else(|| old_rule_cycle_leaves(name))
+        {
             Some(fields) => {
                 // A caller of this unit takes them as left by it too.
                 for (mine, its) in self.touched.iter_mut().zip(fields) {
@@ -743,6 +746,17 @@ fn machining_cycle_leaves(name: &str) -> Option<[bool; field::COUNT]> {
         _ => return None,
     };
     Some(field::only(fields))
+}
+
+/// What a Siemens machining cycle kept on the old rule (CYCLE63, CYCLE64, CYCLE950, CYCLE952, CYCLE99,
+/// any cycle not named in [`machining_cycle_leaves`]) leaves past the next tool change: its feed, speed
+/// and direction, which are no G codes its `SAVE` brings back. No place measures after it until the next
+/// tool change; the gate at that change, and any after it, gave back the feed and speed from before the
+/// cycle where the program had not written them since (red team 5). `None` for any other call.
+fn old_rule_cycle_leaves(name: &str) -> Option<[bool; field::COUNT]> {
+    let upper = name.to_ascii_uppercase();
+    (is_siemens_cycle(&upper) && !cuts_nothing(&upper) && !is_hole_pattern(&upper))
+        .then(|| field::only(&[field::FEED, field::S, field::DIRECTION]))
 }
 
 /// Cycles after which the modal state is still known: the swivel (CYCLE800, whose frames the timeline

@@ -173,6 +173,10 @@ pub(super) struct Builder<'p> {
     /// The program set working-area limits (`G25`/`G26` with axis values), and `WALIMOF` does not switch
     /// their monitoring off: the state's [`unknown::WORK_AREA`] holds while both do.
     work_area: (bool, bool),
+    /// The axes under travel to fixed stop (`FXS[axis]=1` until `FXS[axis]=0`).
+    fixed_stops: Vec<String>,
+    /// `GEOAX` with arguments assigned other channel axes to the geometry axes, and no `GEOAX()` since.
+    geometry_axes_swapped: bool,
     /// End of the last run of timed moves folded (its blocks in later chunks are skipped).
     run_end: usize,
     /// Until the first cut: the first block after the setup so far, as a [`SiteKind::Start`] site.
@@ -316,6 +320,8 @@ impl<'p> Builder<'p> {
             varies_but_spindle: BTreeSet::new(),
             tool_offsets: 0,
             work_area: (false, true),
+            fixed_stops: Vec::new(),
+            geometry_axes_swapped: false,
             run_end: 0,
             start: None,
             lims: None,
@@ -507,6 +513,9 @@ impl<'p> Builder<'p> {
         self.touched[field::MOTION] |= motion.is_some();
         self.touched[field::FEED] |= mv.f.is_some();
         self.mark_written(i + 1, field::motion_feed(motion.is_some(), mv.f.is_some()));
+        if motion.is_some() {
+            self.state.unknown &= !unknown::SPLINE;
+        }
         if let Some(g) = motion
             && g != self.state.motion
         {
@@ -589,6 +598,7 @@ impl<'p> Builder<'p> {
         }
         if let Some(g) = run.motion.last {
             self.state.motion = g;
+            self.state.unknown &= !unknown::SPLINE;
         }
         if let Some(f) = run.feed.last {
             self.state.feed = Some(f);
@@ -707,6 +717,37 @@ impl<'p> Builder<'p> {
         if ops & op::SWIVEL_ON != 0 {
             *f |= frame::ROTARY;
             self.swivel_turned = true;
+        }
+    }
+
+    /// The states of red team 5 a gate cannot run in or give back: a spline or polynomial as the modal
+    /// motion (a G group 1 code ends it), travel to fixed stop, geometry axes reassigned (the frames the
+    /// switch deletes count as lost until a `GEOAX()` and a work offset selected after it).
+    fn machine_functions(&mut self, s: &Scan) {
+        let group_1 = |g: u32| matches!(g, 0..=3) || is_thread(g);
+        if s.g.iter().any(group_1) {
+            self.state.unknown &= !unknown::SPLINE;
+        }
+        if s.spline {
+            self.state.unknown |= unknown::SPLINE;
+        }
+        for (axis, on) in &s.fixed_stop {
+            self.fixed_stops.retain(|a| a != axis);
+            if *on {
+                self.fixed_stops.push(axis.clone());
+            }
+            // Only the program's own deselection ends it (one a called unit left stays).
+            if self.fixed_stops.is_empty() {
+                self.state.unknown &= !unknown::FIXED_STOP;
+            } else {
+                self.state.unknown |= unknown::FIXED_STOP;
+            }
+        }
+        if let Some(swapped) = s.geometry_axes {
+            self.geometry_axes_swapped = swapped;
+            self.state.unknown |= unknown::GEOMETRY_AXES;
+        } else if !self.geometry_axes_swapped && s.offsets.iter().any(|&g| g != 53) {
+            self.state.unknown &= !unknown::GEOMETRY_AXES;
         }
     }
 
@@ -1049,6 +1090,7 @@ impl<'p> Builder<'p> {
         if s.cancels_sync_actions {
             self.state.unknown &= !unknown::SYNC_ACTION;
         }
+        self.machine_functions(s);
         if s.polar || s.g.iter().any(|g| matches!(g, 110..=112)) {
             self.state.unknown |= unknown::POLAR;
         }

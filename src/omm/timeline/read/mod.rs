@@ -106,6 +106,13 @@ pub(super) struct Scan {
     pub(super) cancels_sync_actions: bool,
     /// `AP=` or `RP=`: the block programs in polar coordinates.
     pub(super) polar: bool,
+    /// `ASPLINE`, `BSPLINE`, `CSPLINE` or `POLY`: a spline or polynomial becomes the modal motion.
+    pub(super) spline: bool,
+    /// `FXS[axis]=…`: travel to fixed stop selected on the axis (`true`) or deselected with 0 (`false`).
+    pub(super) fixed_stop: Vec<(String, bool)>,
+    /// `GEOAX(…)`: geometry axes assigned to other channel axes (`true`) or, with no argument, back to the
+    /// machine's basic assignment (`false`).
+    pub(super) geometry_axes: Option<bool>,
     /// `WALIMON` (`true`) or `WALIMOF` (`false`): working-area limits monitored or not.
     pub(super) work_area_monitor: Option<bool>,
     /// `TCARR=`: an orientable toolholder selected (`true`) or deselected with `TCARR=0` (`false`).
@@ -299,6 +306,9 @@ impl Scan {
             && !self.tangent_start
             && !self.polar
             && !self.cancels_sync_actions
+            && !self.spline
+            && self.fixed_stop.is_empty()
+            && self.geometry_axes.is_none()
             && !self.joins_next
             && self.work_area_monitor.is_none()
             && self.tool_carrier.is_none()

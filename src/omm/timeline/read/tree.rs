@@ -210,6 +210,9 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                 }
                 // With no argument it ends every modal synchronized action; with numbers it may leave others.
                 s.cancels_sync_actions |= name == "CANCEL" && node.call_arguments().is_empty();
+                if name == "GEOAX" {
+                    s.geometry_axes = Some(!node.call_arguments().is_empty());
+                }
                 // A transformation selected by its data set (`TRAORI(1)`, `TRACYL(40)`) is the
                 // transformation the bare word selects, which the frame operations above follow.
                 let known = TIMELESS_PROCEDURES.contains(&name.as_str())
@@ -236,6 +239,8 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                     "WALIMON" => s.work_area_monitor = Some(true),
                     "WALIMOF" => s.work_area_monitor = Some(false),
                     "CANCEL" => s.cancels_sync_actions = true,
+                    "GEOAX" => s.geometry_axes = Some(false),
+                    _ if is_spline_mode(&name) => s.spline = true,
                     _ => {}
                 }
                 if !is_predefined_command(&name) && !TIMELESS_PROCEDURES.contains(&name.as_str()) {
@@ -635,6 +640,12 @@ fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
             }
         }
         b"TCARR" => s.tool_carrier = Some(v != Some(0.0)),
+        _ if name.starts_with(b"FXS[") => {
+            let axis = String::from_utf8_lossy(&name[4..])
+                .trim_end_matches(']')
+                .to_string();
+            s.fixed_stop.push((axis, v != Some(0.0)));
+        }
         // The master spindle stops in position control.
         b"SPOS" | b"SPOSA" | b"SPOS[0]" | b"SPOSA[0]" | b"SPOS[1]" | b"SPOSA[1]" => {
             s.m.push(POSITIONED);
@@ -651,6 +662,12 @@ fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
         }
         _ => {}
     }
+}
+
+/// The spline and polynomial interpolations of G group 1 (`ASPLINE`, `BSPLINE`, `CSPLINE`, `POLY`): the
+/// control joins the blocks under them into one curve through (or near) their points.
+fn is_spline_mode(name: &str) -> bool {
+    matches!(name, "ASPLINE" | "BSPLINE" | "CSPLINE" | "POLY")
 }
 
 /// A variable's or R-parameter's name alone (`_A_HOME`, `R5`), as an axis value.
