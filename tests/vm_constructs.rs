@@ -361,8 +361,8 @@ fn dynamics_and_rotary_positioning_run_on() {
 #[test]
 fn axis_procedures_the_online_tool_offset_and_compsurf_run_on() {
     // Acceleration per axis, waiting for positioning axes, the online tool length offset (which no gate
-    // measures under) and the surface compressor: accepted; before, the dry run took the axis names for
-    // values or COMPSURF for a subprogram.
+    // measures under) and the surface compressor: accepted, also by a dry run that skips no call; before,
+    // it took the axis names for values or COMPSURF for a subprogram.
     for construct in [
         "SOFTA(X,Y,Z)",
         "BRISKA(X,Y,Z)",
@@ -373,6 +373,7 @@ fn axis_procedures_the_online_tool_offset_and_compsurf_run_on() {
         "TOFFOF(Z)",
         "COMPSURF",
     ] {
+        dry_run(program(construct).as_bytes(), &Config::default());
         finds(
             construct,
             &["M9"],
