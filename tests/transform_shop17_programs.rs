@@ -13,6 +13,35 @@ fn every_gate(profile: &str, file: &str) -> String {
     common::set_every_gate("shop17", profile, file, &[])
 }
 
+/// `file` with every gate measuring, per milling profile: asserts the program's blocks before which a gate
+/// measures (`probe` for the spindle probes, `setter` for the tool setter) and returns each output.
+fn measures_at(file: &str, probe: &[&str], setter: &[&str]) -> Vec<(&'static str, String)> {
+    common::MILLING_PROFILES
+        .into_iter()
+        .map(|profile| {
+            let out = every_gate(profile, file);
+            let expected = if profile == "tool-setter" {
+                setter
+            } else {
+                probe
+            };
+            assert_eq!(common::measured_before(&out), expected, "{profile}:\n{out}");
+            (profile, out)
+        })
+        .collect()
+}
+
+/// [`measures_at`] with `(probe, setter)`, and the gate before the block that starts with `at` writes
+/// each of `words` with every milling profile.
+fn measures_at_giving_back(file: &str, places: (&[&str], &[&str]), at: &str, words: &[&str]) {
+    for (profile, out) in measures_at(file, places.0, places.1) {
+        let gate = common::gate_before(&out, at);
+        for word in words {
+            assert!(writes(&gate, word), "{profile} {word}: {gate:#?}");
+        }
+    }
+}
+
 /// Whether the gate `lines` writes the word `word` (`S6500`, `M8`) in one of its blocks.
 fn writes(lines: &[&str], word: &str) -> bool {
     lines
@@ -27,19 +56,12 @@ fn acceleration_per_axis_is_no_call_and_the_same_tool_measures_between_operation
     // driftloop cannot read: the spindle probe refused the program, the tool setter measured only the
     // zero. Now the zero goes after the setup (N28), the rapid to the finishing pass (N54) measures and
     // gives back `S6500 M3 M8`, and so do the drill's change (N74) and, for a spindle probe, the end.
-    for profile in common::MILLING_PROFILES {
-        let out = every_gate(profile, "01_axis_dynamics_between_operations.mpf");
-        let expected: &[&str] = if profile == "tool-setter" {
-            &["N28", "N54", "N74"]
-        } else {
-            &["N28", "N54", "N74", "N90"]
-        };
-        assert_eq!(common::measured_before(&out), expected, "{profile}:\n{out}");
-        let gate = common::gate_before(&out, "N54 G0 X18 Y18");
-        for word in ["S6500", "M3", "M8"] {
-            assert!(writes(&gate, word), "{profile} {word}: {gate:#?}");
-        }
-    }
+    measures_at_giving_back(
+        "01_axis_dynamics_between_operations.mpf",
+        (&["N28", "N54", "N74", "N90"], &["N28", "N54", "N74"]),
+        "N54 G0 X18 Y18",
+        &["S6500", "M3", "M8"],
+    );
 }
 
 #[test]
@@ -49,16 +71,12 @@ fn the_online_tool_offset_keeps_probe_and_setter_from_measuring_until_toffof() {
     // tool with it: from N22 to N56 neither measures. After TOFFOF the chamfer's change (N60) and the end
     // (N76) measure with the spindle probe; before, TOFFON and TOFFOF were calls and nothing after them
     // measured. The gauge, which moves nothing and reads no tool, measures at every tool change.
-    for profile in common::MILLING_PROFILES {
-        let out = every_gate(profile, "02_toffon_left_on_across_tool_change.mpf");
-        let expected: &[&str] = if profile == "tool-setter" {
-            // After TOFFOF only other tools than the zero's cut: a setter compares the zero's tool only.
-            &["N20"]
-        } else {
-            &["N20", "N60", "N76"]
-        };
-        assert_eq!(common::measured_before(&out), expected, "{profile}:\n{out}");
-    }
+    // After TOFFOF only other tools than the zero's cut: a setter compares the zero's tool only.
+    measures_at(
+        "02_toffon_left_on_across_tool_change.mpf",
+        &["N20", "N60", "N76"],
+        &["N20"],
+    );
     let out = every_gate("grinder-gauge", "02_toffon_left_on_across_tool_change.mpf");
     assert_eq!(
         common::measured_before(&out),
@@ -72,19 +90,12 @@ fn the_surface_compressor_is_a_predefined_command() {
     // 04: `COMPSURF` with `G645`, `SOFT` and `FFWON` in a post's high-speed block. Before, COMPSURF was
     // read as a subprogram: no place after it measured. Now the rapid between the two finishing passes
     // (N44) and the end mill's change (N60) measure as after COMPCAD.
-    for profile in common::MILLING_PROFILES {
-        let out = every_gate(profile, "04_compsurf_g645_hsc.mpf");
-        let expected: &[&str] = if profile == "tool-setter" {
-            &["N20", "N44", "N60"]
-        } else {
-            &["N20", "N44", "N60", "N76"]
-        };
-        assert_eq!(common::measured_before(&out), expected, "{profile}:\n{out}");
-        let gate = common::gate_before(&out, "N44 G0 X0 Y5");
-        for word in ["S14000", "M3", "M7"] {
-            assert!(writes(&gate, word), "{profile} {word}: {gate:#?}");
-        }
-    }
+    measures_at_giving_back(
+        "04_compsurf_g645_hsc.mpf",
+        (&["N20", "N44", "N60", "N76"], &["N20", "N44", "N60"]),
+        "N44 G0 X0 Y5",
+        &["S14000", "M3", "M7"],
+    );
 }
 
 #[test]
@@ -94,13 +105,9 @@ fn waiting_for_a_positioning_axis_is_no_call_and_the_turned_axis_is_followed() {
     // measures after A is home again; the rapid right after the first WAITP (N36) measures only with the
     // tool setter: `POS[A]=90` turns A as `A90` does, and a spindle probe does not measure the part turned
     // away from where the zero was taken (POS was not read at all; only WAITP hid it).
-    for profile in common::MILLING_PROFILES {
-        let out = every_gate(profile, "05_waitp_indexed_fourth_axis.mpf");
-        let expected: &[&str] = if profile == "tool-setter" {
-            &["N20", "N36", "N50"]
-        } else {
-            &["N20", "N50", "N64"]
-        };
-        assert_eq!(common::measured_before(&out), expected, "{profile}:\n{out}");
-    }
+    measures_at(
+        "05_waitp_indexed_fourth_axis.mpf",
+        &["N20", "N50", "N64"],
+        &["N20", "N36", "N50"],
+    );
 }
