@@ -161,6 +161,13 @@ pub const NEUTRAL_COMMANDS: &[&str] = &[
     "DELAYFSTOF",
 ];
 
+/// Predefined procedures whose every argument names an axis and that leave positions, feeds and the modal
+/// state a gate gives back as they were: how an axis accelerates (`SOFTA`, `BRISKA`, `DRIVEA`, `JERKA`, the
+/// per-axis forms of SOFT/BRISK/DRIVE, Siemens PGA "Acceleration mode"; a gate's moves end where they
+/// did, only their ramps differ) and `WAITP`, which holds the block change until the positioning axes it
+/// names have reached their end points (it moves nothing).
+pub const AXIS_PROCEDURES: &[&str] = &["SOFTA", "BRISKA", "DRIVEA", "JERKA", "WAITP"];
+
 /// The other predefined instructions written as a bare name in a block (no `=`, no arguments): program
 /// flow, path and interpolation modes, kinematic transformations, tool compensation, retraction. With
 /// [`NEUTRAL_COMMANDS`] and the frame commands, any other bare name calls a subprogram (`MYSUB`, `SUB2 P3`).
@@ -200,6 +207,7 @@ const PREDEFINED_COMMANDS: &[&str] = &[
     "COMPON",
     "COMPCURV",
     "COMPCAD",
+    "COMPSURF",
     "COMPOF",
     "TRAORI",
     "TRANSMIT",

@@ -235,6 +235,20 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
             ("lathe-setter", 1),
         ],
     );
+    // fixtures/shop17 (predefined procedures read as calls before: SOFTA/BRISKA/…, WAITP, TOFFON, COMPSURF;
+    // every program a mill in G17, which the lathe setter refuses rightly; 01 was refused by the spindle
+    // probes while BRISKA was its first cut).
+    let shop17 = (
+        "shop17",
+        6,
+        [
+            ("blum-tc50", 6),
+            ("siemens-cycle978", 6),
+            ("tool-setter", 6),
+            ("grinder-gauge", 6),
+            ("lathe-setter", 0),
+        ],
+    );
     // fixtures/redteam4 (red-team round 4: the spindle after an M6 of the same tool, working-area limits,
     // polar coordinates under G18, RND/CHF/CHR before a gate, a modal synchronized action); the lathe
     // setter takes only the program that selects G18 before its first cut.
@@ -267,8 +281,8 @@ fn shop_programs_transform_with_every_builtin_profile_and_strip_back() {
     let sets = sets
         .into_iter()
         .chain([
-            shop11, shop12, shop13, shop14, shop15, shop16, redteam, redteam2, redteam3, redteam4,
-            redteam5,
+            shop11, shop12, shop13, shop14, shop15, shop16, shop17, redteam, redteam2, redteam3,
+            redteam4, redteam5,
         ])
         .chain([(
             "cov10",

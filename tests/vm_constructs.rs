@@ -359,6 +359,31 @@ fn dynamics_and_rotary_positioning_run_on() {
 }
 
 #[test]
+fn axis_procedures_the_online_tool_offset_and_compsurf_run_on() {
+    // Acceleration per axis, waiting for positioning axes, the online tool length offset (which no gate
+    // measures under) and the surface compressor: accepted, also by a dry run that skips no call; before,
+    // it took the axis names for values or COMPSURF for a subprogram.
+    for construct in [
+        "SOFTA(X,Y,Z)",
+        "BRISKA(X,Y,Z)",
+        "DRIVEA(Z)",
+        "JERKA(X,Y)",
+        "WAITP(X)",
+        "TOFFON(Z,0.1)",
+        "TOFFOF(Z)",
+        "COMPSURF",
+    ] {
+        dry_run(program(construct).as_bytes(), &Config::default());
+        finds(
+            construct,
+            &["M9"],
+            Kind::ModalNotRestored,
+            "coolant off (M9) here, M8 in the original",
+        );
+    }
+}
+
+#[test]
 fn values_the_dry_run_cannot_know_are_read_from_the_machine_file_or_noted() {
     for (construct, key) in [
         ("R10=$TC_DP1[1,1]", "$TC_DP1[1,1]"),

@@ -502,7 +502,7 @@ fn skipped_zero_is_safe(profile: &Profile) -> bool {
 
 const SUM_OFFSET: &str = "a sum offset (DL=) is active, which the probe's tool change and the cutting tool's return would not give back";
 
-const TOOL_OFFSET: &str = "a programmed tool offset (TOFFL, TOFFR, TOFF[axis]) is in force, which the control keeps through the probe's tool change and a tool setter reads with the tool: a reading taken under another offset than the zero's would show the difference as drift";
+const TOOL_OFFSET: &str = "a programmed tool offset (TOFFL, TOFFR, TOFF[axis], the online offset of TOFFON) is in force, which the control keeps through the probe's tool change and a tool setter reads with the tool: a reading taken under another offset than the zero's would show the difference as drift";
 
 const TOOL_DATA: &str = "the program writes cutting-edge data ($TC_DP…) after the zero, which a tool setter reads with the tool: the change would read as drift";
 

@@ -265,7 +265,7 @@ pub const SETTING_GROUPS: [(&str, &[&str]); 9] = [
     ),
     (
         "compressor (G group 59)",
-        &["COMPOF", "COMPON", "COMPCURV", "COMPCAD"],
+        &["COMPOF", "COMPON", "COMPCURV", "COMPCAD", "COMPSURF"],
     ),
 ];
 

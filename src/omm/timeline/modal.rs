@@ -130,7 +130,8 @@ pub mod unknown {
     /// The program addressed a spindle other than the first (`S4=`, `M4=3`, `SETMS(4)`, `SPOS[2]=`): a gate
     /// stops and gives back the master spindle only, which may not be the one that turns.
     pub const OTHER_SPINDLE: u16 = 32;
-    /// A programmed tool offset (`TOFFL`, `TOFFR`, `TOFF[axis]`) is in force. The control keeps it through a
+    /// A programmed tool offset (`TOFFL`, `TOFFR`, `TOFF[axis]`, the online offset `TOFFON(axis)` until
+    /// `TOFFOF(axis)`) is in force. The control keeps it through a
     /// tool change, so a spindle probe carries it, and a tool setter reads it with the tool: a reading
     /// taken with another offset in force than the zero's shows its difference as drift.
     pub const TOOL_OFFSET: u16 = 64;

@@ -17,16 +17,19 @@ impl Interp<'_> {
     ) -> Result<(), String> {
         let name = u.upper(&node.children[0]);
         let args = node.call_arguments();
-        // Which axes F is the path feed of: it times rotary axes differently, moves nothing.
-        if name == "FGROUP" {
-            return match args
-                .iter()
-                .flatten()
-                .find(|a| self.axis_index(&u.upper(a)).is_none())
-            {
-                Some(a) => Err(format!("FGROUP: {} is not an axis", u.upper(a))),
-                None => Ok(()),
-            };
+        // Which axes F is the path feed of (it times rotary axes differently), how an axis accelerates,
+        // waiting for positioning axes (which the dry run ends at once): each moves nothing.
+        if name == "FGROUP" || crate::views::AXIS_PROCEDURES.contains(&name.as_str()) {
+            return self.axes_named(u, &name, &args);
+        }
+        // The online tool length offset along an axis, which the dry run does not follow: no gate measures
+        // while it is on, so both runs keep the program's.
+        if let ("TOFFON" | "TOFFOF", [axis, rest @ ..]) = (name.as_str(), &args[..]) {
+            self.axes_named(u, &name, std::slice::from_ref(axis))?;
+            for v in rest.iter().flatten() {
+                self.eval(u, v)?.num()?;
+            }
+            return Ok(());
         }
         let values = self.argument_values(u, &name, &args)?;
         let refs = args
@@ -123,6 +126,18 @@ impl Interp<'_> {
             }
         }
         Ok(())
+    }
+
+    /// Arguments that must each name an axis of the machine (`SOFTA(X,Y)`, `FGROUP()`).
+    fn axes_named(&self, u: &Unit, name: &str, args: &[Option<&Node>]) -> Result<(), String> {
+        match args
+            .iter()
+            .flatten()
+            .find(|a| self.axis_index(&u.upper(a)).is_none())
+        {
+            Some(a) => Err(format!("{name}: {} is not an axis", u.upper(a))),
+            None => Ok(()),
+        }
     }
 
     /// A kinematic transformation selected: an orientation programmed under another one no longer holds.

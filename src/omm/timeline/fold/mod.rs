@@ -169,7 +169,7 @@ pub(super) struct Builder<'p> {
     varies_but_spindle: BTreeSet<usize>,
     /// The programmed tool offsets set to other than 0 (bits of the scan's `tool_offset_on`): the state's
     /// [`unknown::TOOL_OFFSET`] ends only when each of them is 0 again.
-    tool_offsets: u8,
+    tool_offsets: u16,
     /// The program set working-area limits (`G25`/`G26` with axis values), and `WALIMOF` does not switch
     /// their monitoring off: the state's [`unknown::WORK_AREA`] holds while both do.
     work_area: (bool, bool),

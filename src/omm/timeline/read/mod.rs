@@ -92,10 +92,11 @@ pub(super) struct Scan {
     pub(super) sum_offset: Option<bool>,
     /// `RNDM=`: modal rounding switched on (`true`, also by an expression) or off with `RNDM=0` (`false`).
     pub(super) rounding: Option<bool>,
-    /// Programmed tool offsets (`TOFFL=`, `TOFFR=`, `TOFF[axis]=`, one bit each) the block sets
-    /// to something other than 0, and those it sets to 0.
-    pub(super) tool_offset_on: u8,
-    pub(super) tool_offset_off: u8,
+    /// Programmed tool offsets (`TOFFL=`, `TOFFR=`, `TOFF[axis]=`, the online offsets of `TOFFON(axis)`,
+    /// one bit each) the block sets to something other than 0 (or switches on), and those it sets to 0
+    /// (or `TOFFOF` switches off).
+    pub(super) tool_offset_on: u16,
+    pub(super) tool_offset_off: u16,
     /// A write to cutting-edge data, `$TC_DP…[t,d]=`.
     pub(super) writes_tool_data: bool,
     /// `CT`: the block's arc starts tangent to the move before it.

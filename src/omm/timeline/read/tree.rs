@@ -202,6 +202,7 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                         s.rotary_home |= 0b111;
                     }
                 }
+                online_tool_offset(&block, node, &name, &mut s);
                 if name == "SETMS" && master_spindle(&block, node).is_some_and(|n| n != Some(1.0)) {
                     s.unknown |= unknown::OTHER_SPINDLE;
                 }
@@ -216,6 +217,8 @@ pub(crate) fn scan_tree(program: &Program, i: usize, marker: &str) -> Scan {
                 // A transformation selected by its data set (`TRAORI(1)`, `TRACYL(40)`) is the
                 // transformation the bare word selects, which the frame operations above follow.
                 let known = TIMELESS_PROCEDURES.contains(&name.as_str())
+                    || crate::views::AXIS_PROCEDURES.contains(&name.as_str())
+                    || ONLINE_TOOL_OFFSET.contains(&name.as_str())
                     || transformation_op(&name) != 0
                     || (name == "FGROUP" && feed_group_keeps_geometry_axes(&block, node));
                 if !known {
@@ -313,7 +316,7 @@ fn is_tool_literal(text: &[u8]) -> bool {
 /// The programmed tool offset an assignment to `name` writes, as a bit: `TOFFL`, `TOFFR`, `TOFF[X]`,
 /// `TOFF[Y]`, `TOFF[Z]`, any other `TOFF[…]`; 0 for another name. One bit each, so that setting one of
 /// them to 0 leaves another in force.
-fn tool_offset_bit(name: &[u8]) -> u8 {
+fn tool_offset_bit(name: &[u8]) -> u16 {
     match name {
         b"TOFFL" => 1,
         b"TOFFR" => 2,
@@ -322,6 +325,50 @@ fn tool_offset_bit(name: &[u8]) -> u8 {
         b"TOFF[Z]" => 16,
         _ if name.starts_with(b"TOFF[") => 32,
         _ => 0,
+    }
+}
+
+/// `POS[A]=`, `POSA[B]=`, … of a rotary axis, which turns it as `A=` does: its bit and whether the block
+/// waits for the end point (`POS`, not `POSA`).
+fn positioned_rotary(name: &[u8]) -> Option<(u8, bool)> {
+    let (axis, waits) = match name {
+        [b'P', b'O', b'S', b'[', rest @ ..] => (rest, true),
+        [b'P', b'O', b'S', b'A', b'[', rest @ ..] => (rest, false),
+        _ => return None,
+    };
+    let bit = match axis {
+        b"A]" => 1,
+        b"B]" => 2,
+        b"C]" => 4,
+        _ => return None,
+    };
+    Some((bit, waits))
+}
+
+/// The online tool length offset (Siemens PGA "Online tool length compensation"): `TOFFON(axis[, value])`
+/// overlays the tool length along a geometry axis (a value now, more by synchronized actions) until
+/// `TOFFOF(axis)`. A tool setter reads the tool with it, a spindle probe's change carries it: kept as the
+/// programmed offsets are (`unknown::TOOL_OFFSET`), one bit per axis.
+const ONLINE_TOOL_OFFSET: [&str; 2] = ["TOFFON", "TOFFOF"];
+
+fn online_tool_offset(block: &Block<'_>, call: &Node, name: &str, s: &mut Scan) {
+    let axis = call
+        .call_arguments()
+        .first()
+        .copied()
+        .flatten()
+        .map(|a| block.text(a).trim_ascii().to_ascii_uppercase());
+    // A direction the timeline cannot read (an expression) is one no TOFFOF is known to end.
+    let bit = match axis.as_deref() {
+        Some(b"X") => 64,
+        Some(b"Y") => 128,
+        Some(b"Z") => 256,
+        _ => 512,
+    };
+    match name {
+        "TOFFON" => s.tool_offset_on |= bit,
+        "TOFFOF" if bit != 512 => s.tool_offset_off |= bit,
+        _ => {}
     }
 }
 
@@ -418,7 +465,8 @@ fn corrects_work_offset(block: &Block<'_>, call: &Node, name: &str) -> bool {
 /// `WAITS` waits for a positioning spindle to reach its position: it moves nothing itself. The operator
 /// panel's editor marks program blocks with `GROUP_BEGIN`/`GROUP_END`, cycles that do nothing. `SETPIECE`
 /// counts a finished workpiece for the tool monitoring of the tools in use. `CANCEL` ends modal
-/// synchronized actions and leaves the modal state alone.
+/// synchronized actions and leaves the modal state alone. `POLYPATH("AXES")` chooses which axes a `POLY`
+/// block interpolates as polynomials: a gate writes no `POLY` block.
 const TIMELESS_PROCEDURES: &[&str] = &[
     "CANCEL",
     "MSG",
@@ -432,6 +480,7 @@ const TIMELESS_PROCEDURES: &[&str] = &[
     "WAITS",
     "GROUP_BEGIN",
     "GROUP_END",
+    "POLYPATH",
 ];
 
 /// `FGROUP()` (the machine data's feed axes, the geometry axes) or an `FGROUP` that names X, Y and Z
@@ -645,6 +694,15 @@ fn assign(block: &Block<'_>, node: &Node, s: &mut Scan) {
                 .trim_end_matches(']')
                 .to_string();
             s.fixed_stop.push((axis, v != Some(0.0)));
+        }
+        _ if let Some((bit, waits)) = positioned_rotary(&name) => {
+            // POS ends its block at the end point; POSA goes on moving across blocks until WAITP, so
+            // even a return to 0 leaves the axis away from home until then.
+            if waits && v == Some(0.0) {
+                s.rotary_home |= bit;
+            } else {
+                s.rotary_away |= bit;
+            }
         }
         // The master spindle stops in position control.
         b"SPOS" | b"SPOSA" | b"SPOS[0]" | b"SPOSA[0]" | b"SPOS[1]" | b"SPOSA[1]" => {
