@@ -587,9 +587,10 @@ impl Builder<'_> {
         let first_change = self.t.speeds.len();
         // A speed the subprogram takes from its parameter is the number the call passes there; without
         // one the prediction runs on with the speed before it, as for any speed it cannot evaluate.
-        let passed = |k: usize| match args.get(k) {
-            Some(CallArg::Literal(v)) => v.parse::<f64>().ok(),
-            _ => None,
+        let passed = |k: usize| {
+            Self::passed(ByExpression::Parameter(k), args)?
+                .parse::<f64>()
+                .ok()
         };
         let words: Vec<SpindleWord> = sub
             .spindle_words

@@ -1072,8 +1072,8 @@ impl<'p> Builder<'p> {
         let set = self.touch(s, dwell, no_speed);
         self.note_written(i, s, set, no_speed, reloads);
         // A PROC's speed parameter (`S=_RPM`) is its caller's to give (see `replay_spindle`).
-        let by_parameter = self.parameter(&s.speed_var).is_some();
-        if s.unknown & unknown::S != 0 && s.s.is_none() && !no_speed && !by_parameter {
+        let speed_parameter = self.parameter(&s.speed_var);
+        if s.unknown & unknown::S != 0 && s.s.is_none() && !no_speed && speed_parameter.is_none() {
             self.t.unknown_speed_lines.push(i + 1);
         }
         self.state.unknown |= s.unknown;
@@ -1187,10 +1187,7 @@ impl<'p> Builder<'p> {
         if s.leaves {
             self.program_end(i);
         }
-        let s_parameter = speed
-            .is_none()
-            .then(|| self.parameter(&s.speed_var))
-            .flatten();
+        let s_parameter = speed_parameter.filter(|_| speed.is_none());
         if speed.is_some() || direction.is_some() || s_parameter.is_some() {
             self.t.spindle_words.push(SpindleWord {
                 at_min: start,
